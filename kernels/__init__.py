@@ -1,0 +1,1 @@
+"""OpenCL C kernels of oclshade, shipped as package data (oclshade.kernels)."""

@@ -1,0 +1,309 @@
+/* shadow.cl — cast shadows of a heightmap by multilevel ray traversal of an
+ * extrema pyramid (paper 000, Algo 2 and Algo 3), heightmap-space entry point.
+ *
+ * Geometry (all methods).  Sample (i, j) sits at x = j (east), y = i (south)
+ * in cell units; the surface is bilinear over patches (see pyramid.cl).  The
+ * ray of cell (i, j) starts at the surface point (j, i, h[i,j]) and follows
+ *     x(t) = j + ux t,  y(t) = i + uy t,  z(t) = h[i,j] + w t,   t >= 0,
+ * t being the horizontal distance in metres, ux = sin(az)/dx, uy = -cos(az)/dy
+ * (cells per metre) and w = tan(elevation).  The cell is in cast shadow iff
+ * the surface rises strictly above the ray somewhere with t > 0 inside the
+ * map.  Rays exactly along a grid line (ux == 0 or uy == 0) see the linear
+ * profile between the samples of that line; a segment with a nodata end is a
+ * hole.  Elsewhere a patch with a nodata corner is a hole.
+ *
+ * Methods (-D OCLS_METHOD=...):
+ *   OCLS_EXACT (1)  Algo 3 made conservative: a tile is skipped only when the
+ *                   ray's lowest point in it (its entry, the ray rises) is at
+ *                   or above the tile max; the min early exit fires only when
+ *                   the ray's highest point in the tile (its exit) is strictly
+ *                   below the tile min; in a patch the bilinear surface along
+ *                   the ray is a quadratic in t, so its maximum against the
+ *                   ray is found in closed form.  After a skip the traversal
+ *                   climbs to the coarsest level whose tile it has just
+ *                   entered, instead of the paper's restart at the top level.
+ *   OCLS_PAPER (2)  Algo 3 as printed: start on the texel after the start,
+ *                   min and max tests at the tile's exit point, bilinear
+ *                   height at the segment midpoint P_s at level 0, restart at
+ *                   the coarsest level after each skip.  Kept to measure its
+ *                   error (the exit-point max test is not conservative).
+ *   OCLS_MAXMIP (3) as EXACT without the min early exit (Tevs et al. 2008).
+ *   OCLS_DDA (4)    no hierarchy: walk every patch (Amanatides & Woo) with
+ *                   EXACT's patch test; global-max early exit.
+ * All methods leave the loop lit when the ray is at or above the global max
+ * or leaves the map.
+ *
+ * Outputs (-D OCLS_OUT_MASK, OCLS_OUT_SELF, OCLS_OUT_COEF; an output not
+ * defined is neither computed nor written, its argument may be a 1-byte
+ * dummy buffer):
+ *   mask  uchar: 1 = cast shadow, 0 = lit, 255 = nodata
+ *   self  uchar: 1 = sun at or below the local tangent plane (normal from
+ *         central differences, one-sided next to holes and edges), 0 = not,
+ *         255 = nodata
+ *   coef  float: paper 000 eq. (1) with n = up: 1 when lit, else
+ *         k_dark + (k_bright - k_dark) * max(sin(elevation), 0); NaN = nodata
+ *
+ * ABI
+ *   __kernel shadow_cells(h, H, W, ext, lvl_off, nlev, ray, sunvec, cell, kcoef,
+ *                         mode, mask, self, coef)
+ *     __global const float  *h       H*W heights (relative), NaN = nodata
+ *     int H, W
+ *     __global const float2 *ext     extrema pyramid levels 0..nlev-1 back to back
+ *     __global const int    *lvl_off offset (in float2) of each level in ext
+ *     int nlev
+ *     float4 ray     (ux, uy, w, 0) as above
+ *     float4 sunvec  unit vector to the sun (east, north, up, 0)
+ *     float2 cell    (dx, dy) in metres
+ *     float2 kcoef   (k_dark, k_bright)
+ *     int mode       0 trace; 1 sun at the zenith (nothing cast); 2 sun at or
+ *                    below the horizon (everything shadowed)
+ *     __global uchar *mask, __global uchar *self, __global float *coef  (H*W each)
+ *   global size (W, H) rounded up to the local size; any local size.
+ */
+#include "common.h"
+
+#define OCLS_EXACT 1
+#define OCLS_PAPER 2
+#define OCLS_MAXMIP 3
+#define OCLS_DDA 4
+#ifndef OCLS_METHOD
+#define OCLS_METHOD OCLS_EXACT
+#endif
+#define OCLS_MAX_ITERATIONS 1000000
+
+/* Exact test of the ray against one patch (or grid-line segment) between ray
+ * parameters t_in and t_out.  Returns 1 iff the surface rises strictly above
+ * the ray on the segment.  first: the segment starts at the ray's origin,
+ * where surface and ray meet: there f(t) = t (a + b t) and the test is on the
+ * linear a + b t, which is exact even for t -> 0. */
+inline int patch_hits(__global const float *h, int H, int W, int pr, int pc, int x0, int y0,
+                      float z0, float ux, float uy, float w, float t_in, float t_out, int first)
+{
+    const float fx = ((float)x0 + ux * t_in) - (float)pc;  /* local coords at entry */
+    const float fy = ((float)y0 + uy * t_in) - (float)pr;
+    const float len = t_out - t_in;
+    float s_a, s1, s2;
+    if (uy == 0.0f) {        /* along row y0 */
+        const float a = ocls_sample(h, H, W, y0, pc), b = ocls_sample(h, H, W, y0, pc + 1);
+        if (isnan(a) || isnan(b)) return 0;
+        s_a = a + (b - a) * fx;
+        s1 = (b - a) * ux;
+        s2 = 0.0f;
+    } else if (ux == 0.0f) { /* along column x0 */
+        const float a = ocls_sample(h, H, W, pr, x0), b = ocls_sample(h, H, W, pr + 1, x0);
+        if (isnan(a) || isnan(b)) return 0;
+        s_a = a + (b - a) * fy;
+        s1 = (b - a) * uy;
+        s2 = 0.0f;
+    } else {
+        const float h00 = ocls_sample(h, H, W, pr, pc), h01 = ocls_sample(h, H, W, pr, pc + 1);
+        const float h10 = ocls_sample(h, H, W, pr + 1, pc), h11 = ocls_sample(h, H, W, pr + 1, pc + 1);
+        if (isnan(h00) || isnan(h01) || isnan(h10) || isnan(h11)) return 0;
+        const float ex = h01 - h00, ey = h10 - h00, k = (h00 - h01) - (h10 - h11);
+        s_a = h00 + ex * fx + ey * fy + k * (fx * fy);
+        s1 = (ex + k * fy) * ux + (ey + k * fx) * uy;
+        s2 = k * (ux * uy);
+    }
+    /* f(tau) = S(t_in + tau) - z(t_in + tau) = f_a + a tau + s2 tau^2, tau in [0, len] */
+    const float a = s1 - w;
+    if (first) return (a > 0.0f) || (a + s2 * len > 0.0f);
+    const float f_a = s_a - (z0 + w * t_in);
+    if (f_a > 0.0f) return 1;
+    const float f_b = f_a + (a + s2 * len) * len;
+    if (f_b > 0.0f) return 1;
+    if (s2 < 0.0f) {
+        const float tau = -a / (2.0f * s2);
+        if (tau > 0.0f && tau < len && f_a - (a * a) / (4.0f * s2) > 0.0f) return 1;
+    }
+    return 0;
+}
+
+/* Algo 2: ray parameter at which the ray leaves the axis-aligned tile
+ * [c0, c0+size] x [r0, r0+size] (cell units); *via_x / *via_y tell which
+ * sides it leaves through (both at a corner).  Computed from the origin, not
+ * incrementally, so error does not accumulate along the ray. */
+inline float tile_exit(int x0, int y0, float ux, float uy, int r0, int c0, int size,
+                       int *via_x, int *via_y)
+{
+    float tx = INFINITY, ty = INFINITY;
+    if (ux > 0.0f) tx = (float)(c0 + size - x0) / ux;
+    else if (ux < 0.0f) tx = (float)(c0 - x0) / ux;
+    if (uy > 0.0f) ty = (float)(r0 + size - y0) / uy;
+    else if (uy < 0.0f) ty = (float)(r0 - y0) / uy;
+    *via_x = tx <= ty;
+    *via_y = ty <= tx;
+    return fmin(tx, ty);
+}
+
+/* Patch index (along one axis) the ray occupies just after parameter t,
+ * clamped to [lo, hi]: floor for a forward step, ceil - 1 for a backward one. */
+inline int patch_along(int p0, float u, float t, int lo, int hi)
+{
+    const float p = (float)p0 + u * t;
+    const int idx = u > 0.0f ? (int)floor(p) : (int)ceil(p) - 1;
+    return clamp(idx, lo, hi);
+}
+
+/* Move (pr, pc) into the next tile after leaving the level-l tile at (r0, c0)
+ * at parameter t. */
+inline void step_out(int *pr, int *pc, int x0, int y0, float ux, float uy, float t,
+                     int r0, int c0, int size, int via_x, int via_y)
+{
+    if (via_x) *pc = ux > 0.0f ? c0 + size : c0 - 1;
+    else if (ux != 0.0f) *pc = patch_along(x0, ux, t, c0, c0 + size - 1);
+    if (via_y) *pr = uy > 0.0f ? r0 + size : r0 - 1;
+    else if (uy != 0.0f) *pr = patch_along(y0, uy, t, r0, r0 + size - 1);
+}
+
+inline float2 ext_at(__global const float2 *ext, __global const int *lvl_off, int Wp, int l,
+                     int pr, int pc)
+{
+    return ext[lvl_off[l] + (pr >> l) * ocls_level_extent(Wp, l) + (pc >> l)];
+}
+
+/* Start patch of the ray from sample (y0, x0); returns 0 if the ray leaves
+ * the map at once. */
+inline int start_patch(int H, int W, int x0, int y0, float ux, float uy, int *pr, int *pc)
+{
+    const int Hp = max(H - 1, 1), Wp = max(W - 1, 1);
+    *pc = ux < 0.0f ? x0 - 1 : (ux > 0.0f ? x0 : min(x0, Wp - 1));
+    *pr = uy < 0.0f ? y0 - 1 : (uy > 0.0f ? y0 : min(y0, Hp - 1));
+    return *pc >= 0 && *pc < Wp && *pr >= 0 && *pr < Hp;
+}
+
+#if OCLS_METHOD == OCLS_PAPER
+/* Algo 3 as printed in paper 000, at q = 0. */
+inline int trace(__global const float *h, int H, int W, __global const float2 *ext,
+                 __global const int *lvl_off, int nlev, int x0, int y0, float z0,
+                 float ux, float uy, float w)
+{
+    const int Hp = max(H - 1, 1), Wp = max(W - 1, 1), top = nlev - 1;
+    int pr, pc, via_x, via_y;
+    if (!start_patch(H, W, x0, y0, ux, uy, &pr, &pc)) return 0;
+    /* initialisation: leave the start texel */
+    float t = tile_exit(x0, y0, ux, uy, pr, pc, 1, &via_x, &via_y);
+    step_out(&pr, &pc, x0, y0, ux, uy, t, pr, pc, 1, via_x, via_y);
+    int l = 0;
+    for (int it = 0; it < OCLS_MAX_ITERATIONS; ++it) {
+        if (pr < 0 || pr >= Hp || pc < 0 || pc >= Wp) return 0;
+        const int size = 1 << l, r0 = (pr >> l) << l, c0 = (pc >> l) << l;
+        const float t_out = tile_exit(x0, y0, ux, uy, r0, c0, size, &via_x, &via_y);
+        const float z_out = z0 + w * t_out;
+        const float2 e = ext_at(ext, lvl_off, Wp, l, pr, pc);
+        if (l > 0 && e.y >= z_out) return 1;          /* min test at the exit point */
+        int reaches;
+        if (l == 0) {                                  /* bilinear height at P_s */
+            const float tm = 0.5f * (t + t_out);
+            const float fx = ((float)x0 + ux * tm) - (float)pc, fy = ((float)y0 + uy * tm) - (float)pr;
+            const float h00 = ocls_sample(h, H, W, pr, pc), h01 = ocls_sample(h, H, W, pr, pc + 1);
+            const float h10 = ocls_sample(h, H, W, pr + 1, pc), h11 = ocls_sample(h, H, W, pr + 1, pc + 1);
+            const float hs = (h00 * (1.0f - fx) + h01 * fx) * (1.0f - fy) + (h10 * (1.0f - fx) + h11 * fx) * fy;
+            reaches = hs >= z0 + w * tm;               /* NaN (hole) compares false */
+        } else {
+            reaches = e.x >= z_out;                    /* max test at the exit point */
+        }
+        if (reaches) {
+            if (l == 0) return 1;
+            l -= 1;
+        } else {
+            step_out(&pr, &pc, x0, y0, ux, uy, t_out, r0, c0, size, via_x, via_y);
+            t = t_out;
+            l = top;                                   /* restart from the coarsest level */
+        }
+    }
+    return 0;
+}
+#else
+/* EXACT / MAXMIP / DDA: conservative multilevel traversal with climbing. */
+inline int trace(__global const float *h, int H, int W, __global const float2 *ext,
+                 __global const int *lvl_off, int nlev, int x0, int y0, float z0,
+                 float ux, float uy, float w)
+{
+    const int Hp = max(H - 1, 1), Wp = max(W - 1, 1), top = nlev - 1;
+    const float z_top = ext[lvl_off[top]].x;           /* global max */
+    int pr, pc, via_x, via_y;
+    if (!start_patch(H, W, x0, y0, ux, uy, &pr, &pc)) return 0;
+    float t = 0.0f;
+    int l = 0;
+    for (int it = 0; it < OCLS_MAX_ITERATIONS; ++it) {
+        const int size = 1 << l, r0 = (pr >> l) << l, c0 = (pc >> l) << l;
+        const float t_out = tile_exit(x0, y0, ux, uy, r0, c0, size, &via_x, &via_y);
+        const float z_in = z0 + w * t;                 /* lowest ray point in the tile */
+        if (z_in >= z_top) return 0;
+#if OCLS_METHOD == OCLS_DDA
+        if (patch_hits(h, H, W, pr, pc, x0, y0, z0, ux, uy, w, t, t_out, t == 0.0f)) return 1;
+#else
+        const float2 e = ext_at(ext, lvl_off, Wp, l, pr, pc);
+        if (z_in < e.x) {                              /* the tile may reach the ray */
+            if (l > 0) {
+#if OCLS_METHOD == OCLS_EXACT
+                if (z0 + w * t_out < e.y) return 1;    /* min early exit (Algo 3) */
+#endif
+                l -= 1;                                /* descend; (pr, pc) stays inside */
+                continue;
+            }
+            if (patch_hits(h, H, W, pr, pc, x0, y0, z0, ux, uy, w, t, t_out, t == 0.0f)) return 1;
+        }
+#endif
+        const int opr = pr, opc = pc;
+        step_out(&pr, &pc, x0, y0, ux, uy, t_out, r0, c0, size, via_x, via_y);
+        t = t_out;
+        if (pr < 0 || pr >= Hp || pc < 0 || pc >= Wp) return 0;
+#if OCLS_METHOD != OCLS_DDA
+        /* climb to the coarsest level whose tile the ray has just entered */
+        const int diff = (pr ^ opr) | (pc ^ opc);
+        l = min(31 - (int)clz(diff), top);
+#endif
+    }
+    return 0;
+}
+#endif
+
+/* Self-shadow: sun at or below the tangent plane of the central-difference
+ * normal (one-sided next to holes and at the edges, 0 slope if neither). */
+inline int self_shadowed(__global const float *h, int H, int W, int i, int j, float2 cell, float4 s)
+{
+    const float hc = h[i * W + j];
+    const float he = ocls_sample(h, H, W, i, j + 1), hw = ocls_sample(h, H, W, i, j - 1);
+    const float hs = ocls_sample(h, H, W, i + 1, j), hn = ocls_sample(h, H, W, i - 1, j);
+    float gx = 0.0f, gy = 0.0f;                        /* dz/d(east), dz/d(south) */
+    if (!isnan(he) && !isnan(hw)) gx = (he - hw) / (2.0f * cell.x);
+    else if (!isnan(he)) gx = (he - hc) / cell.x;
+    else if (!isnan(hw)) gx = (hc - hw) / cell.x;
+    if (!isnan(hs) && !isnan(hn)) gy = (hs - hn) / (2.0f * cell.y);
+    else if (!isnan(hs)) gy = (hs - hc) / cell.y;
+    else if (!isnan(hn)) gy = (hc - hn) / cell.y;
+    /* n ~ (-dz/dE, -dz/dN, 1) with dz/dN = -gy */
+    return (s.z - gx * s.x + gy * s.y) <= 0.0f;
+}
+
+__kernel void shadow_cells(__global const float *h, const int H, const int W,
+                           __global const float2 *ext, __global const int *lvl_off, const int nlev,
+                           const float4 ray, const float4 sunvec, const float2 cell,
+                           const float2 kcoef, const int mode,
+                           __global uchar *mask, __global uchar *self, __global float *coef)
+{
+    const int j = get_global_id(0), i = get_global_id(1);
+    if (j >= W || i >= H) return;
+    const int idx = i * W + j;
+    const float z0 = h[idx];
+    const int nodata = isnan(z0);
+#if defined(OCLS_OUT_MASK) || defined(OCLS_OUT_COEF)
+    int shadow = 0;
+    if (!nodata) {
+        if (mode == 2) shadow = 1;
+        else if (mode == 0) shadow = trace(h, H, W, ext, lvl_off, nlev, j, i, z0, ray.x, ray.y, ray.z);
+    }
+#endif
+#ifdef OCLS_OUT_MASK
+    mask[idx] = nodata ? (uchar)255 : (uchar)shadow;
+#endif
+#ifdef OCLS_OUT_SELF
+    self[idx] = nodata ? (uchar)255
+              : (uchar)(mode == 2 ? 1 : (mode == 1 ? 0 : self_shadowed(h, H, W, i, j, cell, sunvec)));
+#endif
+#ifdef OCLS_OUT_COEF
+    coef[idx] = nodata ? NAN
+              : (shadow ? kcoef.x + (kcoef.y - kcoef.x) * fmax(sunvec.z, 0.0f) : 1.0f);
+#endif
+}

@@ -1,0 +1,98 @@
+"""Mean mip pyramid and extrema (max/min) pyramid, built on the device.
+
+Layouts are documented in ``kernels/pyramid.cl``.  An :class:`ExtremaPyramid`
+stays resident on the device and is shared by every sun and every pass over
+the same heightmap.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pyopencl as cl
+
+from .heightmap import Heightmap
+from .runtime import Runtime, get_runtime
+
+
+def level_shapes(rows: int, cols: int) -> list[tuple[int, int]]:
+    """Shapes of levels 0.. down to 1 x 1: each ceil(half) of the one below."""
+    shapes = [(rows, cols)]
+    while shapes[-1] != (1, 1):
+        r, c = shapes[-1]
+        shapes.append(((r + 1) // 2, (c + 1) // 2))
+    return shapes
+
+
+def level_offsets(shapes: list[tuple[int, int]]) -> np.ndarray:
+    sizes = [r * c for r, c in shapes]
+    return np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.int32)
+
+
+@dataclass
+class ExtremaPyramid:
+    """Device-resident extrema pyramid (float2 max/min per texel, all levels)."""
+
+    runtime: Runtime
+    heights: cl.Buffer            # the relative float32 heights it was built from
+    buffer: cl.Buffer             # float2 texels, levels back to back
+    offsets: cl.Buffer            # int32 level offsets
+    shapes: list[tuple[int, int]]
+    map_shape: tuple[int, int]
+
+    @property
+    def levels(self) -> int:
+        return len(self.shapes)
+
+    def to_numpy(self) -> list[np.ndarray]:
+        """Levels as (rows, cols, 2) float32 arrays [..., 0] = max, [..., 1] = min."""
+        offs = level_offsets(self.shapes)
+        total = int(offs[-1]) + self.shapes[-1][0] * self.shapes[-1][1]
+        flat = np.empty((total, 2), np.float32)
+        cl.enqueue_copy(self.runtime.queue, flat, self.buffer)
+        return [flat[o:o + r * c].reshape(r, c, 2) for o, (r, c) in zip(offs, self.shapes)]
+
+
+def _run_2d(rt: Runtime, kernel: cl.Kernel, cols: int, rows: int, args: tuple) -> None:
+    ls = rt.local_size(kernel, 64)
+    lx = min(ls, 16)
+    ly = max(1, ls // lx)
+    kernel.set_args(*args)
+    cl.enqueue_nd_range_kernel(rt.queue, kernel, (-(-cols // lx) * lx, -(-rows // ly) * ly), (lx, ly))
+
+
+def build_extrema_pyramid(hm: Heightmap, device=None, heights_buffer: cl.Buffer | None = None) -> ExtremaPyramid:
+    rt = get_runtime(device)
+    rows, cols = hm.shape
+    if heights_buffer is None:
+        heights_buffer = rt.to_device(hm.relative32, "heightmap")
+    shapes = level_shapes(*hm.patch_shape)
+    offs = level_offsets(shapes)
+    total = int(offs[-1]) + 1  # the last level is 1 x 1
+    buf = rt.empty(total * 8, "extrema pyramid")
+    hp, wp = shapes[0]
+    _run_2d(rt, rt.kernel("pyramid.cl", "extrema_base"), wp, hp,
+            (heights_buffer, np.int32(rows), np.int32(cols), buf, np.int32(hp), np.int32(wp)))
+    reduce_k = rt.kernel("pyramid.cl", "extrema_reduce")
+    for (ri, ci), (ro, co), oi, oo in zip(shapes[:-1], shapes[1:], offs[:-1], offs[1:]):
+        _run_2d(rt, reduce_k, co, ro, (buf, np.int32(oi), np.int32(ri), np.int32(ci),
+                                       np.int32(oo), np.int32(ro), np.int32(co)))
+    return ExtremaPyramid(rt, heights_buffer, buf, rt.to_device(offs, "level offsets"), shapes, hm.shape)
+
+
+def build_mip_pyramid(hm: Heightmap, device=None) -> list[np.ndarray]:
+    """Mean mip pyramid of the relative float32 heights (level 0 = the map), as numpy arrays."""
+    rt = get_runtime(device)
+    reduce_k = rt.kernel("pyramid.cl", "mip_reduce")
+    shapes = level_shapes(*hm.shape)
+    bufs = [rt.to_device(hm.relative32, "heightmap")]
+    for (ri, ci), (ro, co) in zip(shapes[:-1], shapes[1:]):
+        out = rt.empty(ro * co * 4, "mip level")
+        _run_2d(rt, reduce_k, co, ro, (bufs[-1], np.int32(ri), np.int32(ci), out, np.int32(ro), np.int32(co)))
+        bufs.append(out)
+    levels = []
+    for buf, (r, c) in zip(bufs, shapes):
+        a = np.empty((r, c), np.float32)
+        cl.enqueue_copy(rt.queue, a, buf)
+        levels.append(a)
+    return levels

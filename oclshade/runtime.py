@@ -1,0 +1,267 @@
+"""OpenCL runtime: device choice, context and queue, program builds and their cache.
+
+Device choice, in order of precedence: the ``device=`` argument (or the CLI's
+``--device``), the ``OCLSHADE_DEVICE`` environment variable, then the first
+PoCL CPU device, then the first device of any platform.  A device spec is
+either an index into :func:`list_devices` (``"0"``) or a case-insensitive
+substring matched against ``"<platform> <device>"`` (``"pocl"``, ``"nvidia"``,
+``"cuda:1"`` style specs are not special: ``"nvidia"`` picks the first match).
+
+Programs are built from ``kernels/`` (package data ``oclshade.kernels``),
+with ``#include`` resolved by the host so that the cache key covers the full
+source text.  The in-process cache is keyed on (sha256 of the expanded
+source, build options, device); pyopencl's on-disk binary cache keeps builds
+across processes.
+"""
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import importlib.resources
+import os
+import re
+import threading
+from dataclasses import dataclass
+from typing import Mapping
+
+# PoCL writes its kernel cache under $HOME by default; make sure a read-only or
+# missing HOME never breaks a run, and keep PoCL quiet unless asked.
+os.environ.setdefault("POCL_KERNEL_CACHE", "1")
+
+import numpy as np  # noqa: E402
+import pyopencl as cl  # noqa: E402
+
+DEVICE_ENV = "OCLSHADE_DEVICE"
+_INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"\s*$', re.MULTILINE)
+
+
+class OclshadeError(RuntimeError):
+    """Base class of the library's runtime errors."""
+
+
+class DeviceNotFoundError(OclshadeError):
+    pass
+
+
+class ProgramBuildError(OclshadeError):
+    """A kernel failed to compile; carries the compiler log and the options."""
+
+    def __init__(self, kernel_file: str, options: tuple[str, ...], log: str):
+        self.kernel_file = kernel_file
+        self.options = options
+        self.log = log
+        super().__init__(
+            f"OpenCL build of {kernel_file} failed with options {' '.join(options) or '(none)'}\n"
+            f"--- compiler log ---\n{log.strip()}"
+        )
+
+
+class AllocationError(OclshadeError):
+    pass
+
+
+@dataclass(frozen=True)
+class DeviceInfo:
+    index: int
+    platform: str
+    name: str
+    driver_version: str
+    opencl_version: str
+    device_type: str
+    compute_units: int
+    max_alloc_bytes: int
+    global_mem_bytes: int
+
+    @property
+    def label(self) -> str:
+        return f"{self.platform.strip()} / {self.name.strip()}"
+
+
+def _all_devices() -> list[tuple[cl.Platform, cl.Device]]:
+    out = []
+    try:
+        platforms = cl.get_platforms()
+    except cl.Error:
+        platforms = []
+    for p in platforms:
+        try:
+            devs = p.get_devices()
+        except cl.Error:
+            continue
+        out.extend((p, d) for d in devs)
+    return out
+
+
+def _type_name(device: cl.Device) -> str:
+    t = device.type
+    for flag, name in ((cl.device_type.GPU, "GPU"), (cl.device_type.CPU, "CPU"),
+                       (cl.device_type.ACCELERATOR, "ACCELERATOR")):
+        if t & flag:
+            return name
+    return "OTHER"
+
+
+def list_devices() -> list[DeviceInfo]:
+    """All OpenCL devices visible to this process, in selection-index order."""
+    return [
+        DeviceInfo(i, p.name, d.name, d.driver_version, d.version, _type_name(d),
+                   d.max_compute_units, d.max_mem_alloc_size, d.global_mem_size)
+        for i, (p, d) in enumerate(_all_devices())
+    ]
+
+
+def select_device(spec: str | int | None = None) -> cl.Device:
+    """Pick a device by index or name substring (see the module docstring)."""
+    devices = _all_devices()
+    if not devices:
+        raise DeviceNotFoundError(
+            "no OpenCL device found: install 'pocl-binary-distribution' (pip) or a GPU driver's ICD")
+    if spec is None:
+        spec = os.environ.get(DEVICE_ENV) or None
+    if spec is None:
+        for p, d in devices:
+            if "portable computing language" in p.name.lower() or "pocl" in p.name.lower():
+                return d
+        return devices[0][1]
+    text = str(spec).strip()
+    if text.isdigit():
+        i = int(text)
+        if i >= len(devices):
+            raise DeviceNotFoundError(
+                f"device={spec!r}: index out of range, expected 0..{len(devices) - 1} (see 'oclshade devices')")
+        return devices[i][1]
+    key = text.lower()
+    for p, d in devices:
+        if key in f"{p.name} {d.name}".lower():
+            return d
+    names = "; ".join(f"{i}: {p.name.strip()} / {d.name.strip()}" for i, (p, d) in enumerate(devices))
+    raise DeviceNotFoundError(f"device={spec!r}: no platform or device name contains it; available: {names}")
+
+
+def kernel_source(filename: str) -> str:
+    """The text of a kernel file with its local ``#include "..."`` lines expanded."""
+    root = importlib.resources.files("oclshade.kernels")
+    seen: set[str] = set()
+
+    def expand(name: str) -> str:
+        if name in seen:
+            return ""  # include guard: each file once
+        seen.add(name)
+        text = root.joinpath(name).read_text(encoding="utf-8")
+        return _INCLUDE.sub(lambda m: expand(m.group(1)), text)
+
+    return expand(filename)
+
+
+def define_options(defines: Mapping[str, object]) -> tuple[str, ...]:
+    """``-D`` options from a mapping; ``True`` gives a bare define, ``False``/``None`` omits it."""
+    opts = []
+    for key in sorted(defines):
+        value = defines[key]
+        if value is None or value is False:
+            continue
+        opts.append(f"-D{key}" if value is True else f"-D{key}={value}")
+    return tuple(opts)
+
+
+class Runtime:
+    """A device with its context and in-order queue, plus the program cache."""
+
+    def __init__(self, device: cl.Device):
+        self.device = device
+        self.context = cl.Context([device])
+        self.queue = cl.CommandQueue(self.context, device)
+        self._programs: dict[tuple[str, tuple[str, ...]], cl.Program] = {}
+        self._kernels: dict[tuple[int, str], cl.Kernel] = {}
+        self._lock = threading.Lock()
+        self.build_hits = 0
+        self.build_misses = 0
+
+    @property
+    def label(self) -> str:
+        return f"{self.device.platform.name.strip()} / {self.device.name.strip()}"
+
+    def program(self, filename: str, defines: Mapping[str, object] | None = None) -> cl.Program:
+        """Build (or fetch from the cache) ``kernels/<filename>`` with the given defines."""
+        source = kernel_source(filename)
+        options = define_options(defines or {}) + ("-cl-std=CL1.2",)
+        digest = hashlib.sha256(source.encode()).hexdigest()
+        key = (digest, options)
+        with self._lock:
+            prog = self._programs.get(key)
+            if prog is not None:
+                self.build_hits += 1
+                return prog
+            self.build_misses += 1
+            try:
+                prog = cl.Program(self.context, source).build(options=list(options))
+            except cl.RuntimeError as exc:  # compile error: pyopencl raises RuntimeError subclasses
+                log = getattr(exc, "build_log", None) or str(exc)
+                if isinstance(log, list):
+                    log = "\n".join(str(entry[1]) for entry in log)
+                raise ProgramBuildError(filename, options, log) from None
+            self._programs[key] = prog
+            return prog
+
+    def kernel(self, filename: str, name: str, defines: Mapping[str, object] | None = None) -> cl.Kernel:
+        """A kernel object of a cached program (one kernel object per program and name)."""
+        prog = self.program(filename, defines)
+        key = (id(prog), name)
+        k = self._kernels.get(key)
+        if k is None:
+            k = self._kernels[key] = cl.Kernel(prog, name)
+        return k
+
+    # --- resources -----------------------------------------------------------------
+    def check_alloc(self, nbytes: int, what: str) -> None:
+        limit = self.device.max_mem_alloc_size
+        if nbytes > limit:
+            raise AllocationError(
+                f"{what} needs {nbytes / 2**20:.1f} MiB in one buffer but {self.label} allows at most "
+                f"{limit / 2**20:.1f} MiB per allocation (CL_DEVICE_MAX_MEM_ALLOC_SIZE); use a smaller map")
+
+    def to_device(self, array: np.ndarray, what: str) -> cl.Buffer:
+        array = np.ascontiguousarray(array)
+        self.check_alloc(array.nbytes, what)
+        mf = cl.mem_flags
+        return cl.Buffer(self.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=array)
+
+    def empty(self, nbytes: int, what: str) -> cl.Buffer:
+        self.check_alloc(nbytes, what)
+        return cl.Buffer(self.context, cl.mem_flags.READ_WRITE, size=max(int(nbytes), 1))
+
+    def local_size(self, kernel: cl.Kernel, wanted: int) -> int:
+        """Largest power of two <= wanted that the device and this kernel accept."""
+        limit = min(
+            kernel.get_work_group_info(cl.kernel_work_group_info.WORK_GROUP_SIZE, self.device),
+            self.device.max_work_group_size,
+            self.device.max_work_item_sizes[0],
+        )
+        size = 1
+        while size * 2 <= min(wanted, limit):
+            size *= 2
+        return size
+
+    def run_1d(self, kernel: cl.Kernel, n: int, args: tuple, local: int = 64) -> cl.Event:
+        """Enqueue ``kernel`` over n work-items (global size rounded up to the local size)."""
+        ls = self.local_size(kernel, local)
+        gs = max(1, -(-n // ls)) * ls
+        kernel.set_args(*args)
+        return cl.enqueue_nd_range_kernel(self.queue, kernel, (gs,), (ls,))
+
+
+_default_lock = threading.Lock()
+_runtimes: dict[int, Runtime] = {}
+
+
+def get_runtime(device: str | int | Runtime | cl.Device | None = None) -> Runtime:
+    """The shared :class:`Runtime` for a device spec (one per device per process)."""
+    if isinstance(device, Runtime):
+        return device
+    dev = device if isinstance(device, cl.Device) else select_device(device)
+    key = dev.int_ptr
+    with _default_lock:
+        rt = _runtimes.get(key)
+        if rt is None:
+            rt = _runtimes[key] = Runtime(dev)
+        return rt

@@ -1,0 +1,169 @@
+"""Heightmap-space cast shadows: one ray per cell through the extrema pyramid.
+
+>>> caster = ShadowCaster(Heightmap.from_array(dem, cellsize=30.0))
+>>> result = caster.cast(Sun(315, 20))           # exact cast-shadow mask
+>>> result.mask                                   # uint8: 1 shadow, 0 lit, 255 nodata
+
+The pyramid is built once per caster and stays on the device for every sun.
+Definitions are in ``kernels/shadow.cl``; the float64 twin is
+:func:`oclshade.reference.cast_shadows`.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable, Iterable, Sequence
+
+import numpy as np
+import pyopencl as cl
+
+from .heightmap import Heightmap
+from .pyramid import ExtremaPyramid, build_extrema_pyramid
+from .runtime import Runtime, get_runtime
+from .sun import Sun, SunLike, as_sun, as_suns
+
+METHODS = ("exact", "paper", "maxmip", "dda")
+OUTPUTS = ("mask", "self", "coefficient")
+MASK_NODATA = 255
+DEFAULT_K_DARK = 0.25
+DEFAULT_K_BRIGHT = 0.65
+
+_METHOD_CODE = {"exact": 1, "paper": 2, "maxmip": 3, "dda": 4}
+
+
+def check_method(method: str) -> str:
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {', '.join(METHODS)}; got {method!r}")
+    return method
+
+
+def check_outputs(outputs: str | Sequence[str]) -> tuple[str, ...]:
+    items = (outputs,) if isinstance(outputs, str) else tuple(outputs)
+    if "all" in items:
+        return OUTPUTS
+    bad = [o for o in items if o not in OUTPUTS]
+    if bad or not items:
+        raise ValueError(f"outputs must be a non-empty subset of {', '.join(OUTPUTS)} (or 'all'); got {outputs!r}")
+    return tuple(o for o in OUTPUTS if o in items)
+
+
+def check_coefficients(k_dark: float, k_bright: float) -> tuple[float, float]:
+    for name, v in (("k_dark", k_dark), ("k_bright", k_bright)):
+        if not 0.0 <= float(v) <= 1.0:
+            raise ValueError(f"{name} must be in [0, 1] (paper 000 eq. 1), got {v!r}")
+    return float(k_dark), float(k_bright)
+
+
+@dataclass(frozen=True)
+class ShadowFeatures:
+    """Compile-time features of the shadow kernel: what is not asked for is not compiled."""
+
+    method: str = "exact"
+    outputs: tuple[str, ...] = ("mask",)
+
+    def defines(self) -> dict[str, object]:
+        return {
+            "OCLS_METHOD": _METHOD_CODE[check_method(self.method)],
+            "OCLS_OUT_MASK": "mask" in self.outputs,
+            "OCLS_OUT_SELF": "self" in self.outputs,
+            "OCLS_OUT_COEF": "coefficient" in self.outputs,
+        }
+
+
+@dataclass
+class ShadowResult:
+    """Outputs for one sun; an output that was not requested is None."""
+
+    sun: Sun
+    mask: np.ndarray | None = None          # uint8, 1 = cast shadow, 0 = lit, 255 = nodata
+    self_shadow: np.ndarray | None = None   # uint8, 1 = self-shadowed, 0 = not, 255 = nodata
+    coefficient: np.ndarray | None = None   # float32, eq. (1); NaN = nodata
+
+
+class ShadowCaster:
+    """Cast shadows of one heightmap for any number of suns, sharing one pyramid."""
+
+    def __init__(self, heightmap: Heightmap, device: str | int | Runtime | None = None):
+        self.heightmap = heightmap
+        self.runtime = get_runtime(device)
+        self._pyramid: ExtremaPyramid | None = None
+        self._dummy_u8 = self.runtime.empty(1, "dummy")
+        self._dummy_f32 = self.runtime.empty(4, "dummy")
+
+    @property
+    def pyramid(self) -> ExtremaPyramid:
+        """The extrema pyramid, built on first use and kept on the device."""
+        if self._pyramid is None:
+            self._pyramid = build_extrema_pyramid(self.heightmap, self.runtime)
+        return self._pyramid
+
+    def warm_up(self, method: str = "exact", outputs: Sequence[str] = ("mask",)) -> None:
+        """Build the pyramid and the kernel variant ahead of time."""
+        self.pyramid
+        self.runtime.queue.finish()
+        self.runtime.program("shadow.cl", ShadowFeatures(method, check_outputs(outputs)).defines())
+
+    def cast(self, sun: SunLike, method: str = "exact", outputs: str | Sequence[str] = ("mask",),
+             k_dark: float = DEFAULT_K_DARK, k_bright: float = DEFAULT_K_BRIGHT) -> ShadowResult:
+        """Shadow outputs for one sun (azimuth, elevation in degrees)."""
+        return self.cast_many([as_sun(sun)], method, outputs, k_dark, k_bright)[0]
+
+    def cast_many(self, suns: Iterable[SunLike], method: str = "exact",
+                  outputs: str | Sequence[str] = ("mask",), k_dark: float = DEFAULT_K_DARK,
+                  k_bright: float = DEFAULT_K_BRIGHT,
+                  progress: Callable[[int, int], None] | None = None) -> list[ShadowResult]:
+        """Shadow outputs for many suns over the resident pyramid, one launch per sun."""
+        sun_list = as_suns(suns)
+        outs = check_outputs(outputs)
+        k_dark, k_bright = check_coefficients(k_dark, k_bright)
+        rt, hm, pyr = self.runtime, self.heightmap, self.pyramid
+        rows, cols = hm.shape
+        n = rows * cols
+        kernel = rt.kernel("shadow.cl", "shadow_cells", ShadowFeatures(check_method(method), outs).defines())
+        bufs = {
+            "mask": rt.empty(n, "shadow mask") if "mask" in outs else self._dummy_u8,
+            "self": rt.empty(n, "self-shadow flags") if "self" in outs else self._dummy_u8,
+            "coefficient": rt.empty(4 * n, "shadow coefficients") if "coefficient" in outs else self._dummy_f32,
+        }
+        ls = rt.local_size(kernel, 64)
+        lx = min(ls, 16)
+        ly = max(1, ls // lx)
+        gsize = (-(-cols // lx) * lx, -(-rows // ly) * ly)
+        results = []
+        for k, sun in enumerate(sun_list):
+            ux, uy, w = sun.ray(hm.dx, hm.dy)
+            mode = 2 if sun.below_horizon else (1 if sun.at_zenith else 0)
+            if mode:
+                ux = uy = w = 0.0
+            s = sun.vector()
+            kernel.set_args(pyr.heights, np.int32(rows), np.int32(cols), pyr.buffer, pyr.offsets,
+                            np.int32(pyr.levels), np.array([ux, uy, w, 0.0], np.float32),
+                            np.array([s[0], s[1], s[2], 0.0], np.float32),
+                            np.array([hm.dx, hm.dy], np.float32), np.array([k_dark, k_bright], np.float32),
+                            np.int32(mode), bufs["mask"], bufs["self"], bufs["coefficient"])
+            cl.enqueue_nd_range_kernel(rt.queue, kernel, gsize, (lx, ly))
+            res = ShadowResult(sun)
+            if "mask" in outs:
+                res.mask = np.empty((rows, cols), np.uint8)
+                cl.enqueue_copy(rt.queue, res.mask, bufs["mask"])
+            if "self" in outs:
+                res.self_shadow = np.empty((rows, cols), np.uint8)
+                cl.enqueue_copy(rt.queue, res.self_shadow, bufs["self"])
+            if "coefficient" in outs:
+                res.coefficient = np.empty((rows, cols), np.float32)
+                cl.enqueue_copy(rt.queue, res.coefficient, bufs["coefficient"])
+            rt.queue.finish()
+            results.append(res)
+            if progress is not None:
+                progress(k + 1, len(sun_list))
+        return results
+
+
+def cast_shadows(heights: object, cellsize: float | tuple[float, float] = 1.0,
+                 sun: SunLike = (315.0, 45.0), *, method: str = "exact",
+                 outputs: str | Sequence[str] = ("mask",), z_factor: float = 1.0,
+                 nodata: float | None = None, k_dark: float = DEFAULT_K_DARK,
+                 k_bright: float = DEFAULT_K_BRIGHT,
+                 device: str | int | Runtime | None = None) -> ShadowResult:
+    """One-call API: shadow outputs of a 2-D height array for one sun."""
+    hm = Heightmap.from_array(heights, cellsize, z_factor=z_factor, nodata=nodata)
+    return ShadowCaster(hm, device).cast(sun, method, outputs, k_dark, k_bright)
