@@ -10,7 +10,11 @@
  * the surface rises strictly above the ray somewhere with t > 0 inside the
  * map.  Rays exactly along a grid line (ux == 0 or uy == 0) see the linear
  * profile between the samples of that line; a segment with a nodata end is a
- * hole.  Elsewhere a patch with a nodata corner is a hole.
+ * hole.  Elsewhere a patch with a nodata corner is a hole.  A ray passing
+ * through a patch corner (within OCLS_CORNER_EPS relative; the float64
+ * reference snaps within 1e-12 and counts rays passing between the two as
+ * ties, so az 45 with dx == dy is decided alike everywhere) moves diagonally; leaving a hole patch that way it tests the corner sample when
+ * a side neighbour is a valid patch (the only surface it touches there).
  *
  * Methods (-D OCLS_METHOD=...):
  *   OCLS_EXACT (1)  Algo 3 made conservative: a tile is skipped only when the
@@ -58,6 +62,9 @@
  *     int mode       0 trace; 1 sun at the zenith (nothing cast); 2 sun at or
  *                    below the horizon (everything shadowed)
  *     __global uchar *mask, __global uchar *self, __global float *coef  (H*W each)
+ *   -D OCLS_STATS adds a last argument __global uint *stats (nlev counters,
+ *   zeroed by the host): traversal iterations per pyramid level, summed over
+ *   all cells (for the benchmarks; off by default).
  *   global size (W, H) rounded up to the local size; any local size.
  */
 #include "common.h"
@@ -70,6 +77,13 @@
 #define OCLS_METHOD OCLS_EXACT
 #endif
 #define OCLS_MAX_ITERATIONS 1000000
+#define OCLS_CORNER_EPS (4.0f * FLT_EPSILON)
+#define OCLS_STATS_LEVELS 32
+#ifdef OCLS_STATS
+#define OCLS_COUNT(l) (steps[l] += 1u)
+#else
+#define OCLS_COUNT(l) ((void)0)
+#endif
 
 /* Exact test of the ray against one patch (or grid-line segment) between ray
  * parameters t_in and t_out.  Returns 1 iff the surface rises strictly above
@@ -118,20 +132,35 @@ inline int patch_hits(__global const float *h, int H, int W, int pr, int pc, int
     return 0;
 }
 
+/* A sun ray from sample (y0, x0); ix, iy = 1/ux, 1/uy (0 when the ray does
+ * not move along that axis). */
+typedef struct {
+    int x0, y0;
+    float z0, ux, uy, w, ix, iy;
+} Ray;
+
+inline Ray make_ray(int x0, int y0, float z0, float ux, float uy, float w)
+{
+    Ray r;
+    r.x0 = x0; r.y0 = y0; r.z0 = z0; r.ux = ux; r.uy = uy; r.w = w;
+    r.ix = ux != 0.0f ? 1.0f / ux : 0.0f;
+    r.iy = uy != 0.0f ? 1.0f / uy : 0.0f;
+    return r;
+}
+
 /* Algo 2: ray parameter at which the ray leaves the axis-aligned tile
  * [c0, c0+size] x [r0, r0+size] (cell units); *via_x / *via_y tell which
  * sides it leaves through (both at a corner).  Computed from the origin, not
  * incrementally, so error does not accumulate along the ray. */
-inline float tile_exit(int x0, int y0, float ux, float uy, int r0, int c0, int size,
-                       int *via_x, int *via_y)
+inline float tile_exit(const Ray *ray, int r0, int c0, int size, int *via_x, int *via_y)
 {
-    float tx = INFINITY, ty = INFINITY;
-    if (ux > 0.0f) tx = (float)(c0 + size - x0) / ux;
-    else if (ux < 0.0f) tx = (float)(c0 - x0) / ux;
-    if (uy > 0.0f) ty = (float)(r0 + size - y0) / uy;
-    else if (uy < 0.0f) ty = (float)(r0 - y0) / uy;
-    *via_x = tx <= ty;
-    *via_y = ty <= tx;
+    const float tx = ray->ux != 0.0f ? (float)((ray->ux > 0.0f ? c0 + size : c0) - ray->x0) * ray->ix : INFINITY;
+    const float ty = ray->uy != 0.0f ? (float)((ray->uy > 0.0f ? r0 + size : r0) - ray->y0) * ray->iy : INFINITY;
+    /* a ray through a patch corner within rounding is a corner pass (both
+     * sides at once), so every device and the float64 reference agree on it */
+    const int corner = ray->ux != 0.0f && ray->uy != 0.0f && fabs(tx - ty) <= OCLS_CORNER_EPS * fmax(tx, ty);
+    *via_x = corner || tx < ty;
+    *via_y = corner || ty < tx;
     return fmin(tx, ty);
 }
 
@@ -146,13 +175,34 @@ inline int patch_along(int p0, float u, float t, int lo, int hi)
 
 /* Move (pr, pc) into the next tile after leaving the level-l tile at (r0, c0)
  * at parameter t. */
-inline void step_out(int *pr, int *pc, int x0, int y0, float ux, float uy, float t,
-                     int r0, int c0, int size, int via_x, int via_y)
+inline void step_out(int *pr, int *pc, const Ray *ray, float t, int r0, int c0, int size,
+                     int via_x, int via_y)
 {
-    if (via_x) *pc = ux > 0.0f ? c0 + size : c0 - 1;
-    else if (ux != 0.0f) *pc = patch_along(x0, ux, t, c0, c0 + size - 1);
-    if (via_y) *pr = uy > 0.0f ? r0 + size : r0 - 1;
-    else if (uy != 0.0f) *pr = patch_along(y0, uy, t, r0, r0 + size - 1);
+    if (via_x) *pc = ray->ux > 0.0f ? c0 + size : c0 - 1;
+    else if (ray->ux != 0.0f) *pc = patch_along(ray->x0, ray->ux, t, c0, c0 + size - 1);
+    if (via_y) *pr = ray->uy > 0.0f ? r0 + size : r0 - 1;
+    else if (ray->uy != 0.0f) *pr = patch_along(ray->y0, ray->uy, t, r0, r0 + size - 1);
+}
+
+inline int patch_valid(__global const float *h, int H, int W, int pr, int pc)
+{
+    return !(isnan(ocls_sample(h, H, W, pr, pc)) || isnan(ocls_sample(h, H, W, pr, pc + 1)) ||
+             isnan(ocls_sample(h, H, W, pr + 1, pc)) || isnan(ocls_sample(h, H, W, pr + 1, pc + 1)));
+}
+
+/* Corner pass out of a hole patch (pr, pc): the ray touches the two side
+ * neighbours only at the corner sample; it occludes if a side neighbour is a
+ * valid patch and the sample is above the ray. */
+inline int corner_hits(__global const float *h, int H, int W, int pr, int pc, float ux, float uy,
+                       float z)
+{
+    const int vr = uy > 0.0f ? pr + 1 : pr, vc = ux > 0.0f ? pc + 1 : pc;
+    const int br = pr, bc = ux > 0.0f ? pc + 1 : pc - 1;      /* east/west neighbour */
+    const int cr = uy > 0.0f ? pr + 1 : pr - 1, cc = pc;      /* south/north neighbour */
+    const int Hp = max(H - 1, 1), Wp = max(W - 1, 1);
+    const int b_ok = bc >= 0 && bc < Wp && patch_valid(h, H, W, br, bc);
+    const int c_ok = cr >= 0 && cr < Hp && patch_valid(h, H, W, cr, cc);
+    return (b_ok || c_ok) && ocls_sample(h, H, W, vr, vc) > z;
 }
 
 inline float2 ext_at(__global const float2 *ext, __global const int *lvl_off, int Wp, int l,
@@ -175,19 +225,21 @@ inline int start_patch(int H, int W, int x0, int y0, float ux, float uy, int *pr
 /* Algo 3 as printed in paper 000, at q = 0. */
 inline int trace(__global const float *h, int H, int W, __global const float2 *ext,
                  __global const int *lvl_off, int nlev, int x0, int y0, float z0,
-                 float ux, float uy, float w)
+                 float ux, float uy, float w, uint *steps)
 {
     const int Hp = max(H - 1, 1), Wp = max(W - 1, 1), top = nlev - 1;
+    const Ray ray = make_ray(x0, y0, z0, ux, uy, w);
     int pr, pc, via_x, via_y;
     if (!start_patch(H, W, x0, y0, ux, uy, &pr, &pc)) return 0;
     /* initialisation: leave the start texel */
-    float t = tile_exit(x0, y0, ux, uy, pr, pc, 1, &via_x, &via_y);
-    step_out(&pr, &pc, x0, y0, ux, uy, t, pr, pc, 1, via_x, via_y);
+    float t = tile_exit(&ray, pr, pc, 1, &via_x, &via_y);
+    step_out(&pr, &pc, &ray, t, pr, pc, 1, via_x, via_y);
     int l = 0;
     for (int it = 0; it < OCLS_MAX_ITERATIONS; ++it) {
         if (pr < 0 || pr >= Hp || pc < 0 || pc >= Wp) return 0;
+        OCLS_COUNT(l);
         const int size = 1 << l, r0 = (pr >> l) << l, c0 = (pc >> l) << l;
-        const float t_out = tile_exit(x0, y0, ux, uy, r0, c0, size, &via_x, &via_y);
+        const float t_out = tile_exit(&ray, r0, c0, size, &via_x, &via_y);
         const float z_out = z0 + w * t_out;
         const float2 e = ext_at(ext, lvl_off, Wp, l, pr, pc);
         if (l > 0 && e.y >= z_out) return 1;          /* min test at the exit point */
@@ -206,7 +258,7 @@ inline int trace(__global const float *h, int H, int W, __global const float2 *e
             if (l == 0) return 1;
             l -= 1;
         } else {
-            step_out(&pr, &pc, x0, y0, ux, uy, t_out, r0, c0, size, via_x, via_y);
+            step_out(&pr, &pc, &ray, t_out, r0, c0, size, via_x, via_y);
             t = t_out;
             l = top;                                   /* restart from the coarsest level */
         }
@@ -217,21 +269,25 @@ inline int trace(__global const float *h, int H, int W, __global const float2 *e
 /* EXACT / MAXMIP / DDA: conservative multilevel traversal with climbing. */
 inline int trace(__global const float *h, int H, int W, __global const float2 *ext,
                  __global const int *lvl_off, int nlev, int x0, int y0, float z0,
-                 float ux, float uy, float w)
+                 float ux, float uy, float w, uint *steps)
 {
     const int Hp = max(H - 1, 1), Wp = max(W - 1, 1), top = nlev - 1;
     const float z_top = ext[lvl_off[top]].x;           /* global max */
+    const Ray ray = make_ray(x0, y0, z0, ux, uy, w);
     int pr, pc, via_x, via_y;
     if (!start_patch(H, W, x0, y0, ux, uy, &pr, &pc)) return 0;
     float t = 0.0f;
     int l = 0;
     for (int it = 0; it < OCLS_MAX_ITERATIONS; ++it) {
+        OCLS_COUNT(l);
         const int size = 1 << l, r0 = (pr >> l) << l, c0 = (pc >> l) << l;
-        const float t_out = tile_exit(x0, y0, ux, uy, r0, c0, size, &via_x, &via_y);
+        const float t_out = tile_exit(&ray, r0, c0, size, &via_x, &via_y);
         const float z_in = z0 + w * t;                 /* lowest ray point in the tile */
         if (z_in >= z_top) return 0;
 #if OCLS_METHOD == OCLS_DDA
         if (patch_hits(h, H, W, pr, pc, x0, y0, z0, ux, uy, w, t, t_out, t == 0.0f)) return 1;
+        if (via_x && via_y && !patch_valid(h, H, W, pr, pc) &&
+            corner_hits(h, H, W, pr, pc, ux, uy, z0 + w * t_out)) return 1;
 #else
         const float2 e = ext_at(ext, lvl_off, Wp, l, pr, pc);
         if (z_in < e.x) {                              /* the tile may reach the ray */
@@ -243,10 +299,12 @@ inline int trace(__global const float *h, int H, int W, __global const float2 *e
                 continue;
             }
             if (patch_hits(h, H, W, pr, pc, x0, y0, z0, ux, uy, w, t, t_out, t == 0.0f)) return 1;
+            if (via_x && via_y && !patch_valid(h, H, W, pr, pc) &&
+                corner_hits(h, H, W, pr, pc, ux, uy, z0 + w * t_out)) return 1;
         }
 #endif
         const int opr = pr, opc = pc;
-        step_out(&pr, &pc, x0, y0, ux, uy, t_out, r0, c0, size, via_x, via_y);
+        step_out(&pr, &pc, &ray, t_out, r0, c0, size, via_x, via_y);
         t = t_out;
         if (pr < 0 || pr >= Hp || pc < 0 || pc >= Wp) return 0;
 #if OCLS_METHOD != OCLS_DDA
@@ -281,8 +339,16 @@ __kernel void shadow_cells(__global const float *h, const int H, const int W,
                            __global const float2 *ext, __global const int *lvl_off, const int nlev,
                            const float4 ray, const float4 sunvec, const float2 cell,
                            const float2 kcoef, const int mode,
-                           __global uchar *mask, __global uchar *self, __global float *coef)
+                           __global uchar *mask, __global uchar *self, __global float *coef
+#ifdef OCLS_STATS
+                           , __global uint *stats
+#endif
+                           )
 {
+    uint steps[OCLS_STATS_LEVELS];
+#ifdef OCLS_STATS
+    for (int l = 0; l < OCLS_STATS_LEVELS; ++l) steps[l] = 0u;
+#endif
     const int j = get_global_id(0), i = get_global_id(1);
     if (j >= W || i >= H) return;
     const int idx = i * W + j;
@@ -292,8 +358,12 @@ __kernel void shadow_cells(__global const float *h, const int H, const int W,
     int shadow = 0;
     if (!nodata) {
         if (mode == 2) shadow = 1;
-        else if (mode == 0) shadow = trace(h, H, W, ext, lvl_off, nlev, j, i, z0, ray.x, ray.y, ray.z);
+        else if (mode == 0) shadow = trace(h, H, W, ext, lvl_off, nlev, j, i, z0, ray.x, ray.y, ray.z, steps);
     }
+#endif
+#ifdef OCLS_STATS
+    for (int l = 0; l < nlev; ++l)
+        if (steps[l]) atomic_add(&stats[l], steps[l]);
 #endif
 #ifdef OCLS_OUT_MASK
     mask[idx] = nodata ? (uchar)255 : (uchar)shadow;

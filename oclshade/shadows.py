@@ -59,9 +59,11 @@ class ShadowFeatures:
 
     method: str = "exact"
     outputs: tuple[str, ...] = ("mask",)
+    stats: bool = False
 
     def defines(self) -> dict[str, object]:
         return {
+            "OCLS_STATS": self.stats,
             "OCLS_METHOD": _METHOD_CODE[check_method(self.method)],
             "OCLS_OUT_MASK": "mask" in self.outputs,
             "OCLS_OUT_SELF": "self" in self.outputs,
@@ -124,22 +126,10 @@ class ShadowCaster:
             "self": rt.empty(n, "self-shadow flags") if "self" in outs else self._dummy_u8,
             "coefficient": rt.empty(4 * n, "shadow coefficients") if "coefficient" in outs else self._dummy_f32,
         }
-        ls = rt.local_size(kernel, 64)
-        lx = min(ls, 16)
-        ly = max(1, ls // lx)
-        gsize = (-(-cols // lx) * lx, -(-rows // ly) * ly)
+        gsize, (lx, ly) = self._work_size(kernel)
         results = []
         for k, sun in enumerate(sun_list):
-            ux, uy, w = sun.ray(hm.dx, hm.dy)
-            mode = 2 if sun.below_horizon else (1 if sun.at_zenith else 0)
-            if mode:
-                ux = uy = w = 0.0
-            s = sun.vector()
-            kernel.set_args(pyr.heights, np.int32(rows), np.int32(cols), pyr.buffer, pyr.offsets,
-                            np.int32(pyr.levels), np.array([ux, uy, w, 0.0], np.float32),
-                            np.array([s[0], s[1], s[2], 0.0], np.float32),
-                            np.array([hm.dx, hm.dy], np.float32), np.array([k_dark, k_bright], np.float32),
-                            np.int32(mode), bufs["mask"], bufs["self"], bufs["coefficient"])
+            kernel.set_args(*self._args(sun, k_dark, k_bright), bufs["mask"], bufs["self"], bufs["coefficient"])
             cl.enqueue_nd_range_kernel(rt.queue, kernel, gsize, (lx, ly))
             res = ShadowResult(sun)
             if "mask" in outs:
@@ -156,6 +146,41 @@ class ShadowCaster:
             if progress is not None:
                 progress(k + 1, len(sun_list))
         return results
+
+
+    def step_counts(self, sun: SunLike, method: str = "exact") -> np.ndarray:
+        """Traversal iterations per pyramid level, summed over all cells (a profiling build)."""
+        rt, pyr = self.runtime, self.pyramid
+        kernel = rt.kernel("shadow.cl", "shadow_cells", ShadowFeatures(check_method(method), ("mask",), True).defines())
+        stats = np.zeros(pyr.levels, np.uint32)
+        stats_buf = cl.Buffer(rt.context, cl.mem_flags.READ_WRITE | cl.mem_flags.COPY_HOST_PTR, hostbuf=stats)
+        mask = rt.empty(self.heightmap.relative32.size, "shadow mask")
+        kernel.set_args(*self._args(as_sun(sun), 0.0, 1.0), mask, self._dummy_u8, self._dummy_f32, stats_buf)
+        gsize, lsize = self._work_size(kernel)
+        cl.enqueue_nd_range_kernel(rt.queue, kernel, gsize, lsize)
+        cl.enqueue_copy(rt.queue, stats, stats_buf)
+        rt.queue.finish()
+        return stats
+
+    def _work_size(self, kernel: cl.Kernel) -> tuple[tuple[int, int], tuple[int, int]]:
+        rows, cols = self.heightmap.shape
+        ls = self.runtime.local_size(kernel, 64)
+        lx = min(ls, 16)
+        ly = max(1, ls // lx)
+        return (-(-cols // lx) * lx, -(-rows // ly) * ly), (lx, ly)
+
+    def _args(self, sun: Sun, k_dark: float, k_bright: float) -> tuple:
+        """Kernel arguments up to (not including) the output buffers."""
+        hm, pyr = self.heightmap, self.pyramid
+        ux, uy, w = sun.ray(hm.dx, hm.dy)
+        mode = 2 if sun.below_horizon else (1 if sun.at_zenith else 0)
+        if mode:
+            ux = uy = w = 0.0
+        s = sun.vector()
+        rows, cols = hm.shape
+        return (pyr.heights, np.int32(rows), np.int32(cols), pyr.buffer, pyr.offsets, np.int32(pyr.levels),
+                np.array([ux, uy, w, 0.0], np.float32), np.array([s[0], s[1], s[2], 0.0], np.float32),
+                np.array([hm.dx, hm.dy], np.float32), np.array([k_dark, k_bright], np.float32), np.int32(mode))
 
 
 def cast_shadows(heights: object, cellsize: float | tuple[float, float] = 1.0,

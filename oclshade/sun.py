@@ -11,14 +11,18 @@ DEFAULT_ELEVATION = 45.0
 
 
 def sincos_degrees(angle: float) -> tuple[float, float]:
-    """(sin, cos) of an angle in degrees, exact at multiples of 90 degrees, so
-    that azimuths 0/90/180/270 give rays exactly along the grid."""
+    """(sin, cos) of an angle in degrees, exact at multiples of 90 degrees (and
+    of equal magnitude at odd multiples of 45), so that azimuths 0/90/180/270
+    give rays exactly along the grid and 45/135/... exactly diagonal ones."""
     a = math.fmod(angle, 360.0)
     if a < 0.0:
         a += 360.0
     exact = {0.0: (0.0, 1.0), 90.0: (1.0, 0.0), 180.0: (0.0, -1.0), 270.0: (-1.0, 0.0)}
     if a in exact:
         return exact[a]
+    if a % 45.0 == 0.0:  # odd multiples of 45: |sin| == |cos| exactly, diagonals stay diagonal
+        r = math.sqrt(0.5)
+        return (r if a < 180.0 else -r), (r if a in (45.0, 315.0) else -r)
     r = math.radians(a)
     return math.sin(r), math.cos(r)
 
@@ -57,7 +61,8 @@ class Sun:
         the rise per horizontal metre tan(elevation)."""
         sa, ca = sincos_degrees(self.azimuth)
         se, ce = sincos_degrees(self.elevation)
-        return sa / dx, -ca / dy, (se / ce if ce > 0.0 else math.inf)
+        w = 1.0 if self.elevation == 45.0 else (se / ce if ce > 0.0 else math.inf)
+        return sa / dx, -ca / dy, w
 
 
 SunLike = Union[Sun, Sequence[float]]

@@ -1,0 +1,266 @@
+"""Float64 numpy references of the kernels: the definitions the tests hold them to.
+
+These are deliberately plain: no pyramid, no levels; every ray walks every
+patch it crosses (vectorised across rays, not along them) and tests the
+bilinear surface in closed form.
+
+Shadow margin.  Besides the boolean mask, :func:`cast_shadows` returns for
+each cell the *margin* ``m = sup_{t>0} (S(t) - z(t)) / t``: the tangent of
+the terrain's elevation angle above the ray, as seen from the cell, along the
+sun's azimuth (``tan(horizon) - tan(sun elevation)``).  The cell is in cast
+shadow iff ``m > 0``.  A float32 kernel can only disagree with the reference
+where ``|m|`` is within its rounding, :func:`tie_tolerance`; such cells are
+*ties* and tests count them apart.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .heightmap import Heightmap
+from .pyramid import level_shapes
+from .sun import Sun
+
+FLOAT32_EPS = float(np.finfo(np.float32).eps)
+CORNER_SNAP = 1e-12   # relative gap |tx - ty| / t under which a ray passes through a corner
+CORNER_TIE = 1e-5     # up to this gap a float32 kernel may see a corner pass: counted as a tie
+
+
+# --------------------------------------------------------------------------- pyramids
+def extrema_pyramid(hm: Heightmap) -> list[np.ndarray]:
+    """Levels as (rows, cols, 2) float32 arrays (max, min) — see kernels/pyramid.cl."""
+    h = hm.relative32
+    rows, cols = h.shape
+    hp, wp = hm.patch_shape
+    pad = np.full((hp + 1, wp + 1), np.nan, np.float32)
+    pad[:rows, :cols] = h
+    corners = np.stack([pad[:-1, :-1], pad[:-1, 1:], pad[1:, :-1], pad[1:, 1:]])
+    with np.errstate(invalid="ignore"):
+        hi = np.where(np.isnan(corners).all(0), -np.inf, np.nanmax(np.where(np.isnan(corners), -np.inf, corners), 0))
+    lo = np.where(np.isnan(corners).any(0), -np.inf, np.min(corners, 0))
+    levels = [np.stack([hi, lo], -1).astype(np.float32)]
+    for r, c in level_shapes(hp, wp)[1:]:
+        prev = levels[-1]
+        pr, pc = prev.shape[:2]
+        ext = np.empty((2 * r, 2 * c, 2), np.float32)
+        ext[:pr, :pc] = prev
+        ext[pr:, :pc] = prev[-1:, :]          # odd sizes: repeat the last row/col
+        ext[:, pc:] = ext[:, pc - 1:pc]
+        blocks = ext.reshape(r, 2, c, 2, 2)
+        levels.append(np.stack([blocks[..., 0].max((1, 3)), blocks[..., 1].min((1, 3))], -1))
+    return levels
+
+
+def mip_pyramid(hm: Heightmap) -> list[np.ndarray]:
+    """Mean mip pyramid in float32 with the kernel's summation order (bit-exact twin)."""
+    levels = [hm.relative32.copy()]
+    for r, c in level_shapes(*hm.shape)[1:]:
+        prev = levels[-1]
+        pr, pc = prev.shape
+        pad = np.full((2 * r, 2 * c), np.nan, np.float32)
+        pad[:pr, :pc] = prev
+        total = np.zeros((r, c), np.float32)
+        count = np.zeros((r, c), np.float32)
+        for dr in (0, 1):
+            for dc in (0, 1):
+                v = pad[dr::2, dc::2]
+                ok = ~np.isnan(v)
+                total = np.where(ok, total + np.where(ok, v, 0), total).astype(np.float32)
+                count += ok
+        with np.errstate(invalid="ignore", divide="ignore"):
+            levels.append(np.where(count > 0, total / count, np.nan).astype(np.float32))
+    return levels
+
+
+# --------------------------------------------------------------------------- shadows
+@dataclass
+class ReferenceShadows:
+    mask: np.ndarray          # uint8 1/0/255 like the kernel
+    margin: np.ndarray        # float64, see the module docstring; NaN at nodata
+    self_shadow: np.ndarray   # uint8 1/0/255
+    graze: np.ndarray         # bool: the ray passed within CORNER_TIE of a corner that could occlude
+
+    def ties(self, tolerance: float) -> np.ndarray:
+        """Cells a float32 kernel may decide either way: |margin| <= tolerance or a corner graze."""
+        with np.errstate(invalid="ignore"):
+            return (np.abs(self.margin) <= tolerance) | self.graze
+
+
+def tie_tolerance(hm: Heightmap, sun: Sun) -> float:
+    """Bound on |margin| within which float32 arithmetic may flip the decision.
+
+    The kernel's height differences carry an error of a few ulps of the
+    relief, its ray heights a few ulps of w t; divided by t >= one cell this is
+    eps * (relief / cell + w + steepest slope), times a safety factor.
+    """
+    h = hm.heights
+    finite = h[np.isfinite(h)]
+    if finite.size == 0:
+        return 0.0
+    relief = float(finite.max() - finite.min())
+    d = min(hm.dx, hm.dy)
+    _, _, w = sun.ray(hm.dx, hm.dy)
+    with np.errstate(invalid="ignore"):
+        sx = np.nanmax(np.abs(np.diff(h, axis=1))) / hm.dx if h.shape[1] > 1 else 0.0
+        sy = np.nanmax(np.abs(np.diff(h, axis=0))) / hm.dy if h.shape[0] > 1 else 0.0
+    slope = float(np.nan_to_num(max(sx, sy)))
+    return 64.0 * FLOAT32_EPS * (relief / d + (w if np.isfinite(w) else 0.0) + slope)
+
+
+def _sample(h: np.ndarray, r: np.ndarray, c: np.ndarray) -> np.ndarray:
+    rows, cols = h.shape
+    ok = (r >= 0) & (r < rows) & (c >= 0) & (c < cols)
+    out = np.full(r.shape, np.nan)
+    out[ok] = h[r[ok], c[ok]]
+    return out
+
+
+def _segment_margin(f_a, a, b, t_in, length, first):
+    """sup of f(t)/t over the segment, f(t_in + tau) = f_a + a tau + b tau^2."""
+    t_out = t_in + length
+    with np.errstate(divide="ignore", invalid="ignore"):
+        at_in = np.where(first, a, f_a / np.where(first, 1.0, t_in))
+        f_b = f_a + (a + b * length) * length
+        at_out = np.where(first, a + b * length, f_b / t_out)
+        best = np.maximum(at_in, at_out)
+        # interior critical points of f(t)/t: b tau^2 + 2 b t_in tau + (a t_in - f_a) = 0
+        disc = t_in * t_in - (a * t_in - f_a) / b
+        ok = (~first) & (b != 0) & (disc >= 0)
+        root = np.sqrt(np.where(ok, disc, 0.0))
+        for tau in (-t_in + root, -t_in - root):
+            inside = ok & (tau > 0) & (tau < length)
+            val = (f_a + (a + b * tau) * tau) / (t_in + tau)
+            best = np.where(inside, np.maximum(best, val), best)
+    return best
+
+
+def cast_shadows(hm: Heightmap, sun: Sun, window: tuple[slice, slice] | None = None) -> ReferenceShadows:
+    """Float64 cast-shadow mask and margins of the cells in ``window`` (default all).
+
+    Rays cross the whole map whatever the window.  Definitions as in
+    kernels/shadow.cl; sun at or below the horizon: all shadowed; at the
+    zenith: nothing cast.
+    """
+    h = hm.heights
+    rows, cols = h.shape
+    win = window or (slice(None), slice(None))
+    ii, jj = np.mgrid[0:rows, 0:cols]
+    ii, jj = ii[win].ravel(), jj[win].ravel()
+    out_shape = np.empty((rows, cols))[win].shape
+    z0 = h[ii, jj]
+    margin = np.full(ii.shape, -np.inf)
+    margin[np.isnan(z0)] = np.nan
+    graze = np.zeros(ii.shape, bool)
+    selfs = _self_shadow(hm, sun, ii, jj)
+    if sun.below_horizon:
+        margin[~np.isnan(z0)] = np.inf
+    elif not sun.at_zenith:
+        _walk(hm, sun, ii, jj, margin, graze)
+    mask = np.where(np.isnan(margin), 255, margin > 0).astype(np.uint8)
+    return ReferenceShadows(mask.reshape(out_shape), margin.reshape(out_shape),
+                            selfs.reshape(out_shape), graze.reshape(out_shape))
+
+
+def _patch_valid(h: np.ndarray, hp: int, wp: int, pr: np.ndarray, pc: np.ndarray) -> np.ndarray:
+    inside = (pr >= 0) & (pr < hp) & (pc >= 0) & (pc < wp)
+    corners = [_sample(h, pr + a, pc + b) for a in (0, 1) for b in (0, 1)]
+    return inside & ~np.any(np.isnan(corners), axis=0)
+
+
+def _walk(hm: Heightmap, sun: Sun, ii: np.ndarray, jj: np.ndarray, margin: np.ndarray,
+          graze: np.ndarray) -> None:
+    h = hm.heights
+    rows, cols = h.shape
+    hp, wp = hm.patch_shape
+    ux, uy, w = sun.ray(hm.dx, hm.dy)
+    gmax = np.nanmax(h)
+    tol = tie_tolerance(hm, sun)
+    # start patches (kernel: start_patch)
+    pc = np.where(ux < 0, jj - 1, jj if ux > 0 else np.minimum(jj, wp - 1))
+    pr = np.where(uy < 0, ii - 1, ii if uy > 0 else np.minimum(ii, hp - 1))
+    z0 = h[ii, jj]
+    idx = np.flatnonzero(~np.isnan(z0))
+    pr, pc, x0, y0, z0 = pr[idx], pc[idx], jj[idx], ii[idx], z0[idx]
+    t = np.zeros(idx.size)
+    best = np.full(idx.size, -np.inf)
+    while idx.size:
+        inside = (pr >= 0) & (pr < hp) & (pc >= 0) & (pc < wp) & (z0 + w * t < gmax) & (best <= tol)
+        if not inside.all():
+            margin[idx[~inside]] = best[~inside]
+            keep = np.flatnonzero(inside)
+            idx, pr, pc, x0, y0, z0, t, best = (a[keep] for a in (idx, pr, pc, x0, y0, z0, t, best))
+            if not idx.size:
+                break
+        with np.errstate(divide="ignore"):
+            tx = np.full(idx.size, np.inf) if ux == 0 else ((pc + (ux > 0)) - x0) / ux
+            ty = np.full(idx.size, np.inf) if uy == 0 else ((pr + (uy > 0)) - y0) / uy
+        with np.errstate(invalid="ignore"):
+            gap = np.abs(tx - ty) / np.maximum(tx, ty)
+        snap = gap <= CORNER_SNAP
+        tx = np.where(snap, np.minimum(tx, ty), tx)
+        ty = np.where(snap, tx, ty)
+        t_out = np.minimum(tx, ty)
+        fx = x0 + ux * t - pc
+        fy = y0 + uy * t - pr
+        if uy == 0:
+            a0, a1 = _sample(h, y0, pc), _sample(h, y0, pc + 1)
+            valid = ~(np.isnan(a0) | np.isnan(a1))
+            s_a, s1, s2 = a0 + (a1 - a0) * fx, (a1 - a0) * ux, np.zeros(idx.size)
+        elif ux == 0:
+            a0, a1 = _sample(h, pr, x0), _sample(h, pr + 1, x0)
+            valid = ~(np.isnan(a0) | np.isnan(a1))
+            s_a, s1, s2 = a0 + (a1 - a0) * fy, (a1 - a0) * uy, np.zeros(idx.size)
+        else:
+            h00, h01 = _sample(h, pr, pc), _sample(h, pr, pc + 1)
+            h10, h11 = _sample(h, pr + 1, pc), _sample(h, pr + 1, pc + 1)
+            valid = ~(np.isnan(h00) | np.isnan(h01) | np.isnan(h10) | np.isnan(h11))
+            ex, ey, k = h01 - h00, h10 - h00, h00 - h01 - h10 + h11
+            s_a = h00 + ex * fx + ey * fy + k * fx * fy
+            s1 = (ex + k * fy) * ux + (ey + k * fx) * uy
+            s2 = k * ux * uy
+        seg = _segment_margin(s_a - (z0 + w * t), s1 - w, s2, t, t_out - t, t == 0)
+        best = np.where(valid, np.maximum(best, seg), best)
+        via_x, via_y = tx <= ty, ty <= tx
+        if ux != 0 and uy != 0:
+            # the corner the ray leaves by (or passes near) and its side neighbours
+            vr, vc = pr + (uy > 0), pc + (ux > 0)
+            f_v = (_sample(h, vr, vc) - (z0 + w * t_out)) / t_out
+            sides = (_patch_valid(h, hp, wp, pr, pc + (1 if ux > 0 else -1)) |
+                     _patch_valid(h, hp, wp, pr + (1 if uy > 0 else -1), pc))
+            corner = via_x & via_y & ~valid & sides
+            best = np.where(corner, np.maximum(best, np.nan_to_num(f_v, nan=-np.inf)), best)
+            near = (~snap) & (gap <= CORNER_TIE) & sides & (f_v > -tol)
+            graze[idx[near]] = True
+        # step to the next patch (kernel: step_out at level 0)
+        if ux != 0:
+            pc = np.where(via_x, pc + (1 if ux > 0 else -1), pc)
+        if uy != 0:
+            pr = np.where(via_y, pr + (1 if uy > 0 else -1), pr)
+        t = t_out
+
+
+def _self_shadow(hm: Heightmap, sun: Sun, ii: np.ndarray, jj: np.ndarray) -> np.ndarray:
+    h = hm.heights
+    hc = h[ii, jj]
+    he, hw = _sample(h, ii, jj + 1), _sample(h, ii, jj - 1)
+    hs, hn = _sample(h, ii + 1, jj), _sample(h, ii - 1, jj)
+
+    def grad(plus, minus, d):
+        return np.where(~np.isnan(plus) & ~np.isnan(minus), (plus - minus) / (2 * d),
+                        np.where(~np.isnan(plus), (plus - hc) / d, np.where(~np.isnan(minus), (hc - minus) / d, 0.0)))
+
+    gx, gy = grad(he, hw, hm.dx), grad(hs, hn, hm.dy)
+    sx, sy, sz = sun.vector()
+    flag = (sz - gx * sx + gy * sy) <= 0
+    if sun.below_horizon:
+        flag[:] = True
+    elif sun.at_zenith:
+        flag[:] = False
+    return np.where(np.isnan(hc), 255, flag).astype(np.uint8)
+
+
+def shadow_coefficient(mask: np.ndarray, sun: Sun, k_dark: float, k_bright: float) -> np.ndarray:
+    """Paper 000 eq. (1) with n = up: 1 lit, k_dark + (k_bright - k_dark) max(sin e, 0) shadowed."""
+    dark = k_dark + (k_bright - k_dark) * max(sun.vector()[2], 0.0)
+    return np.where(mask == 255, np.nan, np.where(mask == 1, dark, 1.0))
