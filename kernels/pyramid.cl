@@ -5,15 +5,17 @@
  * has Hp x Wp = max(H-1,1) x max(W-1,1) patches (a single row or column gets
  * one degenerate patch row/column whose missing corners are holes).
  *
- * Extrema pyramid (paper 000 stage 1, made to bound the exact surface model):
- *   level 0      : one texel per patch: x = max of the patch's valid corners
- *                  (bounds the bilinear patch and any valid edge of it),
- *                  y = min of its corners, or -INF if any corner is a hole
- *                  (a tile with a hole can never prove "certainly shadowed");
- *                  x = -INF when no corner is valid (occludes nothing).
- *   level l > 0  : ceil(Hp/2^l) x ceil(Wp/2^l) texels, each the max / min of
- *                  the (up to) 2x2 texels of level l-1 below it.  The last
- *                  level is 1 x 1 (the global max/min).
+ * Extrema pyramid (paper 000 stage 1, made to bound the exact surface model).
+ * Level l covers tiles of 2^l x 2^l patches; level 0 is the heightmap itself
+ * (the traversal tests patches exactly there), so the buffer holds levels
+ * 1..L, L being the first level of 1 x 1 texels (L >= 1):
+ *   level 1      : ceil(Hp/2) x ceil(Wp/2) texels, each over the (up to 3x3)
+ *                  samples of its (up to 2x2) patches: x = max of the valid
+ *                  samples (bounds every valid patch and edge), -INF if none;
+ *                  y = min of the samples, -INF if any is a hole (a tile with a
+ *                  hole can never prove "certainly shadowed").
+ *   level l > 1  : ceil(Hp/2^l) x ceil(Wp/2^l) texels, each the max / min of
+ *                  the (up to) 2x2 texels of level l-1 below it.
  *   Bilinear interpolation is a convex combination of its corners, so level
  *   l bounds the surface over its 2^l x 2^l patches exactly; min/max only, so
  *   every device produces bit-identical pyramids.
@@ -23,9 +25,9 @@
  *   (r,c), (r,c+1), (r+1,c), (r+1,c+1) and divided by their count; NaN if none.
  *
  * ABI
- *   extrema_base(h, H, W, out, Hp, Wp)       global (Wp, Hp), any local size
+ *   extrema_base(h, H, W, out, Hp, Wp, R, C)  global (C, R), any local size
  *       __global const float *h   H*W samples, NaN = hole
- *       __global float2 *out      Hp*Wp texels of level 0
+ *       __global float2 *out      R*C texels of level 1 (R = ceil(Hp/2), C = ceil(Wp/2))
  *   extrema_reduce(ext, in_off, Rin, Cin, out_off, R, C)  global (C, R)
  *       __global float2 *ext  the whole pyramid; level l-1 (Rin x Cin) starts
  *       at in_off, level l (R x C) at out_off (offsets in float2 units)
@@ -36,17 +38,23 @@
 #include "common.h"
 
 __kernel void extrema_base(__global const float *h, const int H, const int W,
-                           __global float2 *out, const int Hp, const int Wp)
+                           __global float2 *out, const int Hp, const int Wp, const int R, const int C)
 {
     const int c = get_global_id(0), r = get_global_id(1);
-    if (c >= Wp || r >= Hp) return;
-    const float a = ocls_sample(h, H, W, r, c), b = ocls_sample(h, H, W, r, c + 1);
-    const float d = ocls_sample(h, H, W, r + 1, c), e = ocls_sample(h, H, W, r + 1, c + 1);
-    float hi = fmax(fmax(a, b), fmax(d, e));          /* fmax ignores NaN */
-    float lo = fmin(fmin(a, b), fmin(d, e));
-    if (isnan(hi)) hi = -INFINITY;
-    if (isnan(a) || isnan(b) || isnan(d) || isnan(e)) lo = -INFINITY;
-    out[r * Wp + c] = (float2)(hi, lo);
+    if (c >= C || r >= R) return;
+    /* samples of patches 2r..min(2r+1, Hp-1) x 2c..min(2c+1, Wp-1) */
+    const int r_end = min(2 * r + 1, Hp - 1) + 1, c_end = min(2 * c + 1, Wp - 1) + 1;
+    float hi = -INFINITY, lo = INFINITY;
+    int hole = 0;
+    for (int i = 2 * r; i <= r_end; ++i) {
+        for (int j = 2 * c; j <= c_end; ++j) {
+            const float v = ocls_sample(h, H, W, i, j);
+            hole |= isnan(v);
+            hi = fmax(hi, v);                          /* fmax ignores NaN */
+            lo = fmin(lo, v);
+        }
+    }
+    out[r * C + c] = (float2)(hi, hole ? -INFINITY : lo);
 }
 
 __kernel void extrema_reduce(__global float2 *ext, const int in_off, const int Rin, const int Cin,

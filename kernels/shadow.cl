@@ -52,9 +52,10 @@
  *                         mode, mask, self, coef)
  *     __global const float  *h       H*W heights (relative), NaN = nodata
  *     int H, W
- *     __global const float2 *ext     extrema pyramid levels 0..nlev-1 back to back
- *     __global const int    *lvl_off offset (in float2) of each level in ext
- *     int nlev
+ *     __global const float2 *ext     extrema pyramid levels 1..nlev-1 back to back
+ *                                    (level 0 is the heightmap itself, see pyramid.cl)
+ *     __global const int    *lvl_off offset (in float2) of level l in ext at [l], [0] unused
+ *     int nlev                       number of levels counting level 0 (>= 2)
  *     float4 ray     (ux, uy, w, 0) as above
  *     float4 sunvec  unit vector to the sun (east, north, up, 0)
  *     float2 cell    (dx, dy) in metres
@@ -241,7 +242,7 @@ inline int trace(__global const float *h, int H, int W, __global const float2 *e
         const int size = 1 << l, r0 = (pr >> l) << l, c0 = (pc >> l) << l;
         const float t_out = tile_exit(&ray, r0, c0, size, &via_x, &via_y);
         const float z_out = z0 + w * t_out;
-        const float2 e = ext_at(ext, lvl_off, Wp, l, pr, pc);
+        const float2 e = l > 0 ? ext_at(ext, lvl_off, Wp, l, pr, pc) : (float2)(0.0f, 0.0f);
         if (l > 0 && e.y >= z_out) return 1;          /* min test at the exit point */
         int reaches;
         if (l == 0) {                                  /* bilinear height at P_s */
@@ -289,15 +290,16 @@ inline int trace(__global const float *h, int H, int W, __global const float2 *e
         if (via_x && via_y && !patch_valid(h, H, W, pr, pc) &&
             corner_hits(h, H, W, pr, pc, ux, uy, z0 + w * t_out)) return 1;
 #else
-        const float2 e = ext_at(ext, lvl_off, Wp, l, pr, pc);
-        if (z_in < e.x) {                              /* the tile may reach the ray */
-            if (l > 0) {
+        if (l > 0) {
+            const float2 e = ext_at(ext, lvl_off, Wp, l, pr, pc);
+            if (z_in < e.x) {                          /* the tile may reach the ray */
 #if OCLS_METHOD == OCLS_EXACT
                 if (z0 + w * t_out < e.y) return 1;    /* min early exit (Algo 3) */
 #endif
                 l -= 1;                                /* descend; (pr, pc) stays inside */
                 continue;
             }
+        } else {                                       /* level 0: the heightmap itself */
             if (patch_hits(h, H, W, pr, pc, x0, y0, z0, ux, uy, w, t, t_out, t == 0.0f)) return 1;
             if (via_x && via_y && !patch_valid(h, H, W, pr, pc) &&
                 corner_hits(h, H, W, pr, pc, ux, uy, z0 + w * t_out)) return 1;

@@ -37,15 +37,16 @@ class ExtremaPyramid:
     heights: cl.Buffer            # the relative float32 heights it was built from
     buffer: cl.Buffer             # float2 texels, levels back to back
     offsets: cl.Buffer            # int32 level offsets
-    shapes: list[tuple[int, int]]
+    shapes: list[tuple[int, int]]  # stored levels 1..L
     map_shape: tuple[int, int]
 
     @property
     def levels(self) -> int:
-        return len(self.shapes)
+        """Number of levels counting level 0 (the heightmap itself)."""
+        return len(self.shapes) + 1
 
     def to_numpy(self) -> list[np.ndarray]:
-        """Levels as (rows, cols, 2) float32 arrays [..., 0] = max, [..., 1] = min."""
+        """Stored levels 1..L as (rows, cols, 2) float32 arrays [..., 0] = max, [..., 1] = min."""
         offs = level_offsets(self.shapes)
         total = int(offs[-1]) + self.shapes[-1][0] * self.shapes[-1][1]
         flat = np.empty((total, 2), np.float32)
@@ -54,11 +55,17 @@ class ExtremaPyramid:
 
 
 def _run_2d(rt: Runtime, kernel: cl.Kernel, cols: int, rows: int, args: tuple) -> None:
-    ls = rt.local_size(kernel, 64)
-    lx = min(ls, 16)
+    ls = rt.local_size(kernel, 256)
+    lx = min(ls, 64)
     ly = max(1, ls // lx)
     kernel.set_args(*args)
     cl.enqueue_nd_range_kernel(rt.queue, kernel, (-(-cols // lx) * lx, -(-rows // ly) * ly), (lx, ly))
+
+
+def extrema_shapes(patch_rows: int, patch_cols: int) -> list[tuple[int, int]]:
+    """Shapes of the stored extrema levels 1..L (level 0 is the heightmap itself)."""
+    shapes = level_shapes(patch_rows, patch_cols)
+    return shapes[1:] if len(shapes) > 1 else [(1, 1)]
 
 
 def build_extrema_pyramid(hm: Heightmap, device=None, heights_buffer: cl.Buffer | None = None) -> ExtremaPyramid:
@@ -66,18 +73,21 @@ def build_extrema_pyramid(hm: Heightmap, device=None, heights_buffer: cl.Buffer 
     rows, cols = hm.shape
     if heights_buffer is None:
         heights_buffer = rt.to_device(hm.relative32, "heightmap")
-    shapes = level_shapes(*hm.patch_shape)
+    hp, wp = hm.patch_shape
+    shapes = extrema_shapes(hp, wp)
     offs = level_offsets(shapes)
     total = int(offs[-1]) + 1  # the last level is 1 x 1
     buf = rt.empty(total * 8, "extrema pyramid")
-    hp, wp = shapes[0]
-    _run_2d(rt, rt.kernel("pyramid.cl", "extrema_base"), wp, hp,
-            (heights_buffer, np.int32(rows), np.int32(cols), buf, np.int32(hp), np.int32(wp)))
+    r1, c1 = shapes[0]
+    _run_2d(rt, rt.kernel("pyramid.cl", "extrema_base"), c1, r1,
+            (heights_buffer, np.int32(rows), np.int32(cols), buf, np.int32(hp), np.int32(wp),
+             np.int32(r1), np.int32(c1)))
     reduce_k = rt.kernel("pyramid.cl", "extrema_reduce")
     for (ri, ci), (ro, co), oi, oo in zip(shapes[:-1], shapes[1:], offs[:-1], offs[1:]):
         _run_2d(rt, reduce_k, co, ro, (buf, np.int32(oi), np.int32(ri), np.int32(ci),
                                        np.int32(oo), np.int32(ro), np.int32(co)))
-    return ExtremaPyramid(rt, heights_buffer, buf, rt.to_device(offs, "level offsets"), shapes, hm.shape)
+    kernel_offsets = np.concatenate([[-1], offs]).astype(np.int32)  # indexed by level, [0] unused
+    return ExtremaPyramid(rt, heights_buffer, buf, rt.to_device(kernel_offsets, "level offsets"), shapes, hm.shape)
 
 
 def build_mip_pyramid(hm: Heightmap, device=None) -> list[np.ndarray]:

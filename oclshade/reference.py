@@ -29,7 +29,12 @@ CORNER_TIE = 1e-5     # up to this gap a float32 kernel may see a corner pass: c
 
 # --------------------------------------------------------------------------- pyramids
 def extrema_pyramid(hm: Heightmap) -> list[np.ndarray]:
-    """Levels as (rows, cols, 2) float32 arrays (max, min) — see kernels/pyramid.cl."""
+    """Stored levels 1..L as (rows, cols, 2) float32 arrays (max, min) — see kernels/pyramid.cl.
+
+    Built from a per-patch level 0 (max of valid corners; min, or -inf if a
+    corner is a hole) reduced 2x2 — a different route from the kernel's 3x3
+    sample windows, so the test compares two constructions.
+    """
     h = hm.relative32
     rows, cols = h.shape
     hp, wp = hm.patch_shape
@@ -49,7 +54,7 @@ def extrema_pyramid(hm: Heightmap) -> list[np.ndarray]:
         ext[:, pc:] = ext[:, pc - 1:pc]
         blocks = ext.reshape(r, 2, c, 2, 2)
         levels.append(np.stack([blocks[..., 0].max((1, 3)), blocks[..., 1].min((1, 3))], -1))
-    return levels
+    return levels[1:] if len(levels) > 1 else [levels[0].reshape(1, 1, 2)]
 
 
 def mip_pyramid(hm: Heightmap) -> list[np.ndarray]:
@@ -101,10 +106,9 @@ def tie_tolerance(hm: Heightmap, sun: Sun) -> float:
     relief = float(finite.max() - finite.min())
     d = min(hm.dx, hm.dy)
     _, _, w = sun.ray(hm.dx, hm.dy)
-    with np.errstate(invalid="ignore"):
-        sx = np.nanmax(np.abs(np.diff(h, axis=1))) / hm.dx if h.shape[1] > 1 else 0.0
-        sy = np.nanmax(np.abs(np.diff(h, axis=0))) / hm.dy if h.shape[0] > 1 else 0.0
-    slope = float(np.nan_to_num(max(sx, sy)))
+    steps = [np.abs(np.diff(h, axis=a)) / d for a, d in ((1, hm.dx), (0, hm.dy)) if h.shape[a] > 1]
+    finite_steps = [s[np.isfinite(s)] for s in steps]
+    slope = max((float(s.max()) for s in finite_steps if s.size), default=0.0)
     return 64.0 * FLOAT32_EPS * (relief / d + (w if np.isfinite(w) else 0.0) + slope)
 
 

@@ -6,6 +6,8 @@ import math
 from dataclasses import dataclass
 from typing import Iterable, Sequence, Union
 
+import numpy as np
+
 DEFAULT_AZIMUTH = 315.0
 DEFAULT_ELEVATION = 45.0
 
@@ -58,11 +60,21 @@ class Sun:
 
     def ray(self, dx: float, dy: float) -> tuple[float, float, float]:
         """(ux, uy, w): cells per metre along x (east) and y (south, rows), and
-        the rise per horizontal metre tan(elevation)."""
+        the rise per horizontal metre tan(elevation).
+
+        Rounded to float32 (subnormals to 0) so that the kernels and the
+        float64 reference trace the very same ray.
+        """
         sa, ca = sincos_degrees(self.azimuth)
         se, ce = sincos_degrees(self.elevation)
         w = 1.0 if self.elevation == 45.0 else (se / ce if ce > 0.0 else math.inf)
-        return sa / dx, -ca / dy, w
+        return _float32(sa / dx), _float32(-ca / dy), _float32(w)
+
+
+def _float32(value: float) -> float:
+    """value rounded to the nearest float32; subnormals (flushed by many devices) become 0."""
+    v = float(np.float32(value))
+    return 0.0 if abs(v) < float(np.finfo(np.float32).tiny) else v
 
 
 SunLike = Union[Sun, Sequence[float]]

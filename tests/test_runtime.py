@@ -1,0 +1,74 @@
+"""Host layer: device choice, program builds and their cache, resource checks."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from oclshade import runtime
+from oclshade.runtime import (AllocationError, DeviceNotFoundError, ProgramBuildError, get_runtime,
+                              list_devices, select_device)
+
+
+def test_default_device_is_pocl_cpu(monkeypatch):
+    monkeypatch.delenv(runtime.DEVICE_ENV, raising=False)
+    dev = select_device()
+    assert "portable computing language" in dev.platform.name.lower() or len(list_devices()) >= 1
+
+
+def test_select_by_index_substring_and_env(monkeypatch):
+    first = list_devices()[0]
+    assert select_device(0).name == first.name
+    assert select_device("0").name == first.name
+    assert select_device(first.name[:6].lower()).name == first.name
+    monkeypatch.setenv(runtime.DEVICE_ENV, "0")
+    assert select_device().name == first.name
+
+
+@pytest.mark.parametrize("spec", ["999", "no-such-device-xyz"])
+def test_bad_device_spec_names_itself(spec):
+    with pytest.raises(DeviceNotFoundError, match=spec):
+        select_device(spec)
+
+
+def test_list_devices_reports_versions():
+    info = list_devices()[0]
+    assert info.opencl_version.startswith("OpenCL") and info.driver_version and info.max_alloc_bytes > 0
+
+
+def test_program_cache_hits_and_misses():
+    rt = get_runtime()
+    rt.program("pyramid.cl")
+    hits = rt.build_hits
+    assert rt.program("pyramid.cl") is rt.program("pyramid.cl")
+    assert rt.build_hits == hits + 2
+    misses = rt.build_misses
+    rt.program("pyramid.cl", {"OCLS_UNUSED_TEST_FLAG": 1})
+    assert rt.build_misses == misses + 1
+
+
+def test_build_failure_carries_log_and_options():
+    rt = get_runtime()
+    with pytest.raises(ProgramBuildError) as info:
+        rt.program("shadow.cl", {"OCLS_METHOD": "1+"})
+    err = info.value
+    assert "-DOCLS_METHOD=1+" in err.options
+    assert "error" in err.log.lower() and "shadow.cl" in str(err)
+
+
+def test_kernel_sources_expand_includes_and_disable_contraction():
+    src = runtime.kernel_source("shadow.cl")
+    assert "#include" not in src and "#pragma OPENCL FP_CONTRACT OFF" in src
+
+
+def test_allocation_limit_is_checked():
+    rt = get_runtime()
+    with pytest.raises(AllocationError, match="MiB"):
+        rt.check_alloc(rt.device.max_mem_alloc_size + 1, "test buffer")
+
+
+def test_work_group_size_respects_device_limits():
+    rt = get_runtime()
+    k = rt.kernel("pyramid.cl", "mip_reduce")
+    ls = rt.local_size(k, 1 << 20)
+    assert 1 <= ls <= rt.device.max_work_group_size and ls & (ls - 1) == 0
+    np.testing.assert_equal(ls, min(ls, rt.device.max_work_item_sizes[0]))
