@@ -17,11 +17,33 @@
 
 #pragma OPENCL FP_CONTRACT OFF
 
+/* Helpers are small and called in the hot loops: some compilers (PoCL 3's
+ * LLVM among them) keep plain `inline` functions out of line. */
+#if defined(__clang__) || defined(__GNUC__)
+#define OCLS_INLINE inline __attribute__((always_inline))
+#else
+#define OCLS_INLINE inline
+#endif
+
+/* floor / ceil - 1 of a float as an int without the library calls (exact for
+ * |p| < 2^31). */
+OCLS_INLINE int ocls_floor_int(float p)
+{
+    const int i = (int)p;                 /* truncates toward zero */
+    return (float)i > p ? i - 1 : i;
+}
+
+OCLS_INLINE int ocls_ceil_int(float p)
+{
+    const int i = (int)p;
+    return (float)i < p ? i + 1 : i;
+}
+
 /* Rows/cols of pyramid level l for a base grid of n0 rows (or cols): ceil(n0 / 2^l). */
-inline int ocls_level_extent(int n0, int l) { return ((n0 - 1) >> l) + 1; }
+OCLS_INLINE int ocls_level_extent(int n0, int l) { return ((n0 - 1) >> l) + 1; }
 
 /* Height sample (r, c) of an H x W map; NaN outside the map. */
-inline float ocls_sample(__global const float *h, int H, int W, int r, int c)
+OCLS_INLINE float ocls_sample(__global const float *h, int H, int W, int r, int c)
 {
     return (r >= 0 && r < H && c >= 0 && c < W) ? h[r * W + c] : NAN;
 }

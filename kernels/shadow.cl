@@ -80,6 +80,9 @@
 #define OCLS_MAX_ITERATIONS 1000000
 #define OCLS_CORNER_EPS (4.0f * FLT_EPSILON)
 #define OCLS_STATS_LEVELS 32
+#ifndef OCLS_EXPERIMENT
+#define OCLS_EXPERIMENT 0
+#endif
 #ifdef OCLS_STATS
 #define OCLS_COUNT(l) (steps[l] += 1u)
 #else
@@ -91,7 +94,7 @@
  * the ray on the segment.  first: the segment starts at the ray's origin,
  * where surface and ray meet: there f(t) = t (a + b t) and the test is on the
  * linear a + b t, which is exact even for t -> 0. */
-inline int patch_hits(__global const float *h, int H, int W, int pr, int pc, int x0, int y0,
+OCLS_INLINE int patch_hits(__global const float *h, int H, int W, int pr, int pc, int x0, int y0,
                       float z0, float ux, float uy, float w, float t_in, float t_out, int first)
 {
     const float fx = ((float)x0 + ux * t_in) - (float)pc;  /* local coords at entry */
@@ -111,8 +114,22 @@ inline int patch_hits(__global const float *h, int H, int W, int pr, int pc, int
         s1 = (b - a) * uy;
         s2 = 0.0f;
     } else {
+#if OCLS_EXPERIMENT & 1
+        float h00, h01, h10, h11;
+        if (H > 1 && W > 1) {
+            __global const float *p = h + pr * W + pc;
+            h00 = p[0]; h01 = p[1]; h10 = p[W]; h11 = p[W + 1];
+        } else {
+            h00 = ocls_sample(h, H, W, pr, pc); h01 = ocls_sample(h, H, W, pr, pc + 1);
+            h10 = ocls_sample(h, H, W, pr + 1, pc); h11 = ocls_sample(h, H, W, pr + 1, pc + 1);
+        }
+#else
         const float h00 = ocls_sample(h, H, W, pr, pc), h01 = ocls_sample(h, H, W, pr, pc + 1);
         const float h10 = ocls_sample(h, H, W, pr + 1, pc), h11 = ocls_sample(h, H, W, pr + 1, pc + 1);
+#endif
+#if OCLS_EXPERIMENT & 2
+        if (!first && z0 + w * t_in >= fmax(fmax(h00, h01), fmax(h10, h11))) return 0;
+#endif
         if (isnan(h00) || isnan(h01) || isnan(h10) || isnan(h11)) return 0;
         const float ex = h01 - h00, ey = h10 - h00, k = (h00 - h01) - (h10 - h11);
         s_a = h00 + ex * fx + ey * fy + k * (fx * fy);
@@ -140,7 +157,7 @@ typedef struct {
     float z0, ux, uy, w, ix, iy;
 } Ray;
 
-inline Ray make_ray(int x0, int y0, float z0, float ux, float uy, float w)
+OCLS_INLINE Ray make_ray(int x0, int y0, float z0, float ux, float uy, float w)
 {
     Ray r;
     r.x0 = x0; r.y0 = y0; r.z0 = z0; r.ux = ux; r.uy = uy; r.w = w;
@@ -153,7 +170,7 @@ inline Ray make_ray(int x0, int y0, float z0, float ux, float uy, float w)
  * [c0, c0+size] x [r0, r0+size] (cell units); *via_x / *via_y tell which
  * sides it leaves through (both at a corner).  Computed from the origin, not
  * incrementally, so error does not accumulate along the ray. */
-inline float tile_exit(const Ray *ray, int r0, int c0, int size, int *via_x, int *via_y)
+OCLS_INLINE float tile_exit(const Ray *ray, int r0, int c0, int size, int *via_x, int *via_y)
 {
     const float tx = ray->ux != 0.0f ? (float)((ray->ux > 0.0f ? c0 + size : c0) - ray->x0) * ray->ix : INFINITY;
     const float ty = ray->uy != 0.0f ? (float)((ray->uy > 0.0f ? r0 + size : r0) - ray->y0) * ray->iy : INFINITY;
@@ -167,16 +184,16 @@ inline float tile_exit(const Ray *ray, int r0, int c0, int size, int *via_x, int
 
 /* Patch index (along one axis) the ray occupies just after parameter t,
  * clamped to [lo, hi]: floor for a forward step, ceil - 1 for a backward one. */
-inline int patch_along(int p0, float u, float t, int lo, int hi)
+OCLS_INLINE int patch_along(int p0, float u, float t, int lo, int hi)
 {
     const float p = (float)p0 + u * t;
-    const int idx = u > 0.0f ? (int)floor(p) : (int)ceil(p) - 1;
+    const int idx = u > 0.0f ? ocls_floor_int(p) : ocls_ceil_int(p) - 1;
     return clamp(idx, lo, hi);
 }
 
 /* Move (pr, pc) into the next tile after leaving the level-l tile at (r0, c0)
  * at parameter t. */
-inline void step_out(int *pr, int *pc, const Ray *ray, float t, int r0, int c0, int size,
+OCLS_INLINE void step_out(int *pr, int *pc, const Ray *ray, float t, int r0, int c0, int size,
                      int via_x, int via_y)
 {
     if (via_x) *pc = ray->ux > 0.0f ? c0 + size : c0 - 1;
@@ -185,7 +202,7 @@ inline void step_out(int *pr, int *pc, const Ray *ray, float t, int r0, int c0, 
     else if (ray->uy != 0.0f) *pr = patch_along(ray->y0, ray->uy, t, r0, r0 + size - 1);
 }
 
-inline int patch_valid(__global const float *h, int H, int W, int pr, int pc)
+OCLS_INLINE int patch_valid(__global const float *h, int H, int W, int pr, int pc)
 {
     return !(isnan(ocls_sample(h, H, W, pr, pc)) || isnan(ocls_sample(h, H, W, pr, pc + 1)) ||
              isnan(ocls_sample(h, H, W, pr + 1, pc)) || isnan(ocls_sample(h, H, W, pr + 1, pc + 1)));
@@ -194,7 +211,7 @@ inline int patch_valid(__global const float *h, int H, int W, int pr, int pc)
 /* Corner pass out of a hole patch (pr, pc): the ray touches the two side
  * neighbours only at the corner sample; it occludes if a side neighbour is a
  * valid patch and the sample is above the ray. */
-inline int corner_hits(__global const float *h, int H, int W, int pr, int pc, float ux, float uy,
+OCLS_INLINE int corner_hits(__global const float *h, int H, int W, int pr, int pc, float ux, float uy,
                        float z)
 {
     const int vr = uy > 0.0f ? pr + 1 : pr, vc = ux > 0.0f ? pc + 1 : pc;
@@ -206,7 +223,7 @@ inline int corner_hits(__global const float *h, int H, int W, int pr, int pc, fl
     return (b_ok || c_ok) && ocls_sample(h, H, W, vr, vc) > z;
 }
 
-inline float2 ext_at(__global const float2 *ext, __global const int *lvl_off, int Wp, int l,
+OCLS_INLINE float2 ext_at(__global const float2 *ext, __global const int *lvl_off, int Wp, int l,
                      int pr, int pc)
 {
     return ext[lvl_off[l] + (pr >> l) * ocls_level_extent(Wp, l) + (pc >> l)];
@@ -214,7 +231,7 @@ inline float2 ext_at(__global const float2 *ext, __global const int *lvl_off, in
 
 /* Start patch of the ray from sample (y0, x0); returns 0 if the ray leaves
  * the map at once. */
-inline int start_patch(int H, int W, int x0, int y0, float ux, float uy, int *pr, int *pc)
+OCLS_INLINE int start_patch(int H, int W, int x0, int y0, float ux, float uy, int *pr, int *pc)
 {
     const int Hp = max(H - 1, 1), Wp = max(W - 1, 1);
     *pc = ux < 0.0f ? x0 - 1 : (ux > 0.0f ? x0 : min(x0, Wp - 1));
@@ -224,7 +241,7 @@ inline int start_patch(int H, int W, int x0, int y0, float ux, float uy, int *pr
 
 #if OCLS_METHOD == OCLS_PAPER
 /* Algo 3 as printed in paper 000, at q = 0. */
-inline int trace(__global const float *h, int H, int W, __global const float2 *ext,
+OCLS_INLINE int trace(__global const float *h, int H, int W, __global const float2 *ext,
                  __global const int *lvl_off, int nlev, int x0, int y0, float z0,
                  float ux, float uy, float w, uint *steps)
 {
@@ -268,7 +285,7 @@ inline int trace(__global const float *h, int H, int W, __global const float2 *e
 }
 #else
 /* EXACT / MAXMIP / DDA: conservative multilevel traversal with climbing. */
-inline int trace(__global const float *h, int H, int W, __global const float2 *ext,
+OCLS_INLINE int trace(__global const float *h, int H, int W, __global const float2 *ext,
                  __global const int *lvl_off, int nlev, int x0, int y0, float z0,
                  float ux, float uy, float w, uint *steps)
 {
@@ -321,7 +338,7 @@ inline int trace(__global const float *h, int H, int W, __global const float2 *e
 
 /* Self-shadow: sun at or below the tangent plane of the central-difference
  * normal (one-sided next to holes and at the edges, 0 slope if neither). */
-inline int self_shadowed(__global const float *h, int H, int W, int i, int j, float2 cell, float4 s)
+OCLS_INLINE int self_shadowed(__global const float *h, int H, int W, int i, int j, float2 cell, float4 s)
 {
     const float hc = h[i * W + j];
     const float he = ocls_sample(h, H, W, i, j + 1), hw = ocls_sample(h, H, W, i, j - 1);

@@ -8,6 +8,7 @@ metres above the datum keeps its millimetres.
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -24,10 +25,11 @@ def _positive_finite(name: str, value: float) -> float:
 
 
 def as_heights(heights: object, nodata: float | None = None, name: str = "heights") -> np.ndarray:
-    """A float64 (rows, cols) copy of ``heights`` with nodata (and NaN) as NaN.
+    """A float64 (rows, cols) array of ``heights`` with nodata (and NaN) as NaN.
 
     Rejects non-numeric or boolean dtypes, ranks other than 2, empty arrays and
-    infinities, naming the argument.
+    infinities, naming the argument.  A float64 input without a nodata value
+    to replace is used as is (read-only view), not copied.
     """
     arr = np.asarray(heights)
     if arr.dtype.kind not in "iuf":
@@ -36,12 +38,28 @@ def as_heights(heights: object, nodata: float | None = None, name: str = "height
         raise ValueError(f"{name} must be 2-D (rows, cols), got shape {arr.shape}")
     if arr.size == 0:
         raise ValueError(f"{name} must not be empty, got shape {arr.shape}")
-    out = arr.astype(np.float64, copy=True)
-    if nodata is not None and not (isinstance(nodata, float) and math.isnan(nodata)):
-        out[arr == nodata] = np.nan
-    if np.isinf(out).any():
+    replace = nodata is not None and not (isinstance(nodata, float) and math.isnan(nodata))
+    if arr.dtype == np.float64 and not replace:
+        out = arr.view()
+    else:
+        out = arr.astype(np.float64)
+        if replace:
+            out[arr == nodata] = np.nan
+    out.setflags(write=False)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)    # all-NaN maps
+        lo, hi = np.nanmin(out), np.nanmax(out)
+    if np.isinf(lo) or np.isinf(hi):
         n = int(np.isinf(out).sum())
         raise ValueError(f"{name} contains {n} infinite value(s); expected finite heights or NaN/nodata for holes")
+    return out
+
+
+def _relative_float32(heights: np.ndarray, offset: float, block_rows: int = 512) -> np.ndarray:
+    """float32(heights - offset), subtracting in float64 block by block (no full-size temporary)."""
+    out = np.empty(heights.shape, np.float32)
+    for r in range(0, heights.shape[0], block_rows):
+        out[r:r + block_rows] = heights[r:r + block_rows] - offset
     return out
 
 
@@ -56,10 +74,12 @@ class Heightmap:
     relative32: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
-        finite = self.heights[np.isfinite(self.heights)]
-        offset = float(0.5 * (finite.min() + finite.max())) if finite.size else 0.0
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)    # all-NaN maps
+            lo, hi = np.nanmin(self.heights), np.nanmax(self.heights)
+        offset = float(0.5 * (lo + hi)) if np.isfinite(lo) else 0.0
         object.__setattr__(self, "offset", offset)
-        rel = np.ascontiguousarray((self.heights - offset).astype(np.float32))
+        rel = _relative_float32(self.heights, offset)
         rel.setflags(write=False)
         object.__setattr__(self, "relative32", rel)
 

@@ -19,6 +19,7 @@ import dataclasses
 import hashlib
 import importlib.resources
 import os
+import pathlib
 import re
 import threading
 from dataclasses import dataclass
@@ -138,9 +139,17 @@ def select_device(spec: str | int | None = None) -> cl.Device:
     raise DeviceNotFoundError(f"device={spec!r}: no platform or device name contains it; available: {names}")
 
 
+def _kernel_root():
+    """Installed package data ``oclshade.kernels``; from a source checkout, ../kernels."""
+    try:
+        return importlib.resources.files("oclshade.kernels")
+    except ModuleNotFoundError:
+        return pathlib.Path(__file__).resolve().parent.parent / "kernels"
+
+
 def kernel_source(filename: str) -> str:
     """The text of a kernel file with its local ``#include "..."`` lines expanded."""
-    root = importlib.resources.files("oclshade.kernels")
+    root = _kernel_root()
     seen: set[str] = set()
 
     def expand(name: str) -> str:

@@ -1,0 +1,384 @@
+"""The ``oclshade`` command line: ``oclshade devices`` and ``oclshade shadow``.
+
+Errors are one line ``oclshade: error: ...`` on stderr: exit status 2 for bad
+arguments, 1 for failures while running (unreadable file, device, ...).
+``OCLSHADE_DEBUG=1`` shows the traceback as well.
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import math
+import os
+import sys
+import time
+import traceback
+from dataclasses import dataclass
+from typing import NoReturn, Sequence, TextIO
+
+import numpy as np
+
+from .heightmap import Heightmap
+from .io import read_dem, write_raster
+from .preview import write_preview
+from .runtime import list_devices
+from .shadows import DEFAULT_K_BRIGHT, DEFAULT_K_DARK, METHODS, ShadowCaster
+from .sun import DEFAULT_AZIMUTH, DEFAULT_ELEVATION, Sun
+
+PROG = "oclshade"
+RASTER_EXTENSIONS = (".tif", ".tiff", ".exr", ".npy", ".png")
+OUTPUT_CHOICES = ("mask", "self", "coefficient", "all")
+DEBUG_ENV = "OCLSHADE_DEBUG"
+CELL_TAGS = {33550, 34264}  # GeoTIFF ModelPixelScale, ModelTransformation: the file knows its cell size
+
+
+class CliError(Exception):
+    """A failure the command line reports as one line; ``status`` is the exit status."""
+
+    status = 1
+
+
+class UsageError(CliError):
+    """A bad argument found after parsing."""
+
+    status = 2
+
+
+class CliParser(argparse.ArgumentParser):
+    """argparse with one-line errors: ``oclshade: error: <message>`` and exit 2."""
+
+    def error(self, message: str) -> NoReturn:
+        sys.stderr.write(f"{PROG}: error: {message} (see '{self.prog} --help')\n")
+        raise SystemExit(2)
+
+
+# --- argument types ------------------------------------------------------------------
+
+def _number(text: str, what: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{what} must be a number, got {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"{what} must be finite, got {text!r}")
+    return value
+
+
+def _azimuth(text: str) -> float:
+    return _number(text, "azimuth")
+
+
+def _elevation(text: str) -> float:
+    value = _number(text, "elevation")
+    if not -90.0 <= value <= 90.0:
+        raise argparse.ArgumentTypeError(f"elevation must be in [-90, 90] degrees, got {text}")
+    return value
+
+
+def _positive(text: str) -> float:
+    value = _number(text, "value")
+    if value <= 0.0:
+        raise argparse.ArgumentTypeError(f"must be a positive number, got {text}")
+    return value
+
+
+def _nonzero(text: str) -> float:
+    value = _number(text, "z factor")
+    if value == 0.0:
+        raise argparse.ArgumentTypeError("z factor must not be 0")
+    return value
+
+
+def _unit(text: str) -> float:
+    value = _number(text, "coefficient")
+    if not 0.0 <= value <= 1.0:
+        raise argparse.ArgumentTypeError(f"must be in [0, 1] (paper 000 eq. 1), got {text}")
+    return value
+
+
+def _sun(text: str) -> Sun:
+    parts = text.split(",")
+    if len(parts) != 2:
+        raise argparse.ArgumentTypeError(f"a sun is AZ,ALT in degrees (e.g. 315,20), got {text!r}")
+    return Sun(_azimuth(parts[0].strip()), _elevation(parts[1].strip()))
+
+
+def read_suns_csv(path: str) -> list[Sun]:
+    """Suns from a CSV file: columns azimuth,elevation (any order when a header
+    names them; header optional; blank lines and lines starting with # skipped)."""
+    try:
+        with open(path, newline="", encoding="utf-8") as f:
+            rows = [(n, r) for n, r in enumerate(csv.reader(f), 1)
+                    if r and any(c.strip() for c in r) and not r[0].lstrip().startswith("#")]
+    except (OSError, UnicodeDecodeError) as exc:
+        raise UsageError(f"--suns {path}: cannot read: {exc}") from None
+    cols = (0, 1)
+    if rows:
+        header = [c.strip().lower() for c in rows[0][1]]
+        try:
+            [float(c) for c in header[:2]]
+        except ValueError:
+            names = {"azimuth": 0, "az": 0, "elevation": 1, "altitude": 1, "alt": 1}
+            found = {names[h]: i for i, h in enumerate(header) if h in names}
+            if set(found) != {0, 1}:
+                raise UsageError(f"--suns {path}: header must name columns azimuth and elevation, "
+                                 f"got {','.join(header)}") from None
+            cols = (found[0], found[1])
+            rows = rows[1:]
+    suns = []
+    for n, row in rows:
+        try:
+            suns.append(_sun(f"{row[cols[0]]},{row[cols[1]]}"))
+        except (IndexError, argparse.ArgumentTypeError, ValueError) as exc:
+            raise UsageError(f"--suns {path}, line {n}: {exc}") from None
+    if not suns:
+        raise UsageError(f"--suns {path}: no sun positions in the file")
+    return suns
+
+
+# --- parser ----------------------------------------------------------------------------
+
+SHADOW_EPILOG = """\
+output bands:
+  mask         uint8, 1 = cast shadow, 0 = lit, 255 = nodata
+  self         uint8, 1 = sun at or below the local tangent plane, 0 = not, 255 = nodata
+  coefficient  float32, paper 000 eq. (1): 1 when lit, else
+               k_dark + (k_bright - k_dark) * sin(elevation); NaN = nodata
+  all          mask, self, coefficient per sun, all as float32 with NaN = nodata
+               (mask and self keep their 0/1 values)
+  With several suns the bands are ordered sun by sun (for each sun, its
+  outputs); a single band is written as a 2-D array (.npy) or one-band image.
+  Band names (GeoTIFF descriptions, EXR channels): mask_az315_alt22p5 etc.
+
+formats: by OUTPUT's extension: .tif/.tiff (GeoTIFF: georeferencing of the input
+  kept, nodata tag 255 for uint8 bands, NaN for float32), .exr (float channels),
+  .npy (2-D, or (bands, rows, cols)), .png (uint8 outputs only).
+
+examples:
+  oclshade shadow dem.tif shadow.tif -az 315 -alt 20 --preview shadow.png
+  oclshade shadow dem.npy mask.npy --cellsize 30 -alt 10
+  oclshade shadow srtm.hgt day.tif --sun 90,10 --sun 180,45 --sun 270,10
+  oclshade shadow dem.tif year.tif --suns positions.csv --output coefficient
+"""
+
+
+def build_parser() -> CliParser:
+    parser = CliParser(prog=PROG, description="Exact terrain cast shadows on OpenCL devices.")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    sub.add_parser("devices", help="list OpenCL devices (index, platform, versions)",
+                   description="List the OpenCL devices; use an index or a name substring "
+                               "with --device or OCLSHADE_DEVICE.")
+    sh = sub.add_parser("shadow", help="cast-shadow mask / coefficient of a DEM",
+                        description="Cast shadows of a DEM for one or several sun positions.",
+                        epilog=SHADOW_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    sh.add_argument("input", metavar="INPUT", help="DEM: .tif/.tiff, .hgt, .zip (with .hgt), .asc, .exr, .png, .npy")
+    sh.add_argument("output", metavar="OUTPUT", help="output raster: .tif/.tiff, .exr, .npy or .png")
+    sh.add_argument("-az", dest="azimuth", type=_azimuth, default=None, metavar="DEG",
+                    help=f"sun azimuth, degrees clockwise from north (default {DEFAULT_AZIMUTH:g})")
+    sh.add_argument("-alt", dest="elevation", type=_elevation, default=None, metavar="DEG",
+                    help=f"sun elevation above the horizon, degrees (default {DEFAULT_ELEVATION:g})")
+    sh.add_argument("-z", dest="z_factor", type=_nonzero, default=1.0, metavar="ZFACTOR",
+                    help="multiply heights by ZFACTOR (default 1)")
+    sh.add_argument("-s", dest="scale", type=_positive, default=1.0, metavar="SCALE",
+                    help="ratio of vertical units to horizontal, as gdaldem: horizontal cell sizes "
+                         "are multiplied by SCALE (e.g. 111120 for a degree grid with metre heights "
+                         "and no CRS; geographic GeoTIFF/HGT are converted automatically)")
+    sh.add_argument("--cellsize", nargs="+", type=_positive, metavar=("DX", "DY"),
+                    help="cell size (east-west, north-south); required for .npy/.exr/.png input, "
+                         "overrides the file's otherwise")
+    sh.add_argument("--method", default="exact", choices=METHODS,
+                    help="traversal (default exact; see README)")
+    sh.add_argument("--output", dest="kind", default="mask", choices=OUTPUT_CHOICES,
+                    help="what to write (default mask)")
+    sh.add_argument("--sun", dest="suns", action="append", type=_sun, default=[], metavar="AZ,ALT",
+                    help="a sun position; repeat for several (one band each); "
+                         "write --sun=AZ,ALT when AZ is negative")
+    sh.add_argument("--suns", dest="suns_csv", metavar="FILE.csv",
+                    help="sun positions, one per line: azimuth,elevation (header optional)")
+    sh.add_argument("--k-dark", type=_unit, default=DEFAULT_K_DARK, metavar="K",
+                    help=f"eq. (1) k_dark, shadow brightness with the sun at the horizon (default {DEFAULT_K_DARK:g})")
+    sh.add_argument("--k-bright", type=_unit, default=DEFAULT_K_BRIGHT, metavar="K",
+                    help=f"eq. (1) k_bright, shadow brightness with the sun at the zenith (default {DEFAULT_K_BRIGHT:g})")
+    sh.add_argument("--preview", metavar="PNG", help="also write a hillshade PNG with the first sun's shadows")
+    sh.add_argument("--device", metavar="SPEC",
+                    help="OpenCL device: index or name substring (default: $OCLSHADE_DEVICE, else PoCL CPU)")
+    sh.add_argument("--quiet", "-q", action="store_true", help="no progress bar and no summary")
+    return parser
+
+
+# --- shadow command ---------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class ShadowJob:
+    suns: list[Sun]
+    outputs: tuple[str, ...]
+    cellsize: float | tuple[float, float] | None
+
+
+def _extension(path: str) -> str:
+    return os.path.splitext(path)[1].lower()
+
+
+def _same_file(a: str, b: str) -> bool:
+    if os.path.realpath(a) == os.path.realpath(b):
+        return True
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+def check_shadow_args(args: argparse.Namespace) -> ShadowJob:
+    """Cross-argument checks; raises UsageError (exit 2)."""
+    if _extension(args.output) not in RASTER_EXTENSIONS:
+        raise UsageError(f"OUTPUT {args.output!r}: unknown extension; expected one of {', '.join(RASTER_EXTENSIONS)}")
+    if args.preview is not None and _extension(args.preview) != ".png":
+        raise UsageError(f"--preview {args.preview!r}: must end with .png")
+    if _extension(args.output) == ".png" and args.kind not in ("mask", "self"):
+        raise UsageError(f"--output {args.kind}: PNG holds uint8 bands only (mask or self); use .tif, .exr or .npy")
+    if args.cellsize is not None and len(args.cellsize) > 2:
+        raise UsageError(f"--cellsize takes DX or DX DY, got {len(args.cellsize)} values")
+    explicit = args.azimuth is not None or args.elevation is not None
+    suns = list(args.suns)
+    if args.suns_csv is not None:
+        suns += read_suns_csv(args.suns_csv)
+    if suns and explicit:
+        raise UsageError("give the sun either with -az/-alt or with --sun/--suns, not both")
+    if not suns:
+        az = DEFAULT_AZIMUTH if args.azimuth is None else args.azimuth
+        alt = DEFAULT_ELEVATION if args.elevation is None else args.elevation
+        suns = [Sun(az, alt)]
+    outputs = ("mask", "self", "coefficient") if args.kind == "all" else (args.kind,)
+    if _extension(args.output) == ".png" and len(suns) > 1:
+        raise UsageError(f"PNG output holds one band; {len(suns)} suns need .tif, .exr or .npy")
+    cellsize = None if args.cellsize is None else (
+        args.cellsize[0] if len(args.cellsize) == 1 else (args.cellsize[0], args.cellsize[1]))
+    return ShadowJob(suns, outputs, cellsize)
+
+
+class ProgressBar:
+    """A dependency-free text bar on a stream; redraws in place on a terminal."""
+
+    def __init__(self, stream: TextIO, what: str, width: int = 30):
+        self.stream, self.what, self.width = stream, what, width
+        self.tty = stream.isatty()
+        self.shown = -1
+
+    def __call__(self, done: int, total: int) -> None:
+        tenth = 10 * done // total
+        if not self.tty and tenth == self.shown and done != total:
+            return  # in logs: one line per tenth
+        self.shown = tenth
+        fill = self.width * done // total
+        line = f"[{'#' * fill}{'.' * (self.width - fill)}] {done}/{total} {self.what}"
+        end = "\n" if (done == total or not self.tty) else ""
+        self.stream.write(("\r" if self.tty else "") + line + end)
+        self.stream.flush()
+
+
+def _bands(results: list, outputs: tuple[str, ...]) -> tuple[list[np.ndarray], list[str], float]:
+    """Output bands sun by sun, their names, and the nodata value to declare."""
+    mixed = len(outputs) > 1
+    bands, names = [], []
+    for res in results:
+        for out in outputs:
+            band = {"mask": res.mask, "self": res.self_shadow, "coefficient": res.coefficient}[out]
+            if mixed and band.dtype == np.uint8:
+                band = np.where(band == 255, np.float32(np.nan), band.astype(np.float32))
+            bands.append(band)
+            names.append(f"{out}_az{res.sun.azimuth:g}_alt{res.sun.elevation:g}".replace(".", "p"))
+    nodata = 255.0 if bands[0].dtype == np.uint8 else math.nan
+    return bands, names, nodata
+
+
+def run_shadow(args: argparse.Namespace) -> int:
+    job = check_shadow_args(args)
+    if _same_file(args.output, args.input):
+        raise CliError(f"OUTPUT {args.output!r} is the input file; refusing to overwrite it")
+    if args.preview is not None and (_same_file(args.preview, args.input) or _same_file(args.preview, args.output)):
+        raise CliError(f"--preview {args.preview!r} is the input or the output file; refusing to overwrite it")
+    t0 = time.perf_counter()
+    raster = read_dem(args.input, cellsize=job.cellsize)
+    if job.cellsize is None and not CELL_TAGS & raster.georef.keys():
+        raise UsageError(f"INPUT {args.input!r} does not record its cell size; give --cellsize DX [DY] (metres)")
+    dx, dy = raster.dx * args.scale, raster.dy * args.scale
+    heightmap = Heightmap.from_array(raster.heights, cellsize=(dx, dy), z_factor=args.z_factor)
+    caster = ShadowCaster(heightmap, device=args.device)
+    show_bar = not args.quiet and len(job.suns) > 1
+    t1 = time.perf_counter()
+    results = caster.cast_many(job.suns, method=args.method, outputs=("mask", *job.outputs),
+                               k_dark=args.k_dark, k_bright=args.k_bright,
+                               progress=ProgressBar(sys.stderr, "suns") if show_bar else None)
+    t2 = time.perf_counter()
+    bands, names, nodata = _bands(results, job.outputs)
+    for path in (args.output, args.preview):
+        if path is not None and os.path.dirname(path):
+            os.makedirs(os.path.dirname(path), exist_ok=True)
+    write_raster(args.output, bands[0] if len(bands) == 1 else bands, like=raster, nodata=nodata,
+                 band_names=names)
+    if args.preview is not None:
+        first = results[0]
+        write_preview(args.preview, heightmap.heights, dx, dy, first.sun.azimuth, first.sun.elevation,
+                      mask=first.mask)
+    if not args.quiet:
+        masks = np.stack([r.mask for r in results])
+        valid = masks != 255
+        frac = float((masks == 1).sum() / max(int(valid.sum()), 1))
+        rows, cols = heightmap.shape
+        print(f"{PROG}: {rows}x{cols} cells, {len(job.suns)} sun(s), method {args.method}, "
+              f"device {caster.runtime.label}: pyramid + shadows {t2 - t1:.2f} s "
+              f"(total {time.perf_counter() - t0:.2f} s), {100 * frac:.1f}% of cells in cast shadow "
+              f"-> {args.output}", file=sys.stderr)
+    return 0
+
+
+# --- devices command --------------------------------------------------------------------
+
+def run_devices(_: argparse.Namespace) -> int:
+    devices = list_devices()
+    if not devices:
+        sys.stderr.write(f"{PROG}: error: no OpenCL device found; install 'pocl-binary-distribution' "
+                         "(pip) or a GPU driver's ICD\n")
+        return 1
+    head = ("index", "platform", "device", "type", "driver", "OpenCL", "CUs", "max alloc MiB")
+    rows = [(str(d.index), d.platform.strip(), d.name.strip(), d.device_type, d.driver_version.strip(),
+             d.opencl_version.strip(), str(d.compute_units), str(d.max_alloc_bytes // 2**20))
+            for d in devices]
+    widths = [max(len(r[k]) for r in (head, *rows)) for k in range(len(head))]
+    for r in (head, *rows):
+        print("  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip())
+    return 0
+
+
+# --- entry point -------------------------------------------------------------------------
+
+def _fail(message: str, status: int) -> int:
+    lines = str(message).strip().splitlines() or ["unknown error"]
+    more = f" (set {DEBUG_ENV}=1 for details)" if len(lines) > 1 and not os.environ.get(DEBUG_ENV) else ""
+    sys.stderr.write(f"{PROG}: error: {lines[0]}{more}\n")
+    return status
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line; returns the exit status (0 ok, 1 failure, 2 bad arguments)."""
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # --help, or an argparse error already printed
+        return int(exc.code or 0)
+    command = {"devices": run_devices, "shadow": run_shadow}[args.command]
+    debug = os.environ.get(DEBUG_ENV, "") not in ("", "0")
+    try:
+        return command(args)
+    except CliError as exc:
+        if debug:
+            traceback.print_exc()
+        return _fail(str(exc), exc.status)
+    except KeyboardInterrupt:
+        sys.stderr.write(f"{PROG}: interrupted\n")
+        return 130
+    except Exception as exc:  # noqa: BLE001 - the CLI turns every failure into one line
+        if debug:
+            traceback.print_exc()
+        known = isinstance(exc, (ValueError, TypeError, OSError)) or type(exc).__module__.startswith("oclshade")
+        return _fail(str(exc) if known else f"{type(exc).__name__}: {exc}", 1)
