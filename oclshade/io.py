@@ -103,54 +103,6 @@ def _heights(path: object, raw: np.ndarray, nodata: float | None) -> np.ndarray:
 
 # ----------------------------------------------------------------------------- GeoTIFF
 
-def _lzw_decode(data: bytes) -> bytes:
-    """TIFF LZW (MSB-first, early change) decoder, used when imagecodecs is not installed."""
-    buf = bytes(data) + b"\0\0\0"
-    nbits_total = len(data) * 8
-    out = bytearray()
-    table: list[bytes] = [bytes([i]) for i in range(256)] + [b"", b""]
-    nbits, pos, prev = 9, 0, b""
-    while pos + nbits <= nbits_total:
-        i = pos >> 3
-        word = (buf[i] << 16) | (buf[i + 1] << 8) | buf[i + 2]
-        code = (word >> (24 - (pos & 7) - nbits)) & ((1 << nbits) - 1)
-        pos += nbits
-        if code == 257:
-            break
-        if code == 256:
-            del table[258:]
-            nbits, prev = 9, b""
-            continue
-        if not prev:
-            entry = table[code]
-        else:
-            entry = table[code] if code < len(table) else prev + prev[:1]
-            table.append(prev + entry[:1])
-        out += entry
-        prev = entry
-        if len(table) + 1 >= 1 << nbits and nbits < 12:
-            nbits += 1
-    return bytes(out)
-
-
-def _read_lzw_strips(tif: tifffile.TiffFile, page: tifffile.TiffPage) -> np.ndarray:
-    """First band of a stripped, single-sample LZW page (predictor none or horizontal)."""
-    if (page.is_tiled or page.samplesperpixel != 1 or page.predictor not in (1, 2)
-            or (page.predictor == 2 and np.dtype(page.dtype).kind == "f")):
-        raise ValueError("this LZW layout (tiles, several samples or floating-point predictor) "
-                         "needs the 'imagecodecs' package")
-    chunks = []
-    for offset, count in zip(page.dataoffsets, page.databytecounts):
-        tif.filehandle.seek(offset)
-        chunks.append(_lzw_decode(tif.filehandle.read(count)))
-    dtype = np.dtype(page.dtype).newbyteorder(tif.byteorder)
-    rows, cols = page.shape[-2:]
-    arr = np.frombuffer(b"".join(chunks), dtype=dtype, count=rows * cols).reshape(rows, cols)
-    if page.predictor == 2:
-        arr = np.cumsum(arr, axis=1, dtype=arr.dtype)
-    return arr.astype(page.dtype)
-
-
 def _first_band(page: tifffile.TiffPage, arr: np.ndarray) -> np.ndarray:
     axes = page.axes
     if "S" in axes and arr.ndim == len(axes):
@@ -169,13 +121,7 @@ def _read_tif(path: Path) -> tuple[np.ndarray, float | None, bool, dict, tuple[f
     with tifffile.TiffFile(path) as tif:
         page = tif.pages[0]
         tags = {t.code: t.value for t in page.tags.values()}
-        try:
-            raw = page.asarray()
-        except ValueError as exc:
-            if page.compression != 5 or "imagecodecs" not in str(exc):
-                raise
-            raw = _read_lzw_strips(tif, page)
-        raw = _first_band(page, raw)
+        raw = _first_band(page, page.asarray())   # LZW/DEFLATE/predictors: imagecodecs
     georef = {code: tags[code] for code in GEOTIFF_TAGS if code in tags}
     nodata = None
     if _TAG_NODATA in tags and str(tags[_TAG_NODATA]).strip():
