@@ -299,7 +299,13 @@ OCLS_INLINE int trace(__global const float *h, int H, int W, __global const floa
             const float2 e = ext_at(ext, lvl_off, Wp, l, pr, pc);
             if (z_in < e.x) {                          /* the tile may reach the ray */
 #if OCLS_METHOD == OCLS_EXACT
-                if (z0 + w * t_out < e.y) return 1;    /* min early exit (Algo 3) */
+                /* min early exit (Algo 3).  Provably inert here: the ray enters
+                 * this tile at a point P of its boundary where the previous tile
+                 * (skipped by a conservative max test, or tested exactly on a
+                 * closed segment) showed S(P) <= z, and min <= S(P), so z_out <
+                 * min never holds.  It pays only where earlier tests are
+                 * approximate (paper mode, coarse LOD); kept to measure that. */
+                if (z0 + w * t_out < e.y) return 1;
 #endif
                 l -= 1;                                /* descend; (pr, pc) stays inside */
                 continue;
