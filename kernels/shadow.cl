@@ -1,6 +1,13 @@
 /* shadow.cl — cast shadows of a heightmap by multilevel ray traversal of an
  * extrema pyramid (paper 000, Algo 2 and Algo 3), heightmap-space entry point.
  *
+ * ABI summary (details under "ABI" below): kernel shadow_cells, one work-item
+ * per cell, global size (W, H) rounded up to any local size; arguments: the
+ * relative float32 heights, the extrema pyramid (float2 levels 1..L and their
+ * offsets), the sun ray, sun vector, cell size, eq. (1) constants and mode,
+ * then the mask / self / coef outputs; -D options OCLS_METHOD, OCLS_OUT_MASK,
+ * OCLS_OUT_SELF, OCLS_OUT_COEF, OCLS_STATS.
+ *
  * Geometry (all methods).  Sample (i, j) sits at x = j (east), y = i (south)
  * in cell units; the surface is bilinear over patches (see pyramid.cl).  The
  * ray of cell (i, j) starts at the surface point (j, i, h[i,j]) and follows
