@@ -158,51 +158,6 @@ def _warm_kernels() -> None:
         tiny.step_counts((37.0, 20.0), m)
 
 
-BAND_CELLS = 1 << 19   # cells per step-count launch: a band wraps uint32 only past 8192 steps per cell
-
-
-def step_counts(caster, sun, method: str) -> tuple[np.ndarray, str]:
-    """Steps per level summed over all cells, as int64, and how they were counted.
-
-    ``ShadowCaster.step_counts`` sums into uint32 counters, which wrap on a
-    4096^2 map when a slow method averages more than 256 steps per cell (dda at
-    low sun does).  So the profiling kernel is launched here over bands of
-    rows (global offset), each band's counters read back and summed in int64.
-    Falls back to ``ShadowCaster.step_counts`` if the internals it relies on
-    have changed.
-    """
-    rows, cols = caster.heightmap.shape
-    if rows * cols <= BAND_CELLS:
-        return caster.step_counts(sun, method).astype(np.int64), "step_counts"
-    try:
-        import pyopencl as cl
-        from oclshade.shadows import ShadowFeatures
-        from oclshade.sun import as_sun
-        rt, pyr = caster.runtime, caster.pyramid
-        kernel = rt.kernel("shadow.cl", "shadow_cells", ShadowFeatures(method, ("mask",), True).defines())
-        (gx, gy), (lx, ly) = caster._work_size(kernel)
-        band = max(ly, (BAND_CELLS // gx) // ly * ly)
-        mask = rt.empty(rows * cols, "shadow mask")
-        zero = np.zeros(pyr.levels, np.uint32)
-        stats_buf = cl.Buffer(rt.context, cl.mem_flags.READ_WRITE | cl.mem_flags.COPY_HOST_PTR, hostbuf=zero)
-        kernel.set_args(*caster._args(as_sun(sun), 0.0, 1.0), mask, caster._dummy_u8, caster._dummy_f32, stats_buf)
-        total = np.zeros(pyr.levels, np.int64)
-        part = np.empty_like(zero)
-        for r0 in range(0, gy, band):
-            cl.enqueue_copy(rt.queue, stats_buf, zero)
-            cl.enqueue_nd_range_kernel(rt.queue, kernel, (gx, min(band, gy - r0)), (lx, ly),
-                                       global_work_offset=(0, r0))
-            cl.enqueue_copy(rt.queue, part, stats_buf)
-            rt.queue.finish()
-            if int(part.max()) >= 1 << 31:
-                log(f"warning: {method} step counter near uint32 wrap in one band ({int(part.max())})")
-            total += part
-        return total, "bands"
-    except Exception as exc:  # noqa: BLE001 - internals moved: use the public call
-        log(f"step counts by bands failed ({exc!r}); using ShadowCaster.step_counts (uint32, may wrap)")
-        return caster.step_counts(sun, method).astype(np.int64), "step_counts"
-
-
 def bench_dataset(name: str, data: dict, args: argparse.Namespace) -> dict:
     from oclshade import reference
     from oclshade.heightmap import Heightmap
@@ -265,7 +220,7 @@ def bench_dataset(name: str, data: dict, args: argparse.Namespace) -> dict:
             steps = {}
             if not args.no_steps:
                 for m in METHODS:
-                    steps[m] = step_counts(caster, sun, m)
+                    steps[m] = caster.step_counts(sun, m)
             t0 = time.perf_counter()
             ref = reference.cast_shadows(hm, sun, window=win)
             ref_s = time.perf_counter() - t0
@@ -299,13 +254,10 @@ def bench_dataset(name: str, data: dict, args: argparse.Namespace) -> dict:
                     "full_extra_lit_vs_exact": int((full & (mask == 0)).sum()),
                 }
                 if m in steps:
-                    s, how = steps[m]
+                    s = steps[m]
                     entry["steps_total"] = [int(v) for v in s]
                     entry["steps_per_cell"] = [float(v) / max(1, n_valid) for v in s]
                     entry["steps_per_cell_sum"] = float(s.sum()) / max(1, n_valid)
-                    entry["steps_counted_by"] = how
-                    # ShadowCaster.step_counts sums in uint32 over the whole map: it may have wrapped
-                    entry["steps_may_wrap"] = bool(how == "step_counts" and rows * cols > BAND_CELLS)
                 sun_out["methods"][m] = entry
             log(f"{label}: crop mismatches " + " ".join(
                 f"{m} {sun_out['methods'][m]['crop']['mismatches']}({sun_out['methods'][m]['crop']['ties']})"
@@ -408,8 +360,7 @@ def write_markdown(path: Path, result: dict) -> None:
             ref = s["reference"]
             for m in METHODS:
                 e = s["methods"][m]
-                steps = f"{e['steps_per_cell_sum']:.1f}" + ("*" if e.get("steps_may_wrap") else "") \
-                    if "steps_per_cell_sum" in e else "-"
+                steps = f"{e['steps_per_cell_sum']:.1f}" if "steps_per_cell_sum" in e else "-"
                 lines.append(
                     f"| {s['azimuth']:g}/{s['elevation']:g} | {m} | {e['time_ms']['min']:.1f} | "
                     f"{e['time_ms']['median']:.1f} | {e['time_ms']['n']} | {100 * e['shadow_fraction']:.2f} | "
@@ -419,8 +370,6 @@ def write_markdown(path: Path, result: dict) -> None:
                 f"| {s['azimuth']:g}/{s['elevation']:g} | *reference* | {1e3 * ref['seconds']:.0f} (crop) | | | "
                 f"{100 * ref['shadow_fraction']:.2f} (crop) | | ties in crop: {ref['ties_in_crop']} | | |")
         lines.append("")
-        if any(e.get("steps_may_wrap") for s in ds["suns"] for e in s["methods"].values()):
-            lines += ["`*`: counted by `ShadowCaster.step_counts` over the whole map (uint32 counters): may have wrapped.", ""]
     path.write_text("\n".join(lines) + "\n")
 
 

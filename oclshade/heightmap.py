@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 
-def _positive_finite(name: str, value: float) -> float:
+def positive_finite(name: str, value: float) -> float:
     try:
         v = float(value)
     except (TypeError, ValueError):
@@ -95,10 +95,10 @@ class Heightmap:
         if isinstance(cellsize, (tuple, list, np.ndarray)):
             if len(cellsize) != 2:
                 raise ValueError(f"cellsize must be a number or (dx, dy), got {cellsize!r}")
-            dx = _positive_finite("cellsize dx", cellsize[0])
-            dy = _positive_finite("cellsize dy", cellsize[1])
+            dx = positive_finite("cellsize dx", cellsize[0])
+            dy = positive_finite("cellsize dy", cellsize[1])
         else:
-            dx = dy = _positive_finite("cellsize", cellsize)
+            dx = dy = positive_finite("cellsize", cellsize)
         z = float(z_factor)
         if not math.isfinite(z) or z == 0.0:
             raise ValueError(f"z_factor must be a finite non-zero number, got {z_factor!r}")

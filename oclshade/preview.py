@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .heightmap import as_heights, positive_finite
 from .io import write_raster
 
 __all__ = ["hillshade", "shadow_overlay", "write_preview"]
@@ -18,13 +19,9 @@ _GREY_FLOOR = 0.2  # hillshade 0 is drawn at 20 % grey so the shadow tint still 
 
 
 def _check(heights: np.ndarray, dx: float, dy: float) -> np.ndarray:
-    h = np.asarray(heights, dtype=np.float64)
-    if h.ndim != 2 or h.size == 0:
-        raise ValueError(f"heights must be a non-empty 2-D array (rows, cols), got shape {h.shape}")
-    for name, v in (("dx", dx), ("dy", dy)):
-        if not (math.isfinite(v) and v > 0):
-            raise ValueError(f"{name} must be a positive finite cell size, got {v!r}")
-    return h
+    positive_finite("dx", dx)
+    positive_finite("dy", dy)
+    return as_heights(heights)
 
 
 def hillshade(heights: np.ndarray, dx: float, dy: float, azimuth: float = 315.0,

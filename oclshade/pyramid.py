@@ -55,11 +55,8 @@ class ExtremaPyramid:
 
 
 def _run_2d(rt: Runtime, kernel: cl.Kernel, cols: int, rows: int, args: tuple) -> None:
-    ls = rt.local_size(kernel, 256)
-    lx = min(ls, 64)
-    ly = max(1, ls // lx)
     kernel.set_args(*args)
-    cl.enqueue_nd_range_kernel(rt.queue, kernel, (-(-cols // lx) * lx, -(-rows // ly) * ly), (lx, ly))
+    cl.enqueue_nd_range_kernel(rt.queue, kernel, *rt.grid_2d(kernel, cols, rows, wanted=256, max_x=64))
 
 
 def extrema_shapes(patch_rows: int, patch_cols: int) -> list[tuple[int, int]]:

@@ -149,9 +149,9 @@ def cast_shadows(hm: Heightmap, sun: Sun, window: tuple[slice, slice] | None = N
     h = hm.heights
     rows, cols = h.shape
     win = window or (slice(None), slice(None))
-    ii, jj = np.mgrid[0:rows, 0:cols]
-    ii, jj = ii[win].ravel(), jj[win].ravel()
-    out_shape = np.empty((rows, cols))[win].shape
+    ii, jj = np.meshgrid(np.arange(rows)[win[0]], np.arange(cols)[win[1]], indexing="ij")
+    out_shape = ii.shape
+    ii, jj = ii.ravel(), jj.ravel()
     z0 = h[ii, jj]
     margin = np.full(ii.shape, -np.inf)
     margin[np.isnan(z0)] = np.nan

@@ -251,12 +251,14 @@ class Runtime:
             size *= 2
         return size
 
-    def run_1d(self, kernel: cl.Kernel, n: int, args: tuple, local: int = 64) -> cl.Event:
-        """Enqueue ``kernel`` over n work-items (global size rounded up to the local size)."""
-        ls = self.local_size(kernel, local)
-        gs = max(1, -(-n // ls)) * ls
-        kernel.set_args(*args)
-        return cl.enqueue_nd_range_kernel(self.queue, kernel, (gs,), (ls,))
+    def grid_2d(self, kernel: cl.Kernel, cols: int, rows: int, wanted: int = 64,
+                max_x: int = 16) -> tuple[tuple[int, int], tuple[int, int]]:
+        """(global, local) sizes for one work-item per (col, row): a local size of at most
+        ``wanted`` items, ``max_x`` wide, and the global size rounded up to it."""
+        ls = self.local_size(kernel, wanted)
+        lx = min(ls, max_x)
+        ly = max(1, ls // lx)
+        return (-(-cols // lx) * lx, -(-rows // ly) * ly), (lx, ly)
 
 
 _default_lock = threading.Lock()

@@ -148,26 +148,36 @@ class ShadowCaster:
         return results
 
 
-    def step_counts(self, sun: SunLike, method: str = "exact") -> np.ndarray:
-        """Traversal iterations per pyramid level, summed over all cells (a profiling build)."""
+    def step_counts(self, sun: SunLike, method: str = "exact", band_cells: int = 1 << 19) -> np.ndarray:
+        """Traversal iterations per pyramid level, summed over all cells (a profiling build).
+
+        The kernel's counters are uint32; it runs over bands of rows of at most
+        ``band_cells`` cells (a band wraps only past 8192 steps per cell) and
+        the bands are summed here in int64.
+        """
         rt, pyr = self.runtime, self.pyramid
+        rows, cols = self.heightmap.shape
         kernel = rt.kernel("shadow.cl", "shadow_cells", ShadowFeatures(check_method(method), ("mask",), True).defines())
-        stats = np.zeros(pyr.levels, np.uint32)
-        stats_buf = cl.Buffer(rt.context, cl.mem_flags.READ_WRITE | cl.mem_flags.COPY_HOST_PTR, hostbuf=stats)
-        mask = rt.empty(self.heightmap.relative32.size, "shadow mask")
+        zero = np.zeros(pyr.levels, np.uint32)
+        stats_buf = cl.Buffer(rt.context, cl.mem_flags.READ_WRITE | cl.mem_flags.COPY_HOST_PTR, hostbuf=zero)
+        mask = rt.empty(rows * cols, "shadow mask")
         kernel.set_args(*self._args(as_sun(sun), 0.0, 1.0), mask, self._dummy_u8, self._dummy_f32, stats_buf)
-        gsize, lsize = self._work_size(kernel)
-        cl.enqueue_nd_range_kernel(rt.queue, kernel, gsize, lsize)
-        cl.enqueue_copy(rt.queue, stats, stats_buf)
-        rt.queue.finish()
-        return stats
+        (gx, gy), (lx, ly) = self._work_size(kernel)
+        band = max(ly, band_cells // gx // ly * ly)
+        total = np.zeros(pyr.levels, np.int64)
+        part = np.empty_like(zero)
+        for r0 in range(0, gy, band):
+            cl.enqueue_copy(rt.queue, stats_buf, zero)
+            cl.enqueue_nd_range_kernel(rt.queue, kernel, (gx, min(band, gy - r0)), (lx, ly),
+                                       global_work_offset=(0, r0))
+            cl.enqueue_copy(rt.queue, part, stats_buf)
+            rt.queue.finish()
+            total += part
+        return total
 
     def _work_size(self, kernel: cl.Kernel) -> tuple[tuple[int, int], tuple[int, int]]:
         rows, cols = self.heightmap.shape
-        ls = self.runtime.local_size(kernel, 64)
-        lx = min(ls, 16)
-        ly = max(1, ls // lx)
-        return (-(-cols // lx) * lx, -(-rows // ly) * ly), (lx, ly)
+        return self.runtime.grid_2d(kernel, cols, rows)
 
     def _args(self, sun: Sun, k_dark: float, k_bright: float) -> tuple:
         """Kernel arguments up to (not including) the output buffers."""
