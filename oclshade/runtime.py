@@ -15,7 +15,6 @@ across processes.
 """
 from __future__ import annotations
 
-import dataclasses
 import hashlib
 import importlib.resources
 import os

@@ -117,7 +117,8 @@ class ShadowCaster:
         sun_list = as_suns(suns)
         outs = check_outputs(outputs)
         k_dark, k_bright = check_coefficients(k_dark, k_bright)
-        rt, hm, pyr = self.runtime, self.heightmap, self.pyramid
+        rt, hm = self.runtime, self.heightmap
+        self.pyramid  # built (once) before the launches
         rows, cols = hm.shape
         n = rows * cols
         kernel = rt.kernel("shadow.cl", "shadow_cells", ShadowFeatures(check_method(method), outs).defines())
