@@ -4,7 +4,10 @@
 >>> result = caster.cast(Sun(315, 20))           # exact cast-shadow mask
 >>> result.mask                                   # uint8: 1 shadow, 0 lit, 255 nodata
 
-The pyramid is built once per caster and stays on the device for every sun.
+The pyramid is built once per heightmap and device (process-wide cache,
+:mod:`oclshade.cache`) and stays on the device for every sun; results are
+reused while their inputs are unchanged; suns that provably cast nothing skip
+the traversal (:mod:`oclshade.analysis`).
 Definitions are in ``kernels/shadow.cl``; the float64 twin is
 :func:`oclshade.reference.cast_shadows`.
 """
@@ -17,6 +20,8 @@ import numpy as np
 import pyopencl as cl
 
 from .heightmap import Heightmap
+from . import cache as _cache
+from .analysis import SceneAnalysis, slope_fronts
 from .pyramid import ExtremaPyramid, build_extrema_pyramid
 from .runtime import Runtime, get_runtime
 from .sun import Sun, SunLike, as_sun, as_suns
@@ -82,25 +87,62 @@ class ShadowResult:
 
 
 class ShadowCaster:
-    """Cast shadows of one heightmap for any number of suns, sharing one pyramid."""
+    """Cast shadows of one heightmap for any number of suns, sharing one pyramid.
 
-    def __init__(self, heightmap: Heightmap, device: str | int | Runtime | None = None):
+    cache: use the process-wide caches of :mod:`oclshade.cache` (pyramid shared
+    with every caster over the same heights and device, results reused while
+    their inputs are unchanged); None follows :func:`oclshade.cache.enabled`.
+    analyse: decide before any traversal whether a sun can cast a shadow at
+    all (:mod:`oclshade.analysis`); False always traces (for comparisons).
+    """
+
+    def __init__(self, heightmap: Heightmap, device: str | int | Runtime | None = None, *,
+                 cache: bool | None = None, analyse: bool = True):
         self.heightmap = heightmap
         self.runtime = get_runtime(device)
+        self.cache = cache
+        self.analyse = analyse
         self._pyramid: ExtremaPyramid | None = None
+        self._analysis: SceneAnalysis | None = None
         self._dummy_u8 = self.runtime.empty(1, "dummy")
         self._dummy_f32 = self.runtime.empty(4, "dummy")
 
     @property
+    def caching(self) -> bool:
+        return _cache.enabled() if self.cache is None else bool(self.cache)
+
+    @property
     def pyramid(self) -> ExtremaPyramid:
-        """The extrema pyramid, built on first use and kept on the device."""
+        """The extrema pyramid, built on first use (or found in the process-wide cache) and
+        kept on the device."""
         if self._pyramid is None:
-            self._pyramid = build_extrema_pyramid(self.heightmap, self.runtime)
+            key = (_cache.heights_digest(self.heightmap), id(self.runtime)) if self.caching else None
+            pyr = _cache.PYRAMIDS.get(key) if key else None
+            if pyr is None:
+                pyr = build_extrema_pyramid(self.heightmap, self.runtime)
+                if key:
+                    _cache.PYRAMIDS.put(key, pyr, pyr.buffer.size + pyr.heights.size + pyr.offsets.size)
+            self._pyramid = pyr
         return self._pyramid
 
+    @property
+    def analysis(self) -> SceneAnalysis:
+        """Scene analysis of the heightmap (per-map data computed once, cached like the pyramid)."""
+        if self._analysis is None:
+            key = _cache.heights_digest(self.heightmap) if self.caching else None
+            entry = _cache.ANALYSES.get(key) if key else None
+            if entry is None:
+                entry = (slope_fronts(self.heightmap),)
+                if key:
+                    _cache.ANALYSES.put(key, entry, entry[0].nbytes if entry[0] else 64)
+            self._analysis = SceneAnalysis(self.heightmap, entry[0])
+        return self._analysis
+
     def warm_up(self, method: str = "exact", outputs: Sequence[str] = ("mask",)) -> None:
-        """Build the pyramid and the kernel variant ahead of time."""
+        """Build the pyramid, the scene analysis and the kernel variant ahead of time."""
         self.pyramid
+        if self.analyse:
+            self.analysis
         self.runtime.queue.finish()
         self.runtime.program("shadow.cl", ShadowFeatures(method, check_outputs(outputs)).defines())
 
@@ -113,25 +155,57 @@ class ShadowCaster:
                   outputs: str | Sequence[str] = ("mask",), k_dark: float = DEFAULT_K_DARK,
                   k_bright: float = DEFAULT_K_BRIGHT,
                   progress: Callable[[int, int], None] | None = None) -> list[ShadowResult]:
-        """Shadow outputs for many suns over the resident pyramid, one launch per sun."""
+        """Shadow outputs for many suns over the resident pyramid, one launch per sun.
+
+        A sun whose result is cached gets a copy of it; a sun the scene analysis
+        proves shadow-free gets its outputs without a kernel; the others trace.
+        """
         sun_list = as_suns(suns)
         outs = check_outputs(outputs)
         k_dark, k_bright = check_coefficients(k_dark, k_bright)
+        check_method(method)
+        results = []
+        launch = None
+        for k, sun in enumerate(sun_list):
+            key = self._result_key(sun, method, outs, k_dark, k_bright) if self.caching else None
+            cached = _cache.RESULTS.get(key) if key else None
+            if cached is not None:
+                res = _copy_result(cached)
+            elif self.analyse and self.analysis.casts_nothing(sun):
+                res = _no_shadow_result(sun, outs, self.heightmap.shape)
+            else:
+                launch = launch or self._launcher(method, outs)
+                res = launch(sun, k_dark, k_bright)
+                if key:
+                    _cache.RESULTS.put(key, _frozen_result(res), _result_nbytes(res))
+            results.append(res)
+            if progress is not None:
+                progress(k + 1, len(sun_list))
+        return results
+
+    def _result_key(self, sun: Sun, method: str, outs: tuple[str, ...], k_dark: float, k_bright: float) -> tuple:
+        hm = self.heightmap
+        coef = (k_dark, k_bright) if "coefficient" in outs else None
+        return (_cache.heights_digest(hm), hm.dx, hm.dy, sun.azimuth, sun.elevation, method, outs, coef,
+                self.runtime.device.int_ptr)
+
+    def _launcher(self, method: str, outs: tuple[str, ...]) -> Callable[[Sun, float, float], ShadowResult]:
+        """A function tracing one sun into new host arrays (buffers and kernel shared by its calls)."""
         rt, hm = self.runtime, self.heightmap
         self.pyramid  # built (once) before the launches
         rows, cols = hm.shape
         n = rows * cols
-        kernel = rt.kernel("shadow.cl", "shadow_cells", ShadowFeatures(check_method(method), outs).defines())
+        kernel = rt.kernel("shadow.cl", "shadow_cells", ShadowFeatures(method, outs).defines())
         bufs = {
             "mask": rt.empty(n, "shadow mask") if "mask" in outs else self._dummy_u8,
             "self": rt.empty(n, "self-shadow flags") if "self" in outs else self._dummy_u8,
             "coefficient": rt.empty(4 * n, "shadow coefficients") if "coefficient" in outs else self._dummy_f32,
         }
-        gsize, (lx, ly) = self._work_size(kernel)
-        results = []
-        for k, sun in enumerate(sun_list):
+        gsize, lsize = self._work_size(kernel)
+
+        def launch(sun: Sun, k_dark: float, k_bright: float) -> ShadowResult:
             kernel.set_args(*self._args(sun, k_dark, k_bright), bufs["mask"], bufs["self"], bufs["coefficient"])
-            cl.enqueue_nd_range_kernel(rt.queue, kernel, gsize, (lx, ly))
+            cl.enqueue_nd_range_kernel(rt.queue, kernel, gsize, lsize)
             res = ShadowResult(sun)
             if "mask" in outs:
                 res.mask = np.empty((rows, cols), np.uint8)
@@ -143,11 +217,9 @@ class ShadowCaster:
                 res.coefficient = np.empty((rows, cols), np.float32)
                 cl.enqueue_copy(rt.queue, res.coefficient, bufs["coefficient"])
             rt.queue.finish()
-            results.append(res)
-            if progress is not None:
-                progress(k + 1, len(sun_list))
-        return results
+            return res
 
+        return launch
 
     def step_counts(self, sun: SunLike, method: str = "exact", band_cells: int = 1 << 19) -> np.ndarray:
         """Traversal iterations per pyramid level, summed over all cells (a profiling build).
@@ -194,12 +266,46 @@ class ShadowCaster:
                 np.array([hm.dx, hm.dy], np.float32), np.array([k_dark, k_bright], np.float32), np.int32(mode))
 
 
+_ARRAYS = ("mask", "self_shadow", "coefficient")
+
+
+def _no_shadow_result(sun: Sun, outs: tuple[str, ...], shape: tuple[int, int]) -> ShadowResult:
+    """What the kernel writes on a map without holes when no cell is shadowed: mask 0,
+    self-shadow 0, coefficient 1 (see oclshade.analysis for when that is proven)."""
+    return ShadowResult(sun,
+                        np.zeros(shape, np.uint8) if "mask" in outs else None,
+                        np.zeros(shape, np.uint8) if "self" in outs else None,
+                        np.ones(shape, np.float32) if "coefficient" in outs else None)
+
+
+def _frozen_result(res: ShadowResult) -> ShadowResult:
+    """A read-only copy for the cache (the caller keeps the writable original)."""
+    out = ShadowResult(res.sun)
+    for name in _ARRAYS:
+        a = getattr(res, name)
+        if a is not None:
+            a = a.copy()
+            a.setflags(write=False)
+            setattr(out, name, a)
+    return out
+
+
+def _copy_result(res: ShadowResult) -> ShadowResult:
+    """Writable copies of a cached result's arrays."""
+    return ShadowResult(res.sun, *(None if getattr(res, n) is None else getattr(res, n).copy() for n in _ARRAYS))
+
+
+def _result_nbytes(res: ShadowResult) -> int:
+    return sum(getattr(res, n).nbytes for n in _ARRAYS if getattr(res, n) is not None)
+
+
 def cast_shadows(heights: object, cellsize: float | tuple[float, float] = 1.0,
                  sun: SunLike = (315.0, 45.0), *, method: str = "exact",
                  outputs: str | Sequence[str] = ("mask",), z_factor: float = 1.0,
                  nodata: float | None = None, k_dark: float = DEFAULT_K_DARK,
                  k_bright: float = DEFAULT_K_BRIGHT,
-                 device: str | int | Runtime | None = None) -> ShadowResult:
-    """One-call API: shadow outputs of a 2-D height array for one sun."""
+                 device: str | int | Runtime | None = None, cache: bool | None = None) -> ShadowResult:
+    """One-call API: shadow outputs of a 2-D height array for one sun (pyramid and result
+    reused from the process-wide caches when the same heights come again)."""
     hm = Heightmap.from_array(heights, cellsize, z_factor=z_factor, nodata=nodata)
-    return ShadowCaster(hm, device).cast(sun, method, outputs, k_dark, k_bright)
+    return ShadowCaster(hm, device, cache=cache).cast(sun, method, outputs, k_dark, k_bright)

@@ -1,0 +1,153 @@
+"""Scene analysis before traversal: prove that a sun casts no shadow without tracing a ray.
+
+Cases (:meth:`SceneAnalysis.casts_nothing`):
+
+* sun at or below the horizon: everything is shadowed; the kernel's mode 2
+  writes that without traversal (unchanged, see kernels/shadow.cl);
+* sun at the zenith, or above the *no-shadow bound* of the map for its
+  azimuth: no cell is in cast shadow and none is self-shadowed; the caster
+  fills the outputs on the host, no kernel runs.
+
+The no-shadow bound.  Along a ray from cell P the surface profile is
+f(t) = S(P + t d) with f(0) = z0 (the ray starts on the surface); P is in
+cast shadow iff f(t) > z0 + w t for some t > 0 (w = tan elevation).  On a
+map without holes the profile is continuous, so f(t) - z0 <= G t where G is
+the largest directional slope of the surface along the sun's azimuth, and
+w > G rules shadow out everywhere.  On one bilinear patch the gradient in
+cell units is (ex + k fy, ey + k fx), affine in (fx, fy), so the directional
+slope grad . (ux, uy) (ux, uy in cells per metre, as the kernel's ray) is
+affine and its maximum over the patch is at a corner.  The corner values pair
+one x-edge difference (top or bottom) with one y-edge difference (left or
+right), all four pairs occurring, so
+
+    G = max over patches of  max(ux d_top, ux d_bottom) + max(uy d_left, uy d_right).
+
+Grid-line rays (ux or uy = 0) see the edge differences alone, which this
+covers.  The self-shadow flag uses central (or one-sided) differences at a
+sample: their directional slope is an average of such corner pairs of the
+patches around it, so it is <= G too and the flag is 0 wherever w > G.
+
+Per map, :func:`slope_fronts` precomputes for each sign quadrant of (ux, uy)
+the Pareto front of the points (|ux|-weight, |uy|-weight) over all patches
+(O(N log N), once, cached with the pyramid); per sun, G is a maximum over
+the front (a few hundred points at most on real DEMs: microseconds).
+
+Exactness: the skip must give what the float32 traversal gives.  The kernel
+rounds; a sun within its rounding of G could be called shadowed by it.  The
+skip therefore needs w > G + margin, margin = 128 eps32 (relief / min(dx, dy)
++ w + G_axis) with G_axis the steepest single edge slope: twice the formula
+of :func:`oclshade.reference.tie_tolerance` (which bounds where float32 may
+flip a decision), evaluated from cached per-map numbers of the float32
+relative heights the kernel reads (the factor 2 absorbs their difference
+from the float64 heights; tests check the margin is never the smaller).
+
+Not covered, by decision:
+
+* Maps with nodata holes, or a single row or column: the profile jumps
+  across a hole (terrain resumes at any height after a gap that can be
+  arbitrarily short when a ray clips a hole patch's corner), so no slope
+  bound holds; they always trace.
+* Per-ray reach relief / tan(elevation): the kernel already has it; every
+  ray stops as soon as its entry height reaches the global maximum
+  (``z_in >= z_top``), which is the same bound with the ray's own start
+  height in place of the minimum.
+* Per-tile skipping (tiles that can neither cast nor receive) needs the
+  kernel to take a list of tiles or a per-tile flag: changing the ABI of
+  kernels/shadow.cl is out of this module's reach.  Its head-room was
+  measured from the host instead (bench/skipping.py, "tiles" section): the
+  kernel over the whole map in mode 1 (no traversal at all) against a full
+  trace gives the most any tile skipping could save.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .heightmap import Heightmap
+from .sun import Sun
+
+FLOAT32_EPS = float(np.finfo(np.float32).eps)
+MARGIN_FACTOR = 128.0    # twice the reference tie tolerance (see the module docstring)
+QUADRANTS = ((1, 1), (1, -1), (-1, 1), (-1, -1))
+
+
+def _pareto_front(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """(k, 2) points of (x, y) not dominated in both coordinates (a superset of those that
+    maximise a x + b y for some a, b >= 0)."""
+    order = np.argsort(x, kind="stable")[::-1]
+    ys = y[order]
+    prev = np.maximum.accumulate(np.concatenate([[-np.inf], ys[:-1]]))
+    keep = order[ys > prev]
+    return np.stack([x[keep], y[keep]], axis=1)
+
+
+@dataclass(frozen=True)
+class SlopeFronts:
+    """Per-map data of the no-shadow bound (see the module docstring)."""
+
+    fronts: dict[tuple[int, int], np.ndarray]   # (sign ux, sign uy) -> (k, 2) front, cell-unit differences
+    relief: float                                # max - min of the heights
+    axis_step: tuple[float, float]               # largest |x-edge| and |y-edge| difference
+
+    @property
+    def nbytes(self) -> int:
+        return sum(f.nbytes for f in self.fronts.values()) + 64
+
+    def steepest_slope(self, ux: float, uy: float) -> float:
+        """G: the largest directional slope (height per metre) of the bilinear surface along
+        the horizontal direction (ux, uy) (cells per metre)."""
+        front = self.fronts[(1 if ux >= 0 else -1, 1 if uy >= 0 else -1)]
+        return float(np.max(abs(ux) * front[:, 0] + abs(uy) * front[:, 1]))
+
+
+def slope_fronts(hm: Heightmap) -> SlopeFronts | None:
+    """The per-map data of the bound, or None where no bound holds (holes, one row or column)."""
+    h = hm.relative32.astype(np.float64)
+    if min(h.shape) < 2 or not np.isfinite(h).all():
+        return None
+    dxe = np.diff(h, axis=1)          # x-edge differences, (R, C-1)
+    dye = np.diff(h, axis=0)          # y-edge differences, (R-1, C)
+    top, bottom = dxe[:-1], dxe[1:]
+    left, right = dye[:, :-1], dye[:, 1:]
+    x_by_sign = {1: np.maximum(top, bottom).ravel(), -1: -np.minimum(top, bottom).ravel()}
+    y_by_sign = {1: np.maximum(left, right).ravel(), -1: -np.minimum(left, right).ravel()}
+    fronts = {(sx, sy): _pareto_front(x_by_sign[sx], y_by_sign[sy]) for sx, sy in QUADRANTS}
+    return SlopeFronts(fronts, float(h.max() - h.min()),
+                       (float(np.abs(dxe).max()), float(np.abs(dye).max())))
+
+
+class SceneAnalysis:
+    """What a sun needs over one heightmap, decided before any traversal."""
+
+    def __init__(self, hm: Heightmap, fronts: SlopeFronts | None):
+        self.heightmap = hm
+        self.fronts = fronts
+
+    def no_shadow_bound(self, sun: Sun) -> float:
+        """tan(elevation) above which (strictly) the sun's azimuth casts no shadow and the
+        traversal is skipped: G + margin; inf where no bound is known."""
+        if self.fronts is None:
+            return math.inf
+        hm = self.heightmap
+        ux, uy, w = sun.ray(hm.dx, hm.dy)
+        g = self.fronts.steepest_slope(ux, uy)
+        return g + self.margin(w)
+
+    def margin(self, w: float) -> float:
+        """Float32 rounding margin of the kernel's decisions (see the module docstring)."""
+        hm, f = self.heightmap, self.fronts
+        d = min(hm.dx, hm.dy)
+        axis = max(f.axis_step[0] / hm.dx, f.axis_step[1] / hm.dy)
+        return MARGIN_FACTOR * FLOAT32_EPS * (f.relief / d + (w if math.isfinite(w) else 0.0) + axis)
+
+    def casts_nothing(self, sun: Sun) -> bool:
+        """True when no cell can be in cast shadow nor self-shadowed and the map has no
+        holes: the outputs are known without a kernel (mask 0, self 0, coefficient 1)."""
+        if self.fronts is None or sun.below_horizon:
+            return False
+        if sun.at_zenith:
+            return True
+        _, _, w = sun.ray(self.heightmap.dx, self.heightmap.dy)
+        return w > self.no_shadow_bound(sun)
