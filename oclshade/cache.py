@@ -74,9 +74,11 @@ class LRUCache:
                 self.evictions += 1
 
     def clear(self) -> None:
+        """Drop every entry and zero the counters."""
         with self._lock:
             self._items.clear()
             self.nbytes = 0
+            self.hits = self.misses = self.evictions = 0
 
     def stats(self) -> dict[str, int]:
         return {"entries": len(self._items), "bytes": self.nbytes, "max_bytes": self.max_bytes,
@@ -106,6 +108,7 @@ def set_enabled(flag: bool) -> None:
 
 
 def clear() -> None:
+    """Drop every entry of every cache and zero the counters."""
     for c in _CACHES:
         c.clear()
 
