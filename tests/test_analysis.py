@@ -70,6 +70,8 @@ def test_skip_identical_to_traversal_around_the_bound(h, az, cell, rel):
     probe = Sun(az, 45.0)
     g = analysis.fronts.steepest_slope(*probe.ray(hm.dx, hm.dy)[:2])
     assert g == pytest.approx(brute_force_slope(hm, probe), rel=1e-12, abs=1e-300)
+    lower, upper = analysis.fronts.slope_bounds(*probe.ray(hm.dx, hm.dy)[:2])
+    assert lower <= g <= upper
     bound = analysis.no_shadow_bound(probe)
     above = sun_at_tan(az, max(bound + rel * abs(bound) + 1e-9, 1e-7))   # G may be < 0: downhill
     below = sun_at_tan(az, max(g - rel * abs(g), 1e-7))
