@@ -77,6 +77,14 @@ def load_maps(size: int) -> dict:
 
 
 # ----------------------------------------------------------------------------- 1. disabled feature
+def canyon_half(m: dict):
+    """A centre crop of half the side: short kernel runs, so many repetitions fit."""
+    from oclshade.heightmap import Heightmap
+    h = m["heights"]
+    r, c = h.shape[0] // 4, h.shape[1] // 4
+    return Heightmap.from_array(h[r:r + max(2, h.shape[0] // 2), c:c + max(2, h.shape[1] // 2)], m["cell"])
+
+
 def bench_disabled_feature(hm, reps: int) -> dict:
     import pyopencl as cl
     from oclshade.runtime import define_options, kernel_source
@@ -125,10 +133,12 @@ def bench_disabled_feature(hm, reps: int) -> dict:
         results[name] = out
     binaries = {n: variants[n][0].get_info(cl.program_info.BINARIES)[0] for n in ("define_off", "stripped")}
     best = {n: min(t) for n, t in times.items()}
+    paired = sorted(a / b for a, b in zip(times["define_off"], times["stripped"]))
     return {
         "map": list(hm.shape), "sun": list(MID_SUNS[0]), "features_off": list(FEATURES_OFF),
         "time_ms": {n: {"min": best[n], "all": times[n]} for n in names},
         "define_off_over_stripped": best["define_off"] / best["stripped"],
+        "paired_ratio_median": paired[len(paired) // 2],
         "all_outputs_over_define_off": best["all_outputs_on"] / best["define_off"],
         "source_lines": {"stock": source.count("\n"), "stripped": stripped_src.count("\n")},
         "binaries_identical": binaries["define_off"] == binaries["stripped"],
@@ -271,10 +281,13 @@ def bench_frames(m: dict, n_frames: int) -> dict:
         # INTEGRATOR: camera-dependent passes (gbuffer, screen-space shadows, AO, compose) go here.
     ]
     out = {}
-    for caching in (False, True):
-        cache.clear()
-        rep = run_frames(passes, [{"sun": s} for s in sun_path(n_frames)], caching)
-        out["cached" if caching else "uncached"] = {"total_ms": rep.total_ms, "passes": rep.by_pass}
+    for _ in range(2):                      # alternate the modes twice; keep each mode's faster run
+        for caching in (False, True):
+            cache.clear()
+            rep = run_frames(passes, [{"sun": s} for s in sun_path(n_frames)], caching)
+            name = "cached" if caching else "uncached"
+            if name not in out or rep.total_ms < out[name]["total_ms"]:
+                out[name] = {"total_ms": rep.total_ms, "passes": rep.by_pass}
     out["frames"] = n_frames
     out["passes_pending"] = ["gbuffer", "screen_shadows", "ao", "compose"]
     return out
@@ -296,7 +309,8 @@ def write_markdown(path: Path, r: dict) -> None:
     labels = {"define_off": "stock source, features' -D off", "stripped": "features' code removed by specialize()",
               "all_outputs_on": "self + coefficient compiled in and computed"}
     lines += [f"| {labels[n]} | {v['min']:.2f} |" for n, v in feat["time_ms"].items()]
-    lines += ["", f"- -D off / physically removed: **{feat['define_off_over_stripped']:.3f}** (target <= 1.02)",
+    lines += ["", f"- -D off / physically removed: **{feat['define_off_over_stripped']:.3f}** (ratio of minima; "
+              f"median of per-repetition ratios {feat['paired_ratio_median']:.3f}; target <= 1.02)",
               f"- device binaries byte-identical: {feat['binaries_identical']}; masks identical: {feat['masks_identical']}",
               f"- what specialisation saves against computing every output: x{feat['all_outputs_over_define_off']:.2f}",
               f"- source lines: stock {feat['source_lines']['stock']}, stripped {feat['source_lines']['stripped']}", "",
@@ -400,15 +414,14 @@ def main(argv: list[str] | None = None) -> int:
     argv_list = list(sys.argv[1:] if argv is None else argv)
     args = parse_args(argv_list)
     args.out.mkdir(parents=True, exist_ok=True)
-    from oclshade.heightmap import Heightmap
     meta = metadata(["bench/skipping.py", *argv_list])
     maps = load_maps(args.size)
-    canyon = Heightmap.from_array(maps["canyon"]["heights"], maps["canyon"]["cell"])
     log(f"device {meta['device']}; canyon {args.size}^2, reps {args.reps}")
     result: dict = {"meta": meta, "config": {"size": args.size, "reps": args.reps, "frames": args.frames,
                                              "quick": args.quick,
                                              "maps": {n: m["source"] for n, m in maps.items()}}}
-    result["disabled_feature"] = bench_disabled_feature(canyon, max(args.reps, 5))
+    half = canyon_half(maps["canyon"])
+    result["disabled_feature"] = bench_disabled_feature(half, 4 * args.reps)
     log(f"1. -D off / stripped = {result['disabled_feature']['define_off_over_stripped']:.3f}")
     result["repeated"] = [bench_repeated(n, m, max(2, args.reps // 3)) for n, m in maps.items()]
     log("2. repeated: " + ", ".join(f"{r['map']} x{r['ShadowCaster.cast']['speedup']:.0f}" for r in result["repeated"]))

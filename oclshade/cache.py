@@ -12,7 +12,7 @@ Three bounded LRU caches, each with hit / miss / eviction counters:
   stored arrays are read-only and callers always get copies, so no caller can
   corrupt the cache.
 
-The heights digest is sha256 over the shape and the float32 relative heights
+The heights digest is BLAKE2b-256 (twice sha256's speed here) over the shape and the float32 relative heights
 (what kernels read) and is taken once per :class:`~oclshade.heightmap.Heightmap`
 object (its arrays are read-only): changing heights means a new Heightmap,
 hence a new digest, hence a miss; nothing else needs invalidating.
@@ -119,14 +119,16 @@ def stats() -> dict[str, dict[str, int]]:
 
 
 def heights_digest(hm: Heightmap) -> str:
-    """sha256 of a heightmap's shape and float32 relative heights, once per Heightmap object."""
+    """BLAKE2b-256 of a heightmap's shape and float32 relative heights, once per Heightmap object."""
     key = id(hm)
     with _digest_lock:
         entry = _digests.get(key)
         if entry is not None and entry[0]() is hm:
             return entry[1]
     h = hm.relative32
-    digest = hashlib.sha256(f"{h.shape}{h.dtype.str}".encode() + memoryview(h).cast("B")).hexdigest()
+    hasher = hashlib.blake2b(f"{h.shape}{h.dtype.str}".encode(), digest_size=32)
+    hasher.update(memoryview(h).cast("B"))
+    digest = hasher.hexdigest()
     with _digest_lock:
         _digests[key] = (weakref.ref(hm, lambda _ref, k=key: _digests.pop(k, None)), digest)
     return digest
