@@ -82,7 +82,10 @@ extern "C" {
 #define OCLSHADE_VERSION_MINOR 1
 #define OCLSHADE_VERSION_PATCH 0
 
-/* Status codes.  OCLSHADE_OK is 0; every failure has a message. */
+/* Status codes.  OCLSHADE_OK is 0.  A failure of a call on a handle leaves
+ * its message in oclshade_last_error(); the pure host functions (no handle:
+ * layouts, sun parameters, relative heights, build options) only return
+ * OCLSHADE_INVALID_ARGUMENT, their arguments being few and documented. */
 typedef enum oclshade_status {
     OCLSHADE_OK = 0,
     OCLSHADE_INVALID_ARGUMENT = 1,  /* the message names the argument and the expected value */

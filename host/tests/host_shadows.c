@@ -8,14 +8,19 @@
  *   pyramid.f32, offsets.i32        the pyramid buffer and offset table read back
  *   sun<k>.bin                      oclshade_sun_for: ray[4], vector[4] float32, mode int32
  *   <method>_<k>.{mask,self,coef}   all three outputs of each method for sun k
- * and checks itself that a mask-only build gives the same exact mask and that
- * an out-of-order queue chained by events gives the same pyramid and mask.
+ * and checks itself that a mask-only build gives the same exact mask, that
+ * an out-of-order queue chained by events gives the same pyramid and mask, and
+ * (POSIX) that two threads sharing the handle, each on its own queue, give the
+ * same masks while building a new variant concurrently.
  * Prints "ok" and exits 0 on success. */
 #include "oclshade.h"
 
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#if !defined(_WIN32)
+#include <pthread.h>
+#endif
 
 static oclshade *lib;
 
@@ -69,6 +74,53 @@ static void read_buffer(cl_command_queue q, cl_mem m, size_t n, void *out, cl_ui
 {
     CLCHECK(clEnqueueReadBuffer(q, m, CL_TRUE, 0, n, out, nwait, wait, NULL));
 }
+
+/* Shared by the threads: the map, its pyramid and the serial results. */
+typedef struct shared {
+    cl_context ctx;
+    cl_device_id device;
+    oclshade_shadow_params base;   /* heights, pyramid, offsets, size, cell */
+    int nsuns;
+    double *az, *el;
+    unsigned char *exact, *maxmip; /* nsuns * n serial masks */
+    size_t n;
+} shared;
+
+#if !defined(_WIN32)
+/* Each thread: its own queue and output buffers, the shared handle; every sun
+ * with exact (mask only, built) and maxmip (mask + coefficient, a variant
+ * first built here, by both threads at once). Returns "" or what differed. */
+static void *thread_main(void *arg)
+{
+    const shared *sh = (const shared *)arg;
+    cl_int err;
+    cl_command_queue q = clCreateCommandQueue(sh->ctx, sh->device, 0, &err);
+    if (err != CL_SUCCESS) return "thread: clCreateCommandQueue failed";
+    cl_mem d_mask = clCreateBuffer(sh->ctx, CL_MEM_WRITE_ONLY, sh->n, NULL, &err);
+    cl_mem d_coef = clCreateBuffer(sh->ctx, CL_MEM_WRITE_ONLY, 4 * sh->n, NULL, &err);
+    unsigned char *got = (unsigned char *)xmalloc(sh->n);
+    const char *result = "";
+    for (int rep = 0; rep < 3 && *result == '\0'; ++rep) {
+        for (int k = 0; k < sh->nsuns && *result == '\0'; ++k) {
+            oclshade_shadow_params p = sh->base;
+            p.azimuth = sh->az[k]; p.elevation = sh->el[k];
+            p.mask = d_mask;
+            p.self_shadow = NULL;
+            p.method = rep % 2 ? OCLSHADE_EXACT : OCLSHADE_MAXMIP;
+            p.coefficient = p.method == OCLSHADE_MAXMIP ? d_coef : NULL;
+            if (oclshade_enqueue_shadows(lib, q, &p, 0, NULL, NULL) != OCLSHADE_OK ||
+                clEnqueueReadBuffer(q, d_mask, CL_TRUE, 0, sh->n, got, 0, NULL, NULL) != CL_SUCCESS)
+                result = "thread: enqueue failed";
+            else if (memcmp(got, (p.method == OCLSHADE_EXACT ? sh->exact : sh->maxmip) + (size_t)k * sh->n, sh->n) != 0)
+                result = "thread: mask differs from the serial one";
+        }
+    }
+    clReleaseMemObject(d_mask); clReleaseMemObject(d_coef);
+    clReleaseCommandQueue(q);
+    free(got);
+    return (void *)result;
+}
+#endif
 
 int main(int argc, char **argv)
 {
@@ -126,6 +178,12 @@ int main(int argc, char **argv)
     static const char *const method_names[] = {"exact", "paper", "maxmip", "dda"};
     static const oclshade_method methods[] = {OCLSHADE_EXACT, OCLSHADE_PAPER, OCLSHADE_MAXMIP, OCLSHADE_DDA};
     CHECK(oclshade_prepare(lib, OCLSHADE_EXACT, OCLSHADE_OUT_MASK));
+    shared sh;
+    sh.ctx = ctx; sh.device = device; sh.n = n; sh.nsuns = argc - 8;
+    sh.az = (double *)xmalloc(sh.nsuns * sizeof(double));
+    sh.el = (double *)xmalloc(sh.nsuns * sizeof(double));
+    sh.exact = (unsigned char *)xmalloc(sh.nsuns * n);
+    sh.maxmip = (unsigned char *)xmalloc(sh.nsuns * n);
 
     for (int k = 8; k < argc; ++k) {
         double az, el;
@@ -161,7 +219,12 @@ int main(int argc, char **argv)
             snprintf(name, sizeof name, "%s_%d.coef", method_names[m], sun_index);
             write_file(name, coef, 4 * n);
             if (methods[m] == OCLSHADE_EXACT) memcpy(exact_mask, mask, n);
+            if (methods[m] == OCLSHADE_EXACT) memcpy(sh.exact + (size_t)sun_index * n, mask, n);
+            if (methods[m] == OCLSHADE_MAXMIP) memcpy(sh.maxmip + (size_t)sun_index * n, mask, n);
         }
+        sh.az[sun_index] = az;
+        sh.el[sun_index] = el;
+        sh.base = p;
         /* the mask-only variant (no self / coefficient code compiled) agrees */
         p.method = OCLSHADE_EXACT;
         p.self_shadow = NULL; p.coefficient = NULL;
@@ -204,6 +267,20 @@ int main(int argc, char **argv)
     } else {
         printf("out-of-order queue: not supported by the device, skipped\n");
     }
+
+#if !defined(_WIN32)
+    {
+        pthread_t threads[2];
+        void *results[2];
+        for (int t = 0; t < 2; ++t)
+            if (pthread_create(&threads[t], NULL, thread_main, &sh) != 0) { fprintf(stderr, "pthread_create\n"); return 1; }
+        for (int t = 0; t < 2; ++t) pthread_join(threads[t], &results[t]);
+        for (int t = 0; t < 2; ++t)
+            if (*(const char *)results[t]) { fprintf(stderr, "%s: %s\n", (const char *)results[t], oclshade_last_error(lib)); return 1; }
+        printf("two threads sharing the handle: same masks\n");
+    }
+#endif
+    free(sh.az); free(sh.el); free(sh.exact); free(sh.maxmip);
 
     oclshade_destroy(lib);
     clReleaseMemObject(d_heights); clReleaseMemObject(d_pyramid); clReleaseMemObject(d_offsets);
