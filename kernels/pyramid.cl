@@ -42,9 +42,9 @@
  *   unused (the hosts store -1).
  *   mip_reduce(in, Rin, Cin, out, R, C)      global (C, R)
  *       in: level l-1 (Rin x Cin float), out: level l (R x C float)
- *   No -D options; the hosts build with -cl-std=CL1.2 and expand
- *   #include "common.h" themselves (a build of your own may instead pass
- *   -I <this folder>).
+ *   No -D options; the hosts build with -cl-std=CL1.2 and paste common.h in
+ *   place of its include (a build of your own may instead pass -I <this
+ *   folder>).
  */
 #include "common.h"
 

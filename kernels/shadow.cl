@@ -84,7 +84,7 @@
  *   all cells (for the benchmarks; off by default).
  *   global size (W, H) rounded up to the local size; any local size.
  *   Build options: the -D options above and -cl-std=CL1.2, nothing else (no
- *   fast-math); the hosts expand #include "common.h" themselves (a build of
+ *   fast-math); the hosts paste common.h in place of its include (a build of
  *   your own may instead pass -I <this folder>).  The C host API
  *   (host/include/oclshade.h) does all of this for embedding users.
  */
