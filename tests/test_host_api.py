@@ -60,9 +60,10 @@ def host(tmp_path_factory) -> dict:
     conf = _run(["cmake", "-S", str(HOST), "-B", str(build), "-DCMAKE_BUILD_TYPE=Release"])
     if conf.returncode != 0:
         text = conf.stdout + conf.stderr
-        if "OpenCL" in text and "Could NOT find" in text:
-            pytest.skip("OpenCL headers or loader not found (install opencl-c-headers and "
-                        "ocl-icd-opencl-dev): " + text.strip().splitlines()[-1][:200])
+        missing = [line.strip() for line in text.splitlines() if "Could NOT find OpenCL" in line]
+        if missing:
+            pytest.skip(f"OpenCL headers or loader not found ({missing[0]}): install opencl-c-headers "
+                        "and ocl-icd-opencl-dev")
         if "CMAKE_C_COMPILER" in text:
             pytest.skip("CMake found no working C compiler")
         pytest.fail("cmake configure of host/ failed:\n" + text[-4000:])
