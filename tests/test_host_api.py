@@ -22,7 +22,7 @@ from oclshade import ShadowCaster, Sun
 from oclshade import reference as ref
 from oclshade.heightmap import Heightmap
 from oclshade.pyramid import level_offsets
-from oclshade.runtime import _kernel_root, define_options
+from oclshade.runtime import _kernel_root, define_options, kernel_source
 from oclshade.shadows import METHODS, ShadowFeatures
 
 HOST = Path(__file__).resolve().parents[1] / "host"
@@ -57,7 +57,9 @@ def host(tmp_path_factory) -> dict:
     if driver is None:
         pytest.skip("pyopencl's PoCL driver (libpocl*.so) not found: no device for the C programs")
     build = tmp_path_factory.mktemp("host-build")
-    conf = _run(["cmake", "-S", str(HOST), "-B", str(build), "-DCMAKE_BUILD_TYPE=Release"])
+    # the built-in kernel copy is taken from where the Python host reads its kernels
+    conf = _run(["cmake", "-S", str(HOST), "-B", str(build), "-DCMAKE_BUILD_TYPE=Release",
+                 f"-DOCLSHADE_KERNEL_DIR={_kernel_root()}"])
     if conf.returncode != 0:
         text = conf.stdout + conf.stderr
         missing = [line.strip() for line in text.splitlines() if "Could NOT find OpenCL" in line]
@@ -130,6 +132,9 @@ def test_c_host_matches_python_host(host: dict, tmp_path: Path, case: str) -> No
     def load(name: str, dtype) -> np.ndarray:
         return np.fromfile(out / name, dtype)
 
+    # the very program sources (so the two hosts even share PoCL's binary cache)
+    for name in ("pyramid.cl", "shadow.cl"):
+        assert (out / name).read_text(encoding="utf-8") == kernel_source(name), name
     # the heights the kernels read, and the pyramid, bit for bit
     assert load("offset.f64", np.float64)[0] == hm.offset
     assert load("relative.f32", np.float32).tobytes() == hm.relative32.tobytes()

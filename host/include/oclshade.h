@@ -168,6 +168,13 @@ const char *oclshade_status_name(oclshade_status status);
  * when linked against another build). */
 const char *oclshade_version(void);
 
+/* The source text the handle builds for file "pyramid.cl" or "shadow.cl",
+ * includes expanded (byte-identical to the Python host's
+ * oclshade.runtime.kernel_source for the same files), or NULL for another
+ * name or a failed handle.  Owned by the handle.  For logs, offline
+ * compilers and users building the kernels themselves. */
+const char *oclshade_program_source(const oclshade *lib, const char *file);
+
 /* Build the programs a later enqueue with this method and output set will
  * use (outputs: OCLSHADE_OUT_* bits, at least one), and the pyramid program,
  * so that no build happens inside a frame.  Optional. */

@@ -363,6 +363,14 @@ void oclshade_destroy(oclshade *lib)
     free(lib);
 }
 
+const char *oclshade_program_source(const oclshade *lib, const char *file)
+{
+    if (lib == NULL || lib->failed != OCLSHADE_OK || file == NULL) return NULL;
+    if (strcmp(file, PYRAMID_FILE) == 0) return lib->pyramid_src;
+    if (strcmp(file, SHADOW_FILE) == 0) return lib->shadow_src;
+    return NULL;
+}
+
 /* Common entry check: a usable handle; clears the previous message. */
 static oclshade_status enter(oclshade *lib)
 {

@@ -4,6 +4,7 @@
  *   KERNELS  a kernel directory, or "-" for the copy built into the library
  *   HEIGHTS  raw float64 heights, ROWS x COLS, row-major, NaN = nodata
  * On the first OpenCL device (OCL_ICD_VENDORS picks the driver) it writes to OUTDIR:
+ *   pyramid.cl, shadow.cl           oclshade_program_source (includes expanded)
  *   relative.f32, offset.f64        oclshade_relative_heights
  *   pyramid.f32, offsets.i32        the pyramid buffer and offset table read back
  *   sun<k>.bin                      oclshade_sun_for: ray[4], vector[4] float32, mode int32
@@ -149,6 +150,8 @@ int main(int argc, char **argv)
     cl_command_queue queue = clCreateCommandQueue(ctx, device, 0, &err);
     CLCHECK(err);
     CHECK(oclshade_create(ctx, device, kernels, &lib));
+    write_file("pyramid.cl", oclshade_program_source(lib, "pyramid.cl"), strlen(oclshade_program_source(lib, "pyramid.cl")));
+    write_file("shadow.cl", oclshade_program_source(lib, "shadow.cl"), strlen(oclshade_program_source(lib, "shadow.cl")));
 
     float *rel = (float *)xmalloc(n * sizeof *rel);
     double offset;
