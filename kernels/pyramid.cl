@@ -24,16 +24,27 @@
  *   samples among the (up to) 2x2 below, summed in the fixed order
  *   (r,c), (r,c+1), (r+1,c), (r+1,c+1) and divided by their count; NaN if none.
  *
- * ABI
- *   extrema_base(h, H, W, out, Hp, Wp, R, C)  global (C, R), any local size
- *       __global const float *h   H*W samples, NaN = hole
- *       __global float2 *out      R*C texels of level 1 (R = ceil(Hp/2), C = ceil(Wp/2))
+ * ABI (int arguments are 32-bit ints; global sizes may be rounded up to any
+ * local size: work-items past (C, R) return at once)
+ *   extrema_base(h, H, W, out, Hp, Wp, R, C)  global (C, R)
+ *       __global const float *h   H*W samples, NaN = hole (the heights the
+ *                                 shadow pass will read, same buffer or values)
+ *       __global float2 *out      R*C texels of level 1 (R = ceil(Hp/2), C = ceil(Wp/2)),
+ *                                 i.e. the pyramid buffer at offset 0
  *   extrema_reduce(ext, in_off, Rin, Cin, out_off, R, C)  global (C, R)
  *       __global float2 *ext  the whole pyramid; level l-1 (Rin x Cin) starts
- *       at in_off, level l (R x C) at out_off (offsets in float2 units)
+ *       at in_off, level l (R x C) at out_off (offsets in float2 units);
+ *       launched for l = 2..L in order, each after the previous one
+ *   Pyramid buffer: levels 1..L back to back, level 1 at texel 0, level l at
+ *   the sum of (rows x cols) of levels 1..l-1; level l has
+ *   ceil(Hp/2^l) x ceil(Wp/2^l) texels.  The level-offset table the shadow
+ *   pass reads (shadow.cl, lvl_off) is int32[L+1]: [l] = that offset, [0]
+ *   unused (the hosts store -1).
  *   mip_reduce(in, Rin, Cin, out, R, C)      global (C, R)
  *       in: level l-1 (Rin x Cin float), out: level l (R x C float)
- *   No -D options.
+ *   No -D options; the hosts build with -cl-std=CL1.2 and paste common.h in
+ *   place of its include (a build of your own may instead pass -I <this
+ *   folder>).
  */
 #include "common.h"
 

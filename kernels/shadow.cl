@@ -57,23 +57,36 @@
  * ABI
  *   __kernel shadow_cells(h, H, W, ext, lvl_off, nlev, ray, sunvec, cell, kcoef,
  *                         mode, mask, self, coef)
- *     __global const float  *h       H*W heights (relative), NaN = nodata
+ *     __global const float  *h       H*W heights, NaN = nodata; the hosts pass them
+ *                                    relative to the map's mid-range (subtracted in
+ *                                    float64) to keep float32 precision: any offset
+ *                                    works, the same one gives the same results
  *     int H, W
  *     __global const float2 *ext     extrema pyramid levels 1..nlev-1 back to back
  *                                    (level 0 is the heightmap itself, see pyramid.cl)
  *     __global const int    *lvl_off offset (in float2) of level l in ext at [l], [0] unused
  *     int nlev                       number of levels counting level 0 (>= 2)
- *     float4 ray     (ux, uy, w, 0) as above
+ *     float4 ray     (ux, uy, w, 0) as above, each rounded to float32 with
+ *                    subnormals flushed to 0; sin/cos exact at multiples of
+ *                    90 degrees (oclshade/sun.py Sun.ray, C: oclshade_sun_for);
+ *                    ignored (the hosts pass 0s) when mode != 0
  *     float4 sunvec  unit vector to the sun (east, north, up, 0)
  *     float2 cell    (dx, dy) in metres
  *     float2 kcoef   (k_dark, k_bright)
- *     int mode       0 trace; 1 sun at the zenith (nothing cast); 2 sun at or
- *                    below the horizon (everything shadowed)
- *     __global uchar *mask, __global uchar *self, __global float *coef  (H*W each)
+ *     int mode       0 trace; 1 sun at the zenith, elevation >= 90 (nothing
+ *                    cast); 2 sun at or below the horizon, elevation <= 0
+ *                    (everything shadowed)
+ *     __global uchar *mask, __global uchar *self, __global float *coef  (H*W
+ *                    elements each; an output not compiled in may be a NULL
+ *                    cl_mem or a 1-byte dummy buffer)
  *   -D OCLS_STATS adds a last argument __global uint *stats (nlev counters,
  *   zeroed by the host): traversal iterations per pyramid level, summed over
  *   all cells (for the benchmarks; off by default).
  *   global size (W, H) rounded up to the local size; any local size.
+ *   Build options: the -D options above and -cl-std=CL1.2, nothing else (no
+ *   fast-math); the hosts paste common.h in place of its include (a build of
+ *   your own may instead pass -I <this folder>).  The C host API
+ *   (host/include/oclshade.h) does all of this for embedding users.
  */
 #include "common.h"
 

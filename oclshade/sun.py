@@ -19,6 +19,8 @@ def sincos_degrees(angle: float) -> tuple[float, float]:
     a = math.fmod(angle, 360.0)
     if a < 0.0:
         a += 360.0
+        if a == 360.0:  # a tiny negative angle rounds up to 360: it is north, not a diagonal
+            a = 0.0
     exact = {0.0: (0.0, 1.0), 90.0: (1.0, 0.0), 180.0: (0.0, -1.0), 270.0: (-1.0, 0.0)}
     if a in exact:
         return exact[a]

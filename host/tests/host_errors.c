@@ -1,0 +1,206 @@
+/* host_errors — error paths of the C host API, for tests/test_host_api.py.
+ *
+ * usage: host_errors KERNEL_DIR
+ * Each check prints "ok <what>" or "FAIL <what>: <details>"; the exit status
+ * is the number of failures.  Also prints one line per shadow program variant,
+ * "options <method> <outputs> <build options>", which the Python test compares
+ * with the Python host's options. */
+#include "oclshade.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static int failures;
+
+static void expect(int cond, const char *what, const char *details)
+{
+    if (cond) {
+        printf("ok %s\n", what);
+    } else {
+        printf("FAIL %s: %s\n", what, details);
+        ++failures;
+    }
+}
+
+/* st must be `want` and the message must contain `needle`. */
+static void expect_status(oclshade *lib, oclshade_status st, oclshade_status want, const char *needle, const char *what)
+{
+    const char *msg = oclshade_last_error(lib);
+    char details[1024];
+    snprintf(details, sizeof details, "got %s, want %s; message: %.800s", oclshade_status_name(st),
+             oclshade_status_name(want), msg);
+    expect(st == want && strstr(msg, needle) != NULL, what, details);
+}
+
+static char *read_text(const char *dir, const char *name)
+{
+    char path[4096];
+    snprintf(path, sizeof path, "%s/%s", dir, name);
+    FILE *f = fopen(path, "rb");
+    if (f == NULL) { fprintf(stderr, "cannot read %s\n", path); exit(100); }
+    fseek(f, 0, SEEK_END);
+    long n = ftell(f);
+    fseek(f, 0, SEEK_SET);
+    char *text = (char *)malloc((size_t)n + 1);
+    if (text == NULL || fread(text, 1, (size_t)n, f) != (size_t)n) exit(100);
+    text[n] = '\0';
+    fclose(f);
+    return text;
+}
+
+static cl_mem buffer(cl_context ctx, size_t n)
+{
+    cl_int err;
+    cl_mem m = clCreateBuffer(ctx, CL_MEM_READ_WRITE, n, NULL, &err);
+    if (err != CL_SUCCESS) { fprintf(stderr, "clCreateBuffer: %d\n", (int)err); exit(100); }
+    return m;
+}
+
+int main(int argc, char **argv)
+{
+    if (argc != 2) { fprintf(stderr, "usage: %s KERNEL_DIR\n", argv[0]); return 100; }
+    const char *dir = argv[1];
+    cl_platform_id platform;
+    cl_device_id device;
+    cl_int err;
+    if (clGetPlatformIDs(1, &platform, NULL) != CL_SUCCESS ||
+        clGetDeviceIDs(platform, CL_DEVICE_TYPE_ALL, 1, &device, NULL) != CL_SUCCESS) {
+        fprintf(stderr, "no OpenCL device\n");
+        return 100;
+    }
+    cl_context ctx = clCreateContext(NULL, 1, &device, NULL, NULL, &err);
+    cl_context other_ctx = clCreateContext(NULL, 1, &device, NULL, NULL, &err);
+    cl_command_queue queue = clCreateCommandQueue(ctx, device, 0, &err);
+    cl_command_queue other_queue = clCreateCommandQueue(other_ctx, device, 0, &err);
+    oclshade_status st;
+
+    /* ---- pure host functions */
+    char opts[128];
+    for (int m = OCLSHADE_EXACT; m <= OCLSHADE_DDA; ++m) {
+        for (unsigned o = 1; o < 8; ++o) {
+            size_t need = oclshade_shadow_build_options((oclshade_method)m, o, opts, sizeof opts);
+            printf("options %d %u %s\n", m, o, need ? opts : "(none)");
+        }
+    }
+    expect(oclshade_shadow_build_options(OCLSHADE_EXACT, 0, opts, sizeof opts) == 0, "build options: empty outputs", "");
+    expect(oclshade_shadow_build_options((oclshade_method)5, 1, opts, sizeof opts) == 0, "build options: bad method", "");
+    size_t need = oclshade_shadow_build_options(OCLSHADE_EXACT, 7, opts, 4);
+    expect(need == strlen("-DOCLS_METHOD=1 -DOCLS_OUT_COEF -DOCLS_OUT_MASK -DOCLS_OUT_SELF -cl-std=CL1.2") + 1 &&
+           strlen(opts) == 3, "build options: truncation reports the size needed", opts);
+
+    oclshade_pyramid_layout lay;
+    expect(oclshade_pyramid_layout_for(0, 5, &lay) == OCLSHADE_INVALID_ARGUMENT, "layout: rows 0", "");
+    expect(oclshade_pyramid_layout_for(65536, 32768, &lay) == OCLSHADE_INVALID_ARGUMENT, "layout: 2^31 cells", "");
+    expect(oclshade_pyramid_layout_for(1, 1, &lay) == OCLSHADE_OK && lay.levels == 2 && lay.texels == 1 &&
+           lay.offsets[0] == -1 && lay.offsets[1] == 0, "layout: 1 x 1 map has one 1 x 1 level", "");
+    oclshade_sun sun;
+    expect(oclshade_sun_for(0, 90.5, 1, 1, &sun) == OCLSHADE_INVALID_ARGUMENT, "sun: elevation > 90", "");
+    expect(oclshade_sun_for(NAN, 10, 1, 1, &sun) == OCLSHADE_INVALID_ARGUMENT, "sun: NaN azimuth", "");
+    expect(oclshade_sun_for(0, 10, 0, 1, &sun) == OCLSHADE_INVALID_ARGUMENT, "sun: dx 0", "");
+    double hs[3] = {1.0, INFINITY, 2.0}, offset = -1;
+    float rel[3];
+    expect(oclshade_relative_heights(hs, 3, rel, NULL) == OCLSHADE_INVALID_ARGUMENT, "relative heights: inf", "");
+    hs[0] = hs[1] = hs[2] = NAN;
+    expect(oclshade_relative_heights(hs, 3, rel, &offset) == OCLSHADE_OK && offset == 0.0 && isnan(rel[1]),
+           "relative heights: all NaN gives offset 0 and NaN", "");
+
+    /* ---- creation failures */
+    oclshade *lib = NULL;
+    st = oclshade_create(ctx, device, "/nonexistent/oclshade-kernels", &lib);
+    expect_status(lib, st, OCLSHADE_SOURCE_ERROR, "/nonexistent/oclshade-kernels/pyramid.cl", "create: missing kernel dir");
+    expect(lib != NULL, "create: a failed handle is returned", "");
+    st = oclshade_prepare(lib, OCLSHADE_EXACT, OCLSHADE_OUT_MASK);
+    expect_status(lib, st, OCLSHADE_SOURCE_ERROR, "nonexistent", "failed handle: calls report the creation failure");
+    oclshade_destroy(lib);
+
+    st = oclshade_create(NULL, device, dir, &lib);
+    expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "context", "create: NULL context");
+    oclshade_destroy(lib);
+    expect(oclshade_create(ctx, device, dir, NULL) == OCLSHADE_INVALID_ARGUMENT, "create: NULL out", "");
+
+    char *common = read_text(dir, "common.h"), *pyramid = read_text(dir, "pyramid.cl");
+    oclshade_source missing[2] = {{"common.h", common}, {"pyramid.cl", pyramid}};
+    st = oclshade_create_from_sources(ctx, device, missing, 2, &lib);
+    expect_status(lib, st, OCLSHADE_SOURCE_ERROR, "shadow.cl", "create_from_sources: shadow.cl missing");
+    oclshade_destroy(lib);
+
+    /* ---- a build failure carries the compiler log */
+    const char *broken = "#include \"common.h\"\n"
+                         "__kernel void shadow_cells(__global float *h) { h[0] = oclshade_no_such_name; }\n";
+    oclshade_source sources[3] = {{"common.h", common}, {"pyramid.cl", pyramid}, {"shadow.cl", broken}};
+    st = oclshade_create_from_sources(ctx, device, sources, 3, &lib);
+    expect_status(lib, st, OCLSHADE_OK, "", "create_from_sources: broken shadow.cl is read");
+    st = oclshade_prepare(lib, OCLSHADE_PAPER, OCLSHADE_OUT_MASK | OCLSHADE_OUT_SELF);
+    expect_status(lib, st, OCLSHADE_BUILD_FAILED, "oclshade_no_such_name", "build failure: the log names the error");
+    expect_status(lib, st, OCLSHADE_BUILD_FAILED, "-DOCLS_METHOD=2 -DOCLS_OUT_MASK -DOCLS_OUT_SELF",
+                  "build failure: the message gives the options");
+    expect(oclshade_last_cl_error(lib) == CL_BUILD_PROGRAM_FAILURE, "build failure: CL error code", "");
+    oclshade_destroy(lib);
+
+    /* ---- argument checks on a working handle */
+    st = oclshade_create(ctx, device, dir, &lib);
+    expect_status(lib, st, OCLSHADE_OK, "", "create from the kernel dir");
+    const int rows = 5, cols = 7, n = rows * cols;
+    oclshade_pyramid_layout_for(rows, cols, &lay);
+    cl_mem heights = buffer(ctx, 4 * n), pyr = buffer(ctx, lay.pyramid_bytes), offs = buffer(ctx, lay.offsets_bytes);
+    cl_mem small = buffer(ctx, 4), mask = buffer(ctx, n), foreign = clCreateBuffer(other_ctx, CL_MEM_READ_WRITE, 4 * n, NULL, &err);
+    float zeros[35] = {0};
+    clEnqueueWriteBuffer(queue, heights, CL_TRUE, 0, sizeof zeros, zeros, 0, NULL, NULL);
+
+    st = oclshade_enqueue_extrema_pyramid(lib, queue, heights, rows, cols, small, offs, 0, NULL, NULL);
+    expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "pyramid must hold at least", "pyramid: buffer too small");
+    st = oclshade_enqueue_extrema_pyramid(lib, queue, foreign, rows, cols, pyr, offs, 0, NULL, NULL);
+    expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "heights must be a buffer", "pyramid: buffer of another context");
+    st = oclshade_enqueue_extrema_pyramid(lib, other_queue, heights, rows, cols, pyr, offs, 0, NULL, NULL);
+    expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "queue must belong", "pyramid: queue of another context");
+    st = oclshade_enqueue_extrema_pyramid(lib, queue, heights, rows, cols, pyr, offs, 1, NULL, NULL);
+    expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "event_wait_list", "pyramid: inconsistent wait list");
+    st = oclshade_enqueue_extrema_pyramid(lib, queue, heights, rows, cols, pyr, offs, 0, NULL, NULL);
+    expect_status(lib, st, OCLSHADE_OK, "", "pyramid: success clears the message");
+    expect(oclshade_last_error(lib)[0] == '\0', "pyramid: empty message after success", oclshade_last_error(lib));
+
+    oclshade_shadow_params p;
+    oclshade_shadow_params_init(&p);
+    p.heights = heights; p.rows = rows; p.cols = cols; p.pyramid = pyr; p.offsets = offs; p.mask = mask;
+    st = oclshade_enqueue_shadows(lib, queue, &p, 0, NULL, NULL);
+    expect_status(lib, st, OCLSHADE_OK, "", "shadows: valid parameters");
+    clFinish(queue);
+
+    struct { const char *what, *needle; oclshade_shadow_params q; } bad[11];
+    for (int i = 0; i < 11; ++i) bad[i].q = p;
+    bad[0].what = "shadows: rows 0"; bad[0].needle = "rows and cols"; bad[0].q.rows = 0;
+    bad[1].what = "shadows: dx negative"; bad[1].needle = "dx and dy"; bad[1].q.dx = -1;
+    bad[2].what = "shadows: elevation 91"; bad[2].needle = "elevation must be in [-90, 90]"; bad[2].q.elevation = 91;
+    bad[3].what = "shadows: azimuth inf"; bad[3].needle = "azimuth"; bad[3].q.azimuth = INFINITY;
+    bad[4].what = "shadows: k_bright 2"; bad[4].needle = "k_dark and k_bright"; bad[4].q.k_bright = 2;
+    bad[5].what = "shadows: no output"; bad[5].needle = "at least one of mask"; bad[5].q.mask = NULL;
+    bad[6].what = "shadows: method 9"; bad[6].needle = "method must be"; bad[6].q.method = (oclshade_method)9;
+    bad[7].what = "shadows: mask too small"; bad[7].needle = "mask must hold at least 35 bytes"; bad[7].q.mask = small;
+    bad[8].what = "shadows: heights NULL"; bad[8].needle = "heights must be"; bad[8].q.heights = NULL;
+    bad[9].what = "shadows: offsets too small"; bad[9].needle = "offsets must hold"; bad[9].q.offsets = small;
+    bad[10].what = "shadows: coefficient too small"; bad[10].needle = "coefficient must hold"; bad[10].q.coefficient = mask;
+    for (int i = 0; i < 11; ++i) {
+        st = oclshade_enqueue_shadows(lib, queue, &bad[i].q, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, bad[i].needle, bad[i].what);
+    }
+    st = oclshade_enqueue_shadows(lib, queue, NULL, 0, NULL, NULL);
+    expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "params", "shadows: NULL params");
+    st = oclshade_enqueue_shadows(lib, NULL, &p, 0, NULL, NULL);
+    expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "queue", "shadows: NULL queue");
+    st = oclshade_prepare(lib, OCLSHADE_DDA, 0);
+    expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "outputs must be", "prepare: no outputs");
+    expect(strcmp(oclshade_status_name(OCLSHADE_BUILD_FAILED), "OCLSHADE_BUILD_FAILED") == 0, "status names", "");
+    expect(oclshade_last_error(NULL)[0] != '\0', "last_error(NULL) explains", "");
+
+    oclshade_destroy(lib);
+    oclshade_destroy(NULL);
+    clReleaseMemObject(heights); clReleaseMemObject(pyr); clReleaseMemObject(offs);
+    clReleaseMemObject(small); clReleaseMemObject(mask); clReleaseMemObject(foreign);
+    clReleaseCommandQueue(queue); clReleaseCommandQueue(other_queue);
+    clReleaseContext(ctx); clReleaseContext(other_ctx);
+    free(common); free(pyramid);
+    printf("%d failure(s)\n", failures);
+    return failures;
+}

@@ -1,0 +1,297 @@
+/* host_shadows — drives the C host API for tests/test_host_api.py.
+ *
+ * usage: host_shadows KERNELS HEIGHTS ROWS COLS DX DY OUTDIR AZ,EL [AZ,EL ...]
+ *   KERNELS  a kernel directory, or "-" for the copy built into the library
+ *   HEIGHTS  raw float64 heights, ROWS x COLS, row-major, NaN = nodata
+ * On the first OpenCL device (OCL_ICD_VENDORS picks the driver) it writes to OUTDIR:
+ *   pyramid.cl, shadow.cl           oclshade_program_source (includes expanded)
+ *   relative.f32, offset.f64        oclshade_relative_heights
+ *   pyramid.f32, offsets.i32        the pyramid buffer and offset table read back
+ *   sun<k>.bin                      oclshade_sun_for: ray[4], vector[4] float32, mode int32
+ *   <method>_<k>.{mask,self,coef}   all three outputs of each method for sun k
+ * and checks itself that a mask-only build gives the same exact mask, that
+ * an out-of-order queue chained by events gives the same pyramid and mask, and
+ * (POSIX) that two threads sharing the handle, each on its own queue, give the
+ * same masks while building a new variant concurrently.
+ * Prints "ok" and exits 0 on success. */
+#include "oclshade.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#if !defined(_WIN32)
+#include <pthread.h>
+#endif
+
+static oclshade *lib;
+
+#define CHECK(call)                                                                                   \
+    do {                                                                                              \
+        oclshade_status st_ = (call);                                                                 \
+        if (st_ != OCLSHADE_OK) {                                                                     \
+            fprintf(stderr, "%s:%d: %s -> %s: %s\n", __FILE__, __LINE__, #call,                     \
+                    oclshade_status_name(st_), oclshade_last_error(lib));                            \
+            exit(1);                                                                                  \
+        }                                                                                             \
+    } while (0)
+#define CLCHECK(call)                                                                                 \
+    do {                                                                                              \
+        cl_int e_ = (call);                                                                           \
+        if (e_ != CL_SUCCESS) {                                                                       \
+            fprintf(stderr, "%s:%d: %s -> OpenCL error %d\n", __FILE__, __LINE__, #call, (int)e_);   \
+            exit(1);                                                                                  \
+        }                                                                                             \
+    } while (0)
+
+static const char *outdir;
+
+static void write_file(const char *name, const void *data, size_t n)
+{
+    char path[4096];
+    snprintf(path, sizeof path, "%s/%s", outdir, name);
+    FILE *f = fopen(path, "wb");
+    if (f == NULL || fwrite(data, 1, n, f) != n || fclose(f) != 0) {
+        fprintf(stderr, "cannot write %s\n", path);
+        exit(1);
+    }
+}
+
+static void *xmalloc(size_t n)
+{
+    void *p = malloc(n ? n : 1);
+    if (p == NULL) { fprintf(stderr, "out of memory\n"); exit(1); }
+    return p;
+}
+
+static cl_mem buffer(cl_context ctx, cl_mem_flags flags, size_t n, void *host)
+{
+    cl_int err;
+    cl_mem m = clCreateBuffer(ctx, flags, n, host, &err);
+    CLCHECK(err);
+    return m;
+}
+
+static void read_buffer(cl_command_queue q, cl_mem m, size_t n, void *out, cl_uint nwait, const cl_event *wait)
+{
+    CLCHECK(clEnqueueReadBuffer(q, m, CL_TRUE, 0, n, out, nwait, wait, NULL));
+}
+
+/* Shared by the threads: the map, its pyramid and the serial results. */
+typedef struct shared {
+    cl_context ctx;
+    cl_device_id device;
+    oclshade_shadow_params base;   /* heights, pyramid, offsets, size, cell */
+    int nsuns;
+    double *az, *el;
+    unsigned char *exact, *maxmip; /* nsuns * n serial masks */
+    size_t n;
+} shared;
+
+#if !defined(_WIN32)
+/* Each thread: its own queue and output buffers, the shared handle; every sun
+ * with exact (mask only, built) and maxmip (mask + coefficient, a variant
+ * first built here, by both threads at once). Returns "" or what differed. */
+static void *thread_main(void *arg)
+{
+    const shared *sh = (const shared *)arg;
+    cl_int err;
+    cl_command_queue q = clCreateCommandQueue(sh->ctx, sh->device, 0, &err);
+    if (err != CL_SUCCESS) return "thread: clCreateCommandQueue failed";
+    cl_mem d_mask = clCreateBuffer(sh->ctx, CL_MEM_WRITE_ONLY, sh->n, NULL, &err);
+    cl_mem d_coef = clCreateBuffer(sh->ctx, CL_MEM_WRITE_ONLY, 4 * sh->n, NULL, &err);
+    unsigned char *got = (unsigned char *)xmalloc(sh->n);
+    const char *result = "";
+    for (int rep = 0; rep < 3 && *result == '\0'; ++rep) {
+        for (int k = 0; k < sh->nsuns && *result == '\0'; ++k) {
+            oclshade_shadow_params p = sh->base;
+            p.azimuth = sh->az[k]; p.elevation = sh->el[k];
+            p.mask = d_mask;
+            p.self_shadow = NULL;
+            p.method = rep % 2 ? OCLSHADE_EXACT : OCLSHADE_MAXMIP;
+            p.coefficient = p.method == OCLSHADE_MAXMIP ? d_coef : NULL;
+            if (oclshade_enqueue_shadows(lib, q, &p, 0, NULL, NULL) != OCLSHADE_OK ||
+                clEnqueueReadBuffer(q, d_mask, CL_TRUE, 0, sh->n, got, 0, NULL, NULL) != CL_SUCCESS)
+                result = "thread: enqueue failed";
+            else if (memcmp(got, (p.method == OCLSHADE_EXACT ? sh->exact : sh->maxmip) + (size_t)k * sh->n, sh->n) != 0)
+                result = "thread: mask differs from the serial one";
+        }
+    }
+    clReleaseMemObject(d_mask); clReleaseMemObject(d_coef);
+    clReleaseCommandQueue(q);
+    free(got);
+    return (void *)result;
+}
+#endif
+
+int main(int argc, char **argv)
+{
+    if (argc < 9) {
+        fprintf(stderr, "usage: %s KERNELS HEIGHTS ROWS COLS DX DY OUTDIR AZ,EL [AZ,EL ...]\n", argv[0]);
+        return 2;
+    }
+    const char *kernels = strcmp(argv[1], "-") == 0 ? NULL : argv[1];
+    const int rows = atoi(argv[3]), cols = atoi(argv[4]);
+    const double dx = strtod(argv[5], NULL), dy = strtod(argv[6], NULL);
+    outdir = argv[7];
+    const size_t n = (size_t)rows * (size_t)cols;
+
+    double *heights = (double *)xmalloc(n * sizeof *heights);
+    FILE *f = fopen(argv[2], "rb");
+    if (f == NULL || fread(heights, sizeof *heights, n, f) != n) { fprintf(stderr, "cannot read %s\n", argv[2]); return 1; }
+    fclose(f);
+
+    cl_platform_id platform;
+    cl_device_id device;
+    cl_int err;
+    CLCHECK(clGetPlatformIDs(1, &platform, NULL));
+    CLCHECK(clGetDeviceIDs(platform, CL_DEVICE_TYPE_ALL, 1, &device, NULL));
+    cl_context ctx = clCreateContext(NULL, 1, &device, NULL, NULL, &err);
+    CLCHECK(err);
+    cl_command_queue queue = clCreateCommandQueue(ctx, device, 0, &err);
+    CLCHECK(err);
+    CHECK(oclshade_create(ctx, device, kernels, &lib));
+    write_file("pyramid.cl", oclshade_program_source(lib, "pyramid.cl"), strlen(oclshade_program_source(lib, "pyramid.cl")));
+    write_file("shadow.cl", oclshade_program_source(lib, "shadow.cl"), strlen(oclshade_program_source(lib, "shadow.cl")));
+
+    float *rel = (float *)xmalloc(n * sizeof *rel);
+    double offset;
+    CHECK(oclshade_relative_heights(heights, n, rel, &offset));
+    write_file("relative.f32", rel, n * sizeof *rel);
+    write_file("offset.f64", &offset, sizeof offset);
+
+    oclshade_pyramid_layout lay;
+    CHECK(oclshade_pyramid_layout_for(rows, cols, &lay));
+    cl_mem d_heights = buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, n * sizeof *rel, rel);
+    cl_mem d_pyramid = buffer(ctx, CL_MEM_READ_WRITE, lay.pyramid_bytes, NULL);
+    cl_mem d_offsets = buffer(ctx, CL_MEM_READ_WRITE, lay.offsets_bytes, NULL);
+    CHECK(oclshade_enqueue_extrema_pyramid(lib, queue, d_heights, rows, cols, d_pyramid, d_offsets, 0, NULL, NULL));
+    float *pyramid = (float *)xmalloc(lay.pyramid_bytes);
+    int *offsets = (int *)xmalloc(lay.offsets_bytes);
+    read_buffer(queue, d_pyramid, lay.pyramid_bytes, pyramid, 0, NULL);
+    read_buffer(queue, d_offsets, lay.offsets_bytes, offsets, 0, NULL);
+    write_file("pyramid.f32", pyramid, lay.pyramid_bytes);
+    write_file("offsets.i32", offsets, lay.offsets_bytes);
+
+    cl_mem d_mask = buffer(ctx, CL_MEM_WRITE_ONLY, n, NULL);
+    cl_mem d_self = buffer(ctx, CL_MEM_WRITE_ONLY, n, NULL);
+    cl_mem d_coef = buffer(ctx, CL_MEM_WRITE_ONLY, 4 * n, NULL);
+    unsigned char *mask = (unsigned char *)xmalloc(n), *self = (unsigned char *)xmalloc(n);
+    unsigned char *exact_mask = (unsigned char *)xmalloc(n), *other = (unsigned char *)xmalloc(n);
+    float *coef = (float *)xmalloc(4 * n);
+    static const char *const method_names[] = {"exact", "paper", "maxmip", "dda"};
+    static const oclshade_method methods[] = {OCLSHADE_EXACT, OCLSHADE_PAPER, OCLSHADE_MAXMIP, OCLSHADE_DDA};
+    CHECK(oclshade_prepare(lib, OCLSHADE_EXACT, OCLSHADE_OUT_MASK));
+    shared sh;
+    sh.ctx = ctx; sh.device = device; sh.n = n; sh.nsuns = argc - 8;
+    sh.az = (double *)xmalloc(sh.nsuns * sizeof(double));
+    sh.el = (double *)xmalloc(sh.nsuns * sizeof(double));
+    sh.exact = (unsigned char *)xmalloc(sh.nsuns * n);
+    sh.maxmip = (unsigned char *)xmalloc(sh.nsuns * n);
+
+    for (int k = 8; k < argc; ++k) {
+        double az, el;
+        if (sscanf(argv[k], "%lf,%lf", &az, &el) != 2) { fprintf(stderr, "bad sun %s\n", argv[k]); return 2; }
+        const int sun_index = k - 8;
+        char name[64];
+        oclshade_sun sun;
+        CHECK(oclshade_sun_for(az, el, dx, dy, &sun));
+        unsigned char sun_bytes[36];
+        memcpy(sun_bytes, sun.ray, 16);
+        memcpy(sun_bytes + 16, sun.vector, 16);
+        const int mode = sun.mode;
+        memcpy(sun_bytes + 32, &mode, 4);
+        snprintf(name, sizeof name, "sun%d.bin", sun_index);
+        write_file(name, sun_bytes, sizeof sun_bytes);
+
+        oclshade_shadow_params p;
+        oclshade_shadow_params_init(&p);
+        p.heights = d_heights; p.rows = rows; p.cols = cols; p.dx = dx; p.dy = dy;
+        p.pyramid = d_pyramid; p.offsets = d_offsets; p.azimuth = az; p.elevation = el;
+        p.k_dark = 0.2; p.k_bright = 0.7;
+        for (int m = 0; m < 4; ++m) {
+            p.method = methods[m];
+            p.mask = d_mask; p.self_shadow = d_self; p.coefficient = d_coef;
+            CHECK(oclshade_enqueue_shadows(lib, queue, &p, 0, NULL, NULL));
+            read_buffer(queue, d_mask, n, mask, 0, NULL);
+            read_buffer(queue, d_self, n, self, 0, NULL);
+            read_buffer(queue, d_coef, 4 * n, coef, 0, NULL);
+            snprintf(name, sizeof name, "%s_%d.mask", method_names[m], sun_index);
+            write_file(name, mask, n);
+            snprintf(name, sizeof name, "%s_%d.self", method_names[m], sun_index);
+            write_file(name, self, n);
+            snprintf(name, sizeof name, "%s_%d.coef", method_names[m], sun_index);
+            write_file(name, coef, 4 * n);
+            if (methods[m] == OCLSHADE_EXACT) memcpy(exact_mask, mask, n);
+            if (methods[m] == OCLSHADE_EXACT) memcpy(sh.exact + (size_t)sun_index * n, mask, n);
+            if (methods[m] == OCLSHADE_MAXMIP) memcpy(sh.maxmip + (size_t)sun_index * n, mask, n);
+        }
+        sh.az[sun_index] = az;
+        sh.el[sun_index] = el;
+        sh.base = p;
+        /* the mask-only variant (no self / coefficient code compiled) agrees */
+        p.method = OCLSHADE_EXACT;
+        p.self_shadow = NULL; p.coefficient = NULL;
+        CHECK(oclshade_enqueue_shadows(lib, queue, &p, 0, NULL, NULL));
+        read_buffer(queue, d_mask, n, other, 0, NULL);
+        if (memcmp(other, exact_mask, n) != 0) { fprintf(stderr, "sun %d: mask-only build differs\n", sun_index); return 1; }
+    }
+
+    /* An out-of-order queue, the pyramid and one shadow pass ordered by events. */
+    cl_command_queue_properties props = 0;
+    CLCHECK(clGetDeviceInfo(device, CL_DEVICE_QUEUE_PROPERTIES, sizeof props, &props, NULL));
+    if (props & CL_QUEUE_OUT_OF_ORDER_EXEC_MODE_ENABLE) {
+        cl_command_queue ooo = clCreateCommandQueue(ctx, device, CL_QUEUE_OUT_OF_ORDER_EXEC_MODE_ENABLE, &err);
+        CLCHECK(err);
+        cl_mem pyr2 = buffer(ctx, CL_MEM_READ_WRITE, lay.pyramid_bytes, NULL);
+        cl_mem off2 = buffer(ctx, CL_MEM_READ_WRITE, lay.offsets_bytes, NULL);
+        cl_mem mask2 = buffer(ctx, CL_MEM_WRITE_ONLY, n, NULL);
+        cl_event built, shaded;
+        CHECK(oclshade_enqueue_extrema_pyramid(lib, ooo, d_heights, rows, cols, pyr2, off2, 0, NULL, &built));
+        oclshade_shadow_params p;
+        oclshade_shadow_params_init(&p);
+        p.heights = d_heights; p.rows = rows; p.cols = cols; p.dx = dx; p.dy = dy;
+        p.pyramid = pyr2; p.offsets = off2; p.mask = mask2;
+        double az, el;
+        sscanf(argv[argc - 1], "%lf,%lf", &az, &el);
+        p.azimuth = az; p.elevation = el;
+        CHECK(oclshade_enqueue_shadows(lib, ooo, &p, 1, &built, &shaded));
+        float *pyramid2 = (float *)xmalloc(lay.pyramid_bytes);
+        read_buffer(ooo, pyr2, lay.pyramid_bytes, pyramid2, 1, &built);
+        read_buffer(ooo, mask2, n, other, 1, &shaded);
+        if (memcmp(pyramid2, pyramid, lay.pyramid_bytes) != 0 || memcmp(other, exact_mask, n) != 0) {
+            fprintf(stderr, "out-of-order queue: results differ\n");
+            return 1;
+        }
+        printf("out-of-order queue: same pyramid and mask\n");
+        clReleaseEvent(built); clReleaseEvent(shaded);
+        clReleaseMemObject(pyr2); clReleaseMemObject(off2); clReleaseMemObject(mask2);
+        clReleaseCommandQueue(ooo);
+        free(pyramid2);
+    } else {
+        printf("out-of-order queue: not supported by the device, skipped\n");
+    }
+
+#if !defined(_WIN32)
+    {
+        pthread_t threads[2];
+        void *results[2];
+        for (int t = 0; t < 2; ++t)
+            if (pthread_create(&threads[t], NULL, thread_main, &sh) != 0) { fprintf(stderr, "pthread_create\n"); return 1; }
+        for (int t = 0; t < 2; ++t) pthread_join(threads[t], &results[t]);
+        for (int t = 0; t < 2; ++t)
+            if (*(const char *)results[t]) { fprintf(stderr, "%s: %s\n", (const char *)results[t], oclshade_last_error(lib)); return 1; }
+        printf("two threads sharing the handle: same masks\n");
+    }
+#endif
+    free(sh.az); free(sh.el); free(sh.exact); free(sh.maxmip);
+
+    oclshade_destroy(lib);
+    clReleaseMemObject(d_heights); clReleaseMemObject(d_pyramid); clReleaseMemObject(d_offsets);
+    clReleaseMemObject(d_mask); clReleaseMemObject(d_self); clReleaseMemObject(d_coef);
+    clReleaseCommandQueue(queue);
+    clReleaseContext(ctx);
+    free(heights); free(rel); free(pyramid); free(offsets); free(mask); free(self); free(exact_mask);
+    free(other); free(coef);
+    printf("ok\n");
+    return 0;
+}

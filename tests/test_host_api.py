@@ -1,0 +1,195 @@
+"""The C host API (host/) against the Python host and the float64 reference.
+
+host/ is built with CMake into a temporary folder; its C test programs run
+on PoCL through the system ICD loader (libOpenCL), pointed by OCL_ICD_VENDORS
+at the PoCL driver that pyopencl ships.  Outputs must be bit-identical to the
+Python host's on the same driver.  Skips (with the reason) without host/
+(installed package only), cmake, a C compiler, the OpenCL headers and loader,
+or pyopencl's PoCL.
+"""
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pyopencl as cl
+import pytest
+
+from oclshade import ShadowCaster, Sun
+from oclshade import reference as ref
+from oclshade.heightmap import Heightmap
+from oclshade.pyramid import level_offsets
+from oclshade.runtime import _kernel_root, define_options, kernel_source
+from oclshade.shadows import METHODS, ShadowFeatures
+
+HOST = Path(__file__).resolve().parents[1] / "host"
+OUTPUT_BITS = {1: ("mask",), 2: ("self",), 4: ("coefficient",)}
+K_DARK, K_BRIGHT = 0.2, 0.7   # as host/tests/host_shadows.c passes them
+
+
+def _pocl_driver() -> Path | None:
+    """PoCL's ICD driver as pyopencl's wheels ship it (pyopencl/.libs or pyopencl.libs)."""
+    pkg = Path(cl.__file__).resolve().parent
+    for folder in (pkg / ".libs", pkg.parent / "pyopencl.libs"):
+        found = sorted(folder.glob("libpocl*.so*"))
+        if found:
+            return found[0]
+    return None
+
+
+def _run(cmd: list[str], **kw) -> subprocess.CompletedProcess:
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=240, **kw)
+
+
+@pytest.fixture(scope="module")
+def host(tmp_path_factory) -> dict:
+    """Build host/ once; returns the build folder and the environment to run its programs in."""
+    if not (HOST / "CMakeLists.txt").is_file():
+        pytest.skip("host/ is not in this tree (installed package only)")
+    if shutil.which("cmake") is None:
+        pytest.skip("cmake not found: the C host API cannot be built")
+    if not any(shutil.which(c) for c in (os.environ.get("CC") or "cc", "gcc", "clang")):
+        pytest.skip("no C compiler (cc, gcc, clang) found")
+    driver = _pocl_driver()
+    if driver is None:
+        pytest.skip("pyopencl's PoCL driver (libpocl*.so) not found: no device for the C programs")
+    build = tmp_path_factory.mktemp("host-build")
+    # the built-in kernel copy is taken from where the Python host reads its kernels
+    conf = _run(["cmake", "-S", str(HOST), "-B", str(build), "-DCMAKE_BUILD_TYPE=Release",
+                 f"-DOCLSHADE_KERNEL_DIR={_kernel_root()}"])
+    if conf.returncode != 0:
+        text = conf.stdout + conf.stderr
+        missing = [line.strip() for line in text.splitlines() if "Could NOT find OpenCL" in line]
+        if missing:
+            pytest.skip(f"OpenCL headers or loader not found ({missing[0]}): install opencl-c-headers "
+                        "and ocl-icd-opencl-dev")
+        if "CMAKE_C_COMPILER" in text:
+            pytest.skip("CMake found no working C compiler")
+        pytest.fail("cmake configure of host/ failed:\n" + text[-4000:])
+    made = _run(["cmake", "--build", str(build), "--parallel", "2"])
+    assert made.returncode == 0, "build of host/ failed:\n" + (made.stdout + made.stderr)[-4000:]
+    icd = tmp_path_factory.mktemp("icd")
+    (icd / "pocl.icd").write_text(f"{driver}\n")
+    env = dict(os.environ, OCL_ICD_VENDORS=str(icd))
+    env.pop("OCL_ICD_FILENAMES", None)
+    return {"build": build, "env": env}
+
+
+def run_program(host: dict, name: str, *args: object) -> str:
+    proc = _run([str(host["build"] / name), *map(str, args)], env=host["env"])
+    assert proc.returncode == 0, f"{name} failed ({proc.returncode}):\n{proc.stdout[-4000:]}\n{proc.stderr[-4000:]}"
+    return proc.stdout
+
+
+# ------------------------------------------------------------------------------- inputs
+def jacksboro() -> Heightmap:
+    from matplotlib import cbook
+    from oclshade.io import metres_per_degree
+
+    data = cbook.get_sample_data("jacksboro_fault_dem.npz")
+    elev = (data if hasattr(data, "files") else np.load(data))["elevation"].astype(np.float64)
+    ew, ns = metres_per_degree(36.2)
+    return Heightmap.from_array(elev, (ew / 1200.0, ns / 1200.0))
+
+
+def random_map() -> Heightmap:
+    rng = np.random.default_rng(11)
+    h = np.cumsum(rng.normal(size=(37, 53)), axis=1) * 4.0 + rng.random((37, 53)) * 3.0 + 1e4
+    h[rng.random(h.shape) < 0.04] = np.nan
+    h[10, 20] += 60.0
+    return Heightmap.from_array(h, (2.0, 0.5))
+
+
+# Suns at every special case of sincos_degrees and of the kernel's modes.
+TRICKY_SUNS = [(315.0, 5.0), (37.0, 20.0), (135.0, 45.0), (0.0, 10.0), (90.0, 3.0), (180.0, 30.0),
+               (270.0, 60.0), (45.0, 45.0), (-45.0, 12.0), (-1e-20, 25.0), (360.0, 8.0), (720.5, 15.0),
+               (1e-6, 89.99), (200.0, 0.01), (10.0, 90.0), (10.0, 0.0), (300.0, -5.0)]
+CASES = {
+    # name: (heightmap, suns, suns checked against the float64 reference, kernels: "-" = built-in)
+    "random": (random_map, TRICKY_SUNS, TRICKY_SUNS, "package"),
+    "jacksboro": (jacksboro, [(315.0, 5.0), (37.0, 20.0), (135.0, 45.0), (90.0, 10.0)],
+                  [(37.0, 20.0), (135.0, 45.0)], "-"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(CASES))
+def test_c_host_matches_python_host(host: dict, tmp_path: Path, case: str) -> None:
+    make, suns, ref_suns, kernels = CASES[case]
+    hm = make()
+    rows, cols = hm.shape
+    src = tmp_path / "heights.f64"
+    np.ascontiguousarray(hm.heights, np.float64).tofile(src)
+    out = tmp_path / "out"
+    out.mkdir()
+    kdir = str(_kernel_root()) if kernels == "package" else "-"
+    stdout = run_program(host, "host_shadows", kdir, src, rows, cols, repr(hm.dx), repr(hm.dy), out,
+                         *[f"{az!r},{alt!r}" for az, alt in suns])
+    assert stdout.strip().endswith("ok")
+
+    def load(name: str, dtype) -> np.ndarray:
+        return np.fromfile(out / name, dtype)
+
+    # the very program sources (so the two hosts even share PoCL's binary cache)
+    for name in ("pyramid.cl", "shadow.cl"):
+        assert (out / name).read_text(encoding="utf-8") == kernel_source(name), name
+    # the heights the kernels read, and the pyramid, bit for bit
+    assert load("offset.f64", np.float64)[0] == hm.offset
+    assert load("relative.f32", np.float32).tobytes() == hm.relative32.tobytes()
+    caster = ShadowCaster(hm)
+    pyr = caster.pyramid
+    expected_pyramid = np.concatenate([level.reshape(-1, 2) for level in pyr.to_numpy()])
+    assert load("pyramid.f32", np.float32).tobytes() == expected_pyramid.tobytes()
+    assert load("offsets.i32", np.int32).tolist() == [-1] + level_offsets(pyr.shapes).tolist()
+
+    for k, (az, alt) in enumerate(suns):
+        sun = Sun(az, alt)
+        # the sun as the Python host hands it to the kernel (ShadowCaster._args: ray, vector, mode)
+        args = caster._args(sun, K_DARK, K_BRIGHT)
+        raw = (out / f"sun{k}.bin").read_bytes()
+        assert raw[:16] == args[6].tobytes(), f"ray of sun {sun}"
+        assert raw[16:32] == args[7].tobytes(), f"vector of sun {sun}"
+        assert np.frombuffer(raw[32:], np.int32)[0] == args[10], f"mode of sun {sun}"
+        for method in METHODS:
+            py = caster.cast(sun, method, "all", K_DARK, K_BRIGHT)
+            for ext, arr in (("mask", py.mask), ("self", py.self_shadow), ("coef", py.coefficient)):
+                got = load(f"{method}_{k}.{ext}", arr.dtype)
+                assert got.tobytes() == arr.tobytes(), f"{case} {method} {ext} differs at sun {sun}"
+        if (az, alt) in ref_suns:
+            expected = ref.cast_shadows(hm, sun)
+            ties = expected.ties(ref.tie_tolerance(hm, sun))
+            got = load(f"exact_{k}.mask", np.uint8).reshape(rows, cols)
+            assert np.array_equal((got != expected.mask) & ~ties, np.zeros_like(ties)), f"{case} vs reference at {sun}"
+            assert np.array_equal(load(f"exact_{k}.self", np.uint8).reshape(rows, cols), expected.self_shadow)
+
+
+def test_c_error_paths_and_build_options(host: dict) -> None:
+    """host_errors checks status codes and messages itself; its build options must be Python's."""
+    proc = _run([str(host["build"] / "host_errors"), str(_kernel_root())], env=host["env"])
+    assert proc.returncode == 0, proc.stdout[-4000:] + proc.stderr[-2000:]
+    options = [line.split(" ", 3) for line in proc.stdout.splitlines() if line.startswith("options ")]
+    assert len(options) == 4 * 7
+    for _, method_code, bits, text in options:
+        method = METHODS[int(method_code) - 1]
+        outputs = tuple(o for bit, (o,) in OUTPUT_BITS.items() if int(bits) & bit)
+        python = define_options(ShadowFeatures(method, outputs).defines()) + ("-cl-std=CL1.2",)
+        assert text == " ".join(python), (method, outputs)
+
+
+def test_c_example_shadow_mask(host: dict, tmp_path: Path) -> None:
+    """host/examples/shadow_mask.c: float32 file in, the Python host's mask out."""
+    rng = np.random.default_rng(4)
+    h = (rng.random((29, 41)) * 30.0).astype(np.float32)
+    h[3, 4] = np.nan
+    h.tofile(tmp_path / "in.f32")
+    run_program(host, "shadow_mask", tmp_path / "in.f32", 29, 41, 1.5, 250.0, 12.0, tmp_path / "mask.u8")
+    expected = ShadowCaster(Heightmap.from_array(h, 1.5)).cast((250.0, 12.0)).mask
+    assert np.fromfile(tmp_path / "mask.u8", np.uint8).tobytes() == expected.tobytes()
+
+
+def test_tiny_negative_azimuth_is_north() -> None:
+    """-1e-20 degrees rounds to 360 after fmod + 360: it must stay north (the C twin relies on it)."""
+    assert Sun(-1e-20, 25.0).ray(1.0, 1.0) == Sun(0.0, 25.0).ray(1.0, 1.0)
+    assert Sun(-1e-20, 25.0).vector() == Sun(0.0, 25.0).vector()
