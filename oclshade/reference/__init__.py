@@ -6,8 +6,9 @@ One module per kernel family; everything public is re-exported here, so
 from .pyramid import extrema_pyramid, mip_pyramid
 from .shadows import (CORNER_SNAP, CORNER_TIE, ReferenceShadows, cast_shadows,
                       shadow_coefficient, tie_tolerance)
+from .terrain import ReferenceTerrain, cast_terrain
 
 __all__ = [
-    "CORNER_SNAP", "CORNER_TIE", "ReferenceShadows", "cast_shadows", "extrema_pyramid",
-    "mip_pyramid", "shadow_coefficient", "tie_tolerance",
+    "CORNER_SNAP", "CORNER_TIE", "ReferenceShadows", "ReferenceTerrain", "cast_shadows", "cast_terrain",
+    "extrema_pyramid", "mip_pyramid", "shadow_coefficient", "tie_tolerance",
 ]
