@@ -77,7 +77,7 @@
 #define OCLS_METHOD 1
 #endif
 #ifndef OCLS_LEAF
-#define OCLS_LEAF 2.0f
+#define OCLS_LEAF 1.0f
 #endif
 #ifndef OCLS_MARCH_STEP
 #define OCLS_MARCH_STEP 0.5f
@@ -91,6 +91,7 @@
 typedef struct {
     int H, W, Hp, Wp, cu, cv;
     float3 o, d;        /* ray in centred heightmap coordinates, t = depth */
+    float iu, iv;       /* 1 / d.x, 1 / d.y (INFINITY where 0: such boundaries are never met) */
     float kx, ky;       /* paraboloid (OCLS_SPHERE) */
 } Ray;
 
@@ -179,8 +180,8 @@ OCLS_INLINE float walk(__global const float *h, const Ray *ray, float ta, float 
     const int sc = d.x > 0.0f ? 1 : -1, sr = d.y > 0.0f ? 1 : -1;
     float t = ta;
     for (int k = 0; k < max_steps; ++k) {
-        const float tu = d.x != 0.0f ? ((float)(c - ray->cu + (sc > 0)) - o.x) / d.x : INFINITY;
-        const float tv = d.y != 0.0f ? ((float)(r - ray->cv + (sr > 0)) - o.y) / d.y : INFINITY;
+        const float tu = d.x != 0.0f ? ((float)(c - ray->cu + (sc > 0)) - o.x) * ray->iu : INFINITY;
+        const float tv = d.y != 0.0f ? ((float)(r - ray->cv + (sr > 0)) - o.y) * ray->iv : INFINITY;
         const float tx = fmin(fmin(tu, tv), tb);
         const float t1 = fmax(tx, t);
         const float th = patch_hit(h, ray, r, c, t, t1, above);
@@ -216,7 +217,7 @@ OCLS_INLINE float cast(__global const float *h, __global const float2 *ext, __gl
     uint k = 0, i = 0;
     int above = 0;                                      /* the segment may start under the surface */
     for (int it = 0; it < OCLS_MAX_IT; ++it) {
-        const float part = ldexp(1.0f, -(int)k);
+        const float part = as_float((127 - (int)k) << 23);          /* 2^-k, k <= 24 */
         const float ta = ts + span * ((float)i * part);
         const float tb = ts + span * ((float)(i + 1u) * part);
         const float fp = fp0 * part;
@@ -225,9 +226,8 @@ OCLS_INLINE float cast(__global const float *h, __global const float2 *ext, __gl
             const float th = walk(h, ray, ta, tb, leaf_steps, &above, cell);
             if (th < INFINITY) return th;
         } else {
-            int l = ilogb(fp);
-            if (fp > ldexp(1.0f, l)) l += 1;
-            l = clamp(l, 1, top);
+            const int bits = as_int(fp);                   /* ceil(log2(fp)), fp > 1 normal */
+            const int l = clamp(((bits >> 23) & 0xff) - 127 + ((bits & 0x7fffff) != 0), 1, top);
             const float ua = o.x + ta * d.x, ub = o.x + tb * d.x;
             const float va = o.y + ta * d.y, vb = o.y + tb * d.y;
             const int pc0 = clamp(ocls_floor_int(fmin(ua, ub)) + ray->cu, 0, ray->Wp - 1);
@@ -294,8 +294,8 @@ OCLS_INLINE float cast(__global const float *h, __global const float2 *ext, __gl
     int c = clamp(ocls_floor_int(o.x + t * d.x) + ray->cu, 0, ray->Wp - 1) >> l;
     int r = clamp(ocls_floor_int(o.y + t * d.y) + ray->cv, 0, ray->Hp - 1) >> l;
     for (int it = 0; it < OCLS_MAX_IT; ++it) {
-        const float tu = d.x != 0.0f ? ((float)(((c + (sc > 0)) << l) - ray->cu) - o.x) / d.x : INFINITY;
-        const float tv = d.y != 0.0f ? ((float)(((r + (sr > 0)) << l) - ray->cv) - o.y) / d.y : INFINITY;
+        const float tu = d.x != 0.0f ? ((float)(((c + (sc > 0)) << l) - ray->cu) - o.x) * ray->iu : INFINITY;
+        const float tv = d.y != 0.0f ? ((float)(((r + (sr > 0)) << l) - ray->cv) - o.y) * ray->iv : INFINITY;
         const float tx = fmin(fmin(tu, tv), te);
         const float t1 = fmax(tx, t);
         if (l == 0) {
@@ -407,6 +407,8 @@ __kernel void terrain_cast(__global const float *h, const int H, const int W,
     ray.kx = geo.z; ray.ky = geo.w;
     ray.o = (float3)(dot(g0.xyz, ov) + g0.w, dot(g1.xyz, ov) + g1.w, dot(g2.xyz, ov) + g2.w);
     ray.d = (float3)(dot(g0.xyz, dv), dot(g1.xyz, dv), dot(g2.xyz, dv));
+    ray.iu = 1.0f / ray.d.x;
+    ray.iv = 1.0f / ray.d.y;
     /* the visible segment, clipped to the map's box (and the height slab on a plane) */
     float ts = cam.z, te = cam.w;
     clip_axis(ray.o.x, ray.d.x, (float)(-cu), (float)(W - 1 - cu), &ts, &te);

@@ -119,7 +119,7 @@ class TerrainFeatures:
     orthographic: bool = False
     sphere: bool = False
     colour: bool = False
-    leaf: int = 2                 # bisect: voxels of at most this many cells are walked exactly
+    leaf: float = 1.0             # bisect: voxels of at most this many cells are walked exactly
     march_step: float = 0.5       # march: step in cells
 
     def defines(self) -> dict[str, object]:
