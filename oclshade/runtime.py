@@ -139,11 +139,12 @@ def select_device(spec: str | int | None = None) -> cl.Device:
 
 
 def _kernel_root():
-    """Installed package data ``oclshade.kernels``; from a source checkout, ../kernels."""
-    try:
-        return importlib.resources.files("oclshade.kernels")
-    except ModuleNotFoundError:
-        return pathlib.Path(__file__).resolve().parent.parent / "kernels"
+    """From a source checkout, ../kernels (so that a checkout on PYTHONPATH uses its own kernels
+    even when another copy is installed in editable mode); else the package data ``oclshade.kernels``."""
+    checkout = pathlib.Path(__file__).resolve().parent.parent / "kernels"
+    if (checkout / "common.h").is_file():
+        return checkout
+    return importlib.resources.files("oclshade.kernels")
 
 
 def kernel_source(filename: str) -> str:
