@@ -139,11 +139,14 @@ def select_device(spec: str | int | None = None) -> cl.Device:
 
 
 def _kernel_root():
-    """Installed package data ``oclshade.kernels``; from a source checkout, ../kernels."""
-    try:
-        return importlib.resources.files("oclshade.kernels")
-    except ModuleNotFoundError:
-        return pathlib.Path(__file__).resolve().parent.parent / "kernels"
+    """A source checkout's own ../kernels; else the installed package data ``oclshade.kernels``.
+
+    The checkout comes first: an editable install elsewhere maps ``oclshade.kernels``
+    to *its* tree, which must not shadow the kernels next to the code being run."""
+    local = pathlib.Path(__file__).resolve().parent.parent / "kernels"
+    if (local / "common.h").is_file():
+        return local
+    return importlib.resources.files("oclshade.kernels")
 
 
 def kernel_source(filename: str) -> str:

@@ -4,10 +4,12 @@ One module per kernel family; everything public is re-exported here, so
 ``from oclshade import reference as ref; ref.cast_shadows(...)`` works for all.
 """
 from .pyramid import extrema_pyramid, mip_pyramid
+from .screen_shadows import ReferencePixelShadows, minimal_lod, pixel_shadows, surface_height
 from .shadows import (CORNER_SNAP, CORNER_TIE, ReferenceShadows, cast_shadows,
                       shadow_coefficient, tie_tolerance)
 
 __all__ = [
     "CORNER_SNAP", "CORNER_TIE", "ReferenceShadows", "cast_shadows", "extrema_pyramid",
     "mip_pyramid", "shadow_coefficient", "tie_tolerance",
+    "ReferencePixelShadows", "minimal_lod", "pixel_shadows", "surface_height",
 ]
