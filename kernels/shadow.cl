@@ -472,29 +472,26 @@ __kernel void shadow_cells(__global const float *h, const int H, const int W,
  * w ds/dx ... are g itself): |a|^2, |b|^2 the squared footprints along the
  * screen axes, n_a = min(ceil(sqrt(d2max / d2min)), n_a_max),
  * q = floor(0.5 log2(d2max) - log2(n_a)) + bias, clamped to [0, top].
- * Computed as floor(log2(y) / 2) with y = d2max / n_a^2, which is
- * ilogb(y) >> 1 (exact, no log2 rounding).  d2max = 0 (or NaN) gives
- * q = 0 (log2 0 = -inf); d2min = 0 gives n_a = n_a_max. */
+ * Computed as floor(log2(y) / 2) with y = d2max / n_a^2, i.e. the binary
+ * exponent of y shifted right once (exact, no log2 rounding; a subnormal y
+ * gives q < 0, inf gives q > top).  d2max = 0 (or NaN) gives q = 0
+ * (log2 0 = -inf); d2min = 0 gives n_a = n_a_max. */
 OCLS_INLINE int minimal_lod(float4 g, int n_a_max, int bias, int top)
 {
     const float a2 = g.x * g.x + g.y * g.y, b2 = g.z * g.z + g.w * g.w;
     const float dmax = fmax(a2, b2), dmin = fmin(a2, b2);
-    if (!(dmax > 0.0f)) return 0;
+    if (isnan(a2) || isnan(b2) || !(dmax > 0.0f)) return 0;
     int n = n_a_max;
-    if (dmin > 0.0f) {
-        const float ratio = dmax / dmin;
-        if (ratio < (float)n_a_max * (float)n_a_max) {
-            n = max((int)ceil(sqrt(ratio)), 1);
-            /* sqrt may be off by an ulp: make n the least integer with n^2 >= ratio */
-            while (n > 1 && (float)((n - 1) * (n - 1)) >= ratio) --n;
-            while ((float)(n * n) < ratio) ++n;
-            n = min(n, n_a_max);
-        }
+    const float ratio = dmax / dmin;                   /* inf when dmin == 0 */
+    if (ratio < (float)(n_a_max * n_a_max)) {
+        /* least n with n^2 >= ratio; the rounded sqrt is within an ulp, so the
+         * floor of it is that n or one less */
+        const int n0 = (int)sqrt(ratio);
+        n = (float)(n0 * n0) >= ratio ? max(n0, 1) : n0 + 1;
     }
     const float y = dmax / (float)(n * n);
-    if (isinf(y)) return top;
-    const int q = (ilogb(y) >> 1) + bias;
-    return clamp(q, 0, top);
+    const int e = ((as_int(y) >> 23) & 0xff) - 127;   /* floor(log2 y) for normal y */
+    return clamp((e >> 1) + bias, 0, top);
 }
 
 /* a + (b - a) f, leaving out the sample whose weight is exactly 0 */
