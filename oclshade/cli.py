@@ -1,4 +1,4 @@
-"""The ``oclshade`` command line: ``oclshade devices`` and ``oclshade shadow``.
+"""The ``oclshade`` command line: ``oclshade devices``, ``oclshade shadow`` and ``oclshade render``.
 
 Errors are one line ``oclshade: error: ...`` on stderr: exit status 2 for bad
 arguments, 1 for failures while running (unreadable file, device, ...).
@@ -163,7 +163,7 @@ examples:
 
 
 def build_parser() -> CliParser:
-    parser = CliParser(prog=PROG, description="Exact terrain cast shadows on OpenCL devices.")
+    parser = CliParser(prog=PROG, description="Exact terrain cast shadows and terrain rendering on OpenCL devices.")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     sub.add_parser("devices", help="list OpenCL devices (index, platform, versions)",
                    description="List the OpenCL devices; use an index or a name substring "
@@ -203,7 +203,88 @@ def build_parser() -> CliParser:
     sh.add_argument("--device", metavar="SPEC",
                     help="OpenCL device: index or name substring (default: $OCLSHADE_DEVICE, else PoCL CPU)")
     sh.add_argument("--quiet", "-q", action="store_true", help="no progress bar and no summary")
+    add_render_parser(sub)
     return parser
+
+
+RENDER_EPILOG = """\
+outputs (by OUTPUT's extension):
+  .png  the shaded frame: albedo x (Lambert sun + sky ambient), hypsometric tint
+        (or --colour), 8-bit sRGB; empty pixels show the sky colour
+  .exr  the G-buffer (oclshade/gbuffer.py), float32 channels:
+        position.x/y/z/w (view space, w = 1 hit), normal.x/y/z, uv.u/v,
+        uv_grad.dudc/dvdc/dudr/dvdr, Z (linear depth, +inf where empty), R/G/B/A (albedo)
+  --gbuffer FILE.exr writes the G-buffer as well when OUTPUT is a PNG.
+
+camera: automatic by default (the whole map from --view AZ,EL, default 200,30:
+  from the south-south-west, 30 degrees up); or --camera X,Y,Z,TX,TY,TZ: position
+  and target in metres, x east from the first column, y north from the first row
+  (so the map lies at y <= 0), z the height after -z.
+
+examples:
+  oclshade render dem.tif view.png --size 1920x1080
+  oclshade render dem.tif view.png --view 315,20 --fov 60 --sun 135,25 --gbuffer view.exr
+  oclshade render dem.npy gbuf.exr --cellsize 30 --camera 0,-9000,2500,6000,-3000,300
+"""
+
+
+def _size(text: str) -> tuple[int, int]:
+    parts = text.lower().split("x")
+    try:
+        w, h = int(parts[0]), int(parts[1])
+        if len(parts) != 2:
+            raise ValueError
+    except (ValueError, IndexError):
+        raise argparse.ArgumentTypeError(f"a size is WIDTHxHEIGHT in pixels (e.g. 1920x1080), got {text!r}") from None
+    if not (1 <= w <= 16384 and 1 <= h <= 16384):
+        raise argparse.ArgumentTypeError(f"width and height must be in 1..16384, got {text!r}")
+    return w, h
+
+
+def _floats(text: str, count: int, what: str) -> tuple[float, ...]:
+    parts = text.split(",")
+    if len(parts) != count:
+        raise argparse.ArgumentTypeError(f"{what} takes {count} comma-separated numbers, got {text!r}")
+    return tuple(_number(p.strip(), what) for p in parts)
+
+
+def _fov(text: str) -> float:
+    value = _number(text, "fov")
+    if not 0.0 < value < 180.0:
+        raise argparse.ArgumentTypeError(f"fov must be in (0, 180) degrees, got {text}")
+    return value
+
+
+def add_render_parser(sub) -> None:
+    from .terrain import METHODS as TERRAIN_METHODS
+
+    rd = sub.add_parser("render", help="ray-cast a DEM into a shaded PNG and/or an EXR G-buffer",
+                        description="Render a DEM as terrain seen by a camera (paper 004 voxel bisection).",
+                        epilog=RENDER_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    rd.add_argument("input", metavar="INPUT", help="DEM: .tif/.tiff, .hgt, .zip (with .hgt), .asc, .exr, .png, .npy")
+    rd.add_argument("output", metavar="OUTPUT", help="shaded frame (.png) or G-buffer (.exr)")
+    rd.add_argument("--size", type=_size, default=(1280, 720), metavar="WxH", help="frame size (default 1280x720)")
+    rd.add_argument("--camera", type=lambda t: _floats(t, 6, "--camera"), metavar="X,Y,Z,TX,TY,TZ",
+                    help="camera position and target in metres (see below); default: automatic")
+    rd.add_argument("--view", type=lambda t: _floats(t, 2, "--view"), default=(200.0, 30.0), metavar="AZ,EL",
+                    help="automatic camera: direction from the map centre to the camera (default 200,30)")
+    rd.add_argument("--fov", type=_fov, default=45.0, metavar="DEG", help="vertical field of view (default 45)")
+    rd.add_argument("--ortho", action="store_true", help="orthographic camera (automatic framing only)")
+    rd.add_argument("--method", default="bisect", choices=TERRAIN_METHODS,
+                    help="ray caster (default bisect; march and dda are baselines)")
+    rd.add_argument("--sun", type=_sun, default=Sun(DEFAULT_AZIMUTH, DEFAULT_ELEVATION), metavar="AZ,ALT",
+                    help=f"sun for the shading (default {DEFAULT_AZIMUTH:g},{DEFAULT_ELEVATION:g})")
+    rd.add_argument("--radius", type=_positive, default=None, metavar="METRES",
+                    help="put the map on a sphere of this radius (e.g. 6371000)")
+    rd.add_argument("--gbuffer", metavar="EXR", help="also write the G-buffer (OUTPUT must be a .png)")
+    rd.add_argument("-z", dest="z_factor", type=_nonzero, default=1.0, metavar="ZFACTOR",
+                    help="multiply heights by ZFACTOR (default 1)")
+    rd.add_argument("-s", dest="scale", type=_positive, default=1.0, metavar="SCALE",
+                    help="horizontal cell sizes are multiplied by SCALE, as in 'oclshade shadow'")
+    rd.add_argument("--cellsize", nargs="+", type=_positive, metavar=("DX", "DY"),
+                    help="cell size (east-west, north-south); required for .npy/.exr/.png input")
+    rd.add_argument("--device", metavar="SPEC", help="OpenCL device: index or name substring")
+    rd.add_argument("--quiet", "-q", action="store_true", help="no summary line")
 
 
 # --- shadow command ---------------------------------------------------------------------
@@ -332,6 +413,88 @@ def run_shadow(args: argparse.Namespace) -> int:
     return 0
 
 
+# --- render command ---------------------------------------------------------------------
+
+GBUFFER_CHANNELS = {
+    "position": ("position.x", "position.y", "position.z", "position.w"),
+    "normal": ("normal.x", "normal.y", "normal.z", None),
+    "uv": ("uv.u", "uv.v"),
+    "uv_grad": ("uv_grad.dudc", "uv_grad.dvdc", "uv_grad.dudr", "uv_grad.dvdr"),
+    "depth": ("Z",),
+    "albedo": ("R", "G", "B", "A"),
+}
+
+
+def gbuffer_bands(gbuf) -> tuple[list[np.ndarray], list[str]]:
+    """The G-buffer as named float32 EXR channels (normal.w, always 0, is left out)."""
+    bands, names = [], []
+    for field, channels in GBUFFER_CHANNELS.items():
+        data = getattr(gbuf, field)
+        for k, name in enumerate(channels):
+            if name is not None:
+                bands.append(data if data.ndim == 2 else data[..., k])
+                names.append(name)
+    return bands, names
+
+
+def run_render(args: argparse.Namespace) -> int:
+    from .camera import Camera, frame_heightmap
+    from .compose import Lighting, compose
+    from .terrain import Heightfield, TerrainRenderer
+
+    out_ext = _extension(args.output)
+    if out_ext not in (".png", ".exr"):
+        raise UsageError(f"OUTPUT {args.output!r}: expected .png (shaded frame) or .exr (G-buffer)")
+    if args.gbuffer is not None and (out_ext != ".png" or _extension(args.gbuffer) != ".exr"):
+        raise UsageError("--gbuffer takes an .exr path and needs OUTPUT to be a .png")
+    if args.cellsize is not None and len(args.cellsize) > 2:
+        raise UsageError(f"--cellsize takes DX or DX DY, got {len(args.cellsize)} values")
+    if args.ortho and args.camera is not None:
+        raise UsageError("--ortho works with the automatic camera only (leave out --camera)")
+    for path in (args.output, args.gbuffer):
+        if path is not None and _same_file(path, args.input):
+            raise CliError(f"{path!r} is the input file; refusing to overwrite it")
+    if args.gbuffer is not None and _same_file(args.gbuffer, args.output):
+        raise UsageError("--gbuffer and OUTPUT must be different files")
+    t0 = time.perf_counter()
+    cellsize = None if args.cellsize is None else (
+        args.cellsize[0] if len(args.cellsize) == 1 else (args.cellsize[0], args.cellsize[1]))
+    raster = read_dem(args.input, cellsize=cellsize)
+    if cellsize is None and not CELL_TAGS & raster.georef.keys() and not raster.geographic:
+        raise UsageError(f"INPUT {args.input!r} does not record its cell size; give --cellsize DX [DY] (metres)")
+    heightmap = Heightmap.from_array(raster.heights, cellsize=(raster.dx * args.scale, raster.dy * args.scale),
+                                     z_factor=args.z_factor)
+    field = Heightfield(heightmap, args.radius)
+    width, height = args.size
+    if args.camera is None:
+        camera = frame_heightmap(heightmap, width, height, azimuth=args.view[0], elevation=args.view[1],
+                                 fov=args.fov, projection="orthographic" if args.ortho else "perspective")
+    else:
+        pos, target = np.array(args.camera[:3]), np.array(args.camera[3:])
+        extent = float(np.hypot(heightmap.shape[1] * heightmap.dx, heightmap.shape[0] * heightmap.dy))
+        reach = float(np.linalg.norm(pos - target)) + 2.0 * extent
+        camera = Camera(pos, target, width, height, fov=args.fov, near=1e-4 * reach, far=reach)
+    renderer = TerrainRenderer(field, device=args.device)
+    t1 = time.perf_counter()
+    gbuf = renderer.render(camera, method=args.method)
+    t2 = time.perf_counter()
+    for path in (args.output, args.gbuffer):
+        if path is not None and os.path.dirname(path):
+            os.makedirs(os.path.dirname(path), exist_ok=True)
+    if out_ext == ".png":
+        frame = compose(gbuf, camera, Lighting(sun=args.sun), device=renderer.runtime)
+        write_raster(args.output, frame[..., :3])
+    if out_ext == ".exr" or args.gbuffer is not None:
+        bands, names = gbuffer_bands(gbuf)
+        write_raster(args.output if out_ext == ".exr" else args.gbuffer, bands, band_names=names)
+    if not args.quiet:
+        rows, cols = heightmap.shape
+        print(f"{PROG}: {rows}x{cols} cells, {width}x{height} pixels, method {args.method}, device "
+              f"{renderer.runtime.label}: pyramid + cast {t2 - t1:.2f} s (total {time.perf_counter() - t0:.2f} s), "
+              f"{100 * gbuf.hit.mean():.1f}% of pixels see terrain -> {args.output}", file=sys.stderr)
+    return 0
+
+
 # --- devices command --------------------------------------------------------------------
 
 def run_devices(_: argparse.Namespace) -> int:
@@ -366,7 +529,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         args = parser.parse_args(argv)
     except SystemExit as exc:  # --help, or an argparse error already printed
         return int(exc.code or 0)
-    command = {"devices": run_devices, "shadow": run_shadow}[args.command]
+    command = {"devices": run_devices, "shadow": run_shadow, "render": run_render}[args.command]
     debug = os.environ.get(DEBUG_ENV, "") not in ("", "0")
     try:
         return command(args)

@@ -89,10 +89,20 @@ def build_extrema_pyramid(hm: Heightmap, device=None, heights_buffer: cl.Buffer 
 
 def build_mip_pyramid(hm: Heightmap, device=None) -> list[np.ndarray]:
     """Mean mip pyramid of the relative float32 heights (level 0 = the map), as numpy arrays."""
+    return build_mip_levels(hm.relative32, device)
+
+
+def build_mip_levels(values: np.ndarray, device=None) -> list[np.ndarray]:
+    """Mean mip pyramid of any 2-D float32 array (NaN = no data), level 0 = the array itself.
+
+    Multi-channel data (a colour texture) goes through channel by channel."""
     rt = get_runtime(device)
+    values = np.ascontiguousarray(values, dtype=np.float32)
+    if values.ndim != 2 or values.size == 0:
+        raise ValueError(f"values must be a non-empty 2-D array, got shape {values.shape}")
     reduce_k = rt.kernel("pyramid.cl", "mip_reduce")
-    shapes = level_shapes(*hm.shape)
-    bufs = [rt.to_device(hm.relative32, "heightmap")]
+    shapes = level_shapes(*values.shape)
+    bufs = [rt.to_device(values, "mip level 0")]
     for (ri, ci), (ro, co) in zip(shapes[:-1], shapes[1:]):
         out = rt.empty(ro * co * 4, "mip level")
         _run_2d(rt, reduce_k, co, ro, (bufs[-1], np.int32(ri), np.int32(ci), out, np.int32(ro), np.int32(co)))

@@ -139,13 +139,11 @@ def select_device(spec: str | int | None = None) -> cl.Device:
 
 
 def _kernel_root():
-    """A source checkout's own ../kernels; else the installed package data ``oclshade.kernels``.
-
-    The checkout comes first: an editable install elsewhere maps ``oclshade.kernels``
-    to *its* tree, which must not shadow the kernels next to the code being run."""
-    local = pathlib.Path(__file__).resolve().parent.parent / "kernels"
-    if (local / "common.h").is_file():
-        return local
+    """From a source checkout, ../kernels (so that a checkout on PYTHONPATH uses its own kernels
+    even when another copy is installed in editable mode); else the package data ``oclshade.kernels``."""
+    checkout = pathlib.Path(__file__).resolve().parent.parent / "kernels"
+    if (checkout / "common.h").is_file():
+        return checkout
     return importlib.resources.files("oclshade.kernels")
 
 

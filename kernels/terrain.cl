@@ -1,0 +1,471 @@
+/* terrain.cl — heightmap terrain ray casting into a G-buffer (paper 004, voxel bisection).
+ *
+ * Surface (paper 004 sec. 4-5, differential heightmap): a base surface plus
+ * per-sample deviations h (relative float32 heights, NaN = hole), bilinear
+ * over each patch between 4 samples; no surface over a patch with a hole
+ * corner, nothing beyond the map.  Coordinates inside the kernel are centred
+ * heightmap coordinates (u', v', z): u' = column - cu, v' = row - cv (the
+ * centre sample (cv, cu) keeps float32 coordinates small), z = world height
+ * minus the map's offset.  Base plane: the surface is z = h(u', v').  With
+ * -D OCLS_SPHERE the base is the paraboloid z = -(kx u'^2 + ky v'^2)
+ * (kx = dx^2 / 2R, ky = dy^2 / 2R), i.e. the ray's height above the base is
+ * z + kx u'^2 + ky v'^2.
+ *
+ * Hit: the first t in the visible segment [near, far] (t = -z_view, "the
+ * voxel" of paper 004) where the ray crosses the surface downwards (back faces
+ * are culled, so a camera under the terrain or in a hole looks through the
+ * underside).  Per patch f(t) = ray height - surface is a quadratic in t
+ * (bilinear along a line, plus the paraboloid) solved in closed form, so the
+ * hit is exact up to float32 rounding.
+ *
+ * Methods (-D OCLS_METHOD):
+ *   1 bisect (paper 004): the segment, clipped to the map's box (and, on a
+ *     plane, to the height slab [hmin, hmax]), is bisected front to back.
+ *     Voxels are nodes (k, i) of a binary subdivision — node i of 2^k equal
+ *     parts, boundaries at the exact dyadic fractions i * 2^-k, so neighbours
+ *     share their end points bit for bit; "near half first" is the order of a
+ *     stackless walk (after a rejected node: i += 1, then climb while i is
+ *     even).  Per voxel: LOD l = ceil(log2(footprint)) from its projection on
+ *     the map (max of |du|, |dv| between its end points, as the paper), so
+ *     its bounding box meets at most 2 x 2 tiles of extrema level l; the voxel
+ *     is rejected when its lowest point is above their max, split otherwise.
+ *     A voxel of at most OCLS_LEAF cells is walked patch by patch with the
+ *     exact test.  Paper fix: the paper compares with "the max at that LOD
+ *     under the voxel" without saying which texels; one texel under a point
+ *     is not conservative, the 2 x 2 tiles of the bounding box are.
+ *   2 march: uniform steps of OCLS_MARCH_STEP cells, the sign of f sampled at
+ *     the steps; the first step that goes from above to below is walked
+ *     exactly.  Misses crossings between samples (a baseline).
+ *   3 dda: max-mipmap traversal (Tevs et al. 2008): texel by texel at the
+ *     current level, descend when the ray's lowest point over the texel is at
+ *     or below its max, otherwise step to the next texel and climb one level
+ *     when that leaves the parent; level 0 is the exact patch test.
+ *   All loops are bounded by OCLS_MAX_IT iterations (not reached on valid
+ *   input; reaching it reports an empty pixel).
+ *
+ * ABI
+ *   terrain_cast(h, H, W, ext, ext_off, levels, g0, g1, g2, r0, r1, r2, cam, IW, IH, cu, cv,
+ *                geo, hrange, tex, tex_levels, ntex,
+ *                position, normal, uv, uv_grad, depth, albedo)
+ *   global size (>= IW, >= IH), any local size; one work-item per pixel.
+ *     __global const float *h      H*W relative heights, row-major, NaN = hole
+ *     int H, W                     map rows, cols
+ *     __global const float2 *ext   extrema pyramid levels 1..levels-1 (pyramid.cl)
+ *     __global const int *ext_off  level offsets in float2, indexed by level ([0] unused)
+ *     int levels                   pyramid levels counting level 0
+ *     float4 g0, g1, g2            rows of the 3x4 affine map view -> (u', v', z)
+ *     float4 r0, r1, r2            rows of the world -> view rotation (xyz)
+ *     float4 cam                   (sx, sy, near, far): pixel-ray slopes (pinhole) or half
+ *                                  extents (-D OCLS_ORTHO), see oclshade/camera.py
+ *     int IW, IH                   image width, height in pixels
+ *     int cu, cv                   centre sample (col, row)
+ *     float4 geo                   (dx, dy, kx, ky)
+ *     float4 hrange                (hmin, hmax, -, -) finite relative heights
+ *     __global const float4 *tex   colour mip levels (linear RGBA), back to back (-D OCLS_COLOUR)
+ *     __global const int4 *tex_levels  per level (offset in float4, cols, rows, 0)
+ *     int ntex                     number of colour levels
+ *   outputs (layout of oclshade/gbuffer.py), IW*IH each, row-major from the top row:
+ *     float4 position (view xyz, w = 1 hit / 0 empty), float4 normal (view, w = 0),
+ *     float2 uv, float4 uv_grad (du/dc, dv/dc, du/dr, dv/dr), float depth (+inf empty),
+ *     float4 albedo (linear RGBA).  Empty pixels: 0 everywhere, depth +inf.
+ *   -D options: OCLS_METHOD (1|2|3), OCLS_ORTHO, OCLS_SPHERE, OCLS_COLOUR,
+ *     OCLS_LEAF (float, cells), OCLS_MARCH_STEP (float, cells), OCLS_MAX_IT (int).
+ */
+#include "common.h"
+
+#ifndef OCLS_METHOD
+#define OCLS_METHOD 1
+#endif
+#ifndef OCLS_LEAF
+#define OCLS_LEAF 1.0f
+#endif
+#ifndef OCLS_MARCH_STEP
+#define OCLS_MARCH_STEP 0.5f
+#endif
+#ifndef OCLS_MAX_IT
+#define OCLS_MAX_IT 65536
+#endif
+#define OCLS_KMAX 24            /* bisection depth: 2^24 parts > any map diagonal in cells */
+
+/* The map and the ray, read by every helper. */
+typedef struct {
+    int H, W, Hp, Wp, cu, cv;
+    float3 o, d;        /* ray in centred heightmap coordinates, t = depth */
+    float iu, iv;       /* 1 / d.x, 1 / d.y (INFINITY where 0: such boundaries are never met) */
+    float kx, ky;       /* paraboloid (OCLS_SPHERE) */
+} Ray;
+
+/* Ray height above the base at t (z, plus the paraboloid on a sphere). */
+OCLS_INLINE float ray_height(const Ray *ray, float t)
+{
+    float z = ray->o.z + t * ray->d.z;
+#ifdef OCLS_SPHERE
+    const float u = ray->o.x + t * ray->d.x, v = ray->o.y + t * ray->d.y;
+    z = z + (ray->kx * u * u + ray->ky * v * v);
+#endif
+    return z;
+}
+
+/* Lowest ray height above the base over [ta, tb] (convex on a sphere: ends or vertex). */
+OCLS_INLINE float ray_low(const Ray *ray, float ta, float tb)
+{
+    float lo = fmin(ray_height(ray, ta), ray_height(ray, tb));
+#ifdef OCLS_SPHERE
+    const float3 o = ray->o, d = ray->d;
+    const float qa = ray->kx * d.x * d.x + ray->ky * d.y * d.y;
+    if (qa > 0.0f) {
+        const float tv = -(d.z + 2.0f * (ray->kx * o.x * d.x + ray->ky * o.y * d.y)) / (2.0f * qa);
+        if (tv > ta && tv < tb) lo = fmin(lo, ray_height(ray, tv));
+    }
+#endif
+    return lo;
+}
+
+/* Exact test of patch (r, c) over [ta, tb]: the first downward crossing, or INFINITY.
+ * f(ta + tau) = a + b tau + cq tau^2 (expanded about ta to keep float32 precision).
+ * *above: in, whether the ray was above the surface at the end of the previous piece of the
+ * walk (patch exit, or a voxel rejected above its max); out, the same at this patch's exit (0
+ * over a hole).  Above before and not above at the entry is a crossing on the shared edge:
+ * this makes the walk watertight without tolerances (rounding may put the root of the same
+ * edge crossing just outside both neighbours' intervals). */
+OCLS_INLINE float patch_hit(__global const float *h, const Ray *ray, int r, int c, float ta, float tb, int *above)
+{
+    const int i = r * ray->W + c, W = ray->W;
+    const float h00 = h[i], h01 = h[i + 1], h10 = h[i + W], h11 = h[i + W + 1];
+    if (isnan(h00) || isnan(h01) || isnan(h10) || isnan(h11)) { *above = 0; return INFINITY; }
+    const float3 o = ray->o, d = ray->d;
+    const float px = o.x + ta * d.x, py = o.y + ta * d.y, pz = o.z + ta * d.z;
+    const float s = px - (float)(c - ray->cu), w = py - (float)(r - ray->cv);
+    const float e = (h00 - h01) - (h10 - h11);
+    const float hu = (h01 - h00) + e * w, hv = (h10 - h00) + e * s;
+    float a = pz - (h00 + (h01 - h00) * s + ((h10 - h00) + e * s) * w);
+    float b = d.z - (hu * d.x + hv * d.y);
+    float cq = -(e * d.x) * d.y;
+#ifdef OCLS_SPHERE
+    a = a + (ray->kx * px * px + ray->ky * py * py);
+    b = b + 2.0f * (ray->kx * px * d.x + ray->ky * py * d.y);
+    cq = cq + (ray->kx * d.x * d.x + ray->ky * d.y * d.y);
+#endif
+    if (*above && a <= 0.0f) return ta;
+    const float len = tb - ta;
+    float best = INFINITY;
+    if (cq == 0.0f) {
+        if (b < 0.0f) {
+            const float r1 = -a / b;
+            if (r1 >= 0.0f && r1 <= len) best = r1;
+        }
+    } else {
+        const float disc = b * b - 4.0f * a * cq;
+        if (disc >= 0.0f) {
+            const float sq = sqrt(disc);
+            const float q = -0.5f * (b + (b >= 0.0f ? sq : -sq));
+            const float r1 = q / cq;
+            const float r2 = q != 0.0f ? a / q : INFINITY;
+            if (r1 >= 0.0f && r1 <= len && b + 2.0f * cq * r1 < 0.0f) best = r1;
+            if (r2 >= 0.0f && r2 <= len && b + 2.0f * cq * r2 < 0.0f) best = fmin(best, r2);
+        }
+    }
+    *above = a + (b + cq * len) * len > 0.0f;
+    return best < INFINITY ? ta + best : INFINITY;
+}
+
+/* Walk the patches crossed over [ta, tb] (Amanatides-Woo, at most max_steps), exact test in each.
+ * A start cell behind the ray (rounding at a boundary) gives one empty interval, then the step. */
+OCLS_INLINE float walk(__global const float *h, const Ray *ray, float ta, float tb, int max_steps, int *above,
+                       int2 *cell)
+{
+    const float3 o = ray->o, d = ray->d;
+    int c = clamp(ocls_floor_int(o.x + ta * d.x) + ray->cu, 0, ray->Wp - 1);
+    int r = clamp(ocls_floor_int(o.y + ta * d.y) + ray->cv, 0, ray->Hp - 1);
+    const int sc = d.x > 0.0f ? 1 : -1, sr = d.y > 0.0f ? 1 : -1;
+    float t = ta;
+    for (int k = 0; k < max_steps; ++k) {
+        const float tu = d.x != 0.0f ? ((float)(c - ray->cu + (sc > 0)) - o.x) * ray->iu : INFINITY;
+        const float tv = d.y != 0.0f ? ((float)(r - ray->cv + (sr > 0)) - o.y) * ray->iv : INFINITY;
+        const float tx = fmin(fmin(tu, tv), tb);
+        const float t1 = fmax(tx, t);
+        const float th = patch_hit(h, ray, r, c, t, t1, above);
+        if (th < INFINITY) { *cell = (int2)(r, c); return th; }
+        if (tx >= tb) break;
+        if (tu <= tv) c += sc;
+        if (tv <= tu) r += sr;
+        if (c < 0 || c >= ray->Wp || r < 0 || r >= ray->Hp) break;
+        t = t1;
+    }
+    return INFINITY;
+}
+
+/* Max of extrema level l over patch rows pr0..pr1, cols pc0..pc1 (spanning at most 2 x 2 tiles). */
+OCLS_INLINE float tiles_max(__global const float2 *ext, __global const int *ext_off, const Ray *ray, int l,
+                            int pr0, int pr1, int pc0, int pc1)
+{
+    const int C = ocls_level_extent(ray->Wp, l);
+    __global const float2 *lev = ext + ext_off[l];
+    const int r0 = pr0 >> l, r1 = pr1 >> l, c0 = pc0 >> l, c1 = pc1 >> l;
+    return fmax(fmax(lev[r0 * C + c0].x, lev[r0 * C + c1].x), fmax(lev[r1 * C + c0].x, lev[r1 * C + c1].x));
+}
+
+#if OCLS_METHOD == 1
+/* Paper 004: voxel bisection, near half first, LOD from the voxel's footprint. */
+OCLS_INLINE float cast(__global const float *h, __global const float2 *ext, __global const int *ext_off,
+                       int levels, const Ray *ray, float ts, float te, int2 *cell)
+{
+    const float3 o = ray->o, d = ray->d;
+    const float span = te - ts;
+    const float fp0 = fmax(fabs(d.x), fabs(d.y)) * span;
+    const int top = levels - 1, leaf_steps = (int)(2.0f * OCLS_LEAF) + 4;
+    uint k = 0, i = 0;
+    int above = 0;                                      /* the segment may start under the surface */
+    for (int it = 0; it < OCLS_MAX_IT; ++it) {
+        const float part = as_float((127 - (int)k) << 23);          /* 2^-k, k <= 24 */
+        const float ta = ts + span * ((float)i * part);
+        const float tb = ts + span * ((float)(i + 1u) * part);
+        const float fp = fp0 * part;
+        int split = 0;
+        if (fp <= OCLS_LEAF || k >= OCLS_KMAX) {
+            const float th = walk(h, ray, ta, tb, leaf_steps, &above, cell);
+            if (th < INFINITY) return th;
+        } else {
+            const int bits = as_int(fp);                   /* ceil(log2(fp)), fp > 1 normal */
+            const int l = clamp(((bits >> 23) & 0xff) - 127 + ((bits & 0x7fffff) != 0), 1, top);
+            const float ua = o.x + ta * d.x, ub = o.x + tb * d.x;
+            const float va = o.y + ta * d.y, vb = o.y + tb * d.y;
+            const int pc0 = clamp(ocls_floor_int(fmin(ua, ub)) + ray->cu, 0, ray->Wp - 1);
+            const int pc1 = clamp(ocls_floor_int(fmax(ua, ub)) + ray->cu, 0, ray->Wp - 1);
+            const int pr0 = clamp(ocls_floor_int(fmin(va, vb)) + ray->cv, 0, ray->Hp - 1);
+            const int pr1 = clamp(ocls_floor_int(fmax(va, vb)) + ray->cv, 0, ray->Hp - 1);
+            split = ray_low(ray, ta, tb) <= tiles_max(ext, ext_off, ray, l, pr0, pr1, pc0, pc1);
+        }
+        if (split) { ++k; i <<= 1; continue; }
+        if (fp > OCLS_LEAF && k < OCLS_KMAX) above = 1;  /* rejected: wholly above the max */
+        ++i;                                            /* next voxel: sibling, or climb */
+        while (k > 0u && (i & 1u) == 0u) { i >>= 1; --k; }
+        if (k == 0u) break;
+    }
+    return INFINITY;
+}
+#elif OCLS_METHOD == 2
+/* Baseline: uniform ray march, exact walk over the step where the ray goes below. */
+OCLS_INLINE float above(__global const float *h, const Ray *ray, float t)
+{
+    const float u = ray->o.x + t * ray->d.x, v = ray->o.y + t * ray->d.y;
+    const int c = clamp(ocls_floor_int(u) + ray->cu, 0, ray->Wp - 1);
+    const int r = clamp(ocls_floor_int(v) + ray->cv, 0, ray->Hp - 1);
+    const int i = r * ray->W + c, W = ray->W;
+    const float s = clamp(u - (float)(c - ray->cu), 0.0f, 1.0f), w = clamp(v - (float)(r - ray->cv), 0.0f, 1.0f);
+    const float top = h[i] + (h[i + 1] - h[i]) * s, bottom = h[i + W] + (h[i + W + 1] - h[i + W]) * s;
+    const float surf = top + (bottom - top) * w;
+    return isnan(surf) ? 1.0f : ray_height(ray, t) - surf;   /* holes count as above */
+}
+
+OCLS_INLINE float cast(__global const float *h, __global const float2 *ext, __global const int *ext_off,
+                       int levels, const Ray *ray, float ts, float te, int2 *cell)
+{
+    const float3 d = ray->d;
+    const float span = te - ts;
+    const float reach = fmax(fabs(d.x), fabs(d.y)) * span;          /* cells along the segment */
+    const int n = clamp((int)ceil(reach / OCLS_MARCH_STEP), 1, OCLS_MAX_IT);
+    const int steps = (int)(2.0f * OCLS_MARCH_STEP) + 4;
+    float tp = ts;
+    int was_above = above(h, ray, ts) > 0.0f;
+    for (int k = 1; k <= n; ++k) {
+        const float t = k == n ? te : ts + span * ((float)k / (float)n);
+        const int is_above = above(h, ray, t) > 0.0f;
+        if (was_above && !is_above) {
+            int above = 1;
+            const float th = walk(h, ray, tp, t, steps, &above, cell);
+            if (th < INFINITY) return th;
+        }
+        was_above = is_above;
+        tp = t;
+    }
+    return INFINITY;
+}
+#else
+/* Baseline: max-mipmap DDA (Tevs, Ihrke, Seidel 2008). */
+OCLS_INLINE float cast(__global const float *h, __global const float2 *ext, __global const int *ext_off,
+                       int levels, const Ray *ray, float ts, float te, int2 *cell)
+{
+    const float3 o = ray->o, d = ray->d;
+    const int sc = d.x > 0.0f ? 1 : -1, sr = d.y > 0.0f ? 1 : -1;
+    const int top = levels - 1;
+    int l = top, above = 0;
+    float t = ts;
+    int c = clamp(ocls_floor_int(o.x + t * d.x) + ray->cu, 0, ray->Wp - 1) >> l;
+    int r = clamp(ocls_floor_int(o.y + t * d.y) + ray->cv, 0, ray->Hp - 1) >> l;
+    for (int it = 0; it < OCLS_MAX_IT; ++it) {
+        const float tu = d.x != 0.0f ? ((float)(((c + (sc > 0)) << l) - ray->cu) - o.x) * ray->iu : INFINITY;
+        const float tv = d.y != 0.0f ? ((float)(((r + (sr > 0)) << l) - ray->cv) - o.y) * ray->iv : INFINITY;
+        const float tx = fmin(fmin(tu, tv), te);
+        const float t1 = fmax(tx, t);
+        if (l == 0) {
+            const float th = patch_hit(h, ray, r, c, t, t1, &above);
+            if (th < INFINITY) { *cell = (int2)(r, c); return th; }
+        } else {
+            const float hmax = ext[ext_off[l] + r * ocls_level_extent(ray->Wp, l) + c].x;
+            if (ray_low(ray, t, t1) <= hmax) {          /* descend into the child under the ray */
+                --l;
+                const int pc = clamp(ocls_floor_int(o.x + t * d.x) + ray->cu, 0, ray->Wp - 1);
+                const int pr = clamp(ocls_floor_int(o.y + t * d.y) + ray->cv, 0, ray->Hp - 1);
+                c = min(clamp(pc >> l, 2 * c, 2 * c + 1), ocls_level_extent(ray->Wp, l) - 1);
+                r = min(clamp(pr >> l, 2 * r, 2 * r + 1), ocls_level_extent(ray->Hp, l) - 1);
+                continue;
+            }
+            above = 1;                                  /* skipped: wholly above the max */
+        }
+        if (tx >= te) break;
+        t = t1;
+        const int oc = c, orow = r;
+        if (tu <= tv) c += sc;
+        if (tv <= tu) r += sr;
+        if (c < 0 || r < 0 || c >= ocls_level_extent(ray->Wp, l) || r >= ocls_level_extent(ray->Hp, l)) break;
+        if (l < top && ((c >> 1) != (oc >> 1) || (r >> 1) != (orow >> 1))) { ++l; c >>= 1; r >>= 1; }
+    }
+    return INFINITY;
+}
+#endif
+
+/* [t0, t1] clipped to lo <= o + t d <= hi along one axis. */
+OCLS_INLINE void clip_axis(float o, float d, float lo, float hi, float *t0, float *t1)
+{
+    if (d == 0.0f) {
+        if (o < lo || o > hi) *t0 = INFINITY;
+        return;
+    }
+    const float ta = (lo - o) / d, tb = (hi - o) / d;
+    *t0 = fmax(*t0, fmin(ta, tb));
+    *t1 = fmin(*t1, fmax(ta, tb));
+}
+
+#ifdef OCLS_COLOUR
+/* Bilinear sample of colour level m at level-0 texel coordinates (x0, y0), edges clamped. */
+OCLS_INLINE float4 texel_bilinear(__global const float4 *tex, int4 lv, float x0, float y0, int m)
+{
+    const float scale = ldexp(1.0f, -m);
+    const float x = (x0 + 0.5f) * scale - 0.5f, y = (y0 + 0.5f) * scale - 0.5f;
+    const int xi = ocls_floor_int(x), yi = ocls_floor_int(y);
+    const float fx = x - (float)xi, fy = y - (float)yi;
+    const int xa = clamp(xi, 0, lv.y - 1), xb = clamp(xi + 1, 0, lv.y - 1);
+    const int ya = clamp(yi, 0, lv.z - 1), yb = clamp(yi + 1, 0, lv.z - 1);
+    __global const float4 *t = tex + lv.x;
+    const float4 top = t[ya * lv.y + xa] + (t[ya * lv.y + xb] - t[ya * lv.y + xa]) * fx;
+    const float4 bot = t[yb * lv.y + xa] + (t[yb * lv.y + xb] - t[yb * lv.y + xa]) * fx;
+    return top + (bot - top) * fy;
+}
+
+/* Trilinear (mip-mapped) colour at heightmap coordinates (u, v), LOD from the uv derivatives. */
+OCLS_INLINE float4 colour_at(__global const float4 *tex, __global const int4 *levels, int ntex,
+                             int H, int W, float u, float v, float4 grad)
+{
+    const int4 l0 = levels[0];
+    const float ax = (float)l0.y / (float)W, ay = (float)l0.z / (float)H;
+    const float x0 = (u + 0.5f) * ax - 0.5f, y0 = (v + 0.5f) * ay - 0.5f;
+    const float fc = fmax(fabs(grad.x * ax), fabs(grad.y * ay));
+    const float fr = fmax(fabs(grad.z * ax), fabs(grad.w * ay));
+    const float lod = clamp(log2(fmax(fmax(fc, fr), 1e-30f)), 0.0f, (float)(ntex - 1));
+    const int m = min((int)lod, ntex - 1), m1 = min(m + 1, ntex - 1);
+    const float4 a = texel_bilinear(tex, levels[m], x0, y0, m);
+    const float4 b = texel_bilinear(tex, levels[m1], x0, y0, m1);
+    return a + (b - a) * (lod - (float)m);
+}
+#else
+/* Hypsometric tint (linear RGB) of a height normalised to [0, 1] over the map's range. */
+OCLS_INLINE float4 hypsometric(float x)
+{
+    const float3 stops[5] = {(float3)(0.02f, 0.18f, 0.05f), (float3)(0.22f, 0.35f, 0.08f),
+                             (float3)(0.40f, 0.28f, 0.13f), (float3)(0.38f, 0.36f, 0.34f),
+                             (float3)(0.90f, 0.90f, 0.92f)};
+    const float p = clamp(x, 0.0f, 1.0f) * 4.0f;
+    const int k = min((int)p, 3);
+    const float3 c = stops[k] + (stops[k + 1] - stops[k]) * (p - (float)k);
+    return (float4)(c, 1.0f);
+}
+#endif
+
+__kernel void terrain_cast(__global const float *h, const int H, const int W,
+                           __global const float2 *ext, __global const int *ext_off, const int levels,
+                           const float4 g0, const float4 g1, const float4 g2,
+                           const float4 r0, const float4 r1, const float4 r2,
+                           const float4 cam, const int IW, const int IH, const int cu, const int cv,
+                           const float4 geo, const float4 hrange,
+                           __global const float4 *tex, __global const int4 *tex_levels, const int ntex,
+                           __global float4 *position, __global float4 *normal, __global float2 *uv,
+                           __global float4 *uv_grad, __global float *depth, __global float4 *albedo)
+{
+    const int px = get_global_id(0), py = get_global_id(1);
+    if (px >= IW || py >= IH) return;
+    const int idx = py * IW + px;
+    const float nx = (float)(2 * px + 1) / (float)IW - 1.0f;
+    const float ny = 1.0f - (float)(2 * py + 1) / (float)IH;
+#ifdef OCLS_ORTHO
+    const float3 ov = (float3)(nx * cam.x, ny * cam.y, 0.0f), dv = (float3)(0.0f, 0.0f, -1.0f);
+#else
+    const float3 ov = (float3)(0.0f, 0.0f, 0.0f), dv = (float3)(nx * cam.x, ny * cam.y, -1.0f);
+#endif
+    Ray ray;
+    ray.H = H; ray.W = W; ray.Hp = H - 1; ray.Wp = W - 1; ray.cu = cu; ray.cv = cv;
+    ray.kx = geo.z; ray.ky = geo.w;
+    ray.o = (float3)(dot(g0.xyz, ov) + g0.w, dot(g1.xyz, ov) + g1.w, dot(g2.xyz, ov) + g2.w);
+    ray.d = (float3)(dot(g0.xyz, dv), dot(g1.xyz, dv), dot(g2.xyz, dv));
+    ray.iu = 1.0f / ray.d.x;
+    ray.iv = 1.0f / ray.d.y;
+    /* the visible segment, clipped to the map's box (and the height slab on a plane) */
+    float ts = cam.z, te = cam.w;
+    clip_axis(ray.o.x, ray.d.x, (float)(-cu), (float)(W - 1 - cu), &ts, &te);
+    clip_axis(ray.o.y, ray.d.y, (float)(-cv), (float)(H - 1 - cv), &ts, &te);
+#ifndef OCLS_SPHERE
+    if (ts <= te) {   /* a margin far above the rounding of o.z + t d.z: the clip only prunes */
+        const float mh = 1e-3f * (hrange.y - hrange.x) + 1e-5f * (fabs(hrange.x) + fabs(hrange.y)
+                         + fabs(ray.o.z) + fabs(ts * ray.d.z) + fabs(te * ray.d.z)) + 1e-30f;
+        clip_axis(ray.o.z, ray.d.z, hrange.x - mh, hrange.y + mh, &ts, &te);
+    }
+#endif
+    int2 cell = (int2)(0, 0);
+    float th = INFINITY;
+    if (H >= 2 && W >= 2 && ts <= te) th = cast(h, ext, ext_off, levels, &ray, ts, te, &cell);
+    if (!(th < INFINITY)) {
+        position[idx] = (float4)(0.0f); normal[idx] = (float4)(0.0f); uv[idx] = (float2)(0.0f);
+        uv_grad[idx] = (float4)(0.0f); depth[idx] = INFINITY; albedo[idx] = (float4)(0.0f);
+        return;
+    }
+    const float3 o = ray.o, d = ray.d;
+    const int r = cell.x, c = cell.y;
+    const float3 p = (float3)(o.x + th * d.x, o.y + th * d.y, o.z + th * d.z);
+    const float s = clamp(p.x - (float)(c - cu), 0.0f, 1.0f), w = clamp(p.y - (float)(r - cv), 0.0f, 1.0f);
+    const int i = r * W + c;
+    const float h00 = h[i], h01 = h[i + 1], h10 = h[i + W], h11 = h[i + W + 1];
+    const float e = (h00 - h01) - (h10 - h11);
+    float hu = (h01 - h00) + e * w, hv = (h10 - h00) + e * s;
+#ifdef OCLS_SPHERE
+    hu = hu - 2.0f * ray.kx * p.x;
+    hv = hv - 2.0f * ray.ky * p.y;
+#endif
+    /* view-space position and normal (world normal of the graph, rotated) */
+    position[idx] = (float4)(ov.x + th * dv.x, ov.y + th * dv.y, ov.z + th * dv.z, 1.0f);
+    const float3 nw = (float3)(-hu / geo.x, hv / geo.y, 1.0f);
+    const float3 nv = normalize((float3)(dot(r0.xyz, nw), dot(r1.xyz, nw), dot(r2.xyz, nw)));
+    normal[idx] = (float4)(nv, 0.0f);
+    const float2 uvh = (float2)((float)c + s, (float)r + w);
+    uv[idx] = uvh;
+    depth[idx] = th;
+    /* ray differentials against the tangent plane (gradient gr of z - surface) */
+    const float3 gr = (float3)(-hu, -hv, 1.0f);
+    float gd = dot(gr, d);
+    const float tiny = 1e-6f * length(gr) * length(d);
+    if (fabs(gd) < tiny) gd = gd < 0.0f ? -tiny : tiny;
+    const float ddc = 2.0f * cam.x / (float)IW, ddr = -2.0f * cam.y / (float)IH;
+    const float3 vc = (float3)(g0.x, g1.x, g2.x) * ddc, vr = (float3)(g0.y, g1.y, g2.y) * ddr;
+#ifdef OCLS_ORTHO
+    const float3 pc = vc - d * (dot(gr, vc) / gd), pr = vr - d * (dot(gr, vr) / gd);
+#else
+    const float3 pc = (vc - d * (dot(gr, vc) / gd)) * th, pr = (vr - d * (dot(gr, vr) / gd)) * th;
+#endif
+    const float4 grad = (float4)(pc.x, pc.y, pr.x, pr.y);
+    uv_grad[idx] = grad;
+#ifdef OCLS_COLOUR
+    albedo[idx] = colour_at(tex, tex_levels, ntex, H, W, uvh.x, uvh.y, grad);
+#else
+    const float hs = h00 + (h01 - h00) * s + ((h10 - h00) + e * s) * w;
+    albedo[idx] = hypsometric((hs - hrange.x) / fmax(hrange.y - hrange.x, 1e-30f));
+#endif
+}

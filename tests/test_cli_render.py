@@ -1,0 +1,97 @@
+"""``oclshade render``, run in-process through ``oclshade.cli.main``."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import OpenEXR
+import pytest
+from PIL import Image
+
+from oclshade.camera import frame_heightmap
+from oclshade.cli import GBUFFER_CHANNELS, main
+from oclshade.heightmap import Heightmap
+from oclshade.synthetic import canyon_crater
+from oclshade.terrain import Heightfield, TerrainRenderer
+
+
+@pytest.fixture()
+def npy(tmp_path: Path) -> Path:
+    path = tmp_path / "dem.npy"
+    np.save(path, canyon_crater(40, 56, seed=3, relief=600.0))
+    return path
+
+
+def test_render_png_and_gbuffer(tmp_path: Path, npy: Path, capsys) -> None:
+    png, exr = tmp_path / "out" / "view.png", tmp_path / "out" / "view.exr"
+    assert main(["render", str(npy), str(png), "--cellsize", "30", "--size", "64x40", "--gbuffer", str(exr),
+                 "--view", "150,35", "--sun", "100,30"]) == 0
+    assert "64x40 pixels" in capsys.readouterr().err
+    img = np.asarray(Image.open(png))
+    assert img.shape == (40, 64, 3) and img.dtype == np.uint8
+    with OpenEXR.File(str(exr), separate_channels=True) as f:
+        channels = {name: np.array(c.pixels) for name, c in f.channels().items()}
+    want = {n for names in GBUFFER_CHANNELS.values() for n in names if n is not None}
+    assert set(channels) == want
+    # the EXR holds what the Python API renders for the same camera
+    hm = Heightmap.from_array(np.load(npy), 30.0)
+    cam = frame_heightmap(hm, 64, 40, azimuth=150.0, elevation=35.0)
+    g = TerrainRenderer(Heightfield(hm)).render(cam)
+    assert np.array_equal(channels["Z"], g.depth)
+    assert np.array_equal(channels["position.w"], g.position[..., 3])
+    assert np.array_equal(channels["uv_grad.dvdr"], g.uv_grad[..., 3])
+    sky = img[~g.hit]
+    assert len(np.unique(sky.reshape(-1, 3), axis=0)) == 1                # empty pixels: one sky colour
+
+
+def test_render_exr_only_with_explicit_camera_and_methods(tmp_path: Path, npy: Path) -> None:
+    outs = {}
+    for method in ("bisect", "dda"):
+        out = tmp_path / f"{method}.exr"
+        assert main(["render", str(npy), str(out), "--cellsize", "30", "--size", "32x24", "--method", method,
+                     "--camera", "800,-2500,1500,800,-600,0", "-q"]) == 0
+        with OpenEXR.File(str(out), separate_channels=True) as f:
+            outs[method] = np.array(f.channels()["Z"].pixels)
+    assert np.isfinite(outs["bisect"]).mean() > 0.2
+    assert np.array_equal(np.isfinite(outs["bisect"]), np.isfinite(outs["dda"]))
+
+
+def test_render_z_factor_and_scale_change_the_frame(tmp_path: Path, npy: Path) -> None:
+    frames = []
+    for extra in ([], ["-z", "3"], ["-s", "2"]):
+        out = tmp_path / f"f{len(frames)}.exr"
+        assert main(["render", str(npy), str(out), "--cellsize", "30", "--size", "24x16", "-q", "--ortho",
+                     "--view", "180,90", *extra]) == 0
+        with OpenEXR.File(str(out), separate_channels=True) as f:
+            frames.append(np.array(f.channels()["normal.z"].pixels))
+    assert not np.array_equal(frames[0], frames[1]) and not np.array_equal(frames[0], frames[2])
+
+
+@pytest.mark.parametrize("argv,message", [
+    (["--size", "12"], "WIDTHxHEIGHT"),
+    (["--camera", "1,2,3"], "6 comma-separated"),
+    (["--fov", "180"], "fov"),
+    (["--method", "ray"], "invalid choice"),
+])
+def test_render_bad_arguments(tmp_path: Path, npy: Path, capsys, argv, message) -> None:
+    assert main(["render", str(npy), str(tmp_path / "x.png"), "--cellsize", "30", *argv]) == 2
+    assert message in capsys.readouterr().err
+
+
+def test_render_refuses_bad_outputs(tmp_path: Path, npy: Path, capsys) -> None:
+    assert main(["render", str(npy), str(tmp_path / "x.tif"), "--cellsize", "30"]) == 2
+    assert "expected .png" in capsys.readouterr().err
+    assert main(["render", str(npy), str(tmp_path / "x.exr"), "--cellsize", "30", "--gbuffer",
+                 str(tmp_path / "g.exr")]) == 2
+    before = npy.read_bytes()
+    assert main(["render", str(npy), str(npy), "--cellsize", "30"]) == 2          # .npy is not an output kind
+    png = tmp_path / "dem.png"
+    Image.fromarray(np.full((20, 30), 100, np.uint8)).save(png)
+    assert main(["render", str(png), str(png), "--cellsize", "30"]) == 1
+    assert "refusing to overwrite" in capsys.readouterr().err
+    assert npy.read_bytes() == before and np.asarray(Image.open(png)).shape == (20, 30)
+
+
+def test_render_needs_a_cell_size(tmp_path: Path, npy: Path, capsys) -> None:
+    assert main(["render", str(npy), str(tmp_path / "x.png")]) == 2
+    assert "--cellsize" in capsys.readouterr().err
