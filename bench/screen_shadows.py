@@ -122,7 +122,7 @@ def _flag(caster, buf, shape) -> np.ndarray:
 
 def bench_dataset(name: str, args: argparse.Namespace) -> dict:
     from oclshade.heightmap import Heightmap
-    from oclshade.screen_shadows import DeviceGBuffer, ScreenShadowCaster
+    from oclshade.screen_shadows import PixelBuffers, ScreenShadowCaster
     try:
         data = load_dataset(name, args.size, args.data)
     except Skip as e:
@@ -136,7 +136,7 @@ def bench_dataset(name: str, args: argparse.Namespace) -> dict:
     caster.coarse
     caster.runtime.queue.finish()
     prep_ms = (time.perf_counter() - t0) * 1e3
-    dev = DeviceGBuffer.upload(gb, caster.runtime)
+    dev = PixelBuffers.upload(gb, caster.runtime)
     hit = gb.hit
     lod = caster.shade(dev, (args.azimuth, 45.0), lod=lod_options("auto"), outputs="lod").lod
     q_hist = {int(k): int(v) for k, v in zip(*np.unique(lod[hit], return_counts=True))}

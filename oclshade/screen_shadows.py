@@ -25,15 +25,17 @@ levels above q are the extrema of the true surface.  At q = 0 the pass is
 exact (equal to :func:`oclshade.reference.pixel_shadows` but for float32
 ties); the error at q > 0 is measured in ``bench/screen_shadows.py``.
 
-Inputs are a :class:`~oclshade.gbuffer.GBuffer` (host arrays) or a
-:class:`DeviceGBuffer` wrapping existing ``pyopencl`` buffers of the same
-layout (no host round trip); only ``position`` (w = hit), ``uv`` and
-``uv_grad`` are read.
+Inputs: a :class:`~oclshade.gbuffer.GBuffer` (host arrays), a rendered
+:class:`oclshade.terrain.DeviceGBuffer`, or :class:`PixelBuffers` wrapping
+existing ``pyopencl`` buffers of the same layout (no host round trip in the
+last two); only ``position`` (w = hit), ``uv`` and ``uv_grad`` are read.
+The heightmap is flat: a :class:`~oclshade.terrain.Heightfield` on a sphere
+(``radius``) is shadowed as if its base were flat.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Sequence
+from typing import Sequence, Union
 
 import numpy as np
 import pyopencl as cl
@@ -44,6 +46,7 @@ from .pyramid import ExtremaPyramid, build_extrema_pyramid, build_mip_pyramid, l
 from .runtime import Runtime, get_runtime
 from .shadows import DEFAULT_K_BRIGHT, DEFAULT_K_DARK, ShadowFeatures, check_coefficients, check_method
 from .sun import Sun, SunLike, as_sun
+from .terrain import DeviceGBuffer
 
 OUTPUTS = ("flag", "coefficient", "lod")
 FLAG_EMPTY = 255
@@ -94,8 +97,11 @@ class PixelShadowFeatures:
 
 
 @dataclass
-class DeviceGBuffer:
-    """The fields of a G-buffer the shadow pass reads, as device buffers (layout: oclshade.gbuffer)."""
+class PixelBuffers:
+    """The three G-buffer fields the shadow pass reads, as existing device buffers (layout:
+    :mod:`oclshade.gbuffer`): how a foreign renderer hands its G-buffer over without a
+    host round trip.  (A whole rendered :class:`oclshade.terrain.DeviceGBuffer` is
+    accepted as it is.)"""
 
     position: cl.Buffer   # float4 per pixel, w = 1 hit, 0 empty
     uv: cl.Buffer         # float2 per pixel
@@ -110,14 +116,17 @@ class DeviceGBuffer:
         for name, channels in (("position", 4), ("uv", 2), ("uv_grad", 4)):
             buf = getattr(self, name)
             if not isinstance(buf, cl.Buffer) or buf.size < 4 * channels * n:
-                raise ValueError(f"DeviceGBuffer.{name} must be a pyopencl Buffer of at least "
+                raise ValueError(f"PixelBuffers.{name} must be a pyopencl Buffer of at least "
                                  f"{4 * channels * n} bytes (float{channels} x {height}x{width})")
 
     @classmethod
-    def upload(cls, gbuffer: GBuffer, runtime: Runtime) -> "DeviceGBuffer":
+    def upload(cls, gbuffer: GBuffer, runtime: Runtime) -> "PixelBuffers":
         return cls(runtime.to_device(gbuffer.position, "G-buffer position"),
                    runtime.to_device(gbuffer.uv, "G-buffer uv"),
                    runtime.to_device(gbuffer.uv_grad, "G-buffer uv_grad"), gbuffer.shape)
+
+
+GBufferLike = Union[GBuffer, DeviceGBuffer, PixelBuffers]
 
 
 @dataclass
@@ -207,7 +216,7 @@ class ScreenShadowCaster:
         self.runtime.queue.finish()
         self.runtime.program("shadow.cl", PixelShadowFeatures(method, check_outputs(outputs)).defines())
 
-    def shade(self, gbuffer: GBuffer | DeviceGBuffer, sun: SunLike, method: str = "exact",
+    def shade(self, gbuffer: GBufferLike, sun: SunLike, method: str = "exact",
               lod: LodOptions = LodOptions(), outputs: str | Sequence[str] = ("flag", "coefficient"),
               k_dark: float = DEFAULT_K_DARK, k_bright: float = DEFAULT_K_BRIGHT) -> PixelShadowResult:
         """Per-pixel outputs for one sun, copied to the host."""
@@ -223,7 +232,7 @@ class ScreenShadowCaster:
         self.runtime.queue.finish()
         return res
 
-    def shade_to_device(self, gbuffer: GBuffer | DeviceGBuffer, sun: SunLike, method: str = "exact",
+    def shade_to_device(self, gbuffer: GBufferLike, sun: SunLike, method: str = "exact",
                         lod: LodOptions = LodOptions(), outputs: str | Sequence[str] = ("flag", "coefficient"),
                         k_dark: float = DEFAULT_K_DARK, k_bright: float = DEFAULT_K_BRIGHT,
                         out: dict[str, cl.Buffer] | None = None) -> dict[str, cl.Buffer]:
@@ -246,7 +255,7 @@ class ScreenShadowCaster:
         cl.enqueue_nd_range_kernel(self.runtime.queue, kernel, *self.runtime.grid_2d(kernel, width, height))
         return {name: bufs[name] for name in outs}
 
-    def step_counts(self, gbuffer: GBuffer | DeviceGBuffer, sun: SunLike, method: str = "exact",
+    def step_counts(self, gbuffer: GBufferLike, sun: SunLike, method: str = "exact",
                     lod: LodOptions = LodOptions(), band_pixels: int = 1 << 19) -> np.ndarray:
         """Traversal iterations per pyramid level, summed over all pixels (a profiling build;
         uint32 counters per band of rows, summed here in int64)."""
@@ -273,14 +282,19 @@ class ScreenShadowCaster:
             total += part
         return total
 
-    def _device_gbuffer(self, gbuffer: GBuffer | DeviceGBuffer) -> DeviceGBuffer:
-        if isinstance(gbuffer, DeviceGBuffer):
+    def _device_gbuffer(self, gbuffer: GBufferLike) -> PixelBuffers:
+        if isinstance(gbuffer, PixelBuffers):
             return gbuffer
         if isinstance(gbuffer, GBuffer):
-            return DeviceGBuffer.upload(gbuffer, self.runtime)
-        raise TypeError(f"gbuffer must be a GBuffer or a DeviceGBuffer, got {type(gbuffer).__name__}")
+            return PixelBuffers.upload(gbuffer, self.runtime)
+        if isinstance(gbuffer, DeviceGBuffer):
+            if gbuffer.runtime is not self.runtime:
+                raise ValueError("the rendered G-buffer lives on another device than this caster")
+            b = gbuffer.buffers
+            return PixelBuffers(b["position"], b["uv"], b["uv_grad"], gbuffer.shape)
+        raise TypeError(f"gbuffer must be a GBuffer, DeviceGBuffer or PixelBuffers, got {type(gbuffer).__name__}")
 
-    def _args(self, gb: DeviceGBuffer, sun: Sun, lod: LodOptions, k_dark: float, k_bright: float) -> tuple:
+    def _args(self, gb: PixelBuffers, sun: Sun, lod: LodOptions, k_dark: float, k_bright: float) -> tuple:
         """Kernel arguments up to (not including) the output buffers."""
         hm, pyr = self.heightmap, self.pyramid
         if not isinstance(lod, LodOptions):

@@ -13,7 +13,7 @@ from oclshade import Sun
 from oclshade import reference as ref
 from oclshade.gbuffer import GBuffer
 from oclshade.heightmap import Heightmap
-from oclshade.screen_shadows import DeviceGBuffer, LodOptions, ScreenShadowCaster, coarse_grid
+from oclshade.screen_shadows import PixelBuffers, LodOptions, ScreenShadowCaster, coarse_grid
 from oclshade.synthetic import canyon_crater
 
 from test_shadows import azimuths, cell_sizes, elevations, terrains
@@ -256,7 +256,7 @@ def test_device_buffers_give_the_same_answer_without_a_host_round_trip():
     caster = ScreenShadowCaster(hm)
     uv, grad = view_along(200.0, (20, 30), hm)
     gb = gbuffer(uv, grad)
-    dev = DeviceGBuffer.upload(gb, caster.runtime)
+    dev = PixelBuffers.upload(gb, caster.runtime)
     host = caster.shade(gb, (150.0, 10.0), outputs="all")
     bufs = caster.shade_to_device(dev, (150.0, 10.0), outputs=("flag", "coefficient"))
     assert set(bufs) == {"flag", "coefficient"} and all(isinstance(b, cl.Buffer) for b in bufs.values())
@@ -266,7 +266,7 @@ def test_device_buffers_give_the_same_answer_without_a_host_round_trip():
     again = caster.shade_to_device(dev, (150.0, 10.0), outputs="flag", out=bufs)
     assert again["flag"] is bufs["flag"]                       # buffers reused across frames
     with pytest.raises(ValueError, match="uv_grad"):
-        DeviceGBuffer(dev.position, dev.uv, caster.runtime.empty(16, "small"), gb.shape)
+        PixelBuffers(dev.position, dev.uv, caster.runtime.empty(16, "small"), gb.shape)
 
 
 # ----------------------------------------------------------------------------- q > 0 (approximate)
@@ -316,3 +316,83 @@ def test_step_counts_by_level():
     q2 = caster.step_counts(gb, (37.0, 10.0), "exact", LodOptions(force_q=2))
     assert q0.shape == (caster.top_level + 1,) and q0[0] > 0
     assert q2[0] == 0 and q2[1] == 0 and q2[2] > 0
+
+
+# ----------------------------------------------------------------------------- rendered G-buffers
+def rendered_scene(sun_az: float = 37.0):
+    from oclshade.camera import frame_heightmap
+    from oclshade.terrain import Heightfield, TerrainRenderer
+
+    field = Heightfield.from_array(canyon_crater(72, 90, seed=6), 30.0)
+    camera = frame_heightmap(field.heightmap, 64, 48, azimuth=sun_az + 160.0, elevation=30.0)
+    return field, camera, TerrainRenderer(field)
+
+
+def test_rendered_gbuffer_q0_equals_reference_and_feeds_compose_on_device():
+    from oclshade.compose import Lighting, compose
+
+    field, camera, renderer = rendered_scene()
+    hm, sun = field.heightmap, Sun(37.0, 8.0)
+    host = renderer.render(camera)
+    assert host.hit.mean() > 0.2
+    caster = ScreenShadowCaster(hm, device=renderer.runtime)
+    assert_pixels_exact(hm, sun, host, caster)
+    # on the device end to end: render -> shadow pass -> compose, no host copy in between
+    dev = renderer.render(camera, on_device=True)
+    bufs = caster.shade_to_device(dev, sun, outputs="coefficient")
+    lighting = Lighting(sun=(sun.azimuth, sun.elevation))
+    frame = compose(dev, camera, lighting, shadow=bufs["coefficient"])
+    coef = caster.shade(host, sun).coefficient
+    assert np.array_equal(frame, compose(host, camera, lighting, shadow=coef))
+    unshadowed = compose(host, camera, lighting)
+    dark = (coef < 1.0) & host.hit
+    assert dark.any() and (frame[dark][:, :3].astype(int).sum(1) <= unshadowed[dark][:, :3].astype(int).sum(1)).all()
+
+
+def test_foreign_gbuffer_made_by_the_reference_caster():
+    """A G-buffer made outside the library (the float64 reference ray caster, uv_grad by
+    central differences) is shaded like any other: q = 0 exact, Algo 1 on its derivatives."""
+    from oclshade.reference import cast_terrain
+
+    field, camera, _ = rendered_scene(200.0)
+    hm, sun = field.heightmap, Sun(200.0, 6.0)
+    r = cast_terrain(field, camera)
+    shape = (camera.height, camera.width)
+    hit = r.hit.reshape(shape)
+    uv = r.uv.reshape(shape + (2,))
+    grad = np.concatenate([np.gradient(uv, axis=1), np.gradient(uv, axis=0)], -1) * hit[..., None]
+    gb = gbuffer(uv.astype(np.float32), grad.astype(np.float32), hit)
+    assert hit.mean() > 0.2
+    caster = ScreenShadowCaster(hm)
+    assert_pixels_exact(hm, sun, gb, caster)
+    auto = caster.shade(gb, sun, outputs="lod").lod
+    np.testing.assert_array_equal(auto[hit], ref.minimal_lod(gb.uv_grad[hit], caster.top_level))
+
+
+def test_orthographic_camera_at_the_sun_sees_only_lit_terrain():
+    """Looking along the sun's rays from the sun's side: whatever the camera sees, the
+    sun sees, so every visible pixel is lit (float32 grazing ties at silhouettes aside).
+
+    The map's edge samples are set to its minimum: the terrain is a surface with
+    nothing beyond the edge, so a view ray entering the map *under* the surface
+    through its open side could otherwise see terrain that the sun, whose ray
+    runs inside the relief, does not light."""
+    from oclshade.camera import frame_heightmap
+    from oclshade.terrain import Heightfield, TerrainRenderer
+
+    h = canyon_crater(72, 90, seed=6).astype(np.float64)
+    h[0, :] = h[-1, :] = h[:, 0] = h[:, -1] = h.min()
+    field = Heightfield.from_array(h, 30.0)
+    sun = Sun(37.0, 25.0)
+    camera = frame_heightmap(field.heightmap, 64, 48, azimuth=sun.azimuth, elevation=sun.elevation,
+                             projection="orthographic")
+    gb = TerrainRenderer(field).render(camera)
+    caster = ScreenShadowCaster(field.heightmap)
+    flag = caster.shade(gb, sun, lod=Q0).flag
+    assert gb.hit.sum() > 500
+    assert (flag[gb.hit] == 1).sum() <= 3
+    # and the opposite view, with the sun behind the terrain, sees shadow
+    back = frame_heightmap(field.heightmap, 64, 48, azimuth=sun.azimuth + 180.0, elevation=sun.elevation,
+                           projection="orthographic")
+    gb_back = TerrainRenderer(field).render(back)
+    assert (caster.shade(gb_back, sun, lod=Q0).flag[gb_back.hit] == 1).mean() > 0.05
