@@ -5,14 +5,12 @@ elevation for each level of detail) with the error of each setting, in one run.
     python bench/screen_shadows.py                       # 1920x1080, canyon 2048^2 + Puget 2048^2
     python bench/screen_shadows.py --quick --out /tmp/b  # tiny sizes (the smoke test)
 
-G-buffer: a perspective view (``plane_view``) of the map's mid-height plane
-by a camera south-west of the map looking north-east and down: uv (heightmap
-coordinates), uv_grad (their per-pixel central differences) and position
-(view space, w = 1 where the view ray meets the plane on the map) filled per
-pixel, so Algo 1 sees the foreshortening of a real terrain view (fine near
-the camera, coarse toward the horizon).  The shadow pass only reads position.w,
-uv and uv_grad; occlusion by the terrain itself is not modelled (every pixel
-of the plane is a terrain point of the map).
+G-buffer (``--view``): ``rendered`` (default) by the terrain ray caster
+(oclshade.terrain, camera ``frame_heightmap``: the whole map seen from the
+south-south-west, 35 degrees up); or ``plane``, a perspective view
+(``plane_view``) of the map's mid-height plane by a camera south-west of the
+map looking north-east and down, uv / uv_grad / position filled per pixel
+without a renderer (every pixel of the plane is a terrain point of the map).
 
 For every dataset and every sun elevation 0..90 (``--step``) at azimuth
 ``--azimuth`` it times the pass (min / median of ``--reps``, kernel enqueue
@@ -97,6 +95,21 @@ def plane_view(hm, width: int, height: int, vfov_deg: float = 45.0, pitch_deg: f
                    np.where(hit, t, np.inf), np.zeros((height, width, 4)))
 
 
+def make_view(hm, args) -> tuple:
+    """The G-buffer the pass runs on and a description of it."""
+    if args.view == "plane":
+        return plane_view(hm, args.width, args.height), "plane_view (perspective view of the map's mid plane)"
+    from oclshade.camera import frame_heightmap
+    from oclshade.terrain import Heightfield, TerrainRenderer
+    camera = frame_heightmap(hm, args.width, args.height, azimuth=args.camera_azimuth,
+                             elevation=args.camera_elevation)
+    t0 = time.perf_counter()
+    gb = TerrainRenderer(Heightfield(hm)).render(camera)
+    return gb, (f"rendered by oclshade.terrain.TerrainRenderer (bisect), camera "
+                f"frame_heightmap(azimuth={args.camera_azimuth:g}, elevation={args.camera_elevation:g}), "
+                f"render + copy {1e3 * (time.perf_counter() - t0):.0f} ms")
+
+
 # ----------------------------------------------------------------------------- measuring
 def _time_pass(caster, dev_gb, sun, method, lod, reps: int, out: dict) -> tuple[dict, dict]:
     """Wall time (min, median) and process CPU time (min; PoCL's threads are ours) of the pass.
@@ -130,7 +143,7 @@ def bench_dataset(name: str, args: argparse.Namespace) -> dict:
         return {"name": name, "skipped": str(e)}
     hm = Heightmap.from_array(data["heights"], (data["dx"], data["dy"]))
     log(f"{name}: {hm.shape}, G-buffer {args.width}x{args.height}")
-    gb = plane_view(hm, args.width, args.height)
+    gb, view = make_view(hm, args)
     caster = ScreenShadowCaster(hm)
     t0 = time.perf_counter()
     caster.coarse
@@ -140,7 +153,7 @@ def bench_dataset(name: str, args: argparse.Namespace) -> dict:
     hit = gb.hit
     lod = caster.shade(dev, (args.azimuth, 45.0), lod=lod_options("auto"), outputs="lod").lod
     q_hist = {int(k): int(v) for k, v in zip(*np.unique(lod[hit], return_counts=True))}
-    res = {"name": name, "skipped": None, "shape": list(hm.shape), "cell_m": [hm.dx, hm.dy],
+    res = {"name": name, "skipped": None, "shape": list(hm.shape), "cell_m": [hm.dx, hm.dy], "view": view,
            "source": data["source"], "prep_ms": prep_ms, "hit_pixels": int(hit.sum()),
            "auto_q_histogram": q_hist, "levels": caster.pyramid.levels, "suns": []}
     for m in ("exact", *EXTRA_METHODS):                 # compile every variant before timing
@@ -240,14 +253,21 @@ def summary(ds: dict, must_elev: float) -> dict:
     return out
 
 
+def _run_keys(ds: dict) -> list[str]:
+    """Every method/setting measured at some elevation (dda stops at low sun), in run order."""
+    keys: dict[str, None] = {}
+    for s in sorted(ds["suns"], key=lambda s: -s["elevation"]):
+        keys.update(dict.fromkeys(s["runs"]))
+    return list(keys)
+
+
 def write_markdown(path: Path, result: dict) -> None:
     meta, cfg = result["meta"], result["config"]
     lines = ["# Per-pixel shadow pass over a G-buffer (paper 000 Fig. 8)", "",
              f"- date: {meta['date']}; command: `{meta['command']}`",
              f"- CPU: {meta['cpu']}, {meta['cores']} cores; device: {meta['device']} ({meta['compute_units']} compute units)",
              f"- PoCL {meta['pocl_version']} ({meta['platform_version']}); numpy {meta['numpy']}, pyopencl {meta['pyopencl']}",
-             f"- G-buffer {cfg['width']}x{cfg['height']} (`plane_view`: perspective view of the map's mid plane, "
-             "uv/uv_grad per pixel), sun azimuth "
+             f"- G-buffer {cfg['width']}x{cfg['height']} (view per dataset below), sun azimuth "
              f"{cfg['azimuth']:g}; time = enqueue..finish of `ScreenShadowCaster.shade_to_device` (flag + "
              f"coefficient, G-buffer resident), min of {cfg['reps']}; error = % of map pixels whose shadow flag "
              "differs from q = 0 exact at the same sun; table cells: wall min / CPU min / error", ""]
@@ -257,7 +277,7 @@ def write_markdown(path: Path, result: dict) -> None:
             lines += [f"skipped: {ds['skipped']}", ""]
             continue
         sm = ds["summary"]
-        lines += [f"{ds['source']}; {ds['shape'][0]}x{ds['shape'][1]}, cells {ds['cell_m'][0]:.2f} x "
+        lines += [f"{ds['source']}; G-buffer {ds['view']}; {ds['shape'][0]}x{ds['shape'][1]}, cells {ds['cell_m'][0]:.2f} x "
                   f"{ds['cell_m'][1]:.2f} m; {ds['hit_pixels']} map pixels; level grids + pyramids "
                   f"{ds['prep_ms']:.0f} ms; automatic q histogram (pixels per level): {ds['auto_q_histogram']}", ""]
         if "auto_ms_at_must" in sm:
@@ -268,7 +288,7 @@ def write_markdown(path: Path, result: dict) -> None:
                      f"max {sm['auto_error_pct_max']:.2f} %")
         ratios = ", ".join(f"{k}: {v:.2f}x" for k, v in sm["maxmip_over_exact_low_sun"].items())
         lines += [f"- maxmip / exact time at low sun (elevation/setting): {ratios}", ""]
-        keys = list(ds["suns"][0]["runs"])
+        keys = _run_keys(ds)
         lines += ["| elev | " + " | ".join(keys) + " |", "|---:|" + "---:|" * len(keys)]
         for s in ds["suns"]:
             cells = []
@@ -297,20 +317,21 @@ def write_plot(path: Path, result: dict) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     dss = [d for d in result["datasets"] if not d["skipped"]]
+    cores = max(int(result["meta"]["cores"] or 1), 1)
     fig, axes = plt.subplots(2, max(len(dss), 1), figsize=(6.5 * max(len(dss), 1), 8), squeeze=False)
     for col, ds in enumerate(dss):
         el = [s["elevation"] for s in ds["suns"]]
         ax, ax2 = axes[0][col], axes[1][col]
-        for key in ds["suns"][0]["runs"]:
-            t = [s["runs"][key]["time_ms"]["min"] if key in s["runs"] else np.nan for s in ds["suns"]]
+        for key in _run_keys(ds):
+            t = [s["runs"][key]["time_ms"]["cpu_min"] / cores if key in s["runs"] else np.nan for s in ds["suns"]]
             e = [s["runs"][key]["error_pct"] if key in s["runs"] else np.nan for s in ds["suns"]]
             style = "-o" if key.startswith("exact") else "--"
             ax.plot(el, t, style, ms=3, label=key)
             ax2.plot(el, e, style, ms=3, label=key)
         ax.set_yscale("log")
-        ax.set_title(f"{ds['name']} {ds['shape'][0]}x{ds['shape'][1]}: shadow pass time")
+        ax.set_title(f"{ds['name']} {ds['shape'][0]}x{ds['shape'][1]}: shadow pass time", fontsize=10)
         ax.set_xlabel("sun elevation (deg)")
-        ax.set_ylabel("ms (min)")
+        ax.set_ylabel(f"process CPU ms / {cores} cores (min)")
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7)
         sm = ds["summary"]
@@ -320,7 +341,8 @@ def write_plot(path: Path, result: dict) -> None:
         ax2.set_ylabel("% of map pixels with another flag")
         ax2.grid(alpha=0.3)
     fig.suptitle(f"Per-pixel shadows, G-buffer {result['config']['width']}x{result['config']['height']}, "
-                 f"{result['meta']['device']}", fontsize=10)
+                 f"{result['meta']['device']} (shared machine: CPU time / cores estimates the wall time on idle "
+                 "cores; wall times in the .md)", fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -332,10 +354,14 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     p.add_argument("--datasets", default="canyon,puget", help="comma list of canyon, puget, srtm_* (shadow_masks names)")
     p.add_argument("--data", type=Path, default=DEFAULT_DATA)
     p.add_argument("--out", type=Path, default=REPO / "bench" / "results")
+    p.add_argument("--name", default="screen_shadows", help="report file names: NAME.json / .md / .png")
     p.add_argument("--size", type=int, default=2048)
     p.add_argument("--width", type=int, default=1920)
     p.add_argument("--height", type=int, default=1080)
-    p.add_argument("--azimuth", type=float, default=37.0)
+    p.add_argument("--azimuth", type=float, default=37.0, help="sun azimuth")
+    p.add_argument("--view", choices=("rendered", "plane"), default="rendered")
+    p.add_argument("--camera-azimuth", type=float, default=200.0)
+    p.add_argument("--camera-elevation", type=float, default=35.0)
     p.add_argument("--step", type=float, default=5.0)
     p.add_argument("--reps", type=int, default=3)
     p.add_argument("--must-elevation", type=float, default=10.0)
@@ -362,10 +388,10 @@ def main(argv: list[str] | None = None) -> int:
         if not ds["skipped"]:
             ds["summary"] = summary(ds, args.must_elevation)
         result["datasets"].append(ds)
-    (args.out / "screen_shadows.json").write_text(json.dumps(result, indent=1))
-    write_markdown(args.out / "screen_shadows.md", result)
-    write_plot(args.out / "screen_shadows.png", result)
-    log(f"wrote {args.out}/screen_shadows.{{json,md,png}}")
+    (args.out / f"{args.name}.json").write_text(json.dumps(result, indent=1))
+    write_markdown(args.out / f"{args.name}.md", result)
+    write_plot(args.out / f"{args.name}.png", result)
+    log(f"wrote {args.out}/{args.name}.{{json,md,png}}")
     return 0
 
 
