@@ -1,12 +1,20 @@
 /* shadow.cl — cast shadows of a heightmap by multilevel ray traversal of an
- * extrema pyramid (paper 000, Algo 2 and Algo 3), heightmap-space entry point.
+ * extrema pyramid (paper 000, Algo 1, 2 and 3): two entry points, one
+ * traversal (trace(), shared by both).
  *
- * ABI summary (details under "ABI" below): kernel shadow_cells, one work-item
- * per cell, global size (W, H) rounded up to any local size; arguments: the
- * relative float32 heights, the extrema pyramid (float2 levels 1..L and their
- * offsets), the sun ray, sun vector, cell size, eq. (1) constants and mode,
- * then the mask / self / coef outputs; -D options OCLS_METHOD, OCLS_OUT_MASK,
- * OCLS_OUT_SELF, OCLS_OUT_COEF, OCLS_STATS.
+ * ABI summary (details under "ABI" below):
+ *   shadow_cells   heightmap space, one work-item per cell, global size (W, H)
+ *                  rounded up to any local size; arguments: the relative
+ *                  float32 heights, the extrema pyramid (float2 levels 1..L and
+ *                  their offsets), the sun ray, sun vector, cell size, eq. (1)
+ *                  constants and mode, then the mask / self / coef outputs.
+ *   shadow_pixels  screen space, one work-item per G-buffer pixel, global size
+ *                  (width, height) rounded up to any local size; arguments: the
+ *                  heights, the level-q grids, the extrema pyramid, the G-buffer
+ *                  fields position / uv / uv_grad, the sun, eq. (1) constants,
+ *                  mode and Algo 1 settings, then the flag / coef / lod outputs.
+ *   -D options OCLS_METHOD, OCLS_OUT_MASK, OCLS_OUT_SELF (cells only),
+ *   OCLS_OUT_COEF, OCLS_OUT_LOD (pixels only), OCLS_STATS.
  *
  * Geometry (all methods).  Sample (i, j) sits at x = j (east), y = i (south)
  * in cell units; the surface is bilinear over patches (see pyramid.cl).  The
@@ -83,7 +91,43 @@
  *   zeroed by the host): traversal iterations per pyramid level, summed over
  *   all cells (for the benchmarks; off by default).
  *   global size (W, H) rounded up to the local size; any local size.
- *   Build options: the -D options above and -cl-std=CL1.2, nothing else (no
+ *
+ *   __kernel shadow_pixels(h, coarse, coarse_off, H, W, ext, lvl_off, nlev,
+ *                          position, uv, uv_grad, width, height, ray, sunvec,
+ *                          kcoef, mode, lod, flag, coef, lod_out)
+ *     h, H, W, ext, lvl_off, nlev, ray, sunvec, kcoef, mode  as for shadow_cells
+ *     __global const float *coarse    level-q grids for q = 1..nlev-1 back to
+ *                                     back, each (ceil(Hp/2^q)+1) x (ceil(Wp/2^q)+1)
+ *                                     floats: the surface at the level-q tile
+ *                                     corners (Hp, Wp = max(H-1,1), max(W-1,1));
+ *                                     the host fills them from the mip pyramid
+ *     __global const int *coarse_off  offset (in floats) of grid q at [q], [0] unused
+ *     __global const float4 *position width*height, row-major; w > 0.5 = the pixel
+ *                                     sees terrain (G-buffer layout, oclshade/gbuffer.py)
+ *     __global const float2 *uv       heightmap coordinates (u = column, v = row)
+ *     __global const float4 *uv_grad  (du/dc, dv/dc, du/dr, dv/dr) per pixel
+ *     int width, height               pixels
+ *     int4 lod   (force_q, bias, n_a_max, 0): force_q >= 0 replaces Algo 1
+ *                (clamped to nlev-1); else q = Algo 1 (minimal_lod) + bias,
+ *                clamped to [0, nlev-1]
+ *     __global uchar *flag     1 = cast shadow, 0 = lit, 255 = empty (no hit,
+ *                              uv off the map or in a hole)
+ *     __global float *coef     eq. (1) as for shadow_cells; 1 on empty pixels
+ *     __global uchar *lod_out  the level q used; 255 = empty
+ *   Per pixel: the ray starts on the level-q surface at (u, v) / 2^q (bilinear,
+ *   see bilinear_at) and is traced by trace() in the units of the level-q grid
+ *   (ray.xy / 2^q, the same w): at q = 0 exactly the heightmap-space
+ *   definition from a real start point; at q > 0 the finest test is on the
+ *   level-q grid (approximate: a smoothed surface), the hierarchy above it the
+ *   extrema of the heightmap.  -D OCLS_STATS as for shadow_cells.
+ *
+ * Levels.  trace() runs on a base grid h of level q (the heightmap for q = 0,
+ * a level-q grid of shadow_pixels otherwise), whose patches are the level-q
+ * tiles; inside it levels are counted from q (tile size 2^(l-q) base
+ * patches), the extrema texel of level l is ext level l indexed by base patch
+ * >> (l - q), since ceil(ceil(n / 2^q) / 2^m) = ceil(n / 2^(q+m)).
+ *
+ * Build options: the -D options above and -cl-std=CL1.2, nothing else (no
  *   fast-math); the hosts paste common.h in place of its include (a build of
  *   your own may instead pass -I <this folder>).  The C host API
  *   (host/include/oclshade.h) does all of this for embedding users.
@@ -111,25 +155,50 @@
 #define OCLS_COUNT(l) ((void)0)
 #endif
 
+/* A sun ray in the units of one level-q grid (see "Levels" above): it starts
+ * at (x0, y0) (column, row; any real point, integers for the cell entry) at
+ * height z0; ix, iy = 1/ux, 1/uy (0 when the ray does not move along that
+ * axis); on_row / on_col: the ray runs exactly along a grid row / column
+ * (it does not move along that axis and starts on the line), where it sees
+ * the linear profile between the samples of that line. */
+typedef struct {
+    float x0, y0, z0, ux, uy, w, ix, iy;
+    int on_row, on_col;
+} Ray;
+
+OCLS_INLINE Ray make_ray(float x0, float y0, float z0, float ux, float uy, float w)
+{
+    Ray r;
+    r.x0 = x0; r.y0 = y0; r.z0 = z0; r.ux = ux; r.uy = uy; r.w = w;
+    r.ix = OCLS_SX(ux) != 0 ? 1.0f / ux : 0.0f;
+    r.iy = OCLS_SY(uy) != 0 ? 1.0f / uy : 0.0f;
+    r.on_row = OCLS_SY(uy) == 0 && y0 == (float)ocls_floor_int(y0);
+    r.on_col = OCLS_SX(ux) == 0 && x0 == (float)ocls_floor_int(x0);
+    return r;
+}
+
 /* Exact test of the ray against one patch (or grid-line segment) between ray
  * parameters t_in and t_out.  Returns 1 iff the surface rises strictly above
  * the ray on the segment.  first: the segment starts at the ray's origin,
  * where surface and ray meet: there f(t) = t (a + b t) and the test is on the
  * linear a + b t, which is exact even for t -> 0. */
-OCLS_INLINE int patch_hits(__global const float *h, int H, int W, int pr, int pc, int x0, int y0,
-                      float z0, float ux, float uy, float w, float t_in, float t_out, int first)
+OCLS_INLINE int patch_hits(__global const float *h, int H, int W, int pr, int pc, const Ray *ray,
+                           float t_in, float t_out, int first)
 {
-    const float fx = ((float)x0 + ux * t_in) - (float)pc;  /* local coords at entry */
-    const float fy = ((float)y0 + uy * t_in) - (float)pr;
+    const float ux = ray->ux, uy = ray->uy, w = ray->w;
+    const float fx = (ray->x0 + ux * t_in) - (float)pc;  /* local coords at entry */
+    const float fy = (ray->y0 + uy * t_in) - (float)pr;
     const float len = t_out - t_in;
     float s_a, s1, s2;
-    if (OCLS_SY(uy) == 0) {        /* along row y0 */
+    if (ray->on_row) {             /* along row y0 */
+        const int y0 = (int)ray->y0;
         const float a = ocls_sample(h, H, W, y0, pc), b = ocls_sample(h, H, W, y0, pc + 1);
         if (isnan(a) || isnan(b)) return 0;
         s_a = a + (b - a) * fx;
         s1 = (b - a) * ux;
         s2 = 0.0f;
-    } else if (OCLS_SX(ux) == 0) { /* along column x0 */
+    } else if (ray->on_col) {      /* along column x0 */
+        const int x0 = (int)ray->x0;
         const float a = ocls_sample(h, H, W, pr, x0), b = ocls_sample(h, H, W, pr + 1, x0);
         if (isnan(a) || isnan(b)) return 0;
         s_a = a + (b - a) * fy;
@@ -147,7 +216,7 @@ OCLS_INLINE int patch_hits(__global const float *h, int H, int W, int pr, int pc
     /* f(tau) = S(t_in + tau) - z(t_in + tau) = f_a + a tau + s2 tau^2, tau in [0, len] */
     const float a = s1 - w;
     if (first) return (a > 0.0f) || (a + s2 * len > 0.0f);
-    const float f_a = s_a - (z0 + w * t_in);
+    const float f_a = s_a - (ray->z0 + w * t_in);
     if (f_a > 0.0f) return 1;
     const float f_b = f_a + (a + s2 * len) * len;
     if (f_b > 0.0f) return 1;
@@ -156,22 +225,6 @@ OCLS_INLINE int patch_hits(__global const float *h, int H, int W, int pr, int pc
         if (tau > 0.0f && tau < len && f_a - (a * a) / (4.0f * s2) > 0.0f) return 1;
     }
     return 0;
-}
-
-/* A sun ray from sample (y0, x0); ix, iy = 1/ux, 1/uy (0 when the ray does
- * not move along that axis). */
-typedef struct {
-    int x0, y0;
-    float z0, ux, uy, w, ix, iy;
-} Ray;
-
-OCLS_INLINE Ray make_ray(int x0, int y0, float z0, float ux, float uy, float w)
-{
-    Ray r;
-    r.x0 = x0; r.y0 = y0; r.z0 = z0; r.ux = ux; r.uy = uy; r.w = w;
-    r.ix = OCLS_SX(ux) != 0 ? 1.0f / ux : 0.0f;
-    r.iy = OCLS_SY(uy) != 0 ? 1.0f / uy : 0.0f;
-    return r;
 }
 
 /* Algo 2: ray parameter at which the ray leaves the axis-aligned tile
@@ -192,9 +245,9 @@ OCLS_INLINE float tile_exit(const Ray *ray, int r0, int c0, int size, int *via_x
 
 /* Patch index (along one axis) the ray occupies just after parameter t,
  * clamped to [lo, hi]: floor for a forward step, ceil - 1 for a backward one. */
-OCLS_INLINE int patch_along(int p0, float u, int sign, float t, int lo, int hi)
+OCLS_INLINE int patch_along(float p0, float u, int sign, float t, int lo, int hi)
 {
-    const float p = (float)p0 + u * t;
+    const float p = p0 + u * t;
     const int idx = sign > 0 ? ocls_floor_int(p) : ocls_ceil_int(p) - 1;
     return clamp(idx, lo, hi);
 }
@@ -231,48 +284,58 @@ OCLS_INLINE int corner_hits(__global const float *h, int H, int W, int pr, int p
     return (b_ok || c_ok) && ocls_sample(h, H, W, vr, vc) > z;
 }
 
-OCLS_INLINE float2 ext_at(__global const float2 *ext, __global const int *lvl_off, int Wp, int l,
-                     int pr, int pc)
+/* Extrema of the level-l tile holding patch (pr, pc), both counted from the
+ * base level q of the traversal (l = 0 is level q; Wp = patch columns at q). */
+OCLS_INLINE float2 ext_at(__global const float2 *ext, __global const int *lvl_off, int q, int Wp, int l,
+                          int pr, int pc)
 {
-    return ext[lvl_off[l] + (pr >> l) * ocls_level_extent(Wp, l) + (pc >> l)];
+    return ext[lvl_off[q + l] + (pr >> l) * ocls_level_extent(Wp, l) + (pc >> l)];
 }
 
-/* Start patch of the ray from sample (y0, x0); returns 0 if the ray leaves
- * the map at once. */
-OCLS_INLINE int start_patch(int H, int W, int x0, int y0, float ux, float uy, int *pr, int *pc)
+/* Start patch of the ray (the patch it enters from its origin, which may sit
+ * on a grid line); returns 0 if the ray leaves the map at once.  For an
+ * integer start (x0, y0) this is the patch west/east, north/south of the
+ * sample in the ray's direction. */
+OCLS_INLINE int start_patch(int H, int W, const Ray *ray, int *pr, int *pc)
 {
     const int Hp = max(H - 1, 1), Wp = max(W - 1, 1);
-    *pc = OCLS_SX(ux) < 0 ? x0 - 1 : (OCLS_SX(ux) > 0 ? x0 : min(x0, Wp - 1));
-    *pr = OCLS_SY(uy) < 0 ? y0 - 1 : (OCLS_SY(uy) > 0 ? y0 : min(y0, Hp - 1));
+    const int sx = OCLS_SX(ray->ux), sy = OCLS_SY(ray->uy);
+    const int fc = ocls_floor_int(ray->x0), fr = ocls_floor_int(ray->y0);
+    *pc = sx < 0 ? ocls_ceil_int(ray->x0) - 1 : (sx > 0 ? fc : min(fc, Wp - 1));
+    *pr = sy < 0 ? ocls_ceil_int(ray->y0) - 1 : (sy > 0 ? fr : min(fr, Hp - 1));
     return *pc >= 0 && *pc < Wp && *pr >= 0 && *pr < Hp;
 }
 
+/* trace(): 1 iff the ray is in cast shadow.  h (H x W) is the level-q grid
+ * the finest test uses (q = 0: the heightmap; the ray in its units); levels
+ * q+1 .. nlev-1 of the extrema pyramid are the hierarchy above it; z_top the
+ * global max.  Levels inside are counted from q. */
 #if OCLS_METHOD == OCLS_PAPER
-/* Algo 3 as printed in paper 000, at q = 0. */
+/* Algo 3 as printed in paper 000. */
 OCLS_INLINE int trace(__global const float *h, int H, int W, __global const float2 *ext,
-                 __global const int *lvl_off, int nlev, int x0, int y0, float z0,
-                 float ux, float uy, float w, uint *steps)
+                      __global const int *lvl_off, int nlev, int q, float z_top, const Ray *ray,
+                      uint *steps)
 {
-    const int Hp = max(H - 1, 1), Wp = max(W - 1, 1), top = nlev - 1;
-    const Ray ray = make_ray(x0, y0, z0, ux, uy, w);
+    const int Hp = max(H - 1, 1), Wp = max(W - 1, 1), top = nlev - 1 - q;
+    const float x0 = ray->x0, y0 = ray->y0, z0 = ray->z0, ux = ray->ux, uy = ray->uy, w = ray->w;
     int pr, pc, via_x, via_y;
-    if (!start_patch(H, W, x0, y0, ux, uy, &pr, &pc)) return 0;
+    if (!start_patch(H, W, ray, &pr, &pc)) return 0;
     /* initialisation: leave the start texel */
-    float t = tile_exit(&ray, pr, pc, 1, &via_x, &via_y);
-    step_out(&pr, &pc, &ray, t, pr, pc, 1, via_x, via_y);
+    float t = tile_exit(ray, pr, pc, 1, &via_x, &via_y);
+    step_out(&pr, &pc, ray, t, pr, pc, 1, via_x, via_y);
     int l = 0;
     for (int it = 0; it < OCLS_MAX_ITERATIONS; ++it) {
         if (pr < 0 || pr >= Hp || pc < 0 || pc >= Wp) return 0;
-        OCLS_COUNT(l);
+        OCLS_COUNT(q + l);
         const int size = 1 << l, r0 = (pr >> l) << l, c0 = (pc >> l) << l;
-        const float t_out = tile_exit(&ray, r0, c0, size, &via_x, &via_y);
+        const float t_out = tile_exit(ray, r0, c0, size, &via_x, &via_y);
         const float z_out = z0 + w * t_out;
-        const float2 e = l > 0 ? ext_at(ext, lvl_off, Wp, l, pr, pc) : (float2)(0.0f, 0.0f);
+        const float2 e = l > 0 ? ext_at(ext, lvl_off, q, Wp, l, pr, pc) : (float2)(0.0f, 0.0f);
         if (l > 0 && e.y >= z_out) return 1;          /* min test at the exit point */
         int reaches;
         if (l == 0) {                                  /* bilinear height at P_s */
             const float tm = 0.5f * (t + t_out);
-            const float fx = ((float)x0 + ux * tm) - (float)pc, fy = ((float)y0 + uy * tm) - (float)pr;
+            const float fx = (x0 + ux * tm) - (float)pc, fy = (y0 + uy * tm) - (float)pr;
             const float h00 = ocls_sample(h, H, W, pr, pc), h01 = ocls_sample(h, H, W, pr, pc + 1);
             const float h10 = ocls_sample(h, H, W, pr + 1, pc), h11 = ocls_sample(h, H, W, pr + 1, pc + 1);
             const float hs = (h00 * (1.0f - fx) + h01 * fx) * (1.0f - fy) + (h10 * (1.0f - fx) + h11 * fx) * fy;
@@ -284,7 +347,7 @@ OCLS_INLINE int trace(__global const float *h, int H, int W, __global const floa
             if (l == 0) return 1;
             l -= 1;
         } else {
-            step_out(&pr, &pc, &ray, t_out, r0, c0, size, via_x, via_y);
+            step_out(&pr, &pc, ray, t_out, r0, c0, size, via_x, via_y);
             t = t_out;
             l = top;                                   /* restart from the coarsest level */
         }
@@ -294,50 +357,51 @@ OCLS_INLINE int trace(__global const float *h, int H, int W, __global const floa
 #else
 /* EXACT / MAXMIP / DDA: conservative multilevel traversal with climbing. */
 OCLS_INLINE int trace(__global const float *h, int H, int W, __global const float2 *ext,
-                 __global const int *lvl_off, int nlev, int x0, int y0, float z0,
-                 float ux, float uy, float w, uint *steps)
+                      __global const int *lvl_off, int nlev, int q, float z_top, const Ray *ray,
+                      uint *steps)
 {
-    const int Hp = max(H - 1, 1), Wp = max(W - 1, 1), top = nlev - 1;
-    const float z_top = ext[lvl_off[top]].x;           /* global max */
-    const Ray ray = make_ray(x0, y0, z0, ux, uy, w);
+    const int Hp = max(H - 1, 1), Wp = max(W - 1, 1), top = nlev - 1 - q;
+    const float z0 = ray->z0, w = ray->w;
     int pr, pc, via_x, via_y;
-    if (!start_patch(H, W, x0, y0, ux, uy, &pr, &pc)) return 0;
+    if (!start_patch(H, W, ray, &pr, &pc)) return 0;
     float t = 0.0f;
     int l = 0;
     for (int it = 0; it < OCLS_MAX_ITERATIONS; ++it) {
-        OCLS_COUNT(l);
+        OCLS_COUNT(q + l);
         const int size = 1 << l, r0 = (pr >> l) << l, c0 = (pc >> l) << l;
-        const float t_out = tile_exit(&ray, r0, c0, size, &via_x, &via_y);
+        const float t_out = tile_exit(ray, r0, c0, size, &via_x, &via_y);
         const float z_in = z0 + w * t;                 /* lowest ray point in the tile */
         if (z_in >= z_top) return 0;
 #if OCLS_METHOD == OCLS_DDA
-        if (patch_hits(h, H, W, pr, pc, x0, y0, z0, ux, uy, w, t, t_out, t == 0.0f)) return 1;
+        if (patch_hits(h, H, W, pr, pc, ray, t, t_out, t == 0.0f)) return 1;
         if (via_x && via_y && !patch_valid(h, H, W, pr, pc) &&
-            corner_hits(h, H, W, pr, pc, ux, uy, z0 + w * t_out)) return 1;
+            corner_hits(h, H, W, pr, pc, ray->ux, ray->uy, z0 + w * t_out)) return 1;
 #else
         if (l > 0) {
-            const float2 e = ext_at(ext, lvl_off, Wp, l, pr, pc);
+            const float2 e = ext_at(ext, lvl_off, q, Wp, l, pr, pc);
             if (z_in < e.x) {                          /* the tile may reach the ray */
 #if OCLS_METHOD == OCLS_EXACT
-                /* min early exit (Algo 3).  Provably inert here: the ray enters
-                 * this tile at a point P of its boundary where the previous tile
-                 * (skipped by a conservative max test, or tested exactly on a
-                 * closed segment) showed S(P) <= z, and min <= S(P), so z_out <
-                 * min never holds.  It pays only where earlier tests are
-                 * approximate (paper mode, coarse LOD); kept to measure that. */
+                /* min early exit (Algo 3).  Provably inert at q = 0: the ray
+                 * enters this tile at a point P of its boundary where the
+                 * previous tile (skipped by a conservative max test, or tested
+                 * exactly on a closed segment) showed S(P) <= z, and min <=
+                 * S(P), so z_out < min never holds.  It can fire where earlier
+                 * tests are approximate: per-pixel rays at q > 0, whose finest
+                 * test is on the smoother mip surface while the extrema bound
+                 * the heightmap (a valley floor below a cliff tile). */
                 if (z0 + w * t_out < e.y) return 1;
 #endif
                 l -= 1;                                /* descend; (pr, pc) stays inside */
                 continue;
             }
-        } else {                                       /* level 0: the heightmap itself */
-            if (patch_hits(h, H, W, pr, pc, x0, y0, z0, ux, uy, w, t, t_out, t == 0.0f)) return 1;
+        } else {                                       /* level q: the finest test */
+            if (patch_hits(h, H, W, pr, pc, ray, t, t_out, t == 0.0f)) return 1;
             if (via_x && via_y && !patch_valid(h, H, W, pr, pc) &&
-                corner_hits(h, H, W, pr, pc, ux, uy, z0 + w * t_out)) return 1;
+                corner_hits(h, H, W, pr, pc, ray->ux, ray->uy, z0 + w * t_out)) return 1;
         }
 #endif
         const int opr = pr, opc = pc;
-        step_out(&pr, &pc, &ray, t_out, r0, c0, size, via_x, via_y);
+        step_out(&pr, &pc, ray, t_out, r0, c0, size, via_x, via_y);
         t = t_out;
         if (pr < 0 || pr >= Hp || pc < 0 || pc >= Wp) return 0;
 #if OCLS_METHOD != OCLS_DDA
@@ -391,7 +455,10 @@ __kernel void shadow_cells(__global const float *h, const int H, const int W,
     int shadow = 0;
     if (!nodata) {
         if (mode == 2) shadow = 1;
-        else if (mode == 0) shadow = trace(h, H, W, ext, lvl_off, nlev, j, i, z0, ray.x, ray.y, ray.z, steps);
+        else if (mode == 0) {
+            const Ray r = make_ray((float)j, (float)i, z0, ray.x, ray.y, ray.z);
+            shadow = trace(h, H, W, ext, lvl_off, nlev, 0, ext[lvl_off[nlev - 1]].x, &r, steps);
+        }
     }
 #endif
 #ifdef OCLS_STATS
@@ -408,5 +475,113 @@ __kernel void shadow_cells(__global const float *h, const int H, const int W,
 #ifdef OCLS_OUT_COEF
     coef[idx] = nodata ? NAN
               : (shadow ? kcoef.x + (kcoef.y - kcoef.x) * fmax(sunvec.z, 0.0f) : 1.0f);
+#endif
+}
+
+
+/* ---------------------------------------------------------------- per pixel */
+
+/* Algo 1: minimal LOD q of a pixel from its heightmap-coordinate derivatives
+ * g = (du/dc, dv/dc, du/dr, dv/dr) (sample units per pixel, so the paper's
+ * w ds/dx ... are g itself): |a|^2, |b|^2 the squared footprints along the
+ * screen axes, n_a = min(ceil(sqrt(d2max / d2min)), n_a_max),
+ * q = floor(0.5 log2(d2max) - log2(n_a)) + bias, clamped to [0, top].
+ * Computed as floor(log2(y) / 2) with y = d2max / n_a^2, i.e. the binary
+ * exponent of y shifted right once (exact, no log2 rounding; a subnormal y
+ * gives q < 0, inf gives q > top).  d2max = 0 (or NaN) gives q = 0
+ * (log2 0 = -inf); d2min = 0 gives n_a = n_a_max. */
+OCLS_INLINE int minimal_lod(float4 g, int n_a_max, int bias, int top)
+{
+    const float a2 = g.x * g.x + g.y * g.y, b2 = g.z * g.z + g.w * g.w;
+    const float dmax = fmax(a2, b2), dmin = fmin(a2, b2);
+    if (isnan(a2) || isnan(b2) || !(dmax > 0.0f)) return 0;
+    int n = n_a_max;
+    const float ratio = dmax / dmin;                   /* inf when dmin == 0 */
+    if (ratio < (float)(n_a_max * n_a_max)) {
+        /* least n with n^2 >= ratio; the rounded sqrt is within an ulp, so the
+         * floor of it is that n or one less */
+        const int n0 = (int)sqrt(ratio);
+        n = (float)(n0 * n0) >= ratio ? max(n0, 1) : n0 + 1;
+    }
+    const float y = dmax / (float)(n * n);
+    const int e = ((as_int(y) >> 23) & 0xff) - 127;   /* floor(log2 y) for normal y */
+    return clamp((e >> 1) + bias, 0, top);
+}
+
+/* a + (b - a) f, leaving out the sample whose weight is exactly 0 */
+OCLS_INLINE float lerp_skip(float a, float b, float f)
+{
+    return f == 0.0f ? a : (f == 1.0f ? b : a + (b - a) * f);
+}
+
+/* Bilinear height of grid g (Hg x Wg) at (x, y) inside it; a sample of
+ * weight exactly 0 does not count, so a point on a grid line sees that line
+ * only.  NaN inside a hole patch. */
+OCLS_INLINE float bilinear_at(__global const float *g, int Hg, int Wg, float x, float y)
+{
+    const int c = clamp(ocls_floor_int(x), 0, max(Wg - 2, 0)), r = clamp(ocls_floor_int(y), 0, max(Hg - 2, 0));
+    const float fx = x - (float)c, fy = y - (float)r;
+    const float a = lerp_skip(ocls_sample(g, Hg, Wg, r, c), ocls_sample(g, Hg, Wg, r, c + 1), fx);
+    const float b = lerp_skip(ocls_sample(g, Hg, Wg, r + 1, c), ocls_sample(g, Hg, Wg, r + 1, c + 1), fx);
+    return lerp_skip(a, b, fy);
+}
+
+__kernel void shadow_pixels(__global const float *h, __global const float *coarse,
+                            __global const int *coarse_off, const int H, const int W,
+                            __global const float2 *ext, __global const int *lvl_off, const int nlev,
+                            __global const float4 *position, __global const float2 *uv,
+                            __global const float4 *uv_grad, const int width, const int height,
+                            const float4 ray, const float4 sunvec, const float2 kcoef,
+                            const int mode, const int4 lod,
+                            __global uchar *flag, __global float *coef, __global uchar *lod_out
+#ifdef OCLS_STATS
+                            , __global uint *stats
+#endif
+                            )
+{
+    uint steps[OCLS_STATS_LEVELS];
+#ifdef OCLS_STATS
+    for (int l = 0; l < OCLS_STATS_LEVELS; ++l) steps[l] = 0u;
+#endif
+    const int c = get_global_id(0), r = get_global_id(1);
+    if (c >= width || r >= height) return;
+    const int idx = r * width + c;
+    const int top = nlev - 1;
+    const float2 p = uv[idx];
+    int q = 0, valid = position[idx].w > 0.5f && p.x >= 0.0f && p.x <= (float)(W - 1) &&
+                       p.y >= 0.0f && p.y <= (float)(H - 1);       /* false for NaN uv too */
+    int shadow = 0;
+    if (valid) {
+        q = lod.x >= 0 ? min(lod.x, top) : minimal_lod(uv_grad[idx], lod.z, lod.y, top);
+        /* the level-q grid: the heightmap, or the tile-corner grid of mip level q */
+        const int Hp = max(H - 1, 1), Wp = max(W - 1, 1);
+        const int Hq = q == 0 ? H : ocls_level_extent(Hp, q) + 1, Wq = q == 0 ? W : ocls_level_extent(Wp, q) + 1;
+        __global const float *g = q == 0 ? h : coarse + coarse_off[q];
+        const float scale = 1.0f / (float)(1 << q);    /* exact: a power of two */
+        const float x0 = p.x * scale, y0 = p.y * scale;
+        const float z0 = bilinear_at(g, Hq, Wq, x0, y0);
+        valid = !isnan(z0);
+#if defined(OCLS_OUT_MASK) || defined(OCLS_OUT_COEF)
+        if (valid) {
+            if (mode == 2) shadow = 1;
+            else if (mode == 0) {
+                const Ray rr = make_ray(x0, y0, z0, ray.x * scale, ray.y * scale, ray.z);
+                shadow = trace(g, Hq, Wq, ext, lvl_off, nlev, q, ext[lvl_off[top]].x, &rr, steps);
+            }
+        }
+#endif
+    }
+#ifdef OCLS_STATS
+    for (int l = 0; l < nlev; ++l)
+        if (steps[l]) atomic_add(&stats[l], steps[l]);
+#endif
+#ifdef OCLS_OUT_MASK
+    flag[idx] = valid ? (uchar)shadow : (uchar)255;
+#endif
+#ifdef OCLS_OUT_COEF
+    coef[idx] = (valid && shadow) ? kcoef.x + (kcoef.y - kcoef.x) * fmax(sunvec.z, 0.0f) : 1.0f;
+#endif
+#ifdef OCLS_OUT_LOD
+    lod_out[idx] = valid ? (uchar)q : (uchar)255;
 #endif
 }

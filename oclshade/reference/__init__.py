@@ -5,6 +5,7 @@ One module per kernel family; everything public is re-exported here, so
 """
 from .compose import compose
 from .pyramid import extrema_pyramid, mip_pyramid
+from .screen_shadows import ReferencePixelShadows, minimal_lod, pixel_shadows, surface_height
 from .shadows import (CORNER_SNAP, CORNER_TIE, ReferenceShadows, cast_shadows,
                       shadow_coefficient, tie_tolerance)
 from .terrain import ReferenceTerrain, cast_terrain
@@ -12,4 +13,5 @@ from .terrain import ReferenceTerrain, cast_terrain
 __all__ = [
     "CORNER_SNAP", "CORNER_TIE", "ReferenceShadows", "ReferenceTerrain", "cast_shadows", "cast_terrain", "compose",
     "extrema_pyramid", "mip_pyramid", "shadow_coefficient", "tie_tolerance",
+    "ReferencePixelShadows", "minimal_lod", "pixel_shadows", "surface_height",
 ]

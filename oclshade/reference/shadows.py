@@ -107,7 +107,8 @@ def cast_shadows(hm: Heightmap, sun: Sun, window: tuple[slice, slice] | None = N
     if sun.below_horizon:
         margin[~np.isnan(z0)] = np.inf
     elif not sun.at_zenith:
-        _walk(hm, sun, ii, jj, margin, graze)
+        ok = np.flatnonzero(~np.isnan(z0))
+        margin[ok], graze[ok] = walk_rays(hm, sun, jj[ok].astype(np.float64), ii[ok].astype(np.float64), z0[ok])
     mask = np.where(np.isnan(margin), 255, margin > 0).astype(np.uint8)
     return ReferenceShadows(mask.reshape(out_shape), margin.reshape(out_shape),
                             selfs.reshape(out_shape), graze.reshape(out_shape))
@@ -119,20 +120,39 @@ def _patch_valid(h: np.ndarray, hp: int, wp: int, pr: np.ndarray, pc: np.ndarray
     return inside & ~np.any(np.isnan(corners), axis=0)
 
 
-def _walk(hm: Heightmap, sun: Sun, ii: np.ndarray, jj: np.ndarray, margin: np.ndarray,
-          graze: np.ndarray) -> None:
+def start_patches(hm: Heightmap, ux: float, uy: float, x0: np.ndarray,
+                  y0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Patch (row, col) each ray enters from its origin (x0, y0) (kernel: start_patch):
+    the patch containing it, or for an origin on a grid line the one on the ray's side."""
+    hp, wp = hm.patch_shape
+    fc, fr = np.floor(x0).astype(np.int64), np.floor(y0).astype(np.int64)
+    pc = np.ceil(x0).astype(np.int64) - 1 if ux < 0 else (fc if ux > 0 else np.minimum(fc, wp - 1))
+    pr = np.ceil(y0).astype(np.int64) - 1 if uy < 0 else (fr if uy > 0 else np.minimum(fr, hp - 1))
+    return pr, pc
+
+
+def walk_rays(hm: Heightmap, sun: Sun, x0: np.ndarray, y0: np.ndarray,
+              z0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Margins and corner grazes of sun rays from the surface points (x0, y0, z0).
+
+    x0 (column) and y0 (row) are continuous sample coordinates, any real
+    point of the map (integers for the cells themselves); z0 finite, the
+    surface height there.  A ray that does not move along an axis and starts
+    on a grid line of that axis sees the linear profile of that line (kernel:
+    Ray.on_row / on_col).  Returns (margin, graze) as in :class:`ReferenceShadows`.
+    """
     h = hm.heights
-    rows, cols = h.shape
     hp, wp = hm.patch_shape
     ux, uy, w = sun.ray(hm.dx, hm.dy)
     gmax = np.nanmax(h)
     tol = tie_tolerance(hm, sun)
-    # start patches (kernel: start_patch)
-    pc = np.where(ux < 0, jj - 1, jj if ux > 0 else np.minimum(jj, wp - 1))
-    pr = np.where(uy < 0, ii - 1, ii if uy > 0 else np.minimum(ii, hp - 1))
-    z0 = h[ii, jj]
-    idx = np.flatnonzero(~np.isnan(z0))
-    pr, pc, x0, y0, z0 = pr[idx], pc[idx], jj[idx], ii[idx], z0[idx]
+    margin = np.full(x0.shape, -np.inf)
+    graze = np.zeros(x0.shape, bool)
+    pr, pc = start_patches(hm, ux, uy, x0, y0)
+    on_row = np.full(x0.shape, uy == 0) & (y0 == np.floor(y0))
+    on_col = np.full(x0.shape, ux == 0) & (x0 == np.floor(x0)) & ~on_row
+    line_r, line_c = y0.astype(np.int64), x0.astype(np.int64)   # used only on a line
+    idx = np.arange(x0.size)
     t = np.zeros(idx.size)
     best = np.full(idx.size, -np.inf)
     while idx.size:
@@ -140,7 +160,8 @@ def _walk(hm: Heightmap, sun: Sun, ii: np.ndarray, jj: np.ndarray, margin: np.nd
         if not inside.all():
             margin[idx[~inside]] = best[~inside]
             keep = np.flatnonzero(inside)
-            idx, pr, pc, x0, y0, z0, t, best = (a[keep] for a in (idx, pr, pc, x0, y0, z0, t, best))
+            idx, pr, pc, x0, y0, z0, t, best, on_row, on_col, line_r, line_c = (
+                a[keep] for a in (idx, pr, pc, x0, y0, z0, t, best, on_row, on_col, line_r, line_c))
             if not idx.size:
                 break
         with np.errstate(divide="ignore"):
@@ -154,22 +175,21 @@ def _walk(hm: Heightmap, sun: Sun, ii: np.ndarray, jj: np.ndarray, margin: np.nd
         t_out = np.minimum(tx, ty)
         fx = x0 + ux * t - pc
         fy = y0 + uy * t - pr
-        if uy == 0:
-            a0, a1 = _sample(h, y0, pc), _sample(h, y0, pc + 1)
-            valid = ~(np.isnan(a0) | np.isnan(a1))
-            s_a, s1, s2 = a0 + (a1 - a0) * fx, (a1 - a0) * ux, np.zeros(idx.size)
-        elif ux == 0:
-            a0, a1 = _sample(h, pr, x0), _sample(h, pr + 1, x0)
-            valid = ~(np.isnan(a0) | np.isnan(a1))
-            s_a, s1, s2 = a0 + (a1 - a0) * fy, (a1 - a0) * uy, np.zeros(idx.size)
-        else:
-            h00, h01 = _sample(h, pr, pc), _sample(h, pr, pc + 1)
-            h10, h11 = _sample(h, pr + 1, pc), _sample(h, pr + 1, pc + 1)
-            valid = ~(np.isnan(h00) | np.isnan(h01) | np.isnan(h10) | np.isnan(h11))
-            ex, ey, k = h01 - h00, h10 - h00, h00 - h01 - h10 + h11
-            s_a = h00 + ex * fx + ey * fy + k * fx * fy
-            s1 = (ex + k * fy) * ux + (ey + k * fx) * uy
-            s2 = k * ux * uy
+        h00, h01 = _sample(h, pr, pc), _sample(h, pr, pc + 1)
+        h10, h11 = _sample(h, pr + 1, pc), _sample(h, pr + 1, pc + 1)
+        valid = ~(np.isnan(h00) | np.isnan(h01) | np.isnan(h10) | np.isnan(h11))
+        ex, ey, k = h01 - h00, h10 - h00, h00 - h01 - h10 + h11
+        s_a = h00 + ex * fx + ey * fy + k * fx * fy
+        s1 = (ex + k * fy) * ux + (ey + k * fx) * uy
+        s2 = k * ux * uy
+        for line, (a0, a1, f, u) in (
+                (on_row, (_sample(h, line_r, pc), _sample(h, line_r, pc + 1), fx, ux)),
+                (on_col, (_sample(h, pr, line_c), _sample(h, pr + 1, line_c), fy, uy))):
+            if line.any():
+                valid = np.where(line, ~(np.isnan(a0) | np.isnan(a1)), valid)
+                s_a = np.where(line, a0 + (a1 - a0) * f, s_a)
+                s1 = np.where(line, (a1 - a0) * u, s1)
+                s2 = np.where(line, 0.0, s2)
         seg = _segment_margin(s_a - (z0 + w * t), s1 - w, s2, t, t_out - t, t == 0)
         best = np.where(valid, np.maximum(best, seg), best)
         via_x, via_y = tx <= ty, ty <= tx
@@ -189,6 +209,7 @@ def _walk(hm: Heightmap, sun: Sun, ii: np.ndarray, jj: np.ndarray, margin: np.nd
         if uy != 0:
             pr = np.where(via_y, pr + (1 if uy > 0 else -1), pr)
         t = t_out
+    return margin, graze
 
 
 def _self_shadow(hm: Heightmap, sun: Sun, ii: np.ndarray, jj: np.ndarray) -> np.ndarray:

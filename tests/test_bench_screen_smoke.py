@@ -1,0 +1,47 @@
+"""Smoke test of bench/screen_shadows.py: a quick canyon-only run writes its three reports."""
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+SCRIPT = Path(__file__).resolve().parents[1] / "bench" / "screen_shadows.py"
+
+
+@pytest.mark.skipif(not SCRIPT.is_file(), reason="bench/ is not in this tree (installed package only)")
+def test_screen_shadows_quick(tmp_path: Path) -> None:
+    out = tmp_path / "results"
+    # puget is asked for with an absent data folder: it must be recorded as skipped, not fail
+    cmd = [sys.executable, str(SCRIPT), "--quick", "--datasets", "canyon,puget",
+           "--data", str(tmp_path / "no-shared-data"), "--out", str(out)]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-4000:]
+    for ext in ("json", "md", "png"):
+        f = out / f"screen_shadows.{ext}"
+        assert f.is_file() and f.stat().st_size > 0, f
+    assert (out / "screen_shadows.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+    res = json.loads((out / "screen_shadows.json").read_text())
+    assert {"date", "cpu", "cores", "device", "pocl_version", "command"} <= set(res["meta"])
+    by_name = {d["name"]: d for d in res["datasets"]}
+    assert by_name["puget"]["skipped"]
+    canyon = by_name["canyon"]
+    assert canyon["skipped"] is None and canyon["shape"] == [256, 256]
+    assert [s["elevation"] for s in canyon["suns"]] == [0.0, 30.0, 60.0, 90.0]
+    for sun in canyon["suns"]:
+        runs = sun["runs"]
+        assert {"exact/q0", "exact/q1", "exact/q2", "exact/q3", "exact/auto", "maxmip/q0", "maxmip/auto",
+                "dda/q0", "dda/auto"} <= set(runs)
+        assert runs["exact/q0"]["error_pct"] == 0.0                 # the baseline itself
+        for method in ("maxmip", "dda"):                           # exact methods agree at q = 0
+            assert runs[f"{method}/q0"]["error_pct"] == 0.0
+        for r in runs.values():
+            assert r["time_ms"]["min"] > 0 and 0.0 <= r["error_pct"] <= 100.0
+    assert all(r["non_tie"] == 0 for r in canyon["reference"])
+    assert {"auto_error_pct_max", "auto_error_pct_mean", "maxmip_over_exact_low_sun"} <= set(canyon["summary"])
+    assert any(k.endswith("/exact/auto") for k in canyon["steps"])
+    md = (out / "screen_shadows.md").read_text()
+    assert "## canyon" in md and "| elev |" in md
