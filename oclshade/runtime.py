@@ -139,7 +139,11 @@ def select_device(spec: str | int | None = None) -> cl.Device:
 
 
 def _kernel_root():
-    """Installed package data ``oclshade.kernels``; from a source checkout, ../kernels."""
+    """From a source checkout, its own ../kernels (an editable install elsewhere must not
+    shadow the checkout being run); otherwise the installed package data ``oclshade.kernels``."""
+    local = pathlib.Path(__file__).resolve().parent.parent / "kernels"
+    if (local / "common.h").is_file():
+        return local
     try:
         return importlib.resources.files("oclshade.kernels")
     except ModuleNotFoundError:

@@ -3,11 +3,15 @@
 One module per kernel family; everything public is re-exported here, so
 ``from oclshade import reference as ref; ref.cast_shadows(...)`` works for all.
 """
+from .ao import (ReferenceAO, TopDownView, bilinear, box_blur, cosine_directions, edge_blur,
+                 raytraced_ao, rotation_vectors, ssao, topdown_gbuffer, volume_ao)
 from .pyramid import extrema_pyramid, mip_pyramid
 from .shadows import (CORNER_SNAP, CORNER_TIE, ReferenceShadows, cast_shadows,
                       shadow_coefficient, tie_tolerance)
 
 __all__ = [
-    "CORNER_SNAP", "CORNER_TIE", "ReferenceShadows", "cast_shadows", "extrema_pyramid",
-    "mip_pyramid", "shadow_coefficient", "tie_tolerance",
+    "CORNER_SNAP", "CORNER_TIE", "ReferenceAO", "ReferenceShadows", "TopDownView", "bilinear",
+    "box_blur", "cast_shadows", "cosine_directions", "edge_blur", "extrema_pyramid", "mip_pyramid",
+    "raytraced_ao", "rotation_vectors", "shadow_coefficient", "ssao", "tie_tolerance",
+    "topdown_gbuffer", "volume_ao",
 ]
