@@ -20,21 +20,24 @@
  *           handedness), T made orthogonal to N by Gram-Schmidt, B = w N x T
  *           (the paper's N_vcs = (M_mv^-1)^T M_ts^-1 N_ts per pixel).
  *           Degenerate T (parallel to N, zero) keeps N unmapped.
- *   ssao_ao(pos, nout, zbuf, W, H, prx, pry, prw, kern, m, radius, delta,
+ *   ssao_ao(pos, nout, zbuf, W, H, pru, prv, prw, kern, m, radius, delta,
  *           seed, ao)
- *     prx, pry, prw  float4: rows 0, 1 and 3 of the projection matrix
+ *     pru, prv, prw  float4 rows (host float64, rounded once): with M the
+ *           projection matrix, pru = W/2 (M[0] + M[3]), prv = H/2 (M[3] - M[1]),
+ *           prw = M[3], so a view-space point A lands on pixel coordinates
+ *           (pru.A / prw.A, prv.A / prw.A) (A with w = 1)
  *     kern  __constant float4 *, m entries: the tangent-space sample kernel
  *           (unit radius, z along the normal), generated once by the host
  *     m     int, 1..256; radius, delta float (radius > 0); seed uint
  *     ao    float, W*H (out): unoccluded fraction 1 - k, 1 on empty pixels
- *   ssao_box_h(ao, zbuf, W, H, half, tmp)      -D OCLS_BLUR_BOX
- *   ssao_box_v(tmp, zbuf, W, H, half, out)     -D OCLS_BLUR_BOX
+ *   ssao_box_h(ao, zbuf, W, H, rad, tmp)      -D OCLS_BLUR_BOX
+ *   ssao_box_v(tmp, zbuf, W, H, rad, out)     -D OCLS_BLUR_BOX
  *     tmp float2 W*H: (sum of AO over hit pixels, count of hit pixels) in the
  *     horizontal window; out = mean over the hit pixels of the clipped
- *     (2 half + 1)^2 window.  Separable exactly: the 2-D sums are products
+ *     (2 rad + 1)^2 window.  Separable exactly: the 2-D sums are products
  *     of 1-D windows (clipping at the border too); empty pixels stay 1.
- *   ssao_edge(ao, pos, nout, zbuf, W, H, half, plane_tol, out)  -D OCLS_BLUR_EDGE
- *     weighted mean over the (2 half + 1)^2 window (not separable: the
+ *   ssao_edge(ao, pos, nout, zbuf, W, H, rad, plane_tol, out)  -D OCLS_BLUR_EDGE
+ *     weighted mean over the (2 rad + 1)^2 window (not separable: the
  *     weights depend on the pair of pixels), see "Edge-aware blur" below.
  *
  * -D options: OCLS_ALPHA (alpha map), OCLS_NORMAL_MAP (normal map),
@@ -69,6 +72,8 @@
 #include "common.h"
 
 #define OCLS_HASH_SALT 0x9e3779b9u
+/* x is finite (no isfinite(): PoCL's builtin call keeps the work-item loop scalar) */
+#define OCLS_FINITE(x) ((x) - (x) == 0.0f)
 
 /* A 32-bit integer mix (xorshift-multiply rounds); CPU twin: reference/ao.py. */
 OCLS_INLINE uint ocls_mix(uint x)
@@ -93,169 +98,213 @@ OCLS_INLINE float ocls_signed_unit(uint h)
     return (float)(2 * k + 1 - (1 << 24)) * 0x1p-24f;
 }
 
-__kernel void ssao_prepare(__global const float4 *pos, __global const float4 *nrm,
+__kernel void ssao_prepare(__global const float *restrict pos, __global const float *restrict nrm,
 #ifdef OCLS_ALPHA
-                           __global const float *alpha, float alpha_eps,
+                           __global const float *restrict alpha, float alpha_eps,
 #endif
 #ifdef OCLS_NORMAL_MAP
-                           __global const float4 *nmap, __global const float4 *tangent,
+                           __global const float *restrict nmap, __global const float *restrict tangent,
 #endif
-                           int W, int H, __global float *zbuf, __global float4 *nout)
+                           int W, int H, __global float *restrict zbuf, __global float *restrict nout)
 {
     const int c = get_global_id(0), r = get_global_id(1);
-    if (c >= W || r >= H) return;
-    const int i = r * W + c;
-    const float4 p = pos[i];
-    int hit = p.w >= 0.5f && isfinite(p.x) && isfinite(p.y) && isfinite(p.z);
+    const int inside = c < W && r < H;
+    const int i = inside ? r * W + c : 0;
+    /* x and y are not read: four adjacent loads merge into one float4 load that
+     * keeps PoCL from vectorising; a non-finite x or y gives AO 1 (no sample counted) */
+    const float pz = pos[4 * i + 2], pw = pos[4 * i + 3];
+    int hit = pw >= 0.5f && OCLS_FINITE(pz);
 #ifdef OCLS_ALPHA
     hit = hit && alpha[i] >= alpha_eps;
 #endif
-    zbuf[i] = hit ? p.z : -INFINITY;
-    float4 n = nrm[i];
+    float nx = nrm[4 * i], ny = nrm[4 * i + 1], nz = nrm[4 * i + 2];
 #ifdef OCLS_NORMAL_MAP
     {
-        const float3 N = n.xyz;
-        const float4 tg = tangent[i];
-        const float3 t0 = tg.xyz - N * dot(tg.xyz, N);
-        const float tt = dot(t0, t0);
-        if (tt > 1e-12f && isfinite(tt)) {
-            const float3 T = t0 / sqrt(tt);
-            const float3 B = cross(N, T) * (tg.w < 0.0f ? -1.0f : 1.0f);
-            const float4 q = nmap[i];
-            const float3 m = T * q.x + B * q.y + N * q.z;
-            const float mm = dot(m, m);
-            if (mm > 1e-12f && isfinite(mm))
-                n = (float4)(m / sqrt(mm), 0.0f);
-        }
+        const float gx = tangent[4 * i], gy = tangent[4 * i + 1], gz = tangent[4 * i + 2];
+        const float hand = tangent[4 * i + 3] < 0.0f ? -1.0f : 1.0f;
+        const float gn = gx * nx + gy * ny + gz * nz;
+        const float tx = gx - nx * gn, ty = gy - ny * gn, tz = gz - nz * gn;
+        const float tt = tx * tx + ty * ty + tz * tz;
+        const int tok = tt > 1e-12f && OCLS_FINITE(tt);
+        const float tl = tok ? sqrt(tt) : 1.0f;
+        const float Tx = tx / tl, Ty = ty / tl, Tz = tz / tl;
+        const float Bx = (ny * Tz - nz * Ty) * hand, By = (nz * Tx - nx * Tz) * hand, Bz = (nx * Ty - ny * Tx) * hand;
+        const float qx = nmap[4 * i], qy = nmap[4 * i + 1], qz = nmap[4 * i + 2];
+        const float mx = Tx * qx + Bx * qy + nx * qz, my = Ty * qx + By * qy + ny * qz, mz = Tz * qx + Bz * qy + nz * qz;
+        const float mm = mx * mx + my * my + mz * mz;
+        const int ok = tok && mm > 1e-12f && OCLS_FINITE(mm);
+        const float ml = ok ? sqrt(mm) : 1.0f;
+        nx = ok ? mx / ml : nx;
+        ny = ok ? my / ml : ny;
+        nz = ok ? mz / ml : nz;
     }
 #endif
-    nout[i] = n;
+    if (inside) {
+        zbuf[i] = hit ? pz : -INFINITY;
+        nout[4 * i] = nx;
+        nout[4 * i + 1] = ny;
+        nout[4 * i + 2] = nz;
+        nout[4 * i + 3] = 0.0f;
+    }
 }
 
-__kernel void ssao_ao(__global const float4 *pos, __global const float4 *nrm,
-                      __global const float *zbuf, int W, int H,
-                      float4 prx, float4 pry, float4 prw,
-                      __constant float4 *kern, int m, float radius, float delta, uint seed,
-                      __global float *ao)
+/* Uniform control flow: no early return before the sample loop and a trip
+ * count m the same for every work-item, so PoCL can interchange the loop with
+ * its work-item loop and vectorise across pixels (a divergent loop runs
+ * scalar).  Scalar code throughout: PoCL's work-item loop vectoriser gives up
+ * on vector-typed values (float3/float4 loads and builtins). */
+#define OCLS_DOT3(ax, ay, az, bx, by, bz) ((ax) * (bx) + (ay) * (by) + (az) * (bz))
+
+__kernel void ssao_ao(__global const float *restrict pos, __global const float *restrict nrm,
+                      __global const float *restrict zbuf, int W, int H,
+                      __constant float *prj, __constant float *kern, int m, float radius,
+                      float delta, uint seed, __global float *restrict ao)
 {
     const int c = get_global_id(0), r = get_global_id(1);
-    if (c >= W || r >= H) return;
-    const int i = r * W + c;
+    const int inside = c < W && r < H;
+    const int i = inside ? r * W + c : 0;
     const float zc = zbuf[i];
-    float3 N = nrm[i].xyz;
-    const float nn = dot(N, N);
-    if (zc == -INFINITY || !(nn > 1e-12f && nn < INFINITY)) {
-        ao[i] = 1.0f;
-        return;
-    }
-    N = N / sqrt(nn);
-    const float3 P = pos[i].xyz;
+    const float n0x = nrm[4 * i], n0y = nrm[4 * i + 1], n0z = nrm[4 * i + 2];
+    const float nn = OCLS_DOT3(n0x, n0y, n0z, n0x, n0y, n0z);
+    const int live = inside && zc != -INFINITY && nn > 1e-12f && nn < INFINITY;
+    const float nl = live ? sqrt(nn) : 1.0f;
+    const float Nx = live ? n0x / nl : 0.0f, Ny = live ? n0y / nl : 0.0f, Nz = live ? n0z / nl : 1.0f;
+    const float Px = pos[4 * i], Py = pos[4 * i + 1], Pz = pos[4 * i + 2];
 
     /* steps 1-2: rotation vector and Gram-Schmidt */
     const uint h = ocls_pixel_hash((uint)c, (uint)r, seed);
-    float3 v = (float3)(ocls_signed_unit(h), ocls_signed_unit(ocls_mix(h ^ OCLS_HASH_SALT)), 0.0f);
-    float3 t0 = v - N * dot(v, N);
-    float tt = dot(t0, t0);
-    if (!(tt >= 1e-8f)) {
-        const float ax = fabs(N.x), ay = fabs(N.y), az = fabs(N.z);
-        v = (ax <= ay && ax <= az) ? (float3)(1.0f, 0.0f, 0.0f)
-          : (ay <= az ? (float3)(0.0f, 1.0f, 0.0f) : (float3)(0.0f, 0.0f, 1.0f));
-        t0 = v - N * dot(v, N);
-        tt = dot(t0, t0);
-    }
-    const float3 T = t0 / sqrt(tt);
-    const float3 B = cross(N, T);
-    const float3 RT = T * radius, RB = B * radius, RN = N * radius;
-    const float fw = 0.5f * (float)W, fh = 0.5f * (float)H;
+    const float vx = ocls_signed_unit(h), vy = ocls_signed_unit(ocls_mix(h ^ OCLS_HASH_SALT));
+    const float vn = vx * Nx + vy * Ny;
+    float tx = vx - Nx * vn, ty = vy - Ny * vn, tz = 0.0f - Nz * vn;
+    const float ax = fabs(Nx), ay = fabs(Ny), az = fabs(Nz);
+    const int ex = ax <= ay && ax <= az, ey = !ex && ay <= az, ez = !ex && !ey;
+    const float en = ex ? Nx : (ey ? Ny : Nz);           /* e . N for the axis e */
+    const int fallback = !(OCLS_DOT3(tx, ty, tz, tx, ty, tz) >= 1e-8f);
+    tx = fallback ? (ex ? 1.0f : 0.0f) - Nx * en : tx;
+    ty = fallback ? (ey ? 1.0f : 0.0f) - Ny * en : ty;
+    tz = fallback ? (ez ? 1.0f : 0.0f) - Nz * en : tz;
+    const float tl = sqrt(OCLS_DOT3(tx, ty, tz, tx, ty, tz));
+    const float Tx = tx / tl, Ty = ty / tl, Tz = tz / tl;
+    const float Bx = Ny * Tz - Nz * Ty, By = Nz * Tx - Nx * Tz, Bz = Nx * Ty - Ny * Tx;
+    const float RTx = Tx * radius, RTy = Ty * radius, RTz = Tz * radius;
+    const float RBx = Bx * radius, RBy = By * radius, RBz = Bz * radius;
+    const float RNx = Nx * radius, RNy = Ny * radius, RNz = Nz * radius;
+
+    /* step 3, projected: clip coordinates are linear in A_t, so the pixel's
+     * P, R T, R B and R N are projected once; pru / prv are the rows giving
+     * the pixel coordinates times w: u = (ndc.x + 1) W / 2, y = (1 - ndc.y) H / 2. */
+    const float cpu = OCLS_DOT3(prj[0], prj[1], prj[2], Px, Py, Pz) + prj[3];
+    const float cpv = OCLS_DOT3(prj[4], prj[5], prj[6], Px, Py, Pz) + prj[7];
+    const float cpw = OCLS_DOT3(prj[8], prj[9], prj[10], Px, Py, Pz) + prj[11];
+    const float ctu = OCLS_DOT3(prj[0], prj[1], prj[2], RTx, RTy, RTz);
+    const float ctv = OCLS_DOT3(prj[4], prj[5], prj[6], RTx, RTy, RTz);
+    const float ctw = OCLS_DOT3(prj[8], prj[9], prj[10], RTx, RTy, RTz);
+    const float cbu = OCLS_DOT3(prj[0], prj[1], prj[2], RBx, RBy, RBz);
+    const float cbv = OCLS_DOT3(prj[4], prj[5], prj[6], RBx, RBy, RBz);
+    const float cbw = OCLS_DOT3(prj[8], prj[9], prj[10], RBx, RBy, RBz);
+    const float cnu = OCLS_DOT3(prj[0], prj[1], prj[2], RNx, RNy, RNz);
+    const float cnv = OCLS_DOT3(prj[4], prj[5], prj[6], RNx, RNy, RNz);
+    const float cnw = OCLS_DOT3(prj[8], prj[9], prj[10], RNx, RNy, RNz);
+    const float fW = (float)W, fH = (float)H;
 
     /* steps 3-5 */
     int counted = 0, occluded = 0;
     for (int t = 0; t < m; ++t) {
-        const float4 s = kern[t];
-        const float3 A = P + (RT * s.x + RB * s.y + RN * s.z);
-        const float cw = prw.x * A.x + prw.y * A.y + prw.z * A.z + prw.w;
-        const float cx = prx.x * A.x + prx.y * A.y + prx.z * A.z + prx.w;
-        const float cy = pry.x * A.x + pry.y * A.y + pry.z * A.z + pry.w;
-        const float u = (cx / cw + 1.0f) * fw;
-        const float y = (1.0f - cy / cw) * fh;
-        const int on = cw > 0.0f && u >= 0.0f && u < (float)W && y >= 0.0f && y < (float)H;
+        const float sx = kern[4 * t], sy = kern[4 * t + 1], sz = kern[4 * t + 2];
+        const float qu = cpu + (ctu * sx + cbu * sy + cnu * sz);
+        const float qv = cpv + (ctv * sx + cbv * sy + cnv * sz);
+        const float qw = cpw + (ctw * sx + cbw * sy + cnw * sz);
+        const float az_t = Pz + (RTz * sx + RBz * sy + RNz * sz);
+        const float inv = 1.0f / qw;
+        const float u = qu * inv, y = qv * inv;
+        const int on = qw > 0.0f && u >= 0.0f && u < fW && y >= 0.0f && y < fH;
         const int j = on ? (int)y * W + (int)u : i;
         const float zt = zbuf[j];
-        int occ = zt >= A.z + delta;
+        int occ = zt >= az_t + delta;
 #ifdef OCLS_RANGE_CHECK
-        occ = occ && zt - P.z <= radius;
+        occ = occ && zt - Pz <= radius;
 #endif
         counted += on;
         occluded += on && occ;
     }
-    ao[i] = counted > 0 ? 1.0f - (float)occluded / (float)counted : 1.0f;
+    if (inside)
+        ao[i] = (live && counted > 0) ? 1.0f - (float)occluded / (float)counted : 1.0f;
 }
 
 #ifdef OCLS_BLUR_BOX
-__kernel void ssao_box_h(__global const float *ao, __global const float *zbuf, int W, int H,
-                         int half, __global float2 *tmp)
+/* Window loops run -rad..rad for every work-item (uniform), clipped taps masked. */
+__kernel void ssao_box_h(__global const float *restrict ao, __global const float *restrict zbuf,
+                         int W, int H, int rad, __global float *restrict tmp)
 {
     const int c = get_global_id(0), r = get_global_id(1);
-    if (c >= W || r >= H) return;
-    const int row = r * W;
+    const int inside = c < W && r < H;
+    const int row = inside ? r * W : 0;
     float sum = 0.0f, count = 0.0f;
-    const int lo = max(c - half, 0), hi = min(c + half, W - 1);
-    for (int k = lo; k <= hi; ++k) {
-        const int hit = zbuf[row + k] != -INFINITY;
-        sum += hit ? ao[row + k] : 0.0f;
+    for (int k = -rad; k <= rad; ++k) {
+        const int x = c + k;
+        const int ok = x >= 0 && x < W;
+        const int j = row + (ok ? x : 0);
+        const int hit = ok && zbuf[j] != -INFINITY;
+        sum += hit ? ao[j] : 0.0f;
         count += hit ? 1.0f : 0.0f;
     }
-    tmp[row + c] = (float2)(sum, count);
+    if (inside) {
+        tmp[2 * (row + c)] = sum;
+        tmp[2 * (row + c) + 1] = count;
+    }
 }
 
-__kernel void ssao_box_v(__global const float2 *tmp, __global const float *zbuf, int W, int H,
-                         int half, __global float *out)
+__kernel void ssao_box_v(__global const float *restrict tmp, __global const float *restrict zbuf,
+                         int W, int H, int rad, __global float *restrict out)
 {
     const int c = get_global_id(0), r = get_global_id(1);
-    if (c >= W || r >= H) return;
-    const int i = r * W + c;
-    if (zbuf[i] == -INFINITY) {
-        out[i] = 1.0f;
-        return;
+    const int inside = c < W && r < H;
+    const int col = inside ? c : 0;
+    float sum = 0.0f, count = 0.0f;
+    for (int k = -rad; k <= rad; ++k) {
+        const int y = r + k;
+        const int ok = y >= 0 && y < H;
+        const int j = (ok ? y : 0) * W + col;
+        sum += ok ? tmp[2 * j] : 0.0f;
+        count += ok ? tmp[2 * j + 1] : 0.0f;
     }
-    float2 acc = (float2)(0.0f, 0.0f);
-    const int lo = max(r - half, 0), hi = min(r + half, H - 1);
-    for (int k = lo; k <= hi; ++k)
-        acc += tmp[k * W + c];
-    out[i] = acc.x / acc.y;   /* acc.y >= 1: the centre is a hit */
+    if (inside) {
+        const int i = r * W + c;
+        out[i] = zbuf[i] == -INFINITY ? 1.0f : sum / count;   /* count >= 1: the centre is a hit */
+    }
 }
 #endif
 
 #ifdef OCLS_BLUR_EDGE
-__kernel void ssao_edge(__global const float *ao, __global const float4 *pos,
-                        __global const float4 *nrm, __global const float *zbuf, int W, int H,
-                        int half, float plane_tol, __global float *out)
+__kernel void ssao_edge(__global const float *restrict ao, __global const float *restrict pos,
+                        __global const float *restrict nrm, __global const float *restrict zbuf,
+                        int W, int H, int rad, float plane_tol, __global float *restrict out)
 {
     const int c = get_global_id(0), r = get_global_id(1);
-    if (c >= W || r >= H) return;
-    const int i = r * W + c;
-    if (zbuf[i] == -INFINITY) {
-        out[i] = 1.0f;
-        return;
-    }
-    const float3 P = pos[i].xyz, N = nrm[i].xyz;
+    const int inside = c < W && r < H;
+    const int i = inside ? r * W + c : 0;
+    const float Px = pos[4 * i], Py = pos[4 * i + 1], Pz = pos[4 * i + 2];
+    const float Nx = nrm[4 * i], Ny = nrm[4 * i + 1], Nz = nrm[4 * i + 2];
     const float inv_tol = 1.0f / plane_tol;
     float sum = 0.0f, wsum = 0.0f;
-    const int r0 = max(r - half, 0), r1 = min(r + half, H - 1);
-    const int c0 = max(c - half, 0), c1 = min(c + half, W - 1);
-    for (int y = r0; y <= r1; ++y) {
-        for (int x = c0; x <= c1; ++x) {
-            const int j = y * W + x;
-            const int hit = zbuf[j] != -INFINITY;
-            const float3 q = pos[j].xyz;
-            const float cs = fmax(dot(N, nrm[j].xyz), 0.0f);
+    for (int dy = -rad; dy <= rad; ++dy) {
+        const int y = r + dy;
+        const int oky = y >= 0 && y < H;
+        for (int dx = -rad; dx <= rad; ++dx) {
+            const int x = c + dx;
+            const int ok = oky && x >= 0 && x < W;
+            const int j = ok ? y * W + x : i;
+            const int hit = ok && zbuf[j] != -INFINITY;
+            const float cs = fmax(OCLS_DOT3(Nx, Ny, Nz, nrm[4 * j], nrm[4 * j + 1], nrm[4 * j + 2]), 0.0f);
             const float c2 = cs * cs;
-            const float d = fabs(dot(N, q - P)) * inv_tol;
+            const float d = fabs(OCLS_DOT3(Nx, Ny, Nz, pos[4 * j] - Px, pos[4 * j + 1] - Py, pos[4 * j + 2] - Pz))
+                            * inv_tol;
             const float w = hit ? (c2 * c2) / (1.0f + d * d) : 0.0f;
             sum += w * ao[j];
             wsum += w;
         }
     }
-    out[i] = wsum > 0.0f ? sum / wsum : ao[i];
+    if (inside)
+        out[i] = zbuf[i] == -INFINITY ? 1.0f : (wsum > 0.0f ? sum / wsum : ao[i]);
 }
 #endif

@@ -214,8 +214,9 @@ class SSAO:
         self._launch(prep, width, height)
 
         ao = rt.kernel("ssao.cl", "ssao_ao", defines)
-        rows = [proj[k].astype(np.float32) for k in (0, 1, 3)]
-        ao.set_args(inputs.position, work["normal"], work["zbuf"], *dims, *rows, self._table(m, features.distribution),
+        rows = np.concatenate([0.5 * width * (proj[0] + proj[3]), 0.5 * height * (proj[3] - proj[1]), proj[3]])
+        prj = rt.to_device(rows.astype(np.float32), "projection rows")   # referenced until enqueued
+        ao.set_args(inputs.position, work["normal"], work["zbuf"], *dims, prj, self._table(m, features.distribution),
                     np.int32(m), np.float32(radius), np.float32(delta), np.uint32(seed), work["ao"])
         self._launch(ao, width, height)
         if features.blur == "none":
