@@ -101,10 +101,12 @@ class AOFeatures:
         }
 
 
-#: the paper's recipe: its half-cube kernel, no range check, a 5 x 5 box blur
+#: the paper's recipe: its half-cube kernel, m = 32, no range check, a 5 x 5 box blur
 PAPER_RECIPE = AOFeatures(distribution="paper", blur="box", blur_size=5)
-#: the library default (chosen by bench/ssao.py: lower RMSE than PAPER_RECIPE at no more time)
-DEFAULT_FEATURES = AOFeatures(distribution="uniform", blur="edge", blur_size=5)
+PAPER_M = 32
+#: the library default (chosen with bench/ssao.py: lower RMSE than the paper's recipe at no more time)
+DEFAULT_FEATURES = AOFeatures(distribution="uniform", blur="box", blur_size=5)
+DEFAULT_M = 32
 
 
 @dataclass
@@ -184,7 +186,7 @@ class SSAO:
         return inputs
 
     # --- the pass ------------------------------------------------------------------
-    def run(self, inputs: AOInputs, projection: object, *, radius: float, m: int = 32, delta: float = 0.0,
+    def run(self, inputs: AOInputs, projection: object, *, radius: float, m: int = DEFAULT_M, delta: float = 0.0,
             features: AOFeatures = DEFAULT_FEATURES, seed: int = 0, alpha_eps: float = 0.5,
             plane_tol: float | None = None) -> cl.Buffer | None:
         """Enqueue the pass on device inputs; returns the AO buffer (float32 per pixel,
@@ -217,7 +219,7 @@ class SSAO:
         rows = np.concatenate([0.5 * width * (proj[0] + proj[3]), 0.5 * height * (proj[3] - proj[1]), proj[3]])
         prj = rt.to_device(rows.astype(np.float32), "projection rows")   # referenced until enqueued
         ao.set_args(inputs.position, work["normal"], work["zbuf"], *dims, prj, self._table(m, features.distribution),
-                    np.int32(m), np.float32(radius), np.float32(delta), np.uint32(seed), work["ao"])
+                    np.int32(m), np.int32(-(-m // 8) * 8), np.float32(radius), np.float32(delta), np.uint32(seed), work["ao"])
         self._launch(ao, width, height)
         if features.blur == "none":
             return work["ao"]
@@ -239,7 +241,7 @@ class SSAO:
             self._launch(be, width, height)
         return work["out"]
 
-    def compute(self, gbuffer: GBuffer | None, projection: object, *, radius: float, m: int = 32,
+    def compute(self, gbuffer: GBuffer | None, projection: object, *, radius: float, m: int = DEFAULT_M,
                 delta: float = 0.0, features: AOFeatures = DEFAULT_FEATURES, seed: int = 0,
                 alpha_eps: float = 0.5, plane_tol: float | None = None, **arrays: object) -> np.ndarray:
         """Host in, host out: the AO factor per pixel, float32 (H, W), 1 = unoccluded.
@@ -261,7 +263,10 @@ class SSAO:
     def _table(self, m: int, distribution: str) -> cl.Buffer:
         key = (m, distribution)
         if key not in self._tables:
-            self._tables[key] = self.runtime.to_device(sample_kernel(m, distribution), "sample kernel")
+            mpad = -(-m // 8) * 8    # structure of arrays x[mpad], y[mpad], z[mpad]; NaN padding
+            table = np.full((3, mpad), np.nan, np.float32)
+            table[:, :m] = sample_kernel(m, distribution)[:, :3].T
+            self._tables[key] = self.runtime.to_device(table, "sample kernel")
         return self._tables[key]
 
     def _buffers(self, shape: tuple[int, int]) -> dict[str, cl.Buffer]:
