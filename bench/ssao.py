@@ -201,7 +201,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--sizes", default="1920x1080,640x480")
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--out", type=Path, default=HERE / "results")
+    ap.add_argument("--report-only", action="store_true",
+                    help="rewrite the comparisons, .md and .png from an existing ssao.json in --out")
     args = ap.parse_args(argv)
+    if args.report_only:
+        res = json.loads((args.out / "ssao.json").read_text())
+        for case in res["cases"]:
+            case["comparison"] = compare(case["settings"])
+        write_all(res, args.out)
+        return 0
     sizes = [tuple(int(v) for v in s.split("x")) for s in args.sizes.split(",")]
     if args.quick:
         sizes, args.repeats = [(96, 64)], 1
@@ -235,12 +243,16 @@ def main(argv: list[str] | None = None) -> int:
             c = case["comparison"]
             log(f"  paper {c['paper']['time_ms']['min']:.1f} ms, default {c['default']['time_ms']['min']:.1f} ms; "
                 f"RMSE reduction {100 * c['rmse_reduction_volume']:.0f}% / {100 * c['rmse_reduction_raytraced']:.0f}%")
-    args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "ssao.json").write_text(json.dumps(res, indent=1))
-    write_md(res, args.out / "ssao.md")
-    if res["cases"]:
-        write_png(res, args.out / "ssao.png")
+    write_all(res, args.out)
     return 0
+
+
+def write_all(res: dict, out: Path) -> None:
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "ssao.json").write_text(json.dumps(res, indent=1))
+    write_md(res, out / "ssao.md")
+    if res["cases"]:
+        write_png(res, out / "ssao.png")
 
 
 if __name__ == "__main__":

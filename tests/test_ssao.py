@@ -450,3 +450,26 @@ def test_write_ao_exr_round_trip(ssao: SSAO, tmp_path: Path) -> None:
     np.testing.assert_array_equal(read_dem(path).heights, ao.astype(np.float64))
     with pytest.raises(ValueError, match=".exr"):
         write_ao_exr(tmp_path / "ao.tif", ao)
+
+
+BENCH = ROOT / "bench" / "ssao.py"
+
+
+@pytest.mark.skipif(not BENCH.is_file(), reason="bench/ is not in this tree (installed package only)")
+def test_bench_quick_smoke(tmp_path: Path) -> None:
+    out = tmp_path / "results"
+    cmd = [sys.executable, str(BENCH), "--quick", "--datasets", "synthetic,santo", "--data",
+           str(tmp_path / "no-shared-data"), "--out", str(out)]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-4000:]
+    for ext in ("json", "md", "png"):
+        assert (out / f"ssao.{ext}").stat().st_size > 0
+    import json
+    res = json.loads((out / "ssao.json").read_text())
+    assert {"date", "cpu", "cores", "pocl_version"} <= set(res["meta"])
+    assert [s["dataset"] for s in res["skipped"]] == ["santo"]
+    (case,) = res["cases"]
+    assert case["dataset"] == "synthetic" and len(case["settings"]) == 2 * 4 * 2 * 3
+    for r in case["settings"]:
+        assert 0 <= r["rmse_volume"] < 0.5 and 0 <= r["rmse_raytraced"] < 0.5 and r["time_ms"]["min"] > 0
+    assert {"time_ratio", "rmse_reduction_volume", "rmse_reduction_raytraced"} <= set(case["comparison"])
