@@ -2,14 +2,14 @@
  * preparation, the AO estimator, the N x N box blur and an edge-aware blur.
  *
  * ABI summary: four kernels, each one work-item per pixel, global size
- * (W, H) rounded up to any local size (surplus items return at once).
- * Buffers are row-major, one row of W pixels after another; float4 fields
- * are the G-buffer's (oclshade/gbuffer.py): pos = view-space x, y, z and
+ * (W, H) rounded up to any local size (surplus items store nothing; no early
+ * return, see ssao_ao).  Buffers are row-major, one row of W pixels after
+ * another, read as plain floats; the 4-float fields are the G-buffer's (oclshade/gbuffer.py): pos = view-space x, y, z and
  * w = 1 hit / 0 empty; nrm = view-space unit normal (w unused).
  *
  *   ssao_prepare(pos, nrm, [alpha, alpha_eps], [nmap, tangent,] W, H, zbuf, nout)
  *     zbuf  float, W*H (out): view-space z of the pixel's surface, -INFINITY
- *           when the pixel is empty (pos.w < 0.5, a non-finite position, or
+ *           when the pixel is empty (pos.w < 0.5, a non-finite z, or
  *           under -D OCLS_ALPHA alpha < alpha_eps: the paper's discarded
  *           cut-out fragment).  An empty pixel gets no AO and occludes nothing.
  *     nout  float4, W*H (out): the normal the AO pass uses; without -D
@@ -20,19 +20,22 @@
  *           handedness), T made orthogonal to N by Gram-Schmidt, B = w N x T
  *           (the paper's N_vcs = (M_mv^-1)^T M_ts^-1 N_ts per pixel).
  *           Degenerate T (parallel to N, zero) keeps N unmapped.
- *   ssao_ao(pos, nout, zbuf, W, H, pru, prv, prw, kern, m, radius, delta,
- *           seed, ao)
- *     pru, prv, prw  float4 rows (host float64, rounded once): with M the
- *           projection matrix, pru = W/2 (M[0] + M[3]), prv = H/2 (M[3] - M[1]),
- *           prw = M[3], so a view-space point A lands on pixel coordinates
- *           (pru.A / prw.A, prv.A / prw.A) (A with w = 1)
- *     kern  __constant float4 *, m entries: the tangent-space sample kernel
- *           (unit radius, z along the normal), generated once by the host
- *     m     int, 1..256; radius, delta float (radius > 0); seed uint
+ *   ssao_ao(pos, nout, zbuf, W, H, prj, kern, m, mpad, radius, delta, seed, ao)
+ *     pos, nout as float * (4 floats per pixel; scalar loads, see below)
+ *     prj   __constant float[12]: three rows (host float64, rounded once):
+ *           with M the projection matrix, pru = W/2 (M[0] + M[3]),
+ *           prv = H/2 (M[3] - M[1]), prw = M[3], so a view-space point A
+ *           (w = 1) lands on pixel coordinates (pru.A / prw.A, prv.A / prw.A)
+ *     kern  __constant float[3 mpad]: the tangent-space sample kernel (unit
+ *           radius, z along the normal), structure of arrays x[mpad], y[mpad],
+ *           z[mpad], entries m..mpad-1 NaN (they land nowhere, never counted);
+ *           generated once by the host
+ *     m     int, 1..256; mpad = m rounded up to a multiple of 8; radius,
+ *           delta float (radius > 0); seed uint
  *     ao    float, W*H (out): unoccluded fraction 1 - k, 1 on empty pixels
  *   ssao_box_h(ao, zbuf, W, H, rad, tmp)      -D OCLS_BLUR_BOX
  *   ssao_box_v(tmp, zbuf, W, H, rad, out)     -D OCLS_BLUR_BOX
- *     tmp float2 W*H: (sum of AO over hit pixels, count of hit pixels) in the
+ *     tmp 2 floats per pixel: (sum of AO over hit pixels, count of hit pixels) in the
  *     horizontal window; out = mean over the hit pixels of the clipped
  *     (2 rad + 1)^2 window.  Separable exactly: the 2-D sums are products
  *     of 1-D windows (clipping at the border too); empty pixels stay 1.
@@ -67,7 +70,7 @@
  * Edge-aware blur: weight of neighbour q for centre p (both hit) is
  *   w = c^4 / (1 + (d / plane_tol)^2),  c = max(N_p . N_q, 0),
  *   d = |N_p . (P_q - P_p)|  (distance of q from p's tangent plane);
- * the centre has weight 1.  Only +, *, / are used, no exp.
+ * the centre gets |N|^8 (1 for unit normals).  Only +, *, / are used, no exp.
  */
 #include "common.h"
 

@@ -77,7 +77,7 @@ def prepare(position: np.ndarray, normal: np.ndarray, alpha: np.ndarray | None =
     """Twin of ``ssao_prepare``: (hit mask, normal used by the AO pass) in float64."""
     p = np.asarray(position, np.float64)
     n = np.asarray(normal, np.float64)[..., :3].copy()
-    hit = (p[..., 3] >= 0.5) & np.all(np.isfinite(p[..., :3]), axis=-1)
+    hit = (p[..., 3] >= 0.5) & np.isfinite(p[..., 2])   # x, y unchecked, as in the kernel
     if alpha is not None:
         hit &= np.asarray(alpha, np.float64) >= np.float32(alpha_eps)
     if normal_map is not None:
