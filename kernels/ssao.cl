@@ -1,8 +1,8 @@
 /* ssao.cl — screen-space ambient occlusion over a G-buffer (paper 001):
  * preparation, the AO estimator, the N x N box blur and an edge-aware blur.
  *
- * ABI summary: four kernels, each one work-item per pixel, global size
- * (W, H) rounded up to any local size (surplus items store nothing; no early
+ * ABI summary: four kernels, one work-item per pixel (ssao_ao: per 8 pixels of a
+ * row), global size (W, H) (ssao_ao: (ceil(W / 8), H)) rounded up to any local size (surplus items store nothing; no early
  * return, see ssao_ao).  Buffers are row-major, one row of W pixels after
  * another, read as plain floats; the 4-float fields are the G-buffer's (oclshade/gbuffer.py): pos = view-space x, y, z and
  * w = 1 hit / 0 empty; nrm = view-space unit normal (w unused).
@@ -21,6 +21,7 @@
  *           (the paper's N_vcs = (M_mv^-1)^T M_ts^-1 N_ts per pixel).
  *           Degenerate T (parallel to N, zero) keeps N unmapped.
  *   ssao_ao(pos, nout, zbuf, W, H, prj, kern, m, mpad, radius, delta, seed, ao)
+ *     global size (ceil(W / 8), H): one work-item per 8 adjacent pixels of a row
  *     pos, nout as float * (4 floats per pixel; scalar loads, see below)
  *     prj   __constant float[12]: three rows (host float64, rounded once):
  *           with M the projection matrix, pru = W/2 (M[0] + M[3]),
@@ -151,70 +152,92 @@ __kernel void ssao_prepare(__global const float *restrict pos, __global const fl
     }
 }
 
-/* Uniform control flow: no early return before the sample loop and a trip
- * count m the same for every work-item, so PoCL can interchange the loop with
- * its work-item loop and vectorise across pixels (a divergent loop runs
- * scalar).  Scalar code throughout: PoCL's work-item loop vectoriser gives up
- * on vector-typed values (float3/float4 loads and builtins). */
+/* ssao_ao: one work-item per 8 horizontally adjacent pixels, every step on
+ * float8 lanes (explicit SIMD: PoCL does not vectorise this kernel's
+ * work-item loop by itself); lanes past the row end compute on a copy of the
+ * first pixel and store nothing.  Per lane the operations are those of the
+ * scalar definition above, in the same order. */
 #define OCLS_DOT3(ax, ay, az, bx, by, bz) ((ax) * (bx) + (ay) * (by) + (az) * (bz))
+#define OCLS_GATHER8(buf, idx, stride, off) \
+    (float8)((buf)[(stride) * (idx).s0 + (off)], (buf)[(stride) * (idx).s1 + (off)], \
+             (buf)[(stride) * (idx).s2 + (off)], (buf)[(stride) * (idx).s3 + (off)], \
+             (buf)[(stride) * (idx).s4 + (off)], (buf)[(stride) * (idx).s5 + (off)], \
+             (buf)[(stride) * (idx).s6 + (off)], (buf)[(stride) * (idx).s7 + (off)])
+
+OCLS_INLINE uint8 ocls_mix8(uint8 x)
+{
+    x ^= x >> 16;
+    x *= 0x7feb352du;
+    x ^= x >> 15;
+    x *= 0x846ca68bu;
+    x ^= x >> 16;
+    return x;
+}
+
+OCLS_INLINE float8 ocls_signed_unit8(uint8 h)
+{
+    const int8 k = convert_int8(h >> 8);
+    return convert_float8(2 * k + 1 - (1 << 24)) * 0x1p-24f;
+}
 
 __kernel void ssao_ao(__global const float *restrict pos, __global const float *restrict nrm,
                       __global const float *restrict zbuf, int W, int H,
                       __constant float *prj, __constant float *kern, int m, int mpad, float radius,
                       float delta, uint seed, __global float *restrict ao)
 {
-    const int c = get_global_id(0), r = get_global_id(1);
-    const int inside = c < W && r < H;
-    const int i = inside ? r * W + c : 0;
-    const float zc = zbuf[i];
-    const float n0x = nrm[4 * i], n0y = nrm[4 * i + 1], n0z = nrm[4 * i + 2];
-    const float nn = OCLS_DOT3(n0x, n0y, n0z, n0x, n0y, n0z);
-    const int live = inside && zc != -INFINITY && nn > 1e-12f && nn < INFINITY;
-    const float nl = live ? sqrt(nn) : 1.0f;
-    const float Nx = live ? n0x / nl : 0.0f, Ny = live ? n0y / nl : 0.0f, Nz = live ? n0z / nl : 1.0f;
-    const float Px = pos[4 * i], Py = pos[4 * i + 1], Pz = pos[4 * i + 2];
+    const int c0 = 8 * (int)get_global_id(0), r = get_global_id(1);
+    if (c0 >= W || r >= H) return;
+    const int8 cc = c0 + (int8)(0, 1, 2, 3, 4, 5, 6, 7);
+    const int8 inside = cc < W;
+    const int8 ii = select((int8)(r * W + c0), r * W + cc, inside);
+    const float8 zc = OCLS_GATHER8(zbuf, ii, 1, 0);
+    const float8 n0x = OCLS_GATHER8(nrm, ii, 4, 0), n0y = OCLS_GATHER8(nrm, ii, 4, 1), n0z = OCLS_GATHER8(nrm, ii, 4, 2);
+    const float8 Px = OCLS_GATHER8(pos, ii, 4, 0), Py = OCLS_GATHER8(pos, ii, 4, 1), Pz = OCLS_GATHER8(pos, ii, 4, 2);
+    const float8 nn = OCLS_DOT3(n0x, n0y, n0z, n0x, n0y, n0z);
+    const int8 live = inside & (zc != -INFINITY) & (nn > 1e-12f) & (nn < INFINITY);
+    const float8 one = (float8)(1.0f), zero = (float8)(0.0f);
+    const float8 nl = select(one, sqrt(nn), live);
+    const float8 Nx = select(zero, n0x / nl, live), Ny = select(zero, n0y / nl, live), Nz = select(one, n0z / nl, live);
 
     /* steps 1-2: rotation vector and Gram-Schmidt */
-    const uint h = ocls_pixel_hash((uint)c, (uint)r, seed);
-    const float vx = ocls_signed_unit(h), vy = ocls_signed_unit(ocls_mix(h ^ OCLS_HASH_SALT));
-    const float vn = vx * Nx + vy * Ny;
-    float tx = vx - Nx * vn, ty = vy - Ny * vn, tz = 0.0f - Nz * vn;
-    const float ax = fabs(Nx), ay = fabs(Ny), az = fabs(Nz);
-    const int ex = ax <= ay && ax <= az, ey = !ex && ay <= az, ez = !ex && !ey;
-    const float en = ex ? Nx : (ey ? Ny : Nz);           /* e . N for the axis e */
-    const int fallback = !(OCLS_DOT3(tx, ty, tz, tx, ty, tz) >= 1e-8f);
-    tx = fallback ? (ex ? 1.0f : 0.0f) - Nx * en : tx;
-    ty = fallback ? (ey ? 1.0f : 0.0f) - Ny * en : ty;
-    tz = fallback ? (ez ? 1.0f : 0.0f) - Nz * en : tz;
-    const float tl = sqrt(OCLS_DOT3(tx, ty, tz, tx, ty, tz));
-    const float Tx = tx / tl, Ty = ty / tl, Tz = tz / tl;
-    const float Bx = Ny * Tz - Nz * Ty, By = Nz * Tx - Nx * Tz, Bz = Nx * Ty - Ny * Tx;
-    const float RTx = Tx * radius, RTy = Ty * radius, RTz = Tz * radius;
-    const float RBx = Bx * radius, RBy = By * radius, RBz = Bz * radius;
-    const float RNx = Nx * radius, RNy = Ny * radius, RNz = Nz * radius;
+    const uint8 h = ocls_mix8(convert_uint8(cc) ^ (uint8)(ocls_mix((uint)r ^ ocls_mix(seed))));
+    const float8 vx = ocls_signed_unit8(h), vy = ocls_signed_unit8(ocls_mix8(h ^ OCLS_HASH_SALT));
+    const float8 vn = vx * Nx + vy * Ny;
+    const float8 gx = vx - Nx * vn, gy = vy - Ny * vn, gz = 0.0f - Nz * vn;
+    const float8 ax = fabs(Nx), ay = fabs(Ny), az = fabs(Nz);
+    const int8 ex = (ax <= ay) & (ax <= az), ey = ~ex & (ay <= az), ez = ~ex & ~ey;
+    const float8 en = select(select(Nz, Ny, ey), Nx, ex);     /* e . N for the axis e */
+    const int8 fallback = ~(OCLS_DOT3(gx, gy, gz, gx, gy, gz) >= 1e-8f);
+    const float8 tx = select(gx, select(zero, one, ex) - Nx * en, fallback);
+    const float8 ty = select(gy, select(zero, one, ey) - Ny * en, fallback);
+    const float8 tz = select(gz, select(zero, one, ez) - Nz * en, fallback);
+    const float8 tl = sqrt(OCLS_DOT3(tx, ty, tz, tx, ty, tz));
+    const float8 Tx = tx / tl, Ty = ty / tl, Tz = tz / tl;
+    const float8 Bx = Ny * Tz - Nz * Ty, By = Nz * Tx - Nx * Tz, Bz = Nx * Ty - Ny * Tx;
+    const float8 RTx = Tx * radius, RTy = Ty * radius, RTz = Tz * radius;
+    const float8 RBx = Bx * radius, RBy = By * radius, RBz = Bz * radius;
+    const float8 RNx = Nx * radius, RNy = Ny * radius, RNz = Nz * radius;
 
     /* step 3, projected: clip coordinates are linear in A_t, so the pixel's
-     * P, R T, R B and R N are projected once; pru / prv are the rows giving
-     * the pixel coordinates times w: u = (ndc.x + 1) W / 2, y = (1 - ndc.y) H / 2. */
-    const float cpu = OCLS_DOT3(prj[0], prj[1], prj[2], Px, Py, Pz) + prj[3];
-    const float cpv = OCLS_DOT3(prj[4], prj[5], prj[6], Px, Py, Pz) + prj[7];
-    const float cpw = OCLS_DOT3(prj[8], prj[9], prj[10], Px, Py, Pz) + prj[11];
-    const float ctu = OCLS_DOT3(prj[0], prj[1], prj[2], RTx, RTy, RTz);
-    const float ctv = OCLS_DOT3(prj[4], prj[5], prj[6], RTx, RTy, RTz);
-    const float ctw = OCLS_DOT3(prj[8], prj[9], prj[10], RTx, RTy, RTz);
-    const float cbu = OCLS_DOT3(prj[0], prj[1], prj[2], RBx, RBy, RBz);
-    const float cbv = OCLS_DOT3(prj[4], prj[5], prj[6], RBx, RBy, RBz);
-    const float cbw = OCLS_DOT3(prj[8], prj[9], prj[10], RBx, RBy, RBz);
-    const float cnu = OCLS_DOT3(prj[0], prj[1], prj[2], RNx, RNy, RNz);
-    const float cnv = OCLS_DOT3(prj[4], prj[5], prj[6], RNx, RNy, RNz);
-    const float cnw = OCLS_DOT3(prj[8], prj[9], prj[10], RNx, RNy, RNz);
+     * P, R T, R B and R N are projected once (rows prj, see the ABI). */
+    const float8 cpu = OCLS_DOT3(prj[0], prj[1], prj[2], Px, Py, Pz) + prj[3];
+    const float8 cpv = OCLS_DOT3(prj[4], prj[5], prj[6], Px, Py, Pz) + prj[7];
+    const float8 cpw = OCLS_DOT3(prj[8], prj[9], prj[10], Px, Py, Pz) + prj[11];
+    const float8 ctu = OCLS_DOT3(prj[0], prj[1], prj[2], RTx, RTy, RTz);
+    const float8 ctv = OCLS_DOT3(prj[4], prj[5], prj[6], RTx, RTy, RTz);
+    const float8 ctw = OCLS_DOT3(prj[8], prj[9], prj[10], RTx, RTy, RTz);
+    const float8 cbu = OCLS_DOT3(prj[0], prj[1], prj[2], RBx, RBy, RBz);
+    const float8 cbv = OCLS_DOT3(prj[4], prj[5], prj[6], RBx, RBy, RBz);
+    const float8 cbw = OCLS_DOT3(prj[8], prj[9], prj[10], RBx, RBy, RBz);
+    const float8 cnu = OCLS_DOT3(prj[0], prj[1], prj[2], RNx, RNy, RNz);
+    const float8 cnv = OCLS_DOT3(prj[4], prj[5], prj[6], RNx, RNy, RNz);
+    const float8 cnw = OCLS_DOT3(prj[8], prj[9], prj[10], RNx, RNy, RNz);
     const float fW = (float)W, fH = (float)H;
 
-    /* steps 3-5, eight samples at a time (explicit SIMD: the table is padded
-     * with NaN samples, which land nowhere and are not counted) */
+    /* steps 3-5 */
     int8 cnt8 = (int8)(0), occ8 = (int8)(0);
-    for (int t = 0; t < m; t += 8) {
-        const float8 sx = vload8(0, kern + t), sy = vload8(0, kern + mpad + t), sz = vload8(0, kern + 2 * mpad + t);
+    for (int t = 0; t < m; ++t) {
+        const float sx = kern[t], sy = kern[mpad + t], sz = kern[2 * mpad + t];
         const float8 qu = cpu + (ctu * sx + cbu * sy + cnu * sz);
         const float8 qv = cpv + (ctv * sx + cbv * sy + cnv * sz);
         const float8 qw = cpw + (ctw * sx + cbw * sy + cnw * sz);
@@ -222,9 +245,8 @@ __kernel void ssao_ao(__global const float *restrict pos, __global const float *
         const float8 inv = 1.0f / qw;
         const float8 u = qu * inv, y = qv * inv;
         const int8 on = (qw > 0.0f) & (u >= 0.0f) & (u < fW) & (y >= 0.0f) & (y < fH);
-        const int8 j = select((int8)(i), convert_int8(y) * W + convert_int8(u), on);
-        const float8 zt = (float8)(zbuf[j.s0], zbuf[j.s1], zbuf[j.s2], zbuf[j.s3],
-                                   zbuf[j.s4], zbuf[j.s5], zbuf[j.s6], zbuf[j.s7]);
+        const int8 j = select(ii, convert_int8(y) * W + convert_int8(u), on);
+        const float8 zt = OCLS_GATHER8(zbuf, j, 1, 0);
         int8 occ = zt >= az_t + delta;
 #ifdef OCLS_RANGE_CHECK
         occ = occ & (zt - Pz <= radius);
@@ -232,10 +254,14 @@ __kernel void ssao_ao(__global const float *restrict pos, __global const float *
         cnt8 -= on;             /* vector comparisons give -1 for true */
         occ8 -= on & occ;
     }
-    const int4 c4 = cnt8.lo + cnt8.hi, o4 = occ8.lo + occ8.hi;
-    const int counted = c4.x + c4.y + c4.z + c4.w, occluded = o4.x + o4.y + o4.z + o4.w;
-    if (inside)
-        ao[i] = (live && counted > 0) ? 1.0f - (float)occluded / (float)counted : 1.0f;
+    const float8 res = select(one, 1.0f - convert_float8(occ8) / convert_float8(cnt8), live & (cnt8 > 0));
+    if (c0 + 8 <= W) {
+        vstore8(res, 0, ao + r * W + c0);
+    } else {
+        const float rs[8] = {res.s0, res.s1, res.s2, res.s3, res.s4, res.s5, res.s6, res.s7};
+        for (int k = 0; c0 + k < W; ++k)
+            ao[r * W + c0 + k] = rs[k];
+    }
 }
 
 #ifdef OCLS_BLUR_BOX

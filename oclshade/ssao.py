@@ -227,7 +227,7 @@ class SSAO:
         prj = rt.to_device(rows.astype(np.float32), "projection rows")   # referenced until enqueued
         ao.set_args(inputs.position, work["normal"], work["zbuf"], *dims, prj, self._table(m, features.distribution),
                     np.int32(m), np.int32(-(-m // 8) * 8), np.float32(radius), np.float32(delta), np.uint32(seed), work["ao"])
-        self._launch(ao, width, height)
+        self._launch(ao, -(-width // 8), height)   # 8 pixels per work-item
         if features.blur == "none":
             return work["ao"]
         half = np.int32(features.blur_size // 2)
