@@ -173,7 +173,9 @@ def write_png(res: dict, path: Path) -> None:
                            s=14 + 3 * np.log2(r["m"]) ** 2, alpha=0.35 if r["range_check"] else 0.85,
                            edgecolors="none")
             c = case["comparison"]
-            for tag, r in (("paper recipe", c["paper"]), ("default", c["default"])):
+            marks = ((("paper recipe = default", c["paper"]),) if c["paper"] == c["default"]
+                     else (("paper recipe", c["paper"]), ("default", c["default"])))
+            for tag, r in marks:
                 ax.annotate(tag, (r["time_ms"]["min"], r[key]), fontsize=8, xytext=(6, 6), textcoords="offset points",
                             arrowprops={"arrowstyle": "-", "lw": 0.5})
             ax.set_xscale("log")
@@ -184,7 +186,7 @@ def write_png(res: dict, path: Path) -> None:
     handles = [plt.Line2D([], [], color=v, marker="o", ls="", label=k) for k, v in colours.items()]
     handles += [plt.Line2D([], [], color="grey", marker=v, ls="", label=k) for k, v in markers.items()]
     handles += [plt.Line2D([], [], color="grey", marker="o", ls="", alpha=0.35, label="range check on (faint)")]
-    fig.legend(handles=handles, loc="upper center", ncol=8, fontsize=8)
+    fig.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, 0.975), ncol=8, fontsize=8)
     meta = res["meta"]
     fig.suptitle(f"oclshade SSAO — {meta['cpu']}, {meta['cores']} cores, PoCL {meta['pocl_version']}, {meta['date'][:10]}"
                  " (marker size ~ m)", y=0.995, fontsize=9)

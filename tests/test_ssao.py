@@ -2,7 +2,6 @@
 determinism across runs and PoCL thread counts."""
 from __future__ import annotations
 
-import hashlib
 import math
 import os
 import subprocess

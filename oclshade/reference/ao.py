@@ -35,7 +35,7 @@ import numpy as np
 
 from ..gbuffer import GBuffer
 from ..heightmap import Heightmap
-from ..ssao import hemisphere_points, sample_kernel  # noqa: F401  (re-exported: the twin's kernel)
+from ..ssao import hemisphere_points
 
 HASH_SALT = np.uint32(0x9E3779B9)
 F32 = float(np.finfo(np.float32).eps)
