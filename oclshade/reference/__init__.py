@@ -3,6 +3,8 @@
 One module per kernel family; everything public is re-exported here, so
 ``from oclshade import reference as ref; ref.cast_shadows(...)`` works for all.
 """
+from .ao import (ReferenceAO, TopDownView, bilinear, box_blur, cosine_directions, edge_blur,
+                 raytraced_ao, rotation_vectors, ssao, topdown_gbuffer, volume_ao)
 from .compose import compose
 from .pyramid import extrema_pyramid, mip_pyramid
 from .screen_shadows import ReferencePixelShadows, minimal_lod, pixel_shadows, surface_height
@@ -11,7 +13,9 @@ from .shadows import (CORNER_SNAP, CORNER_TIE, ReferenceShadows, cast_shadows,
 from .terrain import ReferenceTerrain, cast_terrain
 
 __all__ = [
-    "CORNER_SNAP", "CORNER_TIE", "ReferenceShadows", "ReferenceTerrain", "cast_shadows", "cast_terrain", "compose",
-    "extrema_pyramid", "mip_pyramid", "shadow_coefficient", "tie_tolerance",
-    "ReferencePixelShadows", "minimal_lod", "pixel_shadows", "surface_height",
+    "CORNER_SNAP", "CORNER_TIE", "ReferenceAO", "ReferencePixelShadows", "ReferenceShadows", "ReferenceTerrain",
+    "TopDownView", "bilinear", "box_blur", "cast_shadows", "cast_terrain", "compose", "cosine_directions",
+    "edge_blur", "extrema_pyramid", "minimal_lod", "mip_pyramid", "pixel_shadows", "raytraced_ao",
+    "rotation_vectors", "shadow_coefficient", "ssao", "surface_height", "tie_tolerance", "topdown_gbuffer",
+    "volume_ao",
 ]

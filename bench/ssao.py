@@ -1,0 +1,261 @@
+"""SSAO (paper 001): run time against RMSE versus two ground truths, on real DEMs.
+
+For every dataset and resolution a top-down orthographic G-buffer is built
+(oclshade.reference.topdown_gbuffer: each pixel's position and normal from
+the bilinear surface).  The two ground truths are computed in float64 on a
+fixed random subset of hit pixels (the same pixels for every setting):
+(a) volume: fraction of the radius-R hemisphere volume under the terrain;
+(b) ray-traced: fraction of cosine-weighted rays of length R that hit.
+Every setting (m, blur, range check, kernel distribution) is timed on the
+device (inputs resident, min of --repeats runs of prepare + AO + blur) and
+its RMSE against each truth is taken over the subset.
+
+Writes bench/results/ssao.json, .md and .png.  ``--quick``: tiny sizes, a
+synthetic terrain when the shared data is absent, a reduced grid.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE.parent))
+sys.path.insert(0, str(HERE))
+
+from shadow_masks import DEFAULT_DATA, log, metadata  # noqa: E402  (shared bench helpers)
+
+from oclshade import reference as ref  # noqa: E402
+from oclshade.heightmap import Heightmap  # noqa: E402
+from oclshade.io import read_dem  # noqa: E402
+from oclshade.ssao import DEFAULT_FEATURES, DEFAULT_M, PAPER_M, PAPER_RECIPE, AOFeatures, SSAO  # noqa: E402
+
+DATASETS = {
+    # name: (path under the data folder, cells across the 1920-pixel width, R in cells)
+    "santo": ("dem/srtm3_srtmpy/S16E166v2.3a.hgt.zip", 480, 3.0),
+    "front_range": ("dem/landlab/SRTMGL3_40.09_-105.55_40.21_-105.35.asc", 240, 3.0),
+}
+BLURS = {"none": ("none", 3), "box3": ("box", 3), "box5": ("box", 5), "edge5": ("edge", 5)}
+
+
+def load(name: str, data_dir: Path) -> tuple[Heightmap, int, float, str] | None:
+    if name == "synthetic":
+        from oclshade.synthetic import canyon_crater
+        return Heightmap.from_array(canyon_crater(128, 160, seed=4), 10.0), 120, 3.0, "oclshade.synthetic.canyon_crater(128, 160, seed=4), 10 m"
+    rel, cells, r_cells = DATASETS[name]
+    path = data_dir / rel
+    if not path.is_file():
+        return None
+    raster = read_dem(path)
+    h = raster.heights
+    h = np.where(h <= 0, np.nan, h) if name == "santo" else h   # ocean (0) and voids: no terrain
+    return Heightmap.from_array(h, (raster.dx, raster.dy)), cells, r_cells, f"{rel} via oclshade.io.read_dem"
+
+
+def view_for(hm: Heightmap, cells: int, width: int, height: int) -> ref.TopDownView:
+    """A top-down view ``cells`` cells wide, centred on the map."""
+    return ref.topdown_gbuffer(hm, width, height, cells * hm.dx / width)
+
+
+def settings(quick: bool) -> list[tuple[int, str, bool, str]]:
+    ms = (8, 32) if quick else (8, 16, 32, 64, 128)
+    return [(m, blur, rc, dist) for m in ms for blur in BLURS for rc in (False, True)
+            for dist in ("paper", "uniform", "centre")]
+
+
+def run_case(pass_: SSAO, view: ref.TopDownView, hm: Heightmap, radius: float, delta: float,
+             n_truth: int, n_vol: int, n_ray: int, repeats: int, quick: bool) -> dict:
+    gb = view.gbuffer
+    hit_idx = np.flatnonzero(gb.hit.ravel())
+    rng = np.random.default_rng(0)
+    sub = np.sort(rng.choice(hit_idx, size=min(n_truth, hit_idx.size), replace=False))
+    wp = view.world_position.reshape(-1, 3)[sub]
+    wn = view.world_normal.reshape(-1, 3)[sub]
+    t0 = time.perf_counter()
+    truth_vol = ref.volume_ao(hm, wp, wn, radius, n=n_vol)
+    t_vol = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    truth_ray = ref.raytraced_ao(hm, wp, wn, radius, n=n_ray)
+    t_ray = time.perf_counter() - t0
+    inputs = pass_.upload(gb)
+    queue = pass_.runtime.queue
+    rows = []
+    out = np.empty(gb.shape, np.float32)
+    import pyopencl as cl
+    for m, blur, rc, dist in settings(quick):
+        kind, size = BLURS[blur]
+        f = AOFeatures(range_check=rc, distribution=dist, blur=kind, blur_size=size)
+        times = []
+        for _ in range(repeats + 1):   # the first run builds the program
+            queue.finish()
+            t0 = time.perf_counter()
+            buf = pass_.run(inputs, view.projection, radius=radius, m=m, delta=delta, features=f)
+            queue.finish()
+            times.append(time.perf_counter() - t0)
+        cl.enqueue_copy(queue, out, buf)
+        queue.finish()
+        ao = out.ravel()[sub].astype(np.float64)
+        rows.append({"m": m, "blur": blur, "range_check": rc, "distribution": dist,
+                     "time_ms": {"min": 1e3 * min(times[1:]), "median": 1e3 * float(np.median(times[1:]))},
+                     "rmse_volume": float(np.sqrt(np.mean((ao - truth_vol) ** 2))),
+                     "rmse_raytraced": float(np.sqrt(np.mean((ao - truth_ray) ** 2))),
+                     "bias_volume": float(np.mean(ao - truth_vol)), "bias_raytraced": float(np.mean(ao - truth_ray))})
+    se = lambda p, n: float(np.sqrt(np.mean(p * (1 - p) / n)))  # noqa: E731
+    return {"truth_pixels": int(sub.size), "truth_samples": {"volume": n_vol, "raytraced": n_ray},
+            "truth_seconds": {"volume": t_vol, "raytraced": t_ray},
+            "truth_mean": {"volume": float(truth_vol.mean()), "raytraced": float(truth_ray.mean())},
+            "truth_mc_error_bound": {"volume": se(truth_vol, n_vol), "raytraced": se(truth_ray, n_ray)},
+            "settings": rows}
+
+
+def find(rows: list[dict], m: int, f: AOFeatures) -> dict:
+    blur = "none" if f.blur == "none" else f"{f.blur}{f.blur_size}"
+    return next(r for r in rows if r["m"] == m and r["blur"] == blur and r["range_check"] == f.range_check
+                and r["distribution"] == f.distribution)
+
+
+def compare(rows: list[dict]) -> dict:
+    paper, default = find(rows, PAPER_M, PAPER_RECIPE), find(rows, DEFAULT_M, DEFAULT_FEATURES)
+    return {"paper": paper, "default": default,
+            "time_ratio": default["time_ms"]["min"] / paper["time_ms"]["min"],
+            "rmse_reduction_volume": 1 - default["rmse_volume"] / paper["rmse_volume"],
+            "rmse_reduction_raytraced": 1 - default["rmse_raytraced"] / paper["rmse_raytraced"]}
+
+
+def write_md(res: dict, path: Path) -> None:
+    meta = res["meta"]
+    lines = ["# SSAO (paper 001): run time against RMSE vs ground truth", "",
+             f"- {meta['date']}; CPU: {meta['cpu']}, {meta['cores']} cores; device: {meta['device']}",
+             f"- PoCL {meta['pocl_version']} ({meta['platform_version']}); numpy {meta['numpy']}, pyopencl {meta['pyopencl']}",
+             f"- command: `{meta['command']}`",
+             "- views: top-down orthographic G-buffers (oclshade.reference.topdown_gbuffer); the machine is "
+             "shared, times are the min of the repeats (prepare + AO + blur, inputs on the device)",
+             "- truths on a fixed random subset of hit pixels: volume = fraction of the hemisphere volume "
+             "above the terrain (ground truth a), raytraced = unoccluded fraction of cosine-weighted rays "
+             "of length R (ground truth b); 1 = open, like the AO map",
+             f"- paper recipe: m = {PAPER_M}, {PAPER_RECIPE}; default: m = {DEFAULT_M}, {DEFAULT_FEATURES}", ""]
+    for case in res["cases"]:
+        lines += [f"## {case['dataset']} {case['width']}x{case['height']}", "",
+                  f"source: {case['source']}; {case['cells']} cells across, R = {case['radius_m']:.1f} m, "
+                  f"delta = {case['delta_m']:.3f} m; truths on {case['truth_pixels']} pixels "
+                  f"(MC error bound: volume {case['truth_mc_error_bound']['volume']:.4f}, raytraced "
+                  f"{case['truth_mc_error_bound']['raytraced']:.4f}; means {case['truth_mean']['volume']:.3f}, "
+                  f"{case['truth_mean']['raytraced']:.3f})", ""]
+        c = case["comparison"]
+        lines += [f"**default vs paper recipe:** time ratio {c['time_ratio']:.2f}, RMSE reduction "
+                  f"{100 * c['rmse_reduction_volume']:.0f}% (volume), {100 * c['rmse_reduction_raytraced']:.0f}% (raytraced)", "",
+                  "| m | blur | range | kernel | min ms | median ms | RMSE volume | RMSE raytraced | bias volume | bias raytraced |",
+                  "|---|---|---|---|---|---|---|---|---|---|"]
+        for r in case["settings"]:
+            lines.append(f"| {r['m']} | {r['blur']} | {'on' if r['range_check'] else 'off'} | {r['distribution']} | "
+                         f"{r['time_ms']['min']:.1f} | {r['time_ms']['median']:.1f} | {r['rmse_volume']:.4f} | "
+                         f"{r['rmse_raytraced']:.4f} | {r['bias_volume']:+.4f} | {r['bias_raytraced']:+.4f} |")
+        lines.append("")
+    path.write_text("\n".join(lines))
+
+
+def write_png(res: dict, path: Path) -> None:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    cases = res["cases"]
+    fig, axes = plt.subplots(len(cases), 2, figsize=(12, 4.2 * len(cases)), squeeze=False)
+    colours = {"paper": "tab:red", "uniform": "tab:blue", "centre": "tab:green"}
+    markers = {"none": "o", "box3": "s", "box5": "D", "edge5": "^"}
+    for row, case in zip(axes, cases):
+        for ax, key in zip(row, ("rmse_volume", "rmse_raytraced")):
+            for r in case["settings"]:
+                ax.scatter(r["time_ms"]["min"], r[key], c=colours[r["distribution"]], marker=markers[r["blur"]],
+                           s=14 + 3 * np.log2(r["m"]) ** 2, alpha=0.35 if r["range_check"] else 0.85,
+                           edgecolors="none")
+            c = case["comparison"]
+            marks = ((("paper recipe = default", c["paper"]),) if c["paper"] == c["default"]
+                     else (("paper recipe", c["paper"]), ("default", c["default"])))
+            for tag, r in marks:
+                ax.annotate(tag, (r["time_ms"]["min"], r[key]), fontsize=8, xytext=(6, 6), textcoords="offset points",
+                            arrowprops={"arrowstyle": "-", "lw": 0.5})
+            ax.set_xscale("log")
+            ax.set_xlabel("run time, ms (min of repeats)")
+            ax.set_ylabel(key.replace("_", " vs "))
+            ax.set_title(f"{case['dataset']} {case['width']}x{case['height']}", fontsize=9)
+            ax.grid(alpha=0.3)
+    handles = [plt.Line2D([], [], color=v, marker="o", ls="", label=k) for k, v in colours.items()]
+    handles += [plt.Line2D([], [], color="grey", marker=v, ls="", label=k) for k, v in markers.items()]
+    handles += [plt.Line2D([], [], color="grey", marker="o", ls="", alpha=0.35, label="range check on (faint)")]
+    fig.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, 0.975), ncol=8, fontsize=8)
+    meta = res["meta"]
+    fig.suptitle(f"oclshade SSAO — {meta['cpu']}, {meta['cores']} cores, PoCL {meta['pocl_version']}, {meta['date'][:10]}"
+                 " (marker size ~ m)", y=0.995, fontsize=9)
+    fig.tight_layout(rect=(0, 0, 1, 0.96))
+    fig.savefig(path, dpi=110)
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="smoke test: tiny sizes, reduced grid")
+    ap.add_argument("--datasets", default="santo,front_range", help="comma list of " + ", ".join(DATASETS) + ", synthetic")
+    ap.add_argument("--data", type=Path, default=DEFAULT_DATA, help=f"shared data folder (default {DEFAULT_DATA})")
+    ap.add_argument("--sizes", default="1920x1080,640x480")
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--out", type=Path, default=HERE / "results")
+    ap.add_argument("--report-only", action="store_true",
+                    help="rewrite the comparisons, .md and .png from an existing ssao.json in --out")
+    args = ap.parse_args(argv)
+    if args.report_only:
+        res = json.loads((args.out / "ssao.json").read_text())
+        for case in res["cases"]:
+            case["comparison"] = compare(case["settings"])
+        write_all(res, args.out)
+        return 0
+    sizes = [tuple(int(v) for v in s.split("x")) for s in args.sizes.split(",")]
+    if args.quick:
+        sizes, args.repeats = [(96, 64)], 1
+    names = args.datasets.split(",")
+    res = {"meta": metadata(["bench/ssao.py", *argv]), "config": {"sizes": sizes, "repeats": args.repeats},
+           "cases": [], "skipped": []}
+    pass_ = SSAO()
+    for name in names:
+        loaded = load(name, args.data)
+        if loaded is None:
+            if args.quick and "synthetic" not in names:
+                loaded, name = load("synthetic", args.data), "synthetic"
+            else:
+                res["skipped"].append({"dataset": name, "reason": f"not found under {args.data}"})
+                log(f"{name}: skipped (no data)")
+                continue
+        hm, cells, r_cells, source = loaded
+        radius = r_cells * hm.dx
+        for width, height in sizes:
+            view = view_for(hm, cells, width, height)
+            pixel = cells * hm.dx / width
+            delta = 0.05 * pixel
+            log(f"{name} {width}x{height}: R = {radius:.1f} m, pixel {pixel:.2f} m")
+            n_truth = 400 if args.quick else 3000
+            case = run_case(pass_, view, hm, radius, delta, n_truth, 128 if args.quick else 512,
+                            64 if args.quick else 256, args.repeats, args.quick)
+            case.update({"dataset": name, "source": source, "width": width, "height": height, "cells": cells,
+                         "radius_m": radius, "delta_m": delta, "pixel_m": pixel,
+                         "comparison": compare(case["settings"])})
+            res["cases"].append(case)
+            c = case["comparison"]
+            log(f"  paper {c['paper']['time_ms']['min']:.1f} ms, default {c['default']['time_ms']['min']:.1f} ms; "
+                f"RMSE reduction {100 * c['rmse_reduction_volume']:.0f}% / {100 * c['rmse_reduction_raytraced']:.0f}%")
+    write_all(res, args.out)
+    return 0
+
+
+def write_all(res: dict, out: Path) -> None:
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "ssao.json").write_text(json.dumps(res, indent=1))
+    write_md(res, out / "ssao.md")
+    if res["cases"]:
+        write_png(res, out / "ssao.png")
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,343 @@
+/* ssao.cl — screen-space ambient occlusion over a G-buffer (paper 001):
+ * preparation, the AO estimator, the N x N box blur and an edge-aware blur.
+ *
+ * ABI summary: four kernels, one work-item per pixel (ssao_ao: per 8 pixels of a
+ * row), global size (W, H) (ssao_ao: (ceil(W / 8), H)) rounded up to any local size (surplus items store nothing; no early
+ * return, see ssao_ao).  Buffers are row-major, one row of W pixels after
+ * another, read as plain floats; the 4-float fields are the G-buffer's (oclshade/gbuffer.py): pos = view-space x, y, z and
+ * w = 1 hit / 0 empty; nrm = view-space unit normal (w unused).
+ *
+ *   ssao_prepare(pos, nrm, [alpha, alpha_eps], [nmap, tangent,] W, H, zbuf, nout)
+ *     zbuf  float, W*H (out): view-space z of the pixel's surface, -INFINITY
+ *           when the pixel is empty (pos.w < 0.5, a non-finite z, or
+ *           under -D OCLS_ALPHA alpha < alpha_eps: the paper's discarded
+ *           cut-out fragment).  An empty pixel gets no AO and occludes nothing.
+ *     nout  float4, W*H (out): the normal the AO pass uses; without -D
+ *           OCLS_NORMAL_MAP a copy of nrm, with it the mapped normal
+ *           N' = normalize(T n.x + B n.y + N n.z), nmap = tangent-space normal
+ *           per pixel (float4, xyz in [-1, 1], already sampled at the pixel),
+ *           tangent = view-space tangent per pixel (float4: xyz, w = +-1
+ *           handedness), T made orthogonal to N by Gram-Schmidt, B = w N x T
+ *           (the paper's N_vcs = (M_mv^-1)^T M_ts^-1 N_ts per pixel).
+ *           Degenerate T (parallel to N, zero) keeps N unmapped.
+ *   ssao_ao(pos, nout, zbuf, W, H, prj, kern, m, mpad, radius, delta, seed, ao)
+ *     global size (ceil(W / 8), H): one work-item per 8 adjacent pixels of a row
+ *     pos, nout as float * (4 floats per pixel; scalar loads, see below)
+ *     prj   __constant float[12]: three rows (host float64, rounded once):
+ *           with M the projection matrix, pru = W/2 (M[0] + M[3]),
+ *           prv = H/2 (M[3] - M[1]), prw = M[3], so a view-space point A
+ *           (w = 1) lands on pixel coordinates (pru.A / prw.A, prv.A / prw.A)
+ *     kern  __constant float[3 mpad]: the tangent-space sample kernel (unit
+ *           radius, z along the normal), structure of arrays x[mpad], y[mpad],
+ *           z[mpad], entries m..mpad-1 NaN (they land nowhere, never counted);
+ *           generated once by the host
+ *     m     int, 1..256; mpad = m rounded up to a multiple of 8; radius,
+ *           delta float (radius > 0); seed uint
+ *     ao    float, W*H (out): unoccluded fraction 1 - k, 1 on empty pixels
+ *   ssao_box_h(ao, zbuf, W, H, rad, tmp)      -D OCLS_BLUR_BOX
+ *   ssao_box_v(tmp, zbuf, W, H, rad, out)     -D OCLS_BLUR_BOX
+ *     tmp 2 floats per pixel: (sum of AO over hit pixels, count of hit pixels) in the
+ *     horizontal window; out = mean over the hit pixels of the clipped
+ *     (2 rad + 1)^2 window.  Separable exactly: the 2-D sums are products
+ *     of 1-D windows (clipping at the border too); empty pixels stay 1.
+ *   ssao_edge(ao, pos, nout, zbuf, W, H, rad, plane_tol, out)  -D OCLS_BLUR_EDGE
+ *     weighted mean over the (2 rad + 1)^2 window (not separable: the
+ *     weights depend on the pair of pixels), see "Edge-aware blur" below.
+ *
+ * -D options: OCLS_ALPHA (alpha map), OCLS_NORMAL_MAP (normal map),
+ *   OCLS_RANGE_CHECK (range check), OCLS_BLUR_BOX, OCLS_BLUR_EDGE (which blur
+ *   kernels the program holds).  A feature not defined is not compiled.
+ *
+ * AO estimator (paper 001, "AO map"), for a hit pixel with P, N:
+ *   1. per-pixel rotation vector V_r = (2 f1 - 1, 2 f2 - 1, 0) from the
+ *      integer hash ocls_pixel_hash(col, row, seed) (f = (2k + 1) 2^-25 for a
+ *      24-bit k, so V_r is exact in float32 and float64 alike);
+ *   2. Gram-Schmidt: T = normalize(V_r - N (V_r . N)), B = N x T; when
+ *      |V_r - N (V_r . N)|^2 < 1e-8 (V_r along N) T comes from the view axis
+ *      least aligned with N instead (the paper does not say);
+ *   3. for each sample S_t: A_t = P + R (T S.x + B S.y + N S.z); clip = M_pr A_t;
+ *      a sample with clip.w <= 0 (behind the camera) or whose pixel
+ *      (floor((ndc.x + 1) W / 2), floor((1 - ndc.y) H / 2)) is off screen is
+ *      skipped: not counted at all (the paper does not say; clamping to the
+ *      edge would invent occluders, counting it as open would lighten
+ *      borders);
+ *   4. the sample is occluded iff z_t >= A_t.z + delta (z_t = zbuf at its
+ *      pixel; an empty pixel has z_t = -inf and never occludes); with
+ *      OCLS_RANGE_CHECK also z_t - P.z <= R (an occluder more than R in
+ *      front of P cannot be inside the hemisphere; the paper has no check);
+ *   5. AO = 1 - occluded / counted (1 when nothing is counted).
+ *   Normals with |N|^2 not in (1e-12, inf) (zero, NaN) give AO = 1.
+ *
+ * Edge-aware blur: weight of neighbour q for centre p (both hit) is
+ *   w = c^4 / (1 + (d / plane_tol)^2),  c = max(N_p . N_q, 0),
+ *   d = |N_p . (P_q - P_p)|  (distance of q from p's tangent plane);
+ * the centre gets |N|^8 (1 for unit normals).  Only +, *, / are used, no exp.
+ */
+#include "common.h"
+
+#define OCLS_HASH_SALT 0x9e3779b9u
+/* x is finite (no isfinite(): PoCL's builtin call keeps the work-item loop scalar) */
+#define OCLS_FINITE(x) ((x) - (x) == 0.0f)
+
+/* A 32-bit integer mix (xorshift-multiply rounds); CPU twin: reference/ao.py. */
+OCLS_INLINE uint ocls_mix(uint x)
+{
+    x ^= x >> 16;
+    x *= 0x7feb352du;
+    x ^= x >> 15;
+    x *= 0x846ca68bu;
+    x ^= x >> 16;
+    return x;
+}
+
+OCLS_INLINE uint ocls_pixel_hash(uint col, uint row, uint seed)
+{
+    return ocls_mix(col ^ ocls_mix(row ^ ocls_mix(seed)));
+}
+
+/* 2 f - 1 with f = (2k + 1) 2^-25, k = the top 24 bits of h: exact. */
+OCLS_INLINE float ocls_signed_unit(uint h)
+{
+    const int k = (int)(h >> 8);
+    return (float)(2 * k + 1 - (1 << 24)) * 0x1p-24f;
+}
+
+__kernel void ssao_prepare(__global const float *restrict pos, __global const float *restrict nrm,
+#ifdef OCLS_ALPHA
+                           __global const float *restrict alpha, float alpha_eps,
+#endif
+#ifdef OCLS_NORMAL_MAP
+                           __global const float *restrict nmap, __global const float *restrict tangent,
+#endif
+                           int W, int H, __global float *restrict zbuf, __global float *restrict nout)
+{
+    const int c = get_global_id(0), r = get_global_id(1);
+    const int inside = c < W && r < H;
+    const int i = inside ? r * W + c : 0;
+    /* x and y are not read: four adjacent loads merge into one float4 load that
+     * keeps PoCL from vectorising; a non-finite x or y gives AO 1 (no sample counted) */
+    const float pz = pos[4 * i + 2], pw = pos[4 * i + 3];
+    int hit = pw >= 0.5f && OCLS_FINITE(pz);
+#ifdef OCLS_ALPHA
+    hit = hit && alpha[i] >= alpha_eps;
+#endif
+    float nx = nrm[4 * i], ny = nrm[4 * i + 1], nz = nrm[4 * i + 2];
+#ifdef OCLS_NORMAL_MAP
+    {
+        const float gx = tangent[4 * i], gy = tangent[4 * i + 1], gz = tangent[4 * i + 2];
+        const float hand = tangent[4 * i + 3] < 0.0f ? -1.0f : 1.0f;
+        const float gn = gx * nx + gy * ny + gz * nz;
+        const float tx = gx - nx * gn, ty = gy - ny * gn, tz = gz - nz * gn;
+        const float tt = tx * tx + ty * ty + tz * tz;
+        const int tok = tt > 1e-12f && OCLS_FINITE(tt);
+        const float tl = tok ? sqrt(tt) : 1.0f;
+        const float Tx = tx / tl, Ty = ty / tl, Tz = tz / tl;
+        const float Bx = (ny * Tz - nz * Ty) * hand, By = (nz * Tx - nx * Tz) * hand, Bz = (nx * Ty - ny * Tx) * hand;
+        const float qx = nmap[4 * i], qy = nmap[4 * i + 1], qz = nmap[4 * i + 2];
+        const float mx = Tx * qx + Bx * qy + nx * qz, my = Ty * qx + By * qy + ny * qz, mz = Tz * qx + Bz * qy + nz * qz;
+        const float mm = mx * mx + my * my + mz * mz;
+        const int ok = tok && mm > 1e-12f && OCLS_FINITE(mm);
+        const float ml = ok ? sqrt(mm) : 1.0f;
+        nx = ok ? mx / ml : nx;
+        ny = ok ? my / ml : ny;
+        nz = ok ? mz / ml : nz;
+    }
+#endif
+    if (inside) {
+        zbuf[i] = hit ? pz : -INFINITY;
+        nout[4 * i] = nx;
+        nout[4 * i + 1] = ny;
+        nout[4 * i + 2] = nz;
+        nout[4 * i + 3] = 0.0f;
+    }
+}
+
+/* ssao_ao: one work-item per 8 horizontally adjacent pixels, every step on
+ * float8 lanes (explicit SIMD: PoCL does not vectorise this kernel's
+ * work-item loop by itself); lanes past the row end compute on a copy of the
+ * first pixel and store nothing.  Per lane the operations are those of the
+ * scalar definition above, in the same order. */
+#define OCLS_DOT3(ax, ay, az, bx, by, bz) ((ax) * (bx) + (ay) * (by) + (az) * (bz))
+#define OCLS_GATHER8(buf, idx, stride, off) \
+    (float8)((buf)[(stride) * (idx).s0 + (off)], (buf)[(stride) * (idx).s1 + (off)], \
+             (buf)[(stride) * (idx).s2 + (off)], (buf)[(stride) * (idx).s3 + (off)], \
+             (buf)[(stride) * (idx).s4 + (off)], (buf)[(stride) * (idx).s5 + (off)], \
+             (buf)[(stride) * (idx).s6 + (off)], (buf)[(stride) * (idx).s7 + (off)])
+
+OCLS_INLINE uint8 ocls_mix8(uint8 x)
+{
+    x ^= x >> 16;
+    x *= 0x7feb352du;
+    x ^= x >> 15;
+    x *= 0x846ca68bu;
+    x ^= x >> 16;
+    return x;
+}
+
+OCLS_INLINE float8 ocls_signed_unit8(uint8 h)
+{
+    const int8 k = convert_int8(h >> 8);
+    return convert_float8(2 * k + 1 - (1 << 24)) * 0x1p-24f;
+}
+
+__kernel void ssao_ao(__global const float *restrict pos, __global const float *restrict nrm,
+                      __global const float *restrict zbuf, int W, int H,
+                      __constant float *prj, __constant float *kern, int m, int mpad, float radius,
+                      float delta, uint seed, __global float *restrict ao)
+{
+    const int c0 = 8 * (int)get_global_id(0), r = get_global_id(1);
+    if (c0 >= W || r >= H) return;
+    const int8 cc = c0 + (int8)(0, 1, 2, 3, 4, 5, 6, 7);
+    const int8 inside = cc < W;
+    const int8 ii = select((int8)(r * W + c0), r * W + cc, inside);
+    const float8 zc = OCLS_GATHER8(zbuf, ii, 1, 0);
+    const float8 n0x = OCLS_GATHER8(nrm, ii, 4, 0), n0y = OCLS_GATHER8(nrm, ii, 4, 1), n0z = OCLS_GATHER8(nrm, ii, 4, 2);
+    const float8 Px = OCLS_GATHER8(pos, ii, 4, 0), Py = OCLS_GATHER8(pos, ii, 4, 1), Pz = OCLS_GATHER8(pos, ii, 4, 2);
+    const float8 nn = OCLS_DOT3(n0x, n0y, n0z, n0x, n0y, n0z);
+    const int8 live = inside & (zc != -INFINITY) & (nn > 1e-12f) & (nn < INFINITY);
+    const float8 one = (float8)(1.0f), zero = (float8)(0.0f);
+    const float8 nl = select(one, sqrt(nn), live);
+    const float8 Nx = select(zero, n0x / nl, live), Ny = select(zero, n0y / nl, live), Nz = select(one, n0z / nl, live);
+
+    /* steps 1-2: rotation vector and Gram-Schmidt */
+    const uint8 h = ocls_mix8(convert_uint8(cc) ^ (uint8)(ocls_mix((uint)r ^ ocls_mix(seed))));
+    const float8 vx = ocls_signed_unit8(h), vy = ocls_signed_unit8(ocls_mix8(h ^ OCLS_HASH_SALT));
+    const float8 vn = vx * Nx + vy * Ny;
+    const float8 gx = vx - Nx * vn, gy = vy - Ny * vn, gz = 0.0f - Nz * vn;
+    const float8 ax = fabs(Nx), ay = fabs(Ny), az = fabs(Nz);
+    const int8 ex = (ax <= ay) & (ax <= az), ey = ~ex & (ay <= az), ez = ~ex & ~ey;
+    const float8 en = select(select(Nz, Ny, ey), Nx, ex);     /* e . N for the axis e */
+    const int8 fallback = ~(OCLS_DOT3(gx, gy, gz, gx, gy, gz) >= 1e-8f);
+    const float8 tx = select(gx, select(zero, one, ex) - Nx * en, fallback);
+    const float8 ty = select(gy, select(zero, one, ey) - Ny * en, fallback);
+    const float8 tz = select(gz, select(zero, one, ez) - Nz * en, fallback);
+    const float8 tl = sqrt(OCLS_DOT3(tx, ty, tz, tx, ty, tz));
+    const float8 Tx = tx / tl, Ty = ty / tl, Tz = tz / tl;
+    const float8 Bx = Ny * Tz - Nz * Ty, By = Nz * Tx - Nx * Tz, Bz = Nx * Ty - Ny * Tx;
+    const float8 RTx = Tx * radius, RTy = Ty * radius, RTz = Tz * radius;
+    const float8 RBx = Bx * radius, RBy = By * radius, RBz = Bz * radius;
+    const float8 RNx = Nx * radius, RNy = Ny * radius, RNz = Nz * radius;
+
+    /* step 3, projected: clip coordinates are linear in A_t, so the pixel's
+     * P, R T, R B and R N are projected once (rows prj, see the ABI). */
+    const float8 cpu = OCLS_DOT3(prj[0], prj[1], prj[2], Px, Py, Pz) + prj[3];
+    const float8 cpv = OCLS_DOT3(prj[4], prj[5], prj[6], Px, Py, Pz) + prj[7];
+    const float8 cpw = OCLS_DOT3(prj[8], prj[9], prj[10], Px, Py, Pz) + prj[11];
+    const float8 ctu = OCLS_DOT3(prj[0], prj[1], prj[2], RTx, RTy, RTz);
+    const float8 ctv = OCLS_DOT3(prj[4], prj[5], prj[6], RTx, RTy, RTz);
+    const float8 ctw = OCLS_DOT3(prj[8], prj[9], prj[10], RTx, RTy, RTz);
+    const float8 cbu = OCLS_DOT3(prj[0], prj[1], prj[2], RBx, RBy, RBz);
+    const float8 cbv = OCLS_DOT3(prj[4], prj[5], prj[6], RBx, RBy, RBz);
+    const float8 cbw = OCLS_DOT3(prj[8], prj[9], prj[10], RBx, RBy, RBz);
+    const float8 cnu = OCLS_DOT3(prj[0], prj[1], prj[2], RNx, RNy, RNz);
+    const float8 cnv = OCLS_DOT3(prj[4], prj[5], prj[6], RNx, RNy, RNz);
+    const float8 cnw = OCLS_DOT3(prj[8], prj[9], prj[10], RNx, RNy, RNz);
+    const float fW = (float)W, fH = (float)H;
+
+    /* steps 3-5 */
+    int8 cnt8 = (int8)(0), occ8 = (int8)(0);
+    for (int t = 0; t < m; ++t) {
+        const float sx = kern[t], sy = kern[mpad + t], sz = kern[2 * mpad + t];
+        const float8 qu = cpu + (ctu * sx + cbu * sy + cnu * sz);
+        const float8 qv = cpv + (ctv * sx + cbv * sy + cnv * sz);
+        const float8 qw = cpw + (ctw * sx + cbw * sy + cnw * sz);
+        const float8 az_t = Pz + (RTz * sx + RBz * sy + RNz * sz);
+        const float8 inv = 1.0f / qw;
+        const float8 u = qu * inv, y = qv * inv;
+        const int8 on = (qw > 0.0f) & (u >= 0.0f) & (u < fW) & (y >= 0.0f) & (y < fH);
+        const int8 j = select(ii, convert_int8(y) * W + convert_int8(u), on);
+        const float8 zt = OCLS_GATHER8(zbuf, j, 1, 0);
+        int8 occ = zt >= az_t + delta;
+#ifdef OCLS_RANGE_CHECK
+        occ = occ & (zt - Pz <= radius);
+#endif
+        cnt8 -= on;             /* vector comparisons give -1 for true */
+        occ8 -= on & occ;
+    }
+    const float8 res = select(one, 1.0f - convert_float8(occ8) / convert_float8(cnt8), live & (cnt8 > 0));
+    if (c0 + 8 <= W) {
+        vstore8(res, 0, ao + r * W + c0);
+    } else {
+        const float rs[8] = {res.s0, res.s1, res.s2, res.s3, res.s4, res.s5, res.s6, res.s7};
+        for (int k = 0; c0 + k < W; ++k)
+            ao[r * W + c0 + k] = rs[k];
+    }
+}
+
+#ifdef OCLS_BLUR_BOX
+/* Window loops run -rad..rad for every work-item (uniform), clipped taps masked. */
+__kernel void ssao_box_h(__global const float *restrict ao, __global const float *restrict zbuf,
+                         int W, int H, int rad, __global float *restrict tmp)
+{
+    const int c = get_global_id(0), r = get_global_id(1);
+    const int inside = c < W && r < H;
+    const int row = inside ? r * W : 0;
+    float sum = 0.0f, count = 0.0f;
+    for (int k = -rad; k <= rad; ++k) {
+        const int x = c + k;
+        const int ok = x >= 0 && x < W;
+        const int j = row + (ok ? x : 0);
+        const int hit = ok && zbuf[j] != -INFINITY;
+        sum += hit ? ao[j] : 0.0f;
+        count += hit ? 1.0f : 0.0f;
+    }
+    if (inside) {
+        tmp[2 * (row + c)] = sum;
+        tmp[2 * (row + c) + 1] = count;
+    }
+}
+
+__kernel void ssao_box_v(__global const float *restrict tmp, __global const float *restrict zbuf,
+                         int W, int H, int rad, __global float *restrict out)
+{
+    const int c = get_global_id(0), r = get_global_id(1);
+    const int inside = c < W && r < H;
+    const int col = inside ? c : 0;
+    float sum = 0.0f, count = 0.0f;
+    for (int k = -rad; k <= rad; ++k) {
+        const int y = r + k;
+        const int ok = y >= 0 && y < H;
+        const int j = (ok ? y : 0) * W + col;
+        sum += ok ? tmp[2 * j] : 0.0f;
+        count += ok ? tmp[2 * j + 1] : 0.0f;
+    }
+    if (inside) {
+        const int i = r * W + c;
+        out[i] = zbuf[i] == -INFINITY ? 1.0f : sum / count;   /* count >= 1: the centre is a hit */
+    }
+}
+#endif
+
+#ifdef OCLS_BLUR_EDGE
+__kernel void ssao_edge(__global const float *restrict ao, __global const float *restrict pos,
+                        __global const float *restrict nrm, __global const float *restrict zbuf,
+                        int W, int H, int rad, float plane_tol, __global float *restrict out)
+{
+    const int c = get_global_id(0), r = get_global_id(1);
+    const int inside = c < W && r < H;
+    const int i = inside ? r * W + c : 0;
+    const float Px = pos[4 * i], Py = pos[4 * i + 1], Pz = pos[4 * i + 2];
+    const float Nx = nrm[4 * i], Ny = nrm[4 * i + 1], Nz = nrm[4 * i + 2];
+    const float inv_tol = 1.0f / plane_tol;
+    float sum = 0.0f, wsum = 0.0f;
+    for (int dy = -rad; dy <= rad; ++dy) {
+        const int y = r + dy;
+        const int oky = y >= 0 && y < H;
+        for (int dx = -rad; dx <= rad; ++dx) {
+            const int x = c + dx;
+            const int ok = oky && x >= 0 && x < W;
+            const int j = ok ? y * W + x : i;
+            const int hit = ok && zbuf[j] != -INFINITY;
+            const float cs = fmax(OCLS_DOT3(Nx, Ny, Nz, nrm[4 * j], nrm[4 * j + 1], nrm[4 * j + 2]), 0.0f);
+            const float c2 = cs * cs;
+            const float d = fabs(OCLS_DOT3(Nx, Ny, Nz, pos[4 * j] - Px, pos[4 * j + 1] - Py, pos[4 * j + 2] - Pz))
+                            * inv_tol;
+            const float w = hit ? (c2 * c2) / (1.0f + d * d) : 0.0f;
+            sum += w * ao[j];
+            wsum += w;
+        }
+    }
+    if (inside)
+        out[i] = zbuf[i] == -INFINITY ? 1.0f : (wsum > 0.0f ? sum / wsum : ao[i]);
+}
+#endif

@@ -1,0 +1,424 @@
+"""Float64 twins of kernels/ssao.cl and two ground truths of ambient occlusion on heightmaps.
+
+Three different quantities live here; each function says which it computes.
+
+* :func:`ssao` — the screen-space estimator of paper 001 exactly as the
+  kernel defines it (same sample kernel, same per-pixel hash, same skip and
+  occlusion rules), in float64.  It estimates, with m samples, the fraction
+  of the *sample kernel's* point set around P whose pixel in the depth buffer
+  holds a surface at least ``delta`` nearer to the camera.  Also returns per
+  pixel the number of counted samples and of *tie* samples, whose decision
+  float32 rounding may flip (see :func:`ssao`); kernel and twin agree to
+  1e-6 except by at most ties / (counted - ties) on pixels with ties.
+* :func:`volume_ao` — ground truth (a), the quantity the paper's test stands
+  for when the view is ideal: the fraction of the *volume* of the hemisphere
+  of radius R on the normal at P that lies under the terrain (below the
+  bilinear surface, inside the map), by stratified Monte Carlo with n points.
+  ``1 - fraction`` is reported, like the kernel's AO.
+* :func:`raytraced_ao` — ground truth (b), classic ambient occlusion: the
+  fraction of cosine-weighted directions on the hemisphere at P whose ray of
+  length R hits the bilinear surface, each ray tested exactly patch by patch
+  (quadratic along the ray in every patch); ``1 - fraction`` reported.
+
+Heightmap frames: world x east, y north, z up, sample (i, j) at
+(j dx, -i dy, h[i, j]) (oclshade/gbuffer.py).  :func:`topdown_gbuffer`
+builds the simplest honest terrain G-buffer: an orthographic view straight
+down, every pixel's position and normal taken from the bilinear surface at
+the pixel centre, so the depth test of the estimator is the "under the
+terrain" test up to the pixel grid.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..gbuffer import GBuffer
+from ..heightmap import Heightmap
+from ..ssao import hemisphere_points
+
+HASH_SALT = np.uint32(0x9E3779B9)
+F32 = float(np.finfo(np.float32).eps)
+
+
+# ----------------------------------------------------------------------------- hash (kernel: ocls_mix)
+def mix32(x: np.ndarray) -> np.ndarray:
+    """The kernel's 32-bit integer mix, on uint32 arrays (wrapping arithmetic)."""
+    x = np.asarray(x, np.uint32).copy()
+    with np.errstate(over="ignore"):
+        x ^= x >> np.uint32(16)
+        x *= np.uint32(0x7FEB352D)
+        x ^= x >> np.uint32(15)
+        x *= np.uint32(0x846CA68B)
+        x ^= x >> np.uint32(16)
+    return x
+
+
+def _signed_unit(h: np.ndarray) -> np.ndarray:
+    k = (h >> np.uint32(8)).astype(np.int64)
+    return (2 * k + 1 - (1 << 24)).astype(np.float64) * 2.0 ** -24
+
+
+def rotation_vectors(width: int, height: int, seed: int) -> np.ndarray:
+    """V_r = (2 f1 - 1, 2 f2 - 1, 0) per pixel, (height, width, 3) float64, exact like the kernel."""
+    cols = np.arange(width, dtype=np.uint32)[None, :]
+    rows = np.arange(height, dtype=np.uint32)[:, None]
+    h = mix32(cols ^ mix32(rows ^ mix32(np.uint32(seed))))
+    v = np.zeros((height, width, 3))
+    v[..., 0] = _signed_unit(h)
+    v[..., 1] = _signed_unit(mix32(h ^ HASH_SALT))
+    return v
+
+
+# ----------------------------------------------------------------------------- prepare + estimator
+def prepare(position: np.ndarray, normal: np.ndarray, alpha: np.ndarray | None = None,
+            alpha_eps: float = 0.5, normal_map: np.ndarray | None = None,
+            tangent: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Twin of ``ssao_prepare``: (hit mask, normal used by the AO pass) in float64."""
+    p = np.asarray(position, np.float64)
+    n = np.asarray(normal, np.float64)[..., :3].copy()
+    hit = (p[..., 3] >= 0.5) & np.isfinite(p[..., 2])   # x, y unchecked, as in the kernel
+    if alpha is not None:
+        hit &= np.asarray(alpha, np.float64) >= np.float32(alpha_eps)
+    if normal_map is not None:
+        tg = np.asarray(tangent, np.float64)
+        q = np.asarray(normal_map, np.float64)
+        with np.errstate(invalid="ignore", over="ignore"):
+            t0 = tg[..., :3] - n * _dot(tg[..., :3], n)[..., None]
+            tt = _dot(t0, t0)
+            ok = (tt > 1e-12) & np.isfinite(tt)
+            t = t0 / np.sqrt(np.where(ok, tt, 1.0))[..., None]
+            b = np.cross(n, t) * np.where(tg[..., 3] < 0, -1.0, 1.0)[..., None]
+            m = t * q[..., 0:1] + b * q[..., 1:2] + n * q[..., 2:3]
+            mm = _dot(m, m)
+            ok &= (mm > 1e-12) & np.isfinite(mm)
+            n = np.where(ok[..., None], m / np.sqrt(np.where(ok, mm, 1.0))[..., None], n)
+    return hit, n
+
+
+def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.einsum("...i,...i->...", a, b)
+
+
+@dataclass
+class ReferenceAO:
+    ao: np.ndarray        # float64 (H, W): 1 - occluded / counted, 1 on empty pixels
+    counted: np.ndarray   # int (H, W): samples on screen and in front of the camera
+    ties: np.ndarray      # int (H, W): samples within rounding of a decision boundary
+    hit: np.ndarray       # bool (H, W)
+    normal: np.ndarray    # float64 (H, W, 3): the normal the pass used (mapped or not)
+
+
+def ssao(position: np.ndarray, normal: np.ndarray, projection: np.ndarray, kernel: np.ndarray,
+         radius: float, delta: float, seed: int = 0, range_check: bool = False,
+         alpha: np.ndarray | None = None, alpha_eps: float = 0.5,
+         normal_map: np.ndarray | None = None, tangent: np.ndarray | None = None) -> ReferenceAO:
+    """Twin of ``ssao_prepare`` + ``ssao_ao``: the paper's estimator, see kernels/ssao.cl.
+
+    A sample is a *tie* when float32 rounding may change its fate: its depth
+    margin |z_t - (A.z + delta)| or its range margin is within
+    ``tol_z = 64 eps32 (|P| + R + |delta|)``, or its pixel coordinate is within
+    ``tol_px = 64 eps32 (1 + |u|)`` (in pixels, likewise for rows) of a pixel or
+    screen edge, or its clip w within tol_z of 0.
+    """
+    pos = np.asarray(position, np.float64)
+    height, width = pos.shape[:2]
+    hit, n = prepare(position, normal, alpha, alpha_eps, normal_map, tangent)
+    zbuf = np.where(hit, pos[..., 2], -np.inf)
+    nn = _dot(n, n)
+    live = hit & (nn > 1e-12) & (nn < np.inf)
+    ao = np.ones((height, width))
+    counted = np.zeros((height, width), np.int64)
+    ties = np.zeros((height, width), np.int64)
+    rr, cc = np.nonzero(live)
+    if rr.size == 0 or len(kernel) == 0:
+        return ReferenceAO(ao, counted, ties, hit, n)
+    N = n[rr, cc] / np.sqrt(nn[rr, cc])[:, None]
+    P = pos[rr, cc, :3]
+    v = rotation_vectors(width, height, seed)[rr, cc]
+    t0 = v - N * _dot(v, N)[:, None]
+    tt = _dot(t0, t0)
+    bad = ~(tt >= 1e-8)
+    if bad.any():
+        a = np.abs(N[bad])
+        axis = np.where((a[:, 0] <= a[:, 1]) & (a[:, 0] <= a[:, 2]), 0, np.where(a[:, 1] <= a[:, 2], 1, 2))
+        e = np.eye(3)[axis]
+        t0[bad] = e - N[bad] * _dot(e, N[bad])[:, None]
+        tt[bad] = _dot(t0[bad], t0[bad])
+    T = t0 / np.sqrt(tt)[:, None]
+    B = np.cross(N, T)
+    M = np.asarray(projection, np.float64)
+    tol_z = 64 * F32 * (np.linalg.norm(P, axis=1) + abs(radius) + abs(delta))
+    occ_n = np.zeros(rr.size, np.int64)
+    cnt_n = np.zeros(rr.size, np.int64)
+    tie_n = np.zeros(rr.size, np.int64)
+    zflat = zbuf.ravel()
+    for s in np.asarray(kernel, np.float64)[:, :3]:
+        A = P + radius * (T * s[0] + B * s[1] + N * s[2])
+        cw = A @ M[3, :3] + M[3, 3]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            u = (A @ M[0, :3] + M[0, 3]) / cw
+            y = (A @ M[1, :3] + M[1, 3]) / cw
+            u = (u + 1.0) * 0.5 * width
+            y = (1.0 - y) * 0.5 * height
+            on = (cw > 0) & (u >= 0) & (u < width) & (y >= 0) & (y < height)
+        j = np.where(on, np.floor(np.where(on, y, 0)) * width + np.floor(np.where(on, u, 0)), 0).astype(np.int64)
+        zt = zflat[j]
+        margin = zt - (A[:, 2] + delta)
+        occ = margin >= 0
+        tie = np.abs(margin) <= tol_z
+        if range_check:
+            rmargin = radius - (zt - P[:, 2])
+            occ &= rmargin >= 0
+            tie |= (margin >= 0) & (np.abs(rmargin) <= tol_z)
+        with np.errstate(invalid="ignore"):
+            for coord in (u, y):
+                tol_px = 64 * F32 * (1.0 + np.abs(coord))
+                tie |= np.abs(coord - np.round(coord)) <= tol_px
+            tie |= np.abs(cw) <= tol_z
+        cnt_n += on
+        occ_n += on & occ
+        tie_n += tie & (on | (np.abs(cw) <= tol_z) | np.isfinite(u))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ao[rr, cc] = np.where(cnt_n > 0, 1.0 - occ_n / np.maximum(cnt_n, 1), 1.0)
+    counted[rr, cc] = cnt_n
+    ties[rr, cc] = tie_n
+    return ReferenceAO(ao, counted, ties, hit, n)
+
+
+def box_blur(ao: np.ndarray, hit: np.ndarray, half: int) -> np.ndarray:
+    """Twin of ``ssao_box_h`` + ``ssao_box_v``: mean of AO over the hit pixels of the clipped
+    (2 half + 1)^2 window; empty pixels stay 1."""
+    a = np.where(hit, np.asarray(ao, np.float64), 0.0)
+    w = hit.astype(np.float64)
+    height, width = a.shape
+    pa, pw = np.pad(a, half), np.pad(w, half)
+    s = np.zeros_like(a)
+    c = np.zeros_like(a)
+    for dy in range(2 * half + 1):
+        for dx in range(2 * half + 1):
+            s += pa[dy:dy + height, dx:dx + width]
+            c += pw[dy:dy + height, dx:dx + width]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(hit, s / c, 1.0)
+
+
+def edge_blur(ao: np.ndarray, position: np.ndarray, normal: np.ndarray, hit: np.ndarray,
+              half: int, plane_tol: float) -> np.ndarray:
+    """Twin of ``ssao_edge``: weights (max(N_p.N_q, 0))^4 / (1 + (|N_p.(P_q - P_p)| / plane_tol)^2)."""
+    a = np.asarray(ao, np.float64)
+    P = np.asarray(position, np.float64)[..., :3]
+    N = np.asarray(normal, np.float64)[..., :3]
+    height, width = a.shape
+    s = np.zeros_like(a)
+    ws = np.zeros_like(a)
+    for dy in range(-half, half + 1):
+        for dx in range(-half, half + 1):
+            r0, r1 = max(0, -dy), min(height, height - dy)
+            c0, c1 = max(0, -dx), min(width, width - dx)
+            if r0 >= r1 or c0 >= c1:
+                continue
+            win = (slice(r0, r1), slice(c0, c1))
+            nb = (slice(r0 + dy, r1 + dy), slice(c0 + dx, c1 + dx))
+            with np.errstate(invalid="ignore"):
+                cs = np.maximum(_dot(N[win], N[nb]), 0.0)
+                d = np.abs(_dot(N[win], P[nb] - P[win])) / plane_tol
+                w = np.where(hit[nb], cs ** 4 / (1.0 + d * d), 0.0)
+            w = np.nan_to_num(w, nan=0.0)
+            s[win] += w * a[nb]
+            ws[win] += w
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out = np.where(ws > 0, s / ws, a)
+    return np.where(hit, out, 1.0)
+
+
+# ----------------------------------------------------------------------------- terrain G-buffers
+def bilinear(hm: Heightmap, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Height and its world gradient (dh/dx, dh/dy) of the bilinear surface at world (x, y).
+
+    NaN outside the map or on a patch with a nodata corner.  On a patch
+    boundary the patch to the south-east (larger row/col) is used."""
+    h = hm.heights
+    rows, cols = h.shape
+    u = np.asarray(x, np.float64) / hm.dx
+    v = -np.asarray(y, np.float64) / hm.dy
+    inside = (u >= 0) & (u <= cols - 1) & (v >= 0) & (v <= rows - 1)
+    pc = np.clip(np.floor(np.where(inside, u, 0)), 0, max(cols - 2, 0)).astype(np.int64)
+    pr = np.clip(np.floor(np.where(inside, v, 0)), 0, max(rows - 2, 0)).astype(np.int64)
+    fx, fy = u - pc, v - pr
+    pc1, pr1 = np.minimum(pc + 1, cols - 1), np.minimum(pr + 1, rows - 1)
+    h00, h01, h10, h11 = h[pr, pc], h[pr, pc1], h[pr1, pc], h[pr1, pc1]
+    ex, ey, k = h01 - h00, h10 - h00, h00 - h01 - h10 + h11
+    z = h00 + ex * fx + ey * fy + k * fx * fy
+    gx = (ex + k * fy) / hm.dx
+    gy = -(ey + k * fx) / hm.dy
+    nan = np.where(inside, 0.0, np.nan)
+    return z + nan, gx + nan, gy + nan
+
+
+@dataclass
+class TopDownView:
+    gbuffer: GBuffer
+    projection: np.ndarray      # 4x4 orthographic
+    view: np.ndarray            # 4x4 world -> view (a translation)
+    world_position: np.ndarray  # float64 (H, W, 3), NaN where empty
+    world_normal: np.ndarray    # float64 (H, W, 3)
+
+
+def topdown_gbuffer(hm: Heightmap, width: int, height: int, pixel: float,
+                    origin: tuple[float, float] | None = None) -> TopDownView:
+    """Orthographic view straight down on ``hm``: pixel (r, c) sees world
+    (x0 + (c + 0.5) pixel, y0 - (r + 0.5) pixel); position and normal are those of
+    the bilinear surface there (exact, rounded once to float32)."""
+    rows, cols = hm.shape
+    if origin is None:  # centred on the map
+        origin = (0.5 * ((cols - 1) * hm.dx - width * pixel), -0.5 * ((rows - 1) * hm.dy - height * pixel))
+    x0, y0 = origin
+    cx, cy = x0 + 0.5 * width * pixel, y0 - 0.5 * height * pixel
+    ztop = float(np.nanmax(hm.heights)) + 10.0 * pixel
+    view = np.eye(4)
+    view[:3, 3] = (-cx, -cy, -ztop)
+    proj = np.diag([2.0 / (width * pixel), 2.0 / (height * pixel), -1e-6, 1.0])
+    xs = x0 + (np.arange(width) + 0.5) * pixel
+    ys = y0 - (np.arange(height) + 0.5) * pixel
+    X, Y = np.meshgrid(xs, ys)
+    z, gx, gy = bilinear(hm, X, Y)
+    hit = np.isfinite(z)
+    wn = np.stack([-gx, -gy, np.ones_like(z)], axis=-1)
+    wn /= np.linalg.norm(wn, axis=-1, keepdims=True)
+    wp = np.stack([X, Y, z], axis=-1)
+    wp[~hit] = np.nan
+    pos = np.zeros((height, width, 4), np.float32)
+    nrm = np.zeros((height, width, 4), np.float32)
+    pos[hit, :3] = wp[hit] + view[:3, 3]
+    pos[hit, 3] = 1.0
+    nrm[hit, :3] = wn[hit]
+    uv = np.zeros((height, width, 2), np.float32)
+    uv[hit, 0] = X[hit] / hm.dx
+    uv[hit, 1] = -Y[hit] / hm.dy
+    uv_grad = np.zeros((height, width, 4), np.float32)
+    uv_grad[hit] = (pixel / hm.dx, 0.0, 0.0, pixel / hm.dy)
+    depth = np.where(hit, -pos[..., 2], np.inf).astype(np.float32)
+    albedo = np.zeros((height, width, 4), np.float32)
+    albedo[hit] = 1.0
+    gb = GBuffer(pos, nrm, uv, uv_grad, depth, albedo)
+    return TopDownView(gb, proj, view, wp, np.where(hit[..., None], wn, np.nan))
+
+
+# ----------------------------------------------------------------------------- ground truths
+def _frames(normals: np.ndarray, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """A random tangent frame (T, B) per normal (uniform rotation about N)."""
+    a = rng.normal(size=normals.shape)
+    t = a - normals * _dot(a, normals)[:, None]
+    t /= np.linalg.norm(t, axis=1, keepdims=True)
+    return t, np.cross(normals, t)
+
+
+def volume_ao(hm: Heightmap, points: np.ndarray, normals: np.ndarray, radius: float,
+              n: int = 1024, seed: int = 1) -> np.ndarray:
+    """Ground truth (a): 1 - (fraction of the volume of the radius-R hemisphere on the unit
+    normal at each world point that lies under the bilinear terrain), float64.
+
+    Under the terrain means z < h(x, y) inside the map (outside the map and
+    over holes nothing is under).  Stratified: the ``uniform`` kernel's point
+    set of n points (uniform in volume), rotated about N at random per point;
+    the Monte Carlo error is below sqrt(p (1 - p) / n)."""
+    pts = np.asarray(points, np.float64).reshape(-1, 3)
+    nrm = np.asarray(normals, np.float64).reshape(-1, 3)
+    rng = np.random.default_rng(seed)
+    T, B = _frames(nrm, rng)
+    unit = hemisphere_points(n, "uniform")
+    under = np.zeros(len(pts))
+    for s in unit:
+        A = pts + radius * (T * s[0] + B * s[1] + nrm * s[2])
+        h, _, _ = bilinear(hm, A[:, 0], A[:, 1])
+        under += np.nan_to_num(h, nan=-np.inf) > A[:, 2]
+    return 1.0 - under / n
+
+
+def cosine_directions(n: int) -> np.ndarray:
+    """n stratified cosine-weighted unit directions about +z (Malley: stratified disk lifted)."""
+    i = np.arange(n)
+    r = np.sqrt((i + 0.5) / n)
+    phi = 2.0 * np.pi * ((i * 0.6180339887498949) % 1.0)
+    x, y = r * np.cos(phi), r * np.sin(phi)
+    return np.stack([x, y, np.sqrt(np.maximum(0.0, 1.0 - x * x - y * y))], axis=1)
+
+
+def raytraced_ao(hm: Heightmap, points: np.ndarray, normals: np.ndarray, radius: float,
+                 n: int = 256, seed: int = 1) -> np.ndarray:
+    """Ground truth (b): 1 - (fraction of cosine-weighted rays of length R from each world
+    point, on the hemisphere of its unit normal, that hit the bilinear terrain), float64.
+
+    Each ray walks the patches it crosses; in a patch the surface along the
+    ray is a quadratic in t and the ray hits iff ray - surface <= 0 somewhere
+    in (0, R] (closed form: ends and vertex).  The point itself is on the
+    surface, so in its first patch the root at t = 0 is factored out.  Holes
+    and the outside of the map occlude nothing."""
+    pts = np.asarray(points, np.float64).reshape(-1, 3)
+    nrm = np.asarray(normals, np.float64).reshape(-1, 3)
+    rng = np.random.default_rng(seed)
+    T, B = _frames(nrm, rng)
+    dirs = cosine_directions(n)
+    hits = np.zeros(len(pts))
+    for d in dirs:
+        w = T * d[0] + B * d[1] + nrm * d[2]
+        hits += _ray_hits(hm, pts, w, radius)
+    return 1.0 - hits / n
+
+
+def _ray_hits(hm: Heightmap, p: np.ndarray, w: np.ndarray, radius: float) -> np.ndarray:
+    """Bool per ray: the ray p + t w, 0 < t <= radius, meets the bilinear surface."""
+    h = hm.heights
+    rows, cols = h.shape
+    hp, wp = max(rows - 1, 1), max(cols - 1, 1)
+    x0, y0 = p[:, 0] / hm.dx, -p[:, 1] / hm.dy          # continuous (col, row)
+    ux, uy = w[:, 0] / hm.dx, -w[:, 1] / hm.dy          # per unit t
+    pc = np.where(ux < 0, np.ceil(x0) - 1, np.floor(x0)).astype(np.int64)
+    pr = np.where(uy < 0, np.ceil(y0) - 1, np.floor(y0)).astype(np.int64)
+    out = np.zeros(len(p), bool)
+    idx = np.arange(len(p))
+    t = np.zeros(len(p))
+    first = np.ones(len(p), bool)
+    max_steps = int(np.ceil(radius / hm.dx) + np.ceil(radius / hm.dy)) + 4
+    for _ in range(max_steps):
+        alive = (t < radius) & (pr >= 0) & (pr < hp) & (pc >= 0) & (pc < wp)
+        if not alive.all():
+            keep = np.flatnonzero(alive)
+            idx, pc, pr, t, first = idx[keep], pc[keep], pr[keep], t[keep], first[keep]
+            x0, y0, ux, uy, p, w = x0[keep], y0[keep], ux[keep], uy[keep], p[keep], w[keep]
+        if not idx.size:
+            break
+        with np.errstate(divide="ignore", invalid="ignore"):
+            tx = np.where(ux > 0, (pc + 1 - x0) / ux, np.where(ux < 0, (pc - x0) / ux, np.inf))
+            ty = np.where(uy > 0, (pr + 1 - y0) / uy, np.where(uy < 0, (pr - y0) / uy, np.inf))
+        t_out = np.minimum(np.minimum(tx, ty), radius)
+        h00, h01 = h[pr, pc], h[pr, np.minimum(pc + 1, cols - 1)]
+        h10, h11 = h[np.minimum(pr + 1, rows - 1), pc], h[np.minimum(pr + 1, rows - 1), np.minimum(pc + 1, cols - 1)]
+        ex, ey, k = h01 - h00, h10 - h00, h00 - h01 - h10 + h11
+        fx, fy = x0 + ux * t - pc, y0 + uy * t - pr
+        s0 = h00 + ex * fx + ey * fy + k * fx * fy
+        s1 = (ex + k * fy) * ux + (ey + k * fx) * uy
+        s2 = k * ux * uy
+        # f(tau) = ray - surface = a + b tau + c tau^2 on [0, L]
+        a = np.where(first, 0.0, p[:, 2] + w[:, 2] * t - s0)
+        b = w[:, 2] - s1
+        c = -s2
+        L = t_out - t
+        with np.errstate(invalid="ignore", divide="ignore"):
+            f_end = a + (b + c * L) * L
+            tv = -b / (2.0 * c)
+            f_v = a + (b + c * tv) * tv
+            vertex = (c > 0) & (tv > 0) & (tv < L) & (f_v <= 0)
+            later = (a <= 0) | (f_end <= 0) | vertex
+            # first patch: f = tau (b + c tau) with L > 0, so a hit in (0, L] iff b < 0 or b + c L <= 0
+            at_start = (b < 0) | (b + c * L <= 0)
+            hit = np.where(first, at_start, later) & ~np.isnan(s0)
+        out[idx[hit]] = True
+        go = ~hit
+        via_x, via_y = tx <= ty, ty <= tx
+        pc = np.where(via_x, pc + np.sign(ux).astype(np.int64), pc)
+        pr = np.where(via_y, pr + np.sign(uy).astype(np.int64), pr)
+        t = np.where(go, t_out, radius)
+        first = np.zeros(idx.size, bool)
+    return out
