@@ -1,0 +1,167 @@
+"""Frames of a terrain scene: G-buffer -> per-pixel shadows -> AO -> compose, each pass
+run only when its inputs changed (paper 003's reuse across frames) and compiled only
+with the features the frame uses (paper 002).
+
+>>> scene = TerrainScene(Heightfield(heightmap))
+>>> for sun in sun_path:                       # fixed camera: the G-buffer and AO run once
+...     frame = scene.frame(camera, sun, FrameSettings(ao=AOSettings(radius=60.0)))
+...     frame.image, frame.ran                  # uint8 (H, W, 4); which passes ran
+
+Passes and the inputs that key them (a digest of each):
+
+==============  ==============================================  =========================
+pass            inputs                                          skipped when
+==============  ==============================================  =========================
+gbuffer         heights (fixed per scene), camera, ray caster   never needed twice
+shadows         G-buffer, sun, method, Algo 1 settings          ``shadows=False``
+ao              G-buffer, AO settings                           ``ao=None`` or radius 0
+compose         all of the above, lighting                      never needed twice
+==============  ==============================================  =========================
+
+Everything stays on the device between passes; one pyramid serves the ray caster
+and the shadow pass.  ``caching=False`` runs every pass every frame (the baseline
+the skipping benchmark compares against).
+"""
+from __future__ import annotations
+
+import hashlib
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import pyopencl as cl
+
+from .camera import Camera
+from .compose import Lighting, compose
+from .runtime import Runtime
+from .screen_shadows import LodOptions, ScreenShadowCaster
+from .ssao import DEFAULT_FEATURES, DEFAULT_M, SSAO, AOFeatures, AOInputs
+from .sun import Sun, SunLike, as_sun
+from .terrain import DeviceGBuffer, Heightfield, TerrainRenderer
+
+PASSES = ("gbuffer", "shadows", "ao", "compose")
+
+
+@dataclass(frozen=True)
+class AOSettings:
+    """Screen-space AO (see :mod:`oclshade.ssao`): radius in metres, m samples."""
+
+    radius: float
+    m: int = DEFAULT_M
+    delta: float = 0.0
+    features: AOFeatures = DEFAULT_FEATURES
+
+
+@dataclass(frozen=True)
+class FrameSettings:
+    """What a frame computes.  A feature switched off is neither compiled nor run."""
+
+    caster: str = "bisect"                 # terrain ray caster (oclshade.terrain.METHODS)
+    shadows: bool = True                   # per-pixel cast shadows (paper 000)
+    shadow_method: str = "exact"
+    lod: LodOptions = LodOptions()
+    ao: AOSettings | None = None           # None: no AO pass
+    lighting: Lighting = field(default_factory=Lighting)
+
+
+@dataclass
+class Frame:
+    """One composed frame; ``ran`` names the passes that ran (the others were reused or off);
+    ``ms`` the wall time of each pass that ran (queue finished after each)."""
+
+    image: np.ndarray
+    gbuffer: DeviceGBuffer
+    shadow: cl.Buffer | None
+    ao: cl.Buffer | None
+    ran: tuple[str, ...]
+    ms: dict[str, float]
+
+
+def _digest(*parts: object) -> str:
+    h = hashlib.blake2b(digest_size=16)
+    for p in parts:
+        h.update(np.ascontiguousarray(p).tobytes() if isinstance(p, np.ndarray) else repr(p).encode())
+        h.update(b"\x00")
+    return h.hexdigest()
+
+
+def camera_digest(camera: Camera) -> str:
+    """Digest of everything a camera contributes to a G-buffer (matrices bit-exact)."""
+    return _digest(camera.position, camera.look_at, camera.up, camera.width, camera.height, camera.fov,
+                   camera.near, camera.far, camera.projection, camera.ortho_height)
+
+
+class TerrainScene:
+    """One heightfield on one device, rendered frame after frame."""
+
+    def __init__(self, heightfield: Heightfield, device: str | int | Runtime | None = None,
+                 caching: bool = True):
+        self.renderer = TerrainRenderer(heightfield, device)
+        self.runtime = self.renderer.runtime
+        self.caching = caching
+        self._shadows: ScreenShadowCaster | None = None
+        self._ssao: SSAO | None = None
+        self._keys: dict[str, str] = {}
+        self._out: dict[str, object] = {}
+
+    @property
+    def shadow_caster(self) -> ScreenShadowCaster:
+        """Shares the ray caster's extrema pyramid (built once per scene)."""
+        if self._shadows is None:
+            self._shadows = ScreenShadowCaster(self.renderer.field.heightmap, pyramid=self.renderer.pyramid,
+                                               device=self.runtime)
+        return self._shadows
+
+    @property
+    def ssao(self) -> SSAO:
+        if self._ssao is None:
+            self._ssao = SSAO(self.runtime)
+        return self._ssao
+
+    def frame(self, camera: Camera, sun: SunLike, settings: FrameSettings = FrameSettings()) -> Frame:
+        """Render one frame; passes whose inputs are unchanged since the last frame are reused."""
+        sun = as_sun(sun)
+        lighting = Lighting(sun=sun, sun_intensity=settings.lighting.sun_intensity, sky=settings.lighting.sky,
+                            background=settings.lighting.background)
+        ao_on = settings.ao is not None and settings.ao.radius > 0 and settings.ao.m > 0
+        g_key = _digest(camera_digest(camera), settings.caster)
+        keys = {
+            "gbuffer": g_key,
+            "shadows": _digest(g_key, sun, settings.shadow_method, settings.lod) if settings.shadows else None,
+            "ao": _digest(g_key, settings.ao) if ao_on else None,
+        }
+        keys["compose"] = _digest(keys["gbuffer"], keys["shadows"], keys["ao"], lighting)
+        ran, ms = [], {}
+        for name in PASSES:
+            if keys[name] is None:
+                self._out[name] = None
+                self._keys.pop(name, None)
+                continue
+            if self.caching and self._keys.get(name) == keys[name]:
+                continue
+            t0 = time.perf_counter()
+            self._out[name] = self._run(name, camera, sun, settings, lighting)
+            self.runtime.queue.finish()
+            ms[name] = 1e3 * (time.perf_counter() - t0)
+            ran.append(name)
+            self._keys[name] = keys[name]
+        return Frame(self._out["compose"], self._out["gbuffer"], self._out["shadows"], self._out["ao"],
+                     tuple(ran), ms)
+
+    def _run(self, name: str, camera: Camera, sun: Sun, settings: FrameSettings, lighting: Lighting) -> object:
+        gbuf = self._out.get("gbuffer")
+        if name == "gbuffer":
+            return self.renderer.render(camera, settings.caster, on_device=True,
+                                        out=gbuf if isinstance(gbuf, DeviceGBuffer) else None)
+        if name == "shadows":
+            prev = self._out.get("shadows")
+            bufs = self.shadow_caster.shade_to_device(gbuf, sun, settings.shadow_method, settings.lod, "coefficient",
+                                                      out={"coefficient": prev} if prev is not None else None)
+            return bufs["coefficient"]
+        if name == "ao":
+            ao = settings.ao
+            inputs = AOInputs(gbuf.shape, gbuf.buffers["position"], gbuf.buffers["normal"])
+            return self.ssao.run(inputs, camera.projection_matrix, radius=ao.radius, m=ao.m, delta=ao.delta,
+                                 features=ao.features)
+        return compose(gbuf, camera, lighting, shadow=self._out["shadows"], ao=self._out["ao"],
+                       device=self.runtime)
