@@ -225,7 +225,21 @@ examples:
   oclshade render dem.tif view.png --size 1920x1080
   oclshade render dem.tif view.png --view 315,20 --fov 60 --sun 135,25 --gbuffer view.exr
   oclshade render dem.npy gbuf.exr --cellsize 30 --camera 0,-9000,2500,6000,-3000,300
+  oclshade render dem.tif view.png --sun 135,8 --ao 6 --ao-map ao.exr   # low sun, AO radius 6 cells
+
+passes: the G-buffer (ray casting), per-pixel cast shadows (on; --no-shadows),
+  ambient occlusion (off; --ao), compose; a pass switched off is not compiled.
 """
+
+
+def _ao_samples(text: str) -> int:
+    try:
+        m = int(text)
+    except ValueError:
+        m = 0
+    if not 4 <= m <= 256:
+        raise argparse.ArgumentTypeError(f"expected an integer 4..256, got {text!r}")
+    return m
 
 
 def _size(text: str) -> tuple[int, int]:
@@ -277,6 +291,15 @@ def add_render_parser(sub) -> None:
     rd.add_argument("--radius", type=_positive, default=None, metavar="METRES",
                     help="put the map on a sphere of this radius (e.g. 6371000)")
     rd.add_argument("--gbuffer", metavar="EXR", help="also write the G-buffer (OUTPUT must be a .png)")
+    rd.add_argument("--no-shadows", action="store_true",
+                    help="leave out the per-pixel cast shadows (paper 000; on by default)")
+    rd.add_argument("--shadow-method", default="exact", choices=METHODS,
+                    help="per-pixel shadow traversal (default exact)")
+    rd.add_argument("--ao", type=_positive, nargs="?", const=4.0, default=None, metavar="CELLS",
+                    help="screen-space ambient occlusion (paper 001) of radius CELLS cells (default 4)")
+    rd.add_argument("--ao-samples", type=_ao_samples, default=32, metavar="M",
+                    help="AO samples per pixel, 4..256 (default 32)")
+    rd.add_argument("--ao-map", metavar="EXR", help="also write the AO factor (1 = unoccluded) as an EXR")
     rd.add_argument("-z", dest="z_factor", type=_nonzero, default=1.0, metavar="ZFACTOR",
                     help="multiply heights by ZFACTOR (default 1)")
     rd.add_argument("-s", dest="scale", type=_positive, default=1.0, metavar="SCALE",
@@ -439,8 +462,10 @@ def gbuffer_bands(gbuf) -> tuple[list[np.ndarray], list[str]]:
 
 def run_render(args: argparse.Namespace) -> int:
     from .camera import Camera, frame_heightmap
-    from .compose import Lighting, compose
-    from .terrain import Heightfield, TerrainRenderer
+    from .compose import Lighting
+    from .frames import AOSettings, FrameSettings, TerrainScene
+    from .ssao import write_ao_exr
+    from .terrain import Heightfield
 
     out_ext = _extension(args.output)
     if out_ext not in (".png", ".exr"):
@@ -451,7 +476,11 @@ def run_render(args: argparse.Namespace) -> int:
         raise UsageError(f"--cellsize takes DX or DX DY, got {len(args.cellsize)} values")
     if args.ortho and args.camera is not None:
         raise UsageError("--ortho works with the automatic camera only (leave out --camera)")
-    for path in (args.output, args.gbuffer):
+    if args.ao_map is not None and (_extension(args.ao_map) != ".exr" or args.ao is None):
+        raise UsageError("--ao-map takes an .exr path and needs --ao")
+    if args.ao_map is not None and args.ao_map in (args.output, args.gbuffer):
+        raise UsageError("--ao-map must differ from OUTPUT and --gbuffer")
+    for path in (args.output, args.gbuffer, args.ao_map):
         if path is not None and _same_file(path, args.input):
             raise CliError(f"{path!r} is the input file; refusing to overwrite it")
     if args.gbuffer is not None and _same_file(args.gbuffer, args.output):
@@ -474,24 +503,29 @@ def run_render(args: argparse.Namespace) -> int:
         extent = float(np.hypot(heightmap.shape[1] * heightmap.dx, heightmap.shape[0] * heightmap.dy))
         reach = float(np.linalg.norm(pos - target)) + 2.0 * extent
         camera = Camera(pos, target, width, height, fov=args.fov, near=1e-4 * reach, far=reach)
-    renderer = TerrainRenderer(field, device=args.device)
+    scene = TerrainScene(field, device=args.device)
+    ao = None if args.ao is None else AOSettings(radius=args.ao * max(heightmap.dx, heightmap.dy), m=args.ao_samples)
+    settings = FrameSettings(caster=args.method, shadows=not args.no_shadows, shadow_method=args.shadow_method,
+                             ao=ao, lighting=Lighting(sun=args.sun))
     t1 = time.perf_counter()
-    gbuf = renderer.render(camera, method=args.method)
+    frame = scene.frame(camera, args.sun, settings)
     t2 = time.perf_counter()
-    for path in (args.output, args.gbuffer):
+    for path in (args.output, args.gbuffer, args.ao_map):
         if path is not None and os.path.dirname(path):
             os.makedirs(os.path.dirname(path), exist_ok=True)
     if out_ext == ".png":
-        frame = compose(gbuf, camera, Lighting(sun=args.sun), device=renderer.runtime)
-        write_raster(args.output, frame[..., :3])
+        write_raster(args.output, frame.image[..., :3])
     if out_ext == ".exr" or args.gbuffer is not None:
-        bands, names = gbuffer_bands(gbuf)
+        bands, names = gbuffer_bands(frame.gbuffer.to_host())
         write_raster(args.output if out_ext == ".exr" else args.gbuffer, bands, band_names=names)
+    if args.ao_map is not None:
+        write_ao_exr(args.ao_map, frame.ao_factor())
     if not args.quiet:
         rows, cols = heightmap.shape
+        passes = ", ".join(f"{name} {ms:.0f} ms" for name, ms in frame.ms.items())
         print(f"{PROG}: {rows}x{cols} cells, {width}x{height} pixels, method {args.method}, device "
-              f"{renderer.runtime.label}: pyramid + cast {t2 - t1:.2f} s (total {time.perf_counter() - t0:.2f} s), "
-              f"{100 * gbuf.hit.mean():.1f}% of pixels see terrain -> {args.output}", file=sys.stderr)
+              f"{scene.runtime.label}: {passes} (with builds; total {t2 - t1:.2f} s, "
+              f"run {time.perf_counter() - t0:.2f} s) -> {args.output}", file=sys.stderr)
     return 0
 
 

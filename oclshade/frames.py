@@ -76,6 +76,15 @@ class Frame:
     ran: tuple[str, ...]
     ms: dict[str, float]
 
+    def ao_factor(self) -> np.ndarray:
+        """The AO factor per pixel on the host (float32, 1 = unoccluded; all 1 without AO)."""
+        out = np.ones(self.gbuffer.shape, np.float32)
+        if self.ao is not None:
+            queue = self.gbuffer.runtime.queue
+            cl.enqueue_copy(queue, out, self.ao)
+            queue.finish()
+        return out
+
 
 def _digest(*parts: object) -> str:
     h = hashlib.blake2b(digest_size=16)

@@ -95,3 +95,39 @@ def test_render_refuses_bad_outputs(tmp_path: Path, npy: Path, capsys) -> None:
 def test_render_needs_a_cell_size(tmp_path: Path, npy: Path, capsys) -> None:
     assert main(["render", str(npy), str(tmp_path / "x.png")]) == 2
     assert "--cellsize" in capsys.readouterr().err
+
+
+def test_render_shadows_on_by_default_and_ao(tmp_path: Path, npy: Path) -> None:
+    """The default frame carries per-pixel cast shadows; --ao adds the AO pass and its map."""
+    from oclshade.frames import AOSettings, FrameSettings, TerrainScene
+    from oclshade.compose import Lighting
+    from oclshade.io import read_dem
+
+    base = ["--cellsize", "30", "--size", "64x40", "--view", "150,35", "--sun", "120,8", "-q"]
+    paths = {k: tmp_path / f"{k}.png" for k in ("default", "flat", "ao")}
+    aomap = tmp_path / "ao.exr"
+    assert main(["render", str(npy), str(paths["default"]), *base]) == 0
+    assert main(["render", str(npy), str(paths["flat"]), *base, "--no-shadows"]) == 0
+    assert main(["render", str(npy), str(paths["ao"]), *base, "--ao", "3", "--ao-map", str(aomap)]) == 0
+    img = {k: np.asarray(Image.open(p)).astype(int) for k, p in paths.items()}
+    hm = Heightmap.from_array(np.load(npy), 30.0)
+    cam = frame_heightmap(hm, 64, 40, azimuth=150.0, elevation=35.0)
+    scene = TerrainScene(Heightfield(hm))
+    want = scene.frame(cam, (120.0, 8.0), FrameSettings(lighting=Lighting(sun=(120.0, 8.0))))
+    assert np.array_equal(img["default"], want.image[..., :3])
+    shadowed = np.abs(img["default"] - img["flat"]).sum(-1) > 0
+    assert 0.0 < shadowed.mean() < 0.9                                  # cast shadows darken part of the frame
+    assert (img["default"] <= img["flat"]).all()
+    ao = read_dem(str(aomap), cellsize=1.0).heights
+    want_ao = scene.frame(cam, (120.0, 8.0), FrameSettings(ao=AOSettings(radius=90.0),
+                                                          lighting=Lighting(sun=(120.0, 8.0)))).ao_factor()
+    assert np.array_equal(ao, want_ao) and ao.min() < 1.0 and ao.max() <= 1.0
+    assert (img["ao"] <= img["default"]).all() and (img["ao"] < img["default"]).any()
+
+
+def test_render_ao_arguments(tmp_path: Path, npy: Path, capsys) -> None:
+    out = tmp_path / "v.png"
+    assert main(["render", str(npy), str(out), "--cellsize", "30", "--ao-map", str(tmp_path / "a.exr")]) == 2
+    assert "--ao-map" in capsys.readouterr().err
+    assert main(["render", str(npy), str(out), "--cellsize", "30", "--ao", "--ao-samples", "3"]) == 2
+    assert "4..256" in capsys.readouterr().err
