@@ -24,15 +24,25 @@
  *     Voxels are nodes (k, i) of a binary subdivision — node i of 2^k equal
  *     parts, boundaries at the exact dyadic fractions i * 2^-k, so neighbours
  *     share their end points bit for bit; "near half first" is the order of a
- *     stackless walk (after a rejected node: i += 1, then climb while i is
- *     even).  Per voxel: LOD l = ceil(log2(footprint)) from its projection on
- *     the map (max of |du|, |dv| between its end points, as the paper), so
- *     its bounding box meets at most 2 x 2 tiles of extrema level l; the voxel
- *     is rejected when its lowest point is above their max, split otherwise.
- *     A voxel of at most OCLS_LEAF cells is walked patch by patch with the
- *     exact test.  Paper fix: the paper compares with "the max at that LOD
- *     under the voxel" without saying which texels; one texel under a point
- *     is not conservative, the 2 x 2 tiles of the bounding box are.
+ *     stackless walk (after a finished node: i += 1, then climb while i is
+ *     even, i.e. z = trailing zeros of i + 1 levels at once).  Per voxel: LOD
+ *     from its projection on the map (the paper's footprint, measured in
+ *     patches: n = max(c1 - c0, r1 - r0) over the patch columns c0..c1 and
+ *     rows r0..r1 under its end points), l = ceil(log2 n), so the projection
+ *     meets at most 2 x 2 tiles of extrema level l; their max is one texel
+ *     of the dilated max level l (terrain_dilate below, derived from the
+ *     extrema pyramid once per map), so each test is one read.  The voxel is
+ *     rejected when its lowest point is above that max, split otherwise; at
+ *     l = 0 (at most 2 x 2 patches) its patches are tested exactly.
+ *     Paper fix: the paper compares with "the max at that LOD under the
+ *     voxel" without saying which texels; one texel under a point is not
+ *     conservative, the 2 x 2 tiles of the bounding box are.
+ *     Deviation (-D OCLS_DESCEND j, default 3; 1 = plain halving): a split
+ *     descends j levels at once, to the first of its 2^j sub-voxels that is
+ *     not wholly above the max just read (on a plane the ray meets that max
+ *     at a closed-form fraction of the voxel; the sub-voxels before it are
+ *     discarded exactly as the paper discards a voxel above the max).  It
+ *     halves the voxel tests per ray (bench/results/terrain_cast.md).
  *   2 march: uniform steps of OCLS_MARCH_STEP cells, the sign of f sampled at
  *     the steps; the first step that goes from above to below is walked
  *     exactly.  Misses crossings between samples (a baseline).
@@ -44,7 +54,7 @@
  *   input; reaching it reports an empty pixel).
  *
  * ABI
- *   terrain_cast(h, H, W, ext, ext_off, levels, g0, g1, g2, r0, r1, r2, cam, IW, IH, cu, cv,
+ *   terrain_cast(h, H, W, ext, ext_off, levels, dil, dil_lev, g0, g1, g2, r0, r1, r2, cam, IW, IH, cu, cv,
  *                geo, hrange, tex, tex_levels, ntex,
  *                position, normal, uv, uv_grad, depth, albedo)
  *   global size (>= IW, >= IH), any local size; one work-item per pixel.
@@ -53,6 +63,8 @@
  *     __global const float2 *ext   extrema pyramid levels 1..levels-1 (pyramid.cl)
  *     __global const int *ext_off  level offsets in float2, indexed by level ([0] unused)
  *     int levels                   pyramid levels counting level 0
+ *     __global const float *dil    dilated max levels 0..levels-1, back to back (terrain_dilate)
+ *     __global const int2 *dil_lev per level: (offset in floats, columns); read by bisect only
  *     float4 g0, g1, g2            rows of the 3x4 affine map view -> (u', v', z)
  *     float4 r0, r1, r2            rows of the world -> view rotation (xyz)
  *     float4 cam                   (sx, sy, near, far): pixel-ray slopes (pinhole) or half
@@ -69,7 +81,9 @@
  *     float2 uv, float4 uv_grad (du/dc, dv/dc, du/dr, dv/dr), float depth (+inf empty),
  *     float4 albedo (linear RGBA).  Empty pixels: 0 everywhere, depth +inf.
  *   -D options: OCLS_METHOD (1|2|3), OCLS_ORTHO, OCLS_SPHERE, OCLS_COLOUR,
- *     OCLS_LEAF (float, cells), OCLS_MARCH_STEP (float, cells), OCLS_MAX_IT (int).
+ *     OCLS_DESCEND (int >= 1), OCLS_MARCH_STEP (float, cells), OCLS_MAX_IT (int).
+ *   terrain_dilate(h, H, W, ext, ext_off, l, Rl, Cl, out, off): see its comment; the
+ *     host launches it once per level when it builds the extrema pyramid's companion.
  */
 #include "common.h"
 
@@ -81,6 +95,9 @@
 #endif
 #ifndef OCLS_MAX_IT
 #define OCLS_MAX_IT 65536
+#endif
+#ifndef OCLS_DESCEND
+#define OCLS_DESCEND 3
 #endif
 #define OCLS_KMAX 24            /* bisection depth: 2^24 parts > any map diagonal in cells */
 
@@ -146,6 +163,13 @@ OCLS_INLINE float patch_hit(__global const float *h, const Ray *ray, int r, int 
 #endif
     if (*above && a <= 0.0f) return ta;
     const float len = tb - ta;
+    const float fe = a + (b + cq * len) * len;          /* f at the patch exit */
+    /* above at both ends and no dip in between (concave or linear f, or a convex one whose
+     * vertex is outside the interval or not descending into it): no crossing; skips the roots */
+    if (a > 0.0f && fe > 0.0f && !(cq > 0.0f && b < 0.0f && b + 2.0f * cq * len > 0.0f)) {
+        *above = 1;
+        return INFINITY;
+    }
     float best = INFINITY;
     if (cq == 0.0f) {
         if (b < 0.0f) {
@@ -163,7 +187,7 @@ OCLS_INLINE float patch_hit(__global const float *h, const Ray *ray, int r, int 
             if (r2 >= 0.0f && r2 <= len && b + 2.0f * cq * r2 < 0.0f) best = fmin(best, r2);
         }
     }
-    *above = a + (b + cq * len) * len > 0.0f;
+    *above = fe > 0.0f;
     return best < INFINITY ? ta + best : INFINITY;
 }
 
@@ -244,7 +268,19 @@ OCLS_INLINE float cast(__global const float *h, __global const float2 *ext, __gl
             const float th = walk(h, ray, ts + span * fa, ts + span * fb, 4, &above, cell);
             if (th < INFINITY) return th;
         } else {
-            ++k; i <<= 1;                               /* split: near half first */
+            /* split: near half first.  Deviation (measured faster, see bench/results): descend
+             * OCLS_DESCEND levels at once, to the first of the voxel's 2^j sub-voxels that is not
+             * wholly above hmax (on a plane the ray meets hmax at fraction g of the voxel; the
+             * sub-voxels before it are discarded as the paper discards voxels above the max). */
+            const int j = min(min(l, OCLS_DESCEND), OCLS_KMAX - (int)k);
+#ifdef OCLS_SPHERE
+            const uint m = 0u;
+#else
+            const float g = pa.z > hmax ? (pa.z - hmax) / (pa.z - pb.z) * 0.99999f : 0.0f;
+            const uint m = min((uint)(g * (float)(1 << j)), (1u << j) - 1u);
+            above |= m > 0u;                            /* the discarded part is above the surface */
+#endif
+            k += (uint)j; i = (i << j) + m;
             continue;
         }
         /* next voxel: i + 1, climbing z levels while it is a right child (z = trailing zeros) */

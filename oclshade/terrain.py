@@ -120,6 +120,7 @@ class TerrainFeatures:
     sphere: bool = False
     colour: bool = False
     march_step: float = 0.5       # march: step in cells
+    descend: int = 3              # bisect: levels a split voxel descends at once (1 = plain halving)
 
     def defines(self) -> dict[str, object]:
         return {
@@ -129,6 +130,7 @@ class TerrainFeatures:
             "OCLS_COLOUR": self.colour,
             "OCLS_MARCH_STEP": f"{float(self.march_step)!r}f",
             "OCLS_MAX_IT": MAX_ITERATIONS,
+            "OCLS_DESCEND": self.descend,
         }
 
 
@@ -154,10 +156,15 @@ class DeviceGBuffer:
 class TerrainRenderer:
     """Ray-casts one heightfield for any number of cameras; pyramids stay on the device."""
 
-    def __init__(self, heightfield: Heightfield, device: str | int | Runtime | None = None):
+    def __init__(self, heightfield: Heightfield, device: str | int | Runtime | None = None, descend: int = 3):
+        """``descend``: levels a split bisection voxel descends at once (1 = the paper's halving;
+        see kernels/terrain.cl, OCLS_DESCEND)."""
         if not isinstance(heightfield, Heightfield):
             raise TypeError(f"heightfield must be an oclshade.terrain.Heightfield, got {type(heightfield).__name__}")
+        if isinstance(descend, bool) or not isinstance(descend, (int, np.integer)) or not 1 <= descend <= 8:
+            raise ValueError(f"descend must be an int in 1..8, got {descend!r}")
         self.field = heightfield
+        self.descend = int(descend)
         self.runtime = get_runtime(device)
         self._pyramid: ExtremaPyramid | None = None
         self._dilated: tuple[cl.Buffer, cl.Buffer] | None = None
@@ -210,7 +217,8 @@ class TerrainRenderer:
 
     def features(self, camera: Camera, method: str) -> TerrainFeatures:
         return TerrainFeatures(check_method(method), camera.projection == "orthographic",
-                               self.field.radius is not None, self.field.colour is not None)
+                               self.field.radius is not None, self.field.colour is not None,
+                               descend=self.descend if method == "bisect" else TerrainFeatures.descend)
 
     def warm_up(self, camera: Camera, method: str = "bisect") -> None:
         self.pyramid, self.dilated, self.texture
