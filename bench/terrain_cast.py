@@ -138,6 +138,9 @@ def main(argv: list[str] | None = None) -> int:
             entry["methods"][m] = {"time_ms": 1e3 * dt, **errors(g, ref, rows, cols)}
             print(f"{n}^2 {m}: {1e3 * dt:.1f} ms, different cell {entry['methods'][m]['different_cell_fraction']:.2e}",
                   file=sys.stderr)
+        r.descend = 1                   # the paper's plain halving, for the OCLS_DESCEND deviation
+        entry["bisect_descend1_ms"] = 1e3 * time_render(r, cam, "bisect", repeats)[0]
+        r.descend = 3
         res["maps"].append(entry)
     mid = sizes[len(sizes) // 2]
     r = renderers[mid]
@@ -157,6 +160,8 @@ def main(argv: list[str] | None = None) -> int:
                             for e in res["maps"]},
         "bisect_over_march": {str(e["size"]): e["methods"]["bisect"]["time_ms"] / e["methods"]["march"]["time_ms"]
                               for e in res["maps"]},
+        "descend1_over_descend3": {str(e["size"]): e["bisect_descend1_ms"] / e["methods"]["bisect"]["time_ms"]
+                                   for e in res["maps"]},
     }
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -188,6 +193,8 @@ def write_md(res: dict, path: Path) -> None:
               f"{s['bisect_growth_smallest_to_largest']:.2f}x", "",
               "bisect / dda time: " + ", ".join(f"{k}^2 {v:.2f}" for k, v in s["bisect_over_dda"].items()),
               "", "bisect / march time: " + ", ".join(f"{k}^2 {v:.2f}" for k, v in s["bisect_over_march"].items()),
+              "", "bisect with plain halving (descend=1, the paper's) / default (descend=3) time: "
+              + ", ".join(f"{k}^2 {v:.2f}" for k, v in s["descend1_over_descend3"].items()),
               "", "## time against frame size", "", "| frame | bisect ms | dda ms |", "|---|---|---|"]
     for e in res["resolution"]:
         lines.append(f"| {e['frame'][0]}x{e['frame'][1]} | {e['time_ms']['bisect']:.1f} | {e['time_ms']['dda']:.1f} |")
