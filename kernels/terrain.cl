@@ -141,7 +141,10 @@ OCLS_INLINE float ray_low(const Ray *ray, float ta, float tb)
  * walk (patch exit, or a voxel rejected above its max); out, the same at this patch's exit (0
  * over a hole).  Above before and not above at the entry is a crossing on the shared edge:
  * this makes the walk watertight without tolerances (rounding may put the root of the same
- * edge crossing just outside both neighbours' intervals). */
+ * edge crossing just outside both neighbours' intervals).
+ * Two early outs skip the roots (shared by every method): the ray's lowest point above the
+ * patch's 4 samples (their max bounds the bilinear surface), and f > 0 at both ends with no
+ * dip between (f concave or linear, or its vertex not inside the interval). */
 OCLS_INLINE float patch_hit(__global const float *h, const Ray *ray, int r, int c, float ta, float tb, int *above)
 {
     const int i = r * ray->W + c, W = ray->W;
