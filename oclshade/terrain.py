@@ -239,7 +239,8 @@ class TerrainRenderer:
         cv, cu = self.field.centre
         tex, table, ntex = self.texture
         f4 = lambda *v: np.array(v, np.float32)  # noqa: E731
-        return (pyr.heights, np.int32(rows), np.int32(cols), pyr.buffer, pyr.offsets, np.int32(pyr.levels), dil, dil_off,
+        return (pyr.heights, np.int32(rows), np.int32(cols), pyr.buffer, pyr.offsets, np.int32(pyr.levels),
+                dil, dil_off,
                 f4(*g[0]), f4(*g[1]), f4(*g[2]),
                 f4(*rot[0], 0.0), f4(*rot[1], 0.0), f4(*rot[2], 0.0),
                 f4(sx, sy, camera.near, camera.far), np.int32(camera.width), np.int32(camera.height),
