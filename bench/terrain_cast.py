@@ -138,7 +138,29 @@ def main(argv: list[str] | None = None) -> int:
             entry["methods"][m] = {"time_ms": 1e3 * dt, **errors(g, ref, rows, cols)}
             print(f"{n}^2 {m}: {1e3 * dt:.1f} ms, different cell {entry['methods'][m]['different_cell_fraction']:.2e}",
                   file=sys.stderr)
+        r.descend = 1                   # the paper's plain halving, for the OCLS_DESCEND deviation
+        entry["bisect_descend1_ms"] = 1e3 * time_render(r, cam, "bisect", repeats)[0]
+        r.descend = 3
         res["maps"].append(entry)
+    # the same frames again, interleaved (round robin over sizes and methods, min of the rounds):
+    # a shared machine's load drifts over minutes, so growth and ratios are read from here
+    inter = {(n, m): [float("inf"), float("inf")] for n in sizes for m in METHODS}
+    outs = {}
+    for _ in range(repeats):
+        for n in sizes:
+            cam = flyover(extent - extent / n, *frame)
+            for m in METHODS:
+                if (n, m) not in outs:
+                    outs[n, m] = renderers[n].render(cam, m, on_device=True)
+                    renderers[n].runtime.queue.finish()
+                c, t = time.process_time(), time.perf_counter()
+                renderers[n].render(cam, m, on_device=True, out=outs[n, m])
+                renderers[n].runtime.queue.finish()
+                best = inter[n, m]
+                best[0] = min(best[0], 1e3 * (time.perf_counter() - t))
+                best[1] = min(best[1], 1e3 * (time.process_time() - c))
+    outs.clear()
+    res["interleaved"] = [{"size": n, "method": m, "time_ms": v[0], "cpu_ms": v[1]} for (n, m), v in inter.items()]
     mid = sizes[len(sizes) // 2]
     r = renderers[mid]
     scale_frames = [(160, 90), (320, 180), (640, 360)] if quick else [(480, 270), (960, 540), (1920, 1080), (3840, 2160)]
@@ -153,10 +175,17 @@ def main(argv: list[str] | None = None) -> int:
     t = {e["size"]: e["methods"]["bisect"]["time_ms"] for e in res["maps"]}
     res["summary"] = {
         "bisect_growth_smallest_to_largest": t[sizes[-1]] / t[sizes[0]],
+        "interleaved_growth_smallest_to_largest": {
+            m: {k: inter[sizes[-1], m][j] / inter[sizes[0], m][j] for j, k in enumerate(("time", "cpu"))}
+            for m in METHODS},
+        "interleaved_bisect_over": {
+            m: {str(n): inter[n, "bisect"][0] / inter[n, m][0] for n in sizes} for m in METHODS if m != "bisect"},
         "bisect_over_dda": {str(e["size"]): e["methods"]["bisect"]["time_ms"] / e["methods"]["dda"]["time_ms"]
                             for e in res["maps"]},
         "bisect_over_march": {str(e["size"]): e["methods"]["bisect"]["time_ms"] / e["methods"]["march"]["time_ms"]
                               for e in res["maps"]},
+        "descend1_over_descend3": {str(e["size"]): e["bisect_descend1_ms"] / e["methods"]["bisect"]["time_ms"]
+                                   for e in res["maps"]},
     }
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -188,6 +217,22 @@ def write_md(res: dict, path: Path) -> None:
               f"{s['bisect_growth_smallest_to_largest']:.2f}x", "",
               "bisect / dda time: " + ", ".join(f"{k}^2 {v:.2f}" for k, v in s["bisect_over_dda"].items()),
               "", "bisect / march time: " + ", ".join(f"{k}^2 {v:.2f}" for k, v in s["bisect_over_march"].items()),
+              "", "bisect with plain halving (descend=1, the paper's) / default (descend=3) time: "
+              + ", ".join(f"{k}^2 {v:.2f}" for k, v in s["descend1_over_descend3"].items()),
+              "", "## the same frames, interleaved (round robin over sizes and methods, min of "
+              f"{c['repeats']} rounds; cpu = process CPU time, both PoCL threads)", "",
+              "| map | " + " | ".join(f"{m} ms | {m} cpu ms" for m in METHODS) + " |",
+              "|---|" + "---|---|" * len(METHODS)]
+    inter = {(e["size"], e["method"]): e for e in res["interleaved"]}
+    for n in c["sizes"]:
+        lines.append(f"| {n}^2 | " + " | ".join(f"{inter[n, m]['time_ms']:.1f} | {inter[n, m]['cpu_ms']:.1f}"
+                                                for m in METHODS) + " |")
+    g = s["interleaved_growth_smallest_to_largest"]
+    lines += ["", f"interleaved time growth {c['sizes'][0]}^2 -> {c['sizes'][-1]}^2 (wall, cpu): "
+              + ", ".join(f"{m} {g[m]['time']:.2f}x, {g[m]['cpu']:.2f}x" for m in METHODS), "",
+              "interleaved bisect / baseline time: " + "; ".join(
+                  f"{m}: " + ", ".join(f"{k}^2 {v:.2f}" for k, v in d.items())
+                  for m, d in s["interleaved_bisect_over"].items()),
               "", "## time against frame size", "", "| frame | bisect ms | dda ms |", "|---|---|---|"]
     for e in res["resolution"]:
         lines.append(f"| {e['frame'][0]}x{e['frame'][1]} | {e['time_ms']['bisect']:.1f} | {e['time_ms']['dda']:.1f} |")

@@ -24,15 +24,25 @@
  *     Voxels are nodes (k, i) of a binary subdivision — node i of 2^k equal
  *     parts, boundaries at the exact dyadic fractions i * 2^-k, so neighbours
  *     share their end points bit for bit; "near half first" is the order of a
- *     stackless walk (after a rejected node: i += 1, then climb while i is
- *     even).  Per voxel: LOD l = ceil(log2(footprint)) from its projection on
- *     the map (max of |du|, |dv| between its end points, as the paper), so
- *     its bounding box meets at most 2 x 2 tiles of extrema level l; the voxel
- *     is rejected when its lowest point is above their max, split otherwise.
- *     A voxel of at most OCLS_LEAF cells is walked patch by patch with the
- *     exact test.  Paper fix: the paper compares with "the max at that LOD
- *     under the voxel" without saying which texels; one texel under a point
- *     is not conservative, the 2 x 2 tiles of the bounding box are.
+ *     stackless walk (after a finished node: i += 1, then climb while i is
+ *     even, i.e. z = trailing zeros of i + 1 levels at once).  Per voxel: LOD
+ *     from its projection on the map (the paper's footprint, measured in
+ *     patches: n = max(c1 - c0, r1 - r0) over the patch columns c0..c1 and
+ *     rows r0..r1 under its end points), l = ceil(log2 n), so the projection
+ *     meets at most 2 x 2 tiles of extrema level l; their max is one texel
+ *     of the dilated max level l (terrain_dilate below, derived from the
+ *     extrema pyramid once per map), so each test is one read.  The voxel is
+ *     rejected when its lowest point is above that max, split otherwise; at
+ *     l = 0 (at most 2 x 2 patches) its patches are tested exactly.
+ *     Paper fix: the paper compares with "the max at that LOD under the
+ *     voxel" without saying which texels; one texel under a point is not
+ *     conservative, the 2 x 2 tiles of the bounding box are.
+ *     Deviation (-D OCLS_DESCEND j, default 3; 1 = plain halving): a split
+ *     descends j levels at once, to the first of its 2^j sub-voxels that is
+ *     not wholly above the max just read (on a plane the ray meets that max
+ *     at a closed-form fraction of the voxel; the sub-voxels before it are
+ *     discarded exactly as the paper discards a voxel above the max).  It
+ *     halves the voxel tests per ray (bench/results/terrain_cast.md).
  *   2 march: uniform steps of OCLS_MARCH_STEP cells, the sign of f sampled at
  *     the steps; the first step that goes from above to below is walked
  *     exactly.  Misses crossings between samples (a baseline).
@@ -44,7 +54,7 @@
  *   input; reaching it reports an empty pixel).
  *
  * ABI
- *   terrain_cast(h, H, W, ext, ext_off, levels, g0, g1, g2, r0, r1, r2, cam, IW, IH, cu, cv,
+ *   terrain_cast(h, H, W, ext, ext_off, levels, dil, dil_lev, g0, g1, g2, r0, r1, r2, cam, IW, IH, cu, cv,
  *                geo, hrange, tex, tex_levels, ntex,
  *                position, normal, uv, uv_grad, depth, albedo)
  *   global size (>= IW, >= IH), any local size; one work-item per pixel.
@@ -53,6 +63,8 @@
  *     __global const float2 *ext   extrema pyramid levels 1..levels-1 (pyramid.cl)
  *     __global const int *ext_off  level offsets in float2, indexed by level ([0] unused)
  *     int levels                   pyramid levels counting level 0
+ *     __global const float *dil    dilated max levels 0..levels-1, back to back (terrain_dilate)
+ *     __global const int2 *dil_lev per level: (offset in floats, columns); read by bisect only
  *     float4 g0, g1, g2            rows of the 3x4 affine map view -> (u', v', z)
  *     float4 r0, r1, r2            rows of the world -> view rotation (xyz)
  *     float4 cam                   (sx, sy, near, far): pixel-ray slopes (pinhole) or half
@@ -69,21 +81,23 @@
  *     float2 uv, float4 uv_grad (du/dc, dv/dc, du/dr, dv/dr), float depth (+inf empty),
  *     float4 albedo (linear RGBA).  Empty pixels: 0 everywhere, depth +inf.
  *   -D options: OCLS_METHOD (1|2|3), OCLS_ORTHO, OCLS_SPHERE, OCLS_COLOUR,
- *     OCLS_LEAF (float, cells), OCLS_MARCH_STEP (float, cells), OCLS_MAX_IT (int).
+ *     OCLS_DESCEND (int >= 1), OCLS_MARCH_STEP (float, cells), OCLS_MAX_IT (int).
+ *   terrain_dilate(h, H, W, ext, ext_off, l, Rl, Cl, out, off): see its comment; the
+ *     host launches it once per level when it builds the extrema pyramid's companion.
  */
 #include "common.h"
 
 #ifndef OCLS_METHOD
 #define OCLS_METHOD 1
 #endif
-#ifndef OCLS_LEAF
-#define OCLS_LEAF 1.0f
-#endif
 #ifndef OCLS_MARCH_STEP
 #define OCLS_MARCH_STEP 0.5f
 #endif
 #ifndef OCLS_MAX_IT
 #define OCLS_MAX_IT 65536
+#endif
+#ifndef OCLS_DESCEND
+#define OCLS_DESCEND 3
 #endif
 #define OCLS_KMAX 24            /* bisection depth: 2^24 parts > any map diagonal in cells */
 
@@ -127,12 +141,16 @@ OCLS_INLINE float ray_low(const Ray *ray, float ta, float tb)
  * walk (patch exit, or a voxel rejected above its max); out, the same at this patch's exit (0
  * over a hole).  Above before and not above at the entry is a crossing on the shared edge:
  * this makes the walk watertight without tolerances (rounding may put the root of the same
- * edge crossing just outside both neighbours' intervals). */
+ * edge crossing just outside both neighbours' intervals).
+ * Two early outs skip the roots (shared by every method): the ray's lowest point above the
+ * patch's 4 samples (their max bounds the bilinear surface), and f > 0 at both ends with no
+ * dip between (f concave or linear, or its vertex not inside the interval). */
 OCLS_INLINE float patch_hit(__global const float *h, const Ray *ray, int r, int c, float ta, float tb, int *above)
 {
     const int i = r * ray->W + c, W = ray->W;
     const float h00 = h[i], h01 = h[i + 1], h10 = h[i + W], h11 = h[i + W + 1];
     if (isnan(h00) || isnan(h01) || isnan(h10) || isnan(h11)) { *above = 0; return INFINITY; }
+    if (ray_low(ray, ta, tb) > fmax(fmax(h00, h01), fmax(h10, h11))) { *above = 1; return INFINITY; }
     const float3 o = ray->o, d = ray->d;
     const float px = o.x + ta * d.x, py = o.y + ta * d.y, pz = o.z + ta * d.z;
     const float s = px - (float)(c - ray->cu), w = py - (float)(r - ray->cv);
@@ -148,6 +166,13 @@ OCLS_INLINE float patch_hit(__global const float *h, const Ray *ray, int r, int 
 #endif
     if (*above && a <= 0.0f) return ta;
     const float len = tb - ta;
+    const float fe = a + (b + cq * len) * len;          /* f at the patch exit */
+    /* above at both ends and no dip in between (concave or linear f, or a convex one whose
+     * vertex is outside the interval or not descending into it): no crossing; skips the roots */
+    if (a > 0.0f && fe > 0.0f && !(cq > 0.0f && b < 0.0f && b + 2.0f * cq * len > 0.0f)) {
+        *above = 1;
+        return INFINITY;
+    }
     float best = INFINITY;
     if (cq == 0.0f) {
         if (b < 0.0f) {
@@ -165,7 +190,7 @@ OCLS_INLINE float patch_hit(__global const float *h, const Ray *ray, int r, int 
             if (r2 >= 0.0f && r2 <= len && b + 2.0f * cq * r2 < 0.0f) best = fmin(best, r2);
         }
     }
-    *above = a + (b + cq * len) * len > 0.0f;
+    *above = fe > 0.0f;
     return best < INFINITY ? ta + best : INFINITY;
 }
 
@@ -195,52 +220,76 @@ OCLS_INLINE float walk(__global const float *h, const Ray *ray, float ta, float 
     return INFINITY;
 }
 
-/* Max of extrema level l over patch rows pr0..pr1, cols pc0..pc1 (spanning at most 2 x 2 tiles). */
-OCLS_INLINE float tiles_max(__global const float2 *ext, __global const int *ext_off, const Ray *ray, int l,
-                            int pr0, int pr1, int pc0, int pc1)
+#if OCLS_METHOD == 1
+/* ocls_floor_int on two lanes (convert_int2_rtn compiles to scalar library floors on PoCL). */
+OCLS_INLINE int2 floor_int2(float2 p)
 {
-    const int C = ocls_level_extent(ray->Wp, l);
-    __global const float2 *lev = ext + ext_off[l];
-    const int r0 = pr0 >> l, r1 = pr1 >> l, c0 = pc0 >> l, c1 = pc1 >> l;
-    return fmax(fmax(lev[r0 * C + c0].x, lev[r0 * C + c1].x), fmax(lev[r1 * C + c0].x, lev[r1 * C + c1].x));
+    const int2 i = convert_int2(p);                     /* truncates toward zero */
+    return i + (convert_float2(i) > p);                 /* true is -1 in vector comparisons */
 }
 
-#if OCLS_METHOD == 1
-/* Paper 004: voxel bisection, near half first, LOD from the voxel's footprint. */
+/* Paper 004: voxel bisection of the segment [ts, te], near half first, LOD from the voxel's
+ * footprint, reject a voxel wholly above the max at that LOD, split it otherwise.
+ * Voxel (k, i) = [ts + span i 2^-k, ts + span (i+1) 2^-k]; the walk is stackless (after a voxel
+ * is done: i += 1, then climb while i is even, i.e. while the voxel was a right child). */
 OCLS_INLINE float cast(__global const float *h, __global const float2 *ext, __global const int *ext_off,
+                       __global const float *dil, __global const int2 *dil_lev,
                        int levels, const Ray *ray, float ts, float te, int2 *cell)
 {
-    const float3 o = ray->o, d = ray->d;
     const float span = te - ts;
-    const float fp0 = fmax(fabs(d.x), fabs(d.y)) * span;
-    const int top = levels - 1, leaf_steps = (int)(2.0f * OCLS_LEAF) + 4;
+    const int top = levels - 1;
+    /* hoisted: the segment's start and extent in (u, v, z) and patch indices (G = T M applied once) */
+    const float4 p0 = (float4)(ray->o.x + ts * ray->d.x, ray->o.y + ts * ray->d.y, ray->o.z + ts * ray->d.z, 0.0f);
+    const float4 dp = (float4)(span * ray->d.x, span * ray->d.y, span * ray->d.z, 0.0f);
+    const int2 lo = (int2)(0, 0), hi = (int2)(ray->Wp - 1, ray->Hp - 1), ctr = (int2)(ray->cu, ray->cv);
     uint k = 0, i = 0;
     int above = 0;                                      /* the segment may start under the surface */
     for (int it = 0; it < OCLS_MAX_IT; ++it) {
         const float part = as_float((127 - (int)k) << 23);          /* 2^-k, k <= 24 */
-        const float ta = ts + span * ((float)i * part);
-        const float tb = ts + span * ((float)(i + 1u) * part);
-        const float fp = fp0 * part;
-        int split = 0;
-        if (fp <= OCLS_LEAF || k >= OCLS_KMAX) {
-            const float th = walk(h, ray, ta, tb, leaf_steps, &above, cell);
+        const float fa = (float)i * part, fb = (float)(i + 1u) * part;
+        const float4 pa = p0 + fa * dp, pb = p0 + fb * dp;          /* the voxel's end points */
+        /* its projection on the map: patch columns c0..c1 (x), rows r0..r1 (y) */
+        const int2 ia = floor_int2(pa.xy) + ctr, ib = floor_int2(pb.xy) + ctr;
+        const int2 q0 = clamp(min(ia, ib), lo, hi), q1 = clamp(max(ia, ib), lo, hi);
+        /* LOD from the footprint: the smallest l with 2^l >= n = max(c1 - c0, r1 - r0), so the
+         * projection meets at most 2 x 2 tiles of level l, all under one texel of the dilated
+         * max level l (tiles (R..R+1, C..C+1), R = r0 >> l, C = c0 >> l): one read per test. */
+        const int2 nq = q1 - q0;
+        const int n = max(nq.x, nq.y);
+        const int l = min(n <= 1 ? 0 : 32 - (int)clz(n - 1), top);
+        const int2 lev = dil_lev[l];                                /* (offset, columns) */
+        const float hmax = dil[lev.x + (q0.y >> l) * lev.y + (q0.x >> l)];
+#ifdef OCLS_SPHERE
+        const float low = ray_low(ray, ts + span * fa, ts + span * fb);
+#else
+        const float low = pa.z < pb.z ? pa.z : pb.z;
+#endif
+        if (low > hmax) {
+            above = 1;                                  /* wholly above the max: discard */
+        } else if (l == 0 || k >= OCLS_KMAX) {
+            /* finest level: at most 2 x 2 patches (3 along the ray), each tested exactly */
+            const float th = walk(h, ray, ts + span * fa, ts + span * fb, 4, &above, cell);
             if (th < INFINITY) return th;
         } else {
-            const int bits = as_int(fp);                   /* ceil(log2(fp)), fp > 1 normal */
-            const int l = clamp(((bits >> 23) & 0xff) - 127 + ((bits & 0x7fffff) != 0), 1, top);
-            const float ua = o.x + ta * d.x, ub = o.x + tb * d.x;
-            const float va = o.y + ta * d.y, vb = o.y + tb * d.y;
-            const int pc0 = clamp(ocls_floor_int(fmin(ua, ub)) + ray->cu, 0, ray->Wp - 1);
-            const int pc1 = clamp(ocls_floor_int(fmax(ua, ub)) + ray->cu, 0, ray->Wp - 1);
-            const int pr0 = clamp(ocls_floor_int(fmin(va, vb)) + ray->cv, 0, ray->Hp - 1);
-            const int pr1 = clamp(ocls_floor_int(fmax(va, vb)) + ray->cv, 0, ray->Hp - 1);
-            split = ray_low(ray, ta, tb) <= tiles_max(ext, ext_off, ray, l, pr0, pr1, pc0, pc1);
+            /* split: near half first.  Deviation (measured faster, see bench/results): descend
+             * OCLS_DESCEND levels at once, to the first of the voxel's 2^j sub-voxels that is not
+             * wholly above hmax (on a plane the ray meets hmax at fraction g of the voxel; the
+             * sub-voxels before it are discarded as the paper discards voxels above the max). */
+            const int j = min(min(l, OCLS_DESCEND), OCLS_KMAX - (int)k);
+#ifdef OCLS_SPHERE
+            const uint m = 0u;
+#else
+            const float g = pa.z > hmax ? (pa.z - hmax) / (pa.z - pb.z) * 0.99999f : 0.0f;
+            const uint m = min((uint)(g * (float)(1 << j)), (1u << j) - 1u);
+            above |= m > 0u;                            /* the discarded part is above the surface */
+#endif
+            k += (uint)j; i = (i << j) + m;
+            continue;
         }
-        if (split) { ++k; i <<= 1; continue; }
-        if (fp > OCLS_LEAF && k < OCLS_KMAX) above = 1;  /* rejected: wholly above the max */
-        ++i;                                            /* next voxel: sibling, or climb */
-        while (k > 0u && (i & 1u) == 0u) { i >>= 1; --k; }
-        if (k == 0u) break;
+        /* next voxel: i + 1, climbing z levels while it is a right child (z = trailing zeros) */
+        const uint j = i + 1u, z = 31u - clz(j & (0u - j));
+        k -= z; i = j >> z;
+        if (k == 0u) break;                             /* past the segment's end */
     }
     return INFINITY;
 }
@@ -259,6 +308,7 @@ OCLS_INLINE float above(__global const float *h, const Ray *ray, float t)
 }
 
 OCLS_INLINE float cast(__global const float *h, __global const float2 *ext, __global const int *ext_off,
+                       __global const float *dil, __global const int2 *dil_lev,
                        int levels, const Ray *ray, float ts, float te, int2 *cell)
 {
     const float3 d = ray->d;
@@ -284,6 +334,7 @@ OCLS_INLINE float cast(__global const float *h, __global const float2 *ext, __gl
 #else
 /* Baseline: max-mipmap DDA (Tevs, Ihrke, Seidel 2008). */
 OCLS_INLINE float cast(__global const float *h, __global const float2 *ext, __global const int *ext_off,
+                       __global const float *dil, __global const int2 *dil_lev,
                        int levels, const Ray *ray, float ts, float te, int2 *cell)
 {
     const float3 o = ray->o, d = ray->d;
@@ -384,6 +435,7 @@ OCLS_INLINE float4 hypsometric(float x)
 
 __kernel void terrain_cast(__global const float *h, const int H, const int W,
                            __global const float2 *ext, __global const int *ext_off, const int levels,
+                           __global const float *dil, __global const int2 *dil_lev,
                            const float4 g0, const float4 g1, const float4 g2,
                            const float4 r0, const float4 r1, const float4 r2,
                            const float4 cam, const int IW, const int IH, const int cu, const int cv,
@@ -422,7 +474,7 @@ __kernel void terrain_cast(__global const float *h, const int H, const int W,
 #endif
     int2 cell = (int2)(0, 0);
     float th = INFINITY;
-    if (H >= 2 && W >= 2 && ts <= te) th = cast(h, ext, ext_off, levels, &ray, ts, te, &cell);
+    if (H >= 2 && W >= 2 && ts <= te) th = cast(h, ext, ext_off, dil, dil_lev, levels, &ray, ts, te, &cell);
     if (!(th < INFINITY)) {
         position[idx] = (float4)(0.0f); normal[idx] = (float4)(0.0f); uv[idx] = (float2)(0.0f);
         uv_grad[idx] = (float4)(0.0f); depth[idx] = INFINITY; albedo[idx] = (float4)(0.0f);
@@ -468,4 +520,30 @@ __kernel void terrain_cast(__global const float *h, const int H, const int W,
     const float hs = h00 + (h01 - h00) * s + ((h10 - h00) + e * s) * w;
     albedo[idx] = hypsometric((hs - hrange.x) / fmax(hrange.y - hrange.x, 1e-30f));
 #endif
+}
+
+/* Dilated max level l (built once per map, read by bisect): texel (R, C) = max of the extrema
+ * level-l tiles (R..R+1, C..C+1), clamped to the level; level 0 = max of the valid samples
+ * (R..R+2, C..C+2), i.e. of patches (R..R+1, C..C+1) (-INF where none).  Launched once per
+ * level l = 0..levels-1 with global size (>= Cl, >= Rl), Rl x Cl = ceil(Hp / 2^l) x ceil(Wp / 2^l),
+ * writing out[off + R * Cl + C]. */
+__kernel void terrain_dilate(__global const float *h, const int H, const int W,
+                             __global const float2 *ext, __global const int *ext_off, const int l,
+                             const int Rl, const int Cl, __global float *out, const int off)
+{
+    const int c = get_global_id(0), r = get_global_id(1);
+    if (c >= Cl || r >= Rl) return;
+    float m = -INFINITY;
+    if (l == 0) {
+        for (int i = r; i <= min(r + 2, H - 1); ++i)
+            for (int j = c; j <= min(c + 2, W - 1); ++j) {
+                const float v = h[i * W + j];
+                if (!isnan(v)) m = fmax(m, v);
+            }
+    } else {
+        __global const float2 *lev = ext + ext_off[l];
+        for (int i = r; i <= min(r + 1, Rl - 1); ++i)
+            for (int j = c; j <= min(c + 1, Cl - 1); ++j) m = fmax(m, lev[i * Cl + j].x);
+    }
+    out[off + r * Cl + c] = m;
 }

@@ -119,8 +119,8 @@ class TerrainFeatures:
     orthographic: bool = False
     sphere: bool = False
     colour: bool = False
-    leaf: float = 1.0             # bisect: voxels of at most this many cells are walked exactly
     march_step: float = 0.5       # march: step in cells
+    descend: int = 3              # bisect: levels a split voxel descends at once (1 = plain halving)
 
     def defines(self) -> dict[str, object]:
         return {
@@ -128,9 +128,9 @@ class TerrainFeatures:
             "OCLS_ORTHO": self.orthographic,
             "OCLS_SPHERE": self.sphere,
             "OCLS_COLOUR": self.colour,
-            "OCLS_LEAF": f"{float(self.leaf)!r}f",
             "OCLS_MARCH_STEP": f"{float(self.march_step)!r}f",
             "OCLS_MAX_IT": MAX_ITERATIONS,
+            "OCLS_DESCEND": self.descend,
         }
 
 
@@ -156,12 +156,18 @@ class DeviceGBuffer:
 class TerrainRenderer:
     """Ray-casts one heightfield for any number of cameras; pyramids stay on the device."""
 
-    def __init__(self, heightfield: Heightfield, device: str | int | Runtime | None = None):
+    def __init__(self, heightfield: Heightfield, device: str | int | Runtime | None = None, descend: int = 3):
+        """``descend``: levels a split bisection voxel descends at once (1 = the paper's halving;
+        see kernels/terrain.cl, OCLS_DESCEND)."""
         if not isinstance(heightfield, Heightfield):
             raise TypeError(f"heightfield must be an oclshade.terrain.Heightfield, got {type(heightfield).__name__}")
+        if isinstance(descend, bool) or not isinstance(descend, (int, np.integer)) or not 1 <= descend <= 8:
+            raise ValueError(f"descend must be an int in 1..8, got {descend!r}")
         self.field = heightfield
+        self.descend = int(descend)
         self.runtime = get_runtime(device)
         self._pyramid: ExtremaPyramid | None = None
+        self._dilated: tuple[cl.Buffer, cl.Buffer] | None = None
         self._texture: tuple[cl.Buffer, cl.Buffer, int] | None = None
 
     @property
@@ -169,6 +175,27 @@ class TerrainRenderer:
         if self._pyramid is None:
             self._pyramid = build_extrema_pyramid(self.field.heightmap, self.runtime)
         return self._pyramid
+
+    @property
+    def dilated(self) -> tuple[cl.Buffer, cl.Buffer]:
+        """(float max texels of dilated levels 0..L back to back, int2 (offset, cols) per level): texel
+        (R, C) of level l bounds the surface over the level-l tiles (R..R+1, C..C+1), so bisection
+        tests a voxel with one read (kernels/terrain.cl, terrain_dilate).  Derived from
+        :attr:`pyramid` (level 0 from the heights) and cached with it."""
+        if self._dilated is None:
+            rt, pyr = self.runtime, self.pyramid
+            shapes = [self.field.heightmap.patch_shape] + list(pyr.shapes)
+            offs = level_offsets(shapes)
+            buf = rt.empty(4 * (int(offs[-1]) + shapes[-1][0] * shapes[-1][1]), "dilated max levels")
+            rows, cols = self.field.heightmap.shape
+            k = rt.kernel("terrain.cl", "terrain_dilate", TerrainFeatures().defines())
+            for lev, ((r, c), off) in enumerate(zip(shapes, offs)):
+                k.set_args(pyr.heights, np.int32(rows), np.int32(cols), pyr.buffer, pyr.offsets, np.int32(lev),
+                           np.int32(r), np.int32(c), buf, np.int32(off))
+                cl.enqueue_nd_range_kernel(rt.queue, k, *rt.grid_2d(k, c, r))
+            table = np.array([[o, c] for o, (_, c) in zip(offs, shapes)], np.int32)
+            self._dilated = (buf, rt.to_device(table, "dilated levels (offset, cols)"))
+        return self._dilated
 
     @property
     def texture(self) -> tuple[cl.Buffer, cl.Buffer, int]:
@@ -190,10 +217,11 @@ class TerrainRenderer:
 
     def features(self, camera: Camera, method: str) -> TerrainFeatures:
         return TerrainFeatures(check_method(method), camera.projection == "orthographic",
-                               self.field.radius is not None, self.field.colour is not None)
+                               self.field.radius is not None, self.field.colour is not None,
+                               descend=self.descend if method == "bisect" else TerrainFeatures.descend)
 
     def warm_up(self, camera: Camera, method: str = "bisect") -> None:
-        self.pyramid, self.texture
+        self.pyramid, self.dilated, self.texture
         self.runtime.queue.finish()
         self.runtime.program("terrain.cl", self.features(camera, method).defines())
 
@@ -202,6 +230,7 @@ class TerrainRenderer:
         if not isinstance(camera, Camera):
             raise TypeError(f"camera must be an oclshade.camera.Camera, got {type(camera).__name__}")
         hm, pyr = self.field.heightmap, self.pyramid
+        dil, dil_off = self.dilated
         rows, cols = hm.shape
         g = heightmap_from_world(hm, self.field.centre) @ np.linalg.inv(camera.view)
         rot = camera.rotation
@@ -211,6 +240,7 @@ class TerrainRenderer:
         tex, table, ntex = self.texture
         f4 = lambda *v: np.array(v, np.float32)  # noqa: E731
         return (pyr.heights, np.int32(rows), np.int32(cols), pyr.buffer, pyr.offsets, np.int32(pyr.levels),
+                dil, dil_off,
                 f4(*g[0]), f4(*g[1]), f4(*g[2]),
                 f4(*rot[0], 0.0), f4(*rot[1], 0.0), f4(*rot[2], 0.0),
                 f4(sx, sy, camera.near, camera.far), np.int32(camera.width), np.int32(camera.height),

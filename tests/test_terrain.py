@@ -13,7 +13,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from oclshade.camera import Camera, frame_heightmap, map_bounds
-from oclshade.reference import cast_terrain
+from oclshade.reference import cast_terrain, dilated_max_levels
 from oclshade.terrain import Heightfield, TerrainRenderer
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -172,6 +172,40 @@ def test_jacksboro_real_dem():
     assert min(fractions) >= 0.999
 
 
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.integers(1, 19), st.integers(1, 23), st.integers(0, 2**31 - 1), st.booleans())
+def test_dilated_max_levels_equal_reference(rows, cols, seed, holes):
+    """terrain_dilate (the bisection's one-read bound) is bit-identical to its numpy twin."""
+    import pyopencl as cl
+
+    rng = np.random.default_rng(seed)
+    h = rng.normal(0.0, 50.0, (rows, cols))
+    if holes:
+        h[rng.random(h.shape) < 0.3] = np.nan
+    field = Heightfield.from_array(h, 1.0)
+    r = TerrainRenderer(field)
+    buf, table = r.dilated
+    want = dilated_max_levels(field.heightmap)
+    lev = np.empty((len(want), 2), np.int32)
+    cl.enqueue_copy(r.runtime.queue, lev, table)
+    flat = np.empty(int(lev[-1, 0]) + want[-1].size, np.float32)
+    cl.enqueue_copy(r.runtime.queue, flat, buf)
+    for (off, ncols), w in zip(lev, want):
+        assert ncols == w.shape[1]
+        np.testing.assert_array_equal(flat[off:off + w.size].reshape(w.shape), w)
+
+
+def test_plain_halving_is_exact_too():
+    """descend=1 (the paper's plain halving) and the default multi-level descent both agree
+    with the reference (and so with each other) on the real DEM."""
+    field = jacksboro()
+    for descend in (1, 5):
+        r = TerrainRenderer(field, descend=descend)
+        for kind, az in (("framed", 30.0), ("grazing", 250.0)):
+            cam = camera_for(field, kind, 96, 64, az=az)
+            compare(field, cam, r).assert_exact(f"descend={descend} {kind}")
+
+
 def test_baselines_agree_where_exact():
     """dda is exact like bisect; march misses crossings between samples but never invents hits."""
     field = jacksboro()
@@ -271,6 +305,8 @@ def test_bad_arguments_are_named():
         Heightfield.from_array(np.zeros((3, 3)), radius=-1.0)
     with pytest.raises(ValueError, match="colour"):
         Heightfield.from_array(np.zeros((3, 3)), colour=np.zeros((3, 3)))
+    with pytest.raises(ValueError, match="descend"):
+        TerrainRenderer(Heightfield.from_array(np.zeros((3, 3))), descend=0)
     with pytest.raises(ValueError, match="method"):
         TerrainRenderer(Heightfield.from_array(np.zeros((3, 3)))).render(
             Camera([1, -1, 10], [1, -1, 0], 4, 4), method="nope")

@@ -174,3 +174,28 @@ def cast_terrain(field, camera: Camera, rows: np.ndarray | None = None,
     n_view = n_world @ camera.rotation.T
     out.normal[idx] = n_view / np.linalg.norm(n_view, axis=1, keepdims=True)
     return out
+
+
+def dilated_max_levels(hm) -> list[np.ndarray]:
+    """The bisection's dilated max levels 0..L (kernels/terrain.cl, terrain_dilate), float32.
+
+    Texel (R, C) of level l bounds the surface over the level-l tiles (R..R+1, C..C+1) (clamped
+    to the level): level 0 from per-patch maxima of the valid corners (-inf for all-hole
+    patches), levels >= 1 from :func:`oclshade.reference.extrema_pyramid`'s maxima — a different
+    route from the kernel's 3 x 3 sample windows at level 0.  Max only: bit-identical.
+    """
+    from .pyramid import extrema_pyramid
+
+    h = hm.relative32
+    rows, cols = h.shape
+    hp, wp = hm.patch_shape
+    pad = np.full((hp + 1, wp + 1), np.nan, np.float32)
+    pad[:rows, :cols] = h
+    corners = np.stack([pad[:-1, :-1], pad[:-1, 1:], pad[1:, :-1], pad[1:, 1:]])
+    patch_max = np.where(np.isnan(corners), -np.inf, corners).max(0).astype(np.float32)
+    out = []
+    for lev in [patch_max] + [e[..., 0] for e in extrema_pyramid(hm)]:
+        p = np.concatenate([lev, lev[-1:]], 0)
+        p = np.concatenate([p, p[:, -1:]], 1)         # clamped window: repeat the last row/col
+        out.append(np.maximum(np.maximum(p[:-1, :-1], p[:-1, 1:]), np.maximum(p[1:, :-1], p[1:, 1:])))
+    return out
