@@ -109,7 +109,11 @@ __kernel void ssao_prepare(__global const float *restrict pos, __global const fl
 #ifdef OCLS_NORMAL_MAP
                            __global const float *restrict nmap, __global const float *restrict tangent,
 #endif
-                           int W, int H, __global float *restrict zbuf, __global float *restrict nout)
+                           int W, int H, __global float *restrict zbuf, __global float *restrict nout
+#ifdef OCLS_PLANE_TEST
+                           , __global float *restrict plane
+#endif
+                           )
 {
     const int c = get_global_id(0), r = get_global_id(1);
     const int inside = c < W && r < H;
@@ -122,6 +126,16 @@ __kernel void ssao_prepare(__global const float *restrict pos, __global const fl
     hit = hit && alpha[i] >= alpha_eps;
 #endif
     float nx = nrm[4 * i], ny = nrm[4 * i + 1], nz = nrm[4 * i + 2];
+#ifdef OCLS_PLANE_TEST
+    /* the occluder's tangent plane from the geometric normal (before any normal map) */
+    const float gnn = nx * nx + ny * ny + nz * nz;
+    const int gok = gnn > 1e-12f && OCLS_FINITE(gnn);
+    const float gl = gok ? sqrt(gnn) : 1.0f;
+    const float plx = gok ? nx / gl : 0.0f, ply = gok ? ny / gl : 0.0f, plz = gok ? nz / gl : 1.0f;
+    const float px = pos[4 * i], py = pos[4 * i + 1];
+    const float pld = plx * px + ply * py + plz * pz;
+    const int pok = hit && OCLS_FINITE(pld);
+#endif
 #ifdef OCLS_NORMAL_MAP
     {
         const float gx = tangent[4 * i], gy = tangent[4 * i + 1], gz = tangent[4 * i + 2];
@@ -149,6 +163,12 @@ __kernel void ssao_prepare(__global const float *restrict pos, __global const fl
         nout[4 * i + 1] = ny;
         nout[4 * i + 2] = nz;
         nout[4 * i + 3] = 0.0f;
+#ifdef OCLS_PLANE_TEST
+        plane[4 * i] = pok ? plx : 0.0f;
+        plane[4 * i + 1] = pok ? ply : 0.0f;
+        plane[4 * i + 2] = pok ? plz : 0.0f;
+        plane[4 * i + 3] = pok ? pld : -INFINITY;
+#endif
     }
 }
 
@@ -183,7 +203,11 @@ OCLS_INLINE float8 ocls_signed_unit8(uint8 h)
 __kernel void ssao_ao(__global const float *restrict pos, __global const float *restrict nrm,
                       __global const float *restrict zbuf, int W, int H,
                       __constant float *prj, __constant float *kern, int m, int mpad, float radius,
-                      float delta, uint seed, __global float *restrict ao)
+                      float delta, uint seed, __global float *restrict ao
+#ifdef OCLS_PLANE_TEST
+                      , __global const float *restrict plane
+#endif
+                      )
 {
     const int c0 = 8 * (int)get_global_id(0), r = get_global_id(1);
     if (c0 >= W || r >= H) return;
@@ -246,9 +270,20 @@ __kernel void ssao_ao(__global const float *restrict pos, __global const float *
         const float8 u = qu * inv, y = qv * inv;
         const int8 on = (qw > 0.0f) & (u >= 0.0f) & (u < fW) & (y >= 0.0f) & (y < fH);
         const int8 j = select(ii, convert_int8(y) * W + convert_int8(u), on);
+#ifdef OCLS_PLANE_TEST
+        const float8 ax_t = Px + (RTx * sx + RBx * sy + RNx * sz);
+        const float8 ay_t = Py + (RTy * sx + RBy * sy + RNy * sz);
+        const float8 lx = OCLS_GATHER8(plane, j, 4, 0), ly = OCLS_GATHER8(plane, j, 4, 1);
+        const float8 lz = OCLS_GATHER8(plane, j, 4, 2), ld = OCLS_GATHER8(plane, j, 4, 3);
+        int8 occ = OCLS_DOT3(lx, ly, lz, ax_t, ay_t, az_t) - ld <= -delta;
+#else
         const float8 zt = OCLS_GATHER8(zbuf, j, 1, 0);
         int8 occ = zt >= az_t + delta;
+#endif
 #ifdef OCLS_RANGE_CHECK
+#ifdef OCLS_PLANE_TEST
+        const float8 zt = OCLS_GATHER8(zbuf, j, 1, 0);
+#endif
         occ = occ & (zt - Pz <= radius);
 #endif
         cnt8 -= on;             /* vector comparisons give -1 for true */

@@ -79,6 +79,7 @@ class AOFeatures:
     normal_map: bool = False
     alpha_map: bool = False
     range_check: bool = False
+    plane_test: bool = False
     distribution: str = "paper"
     blur: str = "none"
     blur_size: int = 5
@@ -96,6 +97,7 @@ class AOFeatures:
             "OCLS_NORMAL_MAP": self.normal_map,
             "OCLS_ALPHA": self.alpha_map,
             "OCLS_RANGE_CHECK": self.range_check,
+            "OCLS_PLANE_TEST": self.plane_test,
             "OCLS_BLUR_BOX": self.blur == "box",
             "OCLS_BLUR_EDGE": self.blur == "edge",
         }
@@ -219,14 +221,15 @@ class SSAO:
             args += [inputs.alpha, np.float32(alpha_eps)]
         if features.normal_map:
             args += [inputs.normal_map, inputs.tangent]
-        prep.set_args(*args, *dims, work["zbuf"], work["normal"])
+        plane = [work["plane"]] if features.plane_test else []
+        prep.set_args(*args, *dims, work["zbuf"], work["normal"], *plane)
         self._launch(prep, width, height)
 
         ao = rt.kernel("ssao.cl", "ssao_ao", defines)
         rows = np.concatenate([0.5 * width * (proj[0] + proj[3]), 0.5 * height * (proj[3] - proj[1]), proj[3]])
         prj = rt.to_device(rows.astype(np.float32), "projection rows")   # referenced until enqueued
         ao.set_args(inputs.position, work["normal"], work["zbuf"], *dims, prj, self._table(m, features.distribution),
-                    np.int32(m), np.int32(-(-m // 8) * 8), np.float32(radius), np.float32(delta), np.uint32(seed), work["ao"])
+                    np.int32(m), np.int32(-(-m // 8) * 8), np.float32(radius), np.float32(delta), np.uint32(seed), work["ao"], *plane)
         self._launch(ao, -(-width // 8), height)   # 8 pixels per work-item
         if features.blur == "none":
             return work["ao"]
@@ -281,7 +284,7 @@ class SSAO:
             n = shape[0] * shape[1]
             rt = self.runtime
             self._work = {"zbuf": rt.empty(4 * n, "AO depth"), "normal": rt.empty(16 * n, "AO normals"),
-                          "ao": rt.empty(4 * n, "AO map"), "tmp": rt.empty(8 * n, "blur sums"),
+                          "ao": rt.empty(4 * n, "AO map"), "plane": rt.empty(16 * n, "occluder planes"), "tmp": rt.empty(8 * n, "blur sums"),
                           "out": rt.empty(4 * n, "blurred AO map")}
             self._work_shape = shape
         return self._work

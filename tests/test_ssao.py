@@ -319,9 +319,10 @@ def random_gbuffer(rng: np.random.Generator, w: int, h: int, persp: bool):
 @settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(seed=st.integers(0, 2**31 - 1), w=st.integers(2, 40), h=st.integers(2, 32), persp=st.booleans(),
        m=st.integers(4, 48), dist=st.sampled_from(["paper", "uniform", "centre"]), range_check=st.booleans(),
-       radius=st.floats(0.05, 3.0), delta=st.floats(0.0, 0.2), normal_map=st.booleans(), alpha=st.booleans())
+       radius=st.floats(0.05, 3.0), delta=st.floats(0.0, 0.2), normal_map=st.booleans(), alpha=st.booleans(),
+       plane_test=st.booleans())
 def test_kernel_matches_float64_twin(ssao: SSAO, seed, w, h, persp, m, dist, range_check, radius, delta,
-                                     normal_map, alpha) -> None:
+                                     normal_map, alpha, plane_test) -> None:
     rng = np.random.default_rng(seed)
     pos, nrm, P = random_gbuffer(rng, w, h, persp)
     extra: dict = {}
@@ -333,16 +334,17 @@ def test_kernel_matches_float64_twin(ssao: SSAO, seed, w, h, persp, m, dist, ran
         extra["normal_map"] = q.astype(np.float32)
         extra["tangent"] = np.concatenate([rng.normal(size=(h, w, 3)), rng.choice([-1.0, 1.0], (h, w, 1))],
                                           axis=-1).astype(np.float32)
-    f = AOFeatures(normal_map=normal_map, alpha_map=alpha, range_check=range_check, distribution=dist)
+    f = AOFeatures(normal_map=normal_map, alpha_map=alpha, range_check=range_check, distribution=dist,
+                   plane_test=plane_test)
     ao = ssao.compute(None, P, position=pos, normal=nrm, radius=radius, m=m, delta=delta, features=f,
                       seed=seed, alpha_eps=0.3, **extra)
-    tw = ref.ssao(pos, nrm, P, sample_kernel(m, dist), radius, delta, seed, range_check, alpha_eps=0.3,
-                  **extra)
+    tw = ref.ssao(pos, nrm, P, sample_kernel(m, dist), radius, delta, seed, range_check, plane_test,
+                  alpha_eps=0.3, **extra)
     assert_matches_twin(ao, tw)
     # the blurs, fed with the kernel's own unblurred map
     for blur, size in (("box", 3), ("box", 5), ("edge", 3), ("edge", 5)):
         fb = AOFeatures(normal_map=normal_map, alpha_map=alpha, range_check=range_check, distribution=dist,
-                        blur=blur, blur_size=size)
+                        blur=blur, blur_size=size, plane_test=plane_test)
         got = ssao.compute(None, P, position=pos, normal=nrm, radius=radius, m=m, delta=delta, features=fb,
                            seed=seed, alpha_eps=0.3, plane_tol=0.5, **extra)
         if blur == "box":
