@@ -36,8 +36,9 @@
  *     ao    float, W*H (out): unoccluded fraction 1 - k, 1 on empty pixels
  *   ssao_box_h(ao, zbuf, W, H, rad, tmp)      -D OCLS_BLUR_BOX
  *   ssao_box_v(tmp, zbuf, W, H, rad, out)     -D OCLS_BLUR_BOX
- *     tmp 2 floats per pixel: (sum of AO over hit pixels, count of hit pixels) in the
- *     horizontal window; out = mean over the hit pixels of the clipped
+ *     global size (ceil(W / 8), H): one work-item per 8 adjacent pixels of a row;
+ *     tmp 2 W H floats, two planes: sums of AO over the hit pixels of the
+ *     horizontal window, then their counts; out = mean over the hit pixels of the clipped
  *     (2 rad + 1)^2 window.  Separable exactly: the 2-D sums are products
  *     of 1-D windows (clipping at the border too); empty pixels stay 1.
  *   ssao_edge(ao, pos, nout, zbuf, W, H, rad, plane_tol, out)  -D OCLS_BLUR_EDGE
@@ -273,8 +274,14 @@ __kernel void ssao_ao(__global const float *restrict pos, __global const float *
 #ifdef OCLS_PLANE_TEST
         const float8 ax_t = Px + (RTx * sx + RBx * sy + RNx * sz);
         const float8 ay_t = Py + (RTy * sx + RBy * sy + RNy * sz);
-        const float8 lx = OCLS_GATHER8(plane, j, 4, 0), ly = OCLS_GATHER8(plane, j, 4, 1);
-        const float8 lz = OCLS_GATHER8(plane, j, 4, 2), ld = OCLS_GATHER8(plane, j, 4, 3);
+        /* one 16-byte load per lane, then transposed */
+        const float4 l0 = vload4(j.s0, plane), l1 = vload4(j.s1, plane), l2 = vload4(j.s2, plane);
+        const float4 l3 = vload4(j.s3, plane), l4 = vload4(j.s4, plane), l5 = vload4(j.s5, plane);
+        const float4 l6 = vload4(j.s6, plane), l7 = vload4(j.s7, plane);
+        const float8 lx = (float8)(l0.x, l1.x, l2.x, l3.x, l4.x, l5.x, l6.x, l7.x);
+        const float8 ly = (float8)(l0.y, l1.y, l2.y, l3.y, l4.y, l5.y, l6.y, l7.y);
+        const float8 lz = (float8)(l0.z, l1.z, l2.z, l3.z, l4.z, l5.z, l6.z, l7.z);
+        const float8 ld = (float8)(l0.w, l1.w, l2.w, l3.w, l4.w, l5.w, l6.w, l7.w);
         int8 occ = OCLS_DOT3(lx, ly, lz, ax_t, ay_t, az_t) - ld <= -delta;
 #else
         const float8 zt = OCLS_GATHER8(zbuf, j, 1, 0);
@@ -300,45 +307,77 @@ __kernel void ssao_ao(__global const float *restrict pos, __global const float *
 }
 
 #ifdef OCLS_BLUR_BOX
-/* Window loops run -rad..rad for every work-item (uniform), clipped taps masked. */
+/* One work-item per 8 adjacent pixels of a row (global size (ceil(W / 8), H)); window loops
+ * run -rad..rad in that order for every lane (the sums are those of the scalar definition,
+ * bitwise), clipped taps masked.  Interior items read whole float8 rows (vload8); items whose
+ * window crosses a border take the masked path.  tmp holds two planes: the sums tmp[0, W H)
+ * and the counts tmp[W H, 2 W H). */
 __kernel void ssao_box_h(__global const float *restrict ao, __global const float *restrict zbuf,
                          int W, int H, int rad, __global float *restrict tmp)
 {
-    const int c = get_global_id(0), r = get_global_id(1);
-    const int inside = c < W && r < H;
-    const int row = inside ? r * W : 0;
-    float sum = 0.0f, count = 0.0f;
-    for (int k = -rad; k <= rad; ++k) {
-        const int x = c + k;
-        const int ok = x >= 0 && x < W;
-        const int j = row + (ok ? x : 0);
-        const int hit = ok && zbuf[j] != -INFINITY;
-        sum += hit ? ao[j] : 0.0f;
-        count += hit ? 1.0f : 0.0f;
+    const int c0 = 8 * (int)get_global_id(0), r = get_global_id(1);
+    if (c0 >= W || r >= H) return;
+    const int row = r * W, n = W * H;
+    float8 sum = (float8)(0.0f), count = (float8)(0.0f);
+    if (c0 - rad >= 0 && c0 + 7 + rad < W) {
+        for (int k = -rad; k <= rad; ++k) {
+            const int8 hit = vload8(0, zbuf + row + c0 + k) != -INFINITY;
+            sum += select((float8)(0.0f), vload8(0, ao + row + c0 + k), hit);
+            count += select((float8)(0.0f), (float8)(1.0f), hit);
+        }
+    } else {
+        const int8 cc = c0 + (int8)(0, 1, 2, 3, 4, 5, 6, 7);
+        for (int k = -rad; k <= rad; ++k) {
+            const int8 x = cc + k;
+            const int8 ok = (x >= 0) & (x < W);
+            const int8 j = row + select((int8)(0), x, ok);
+            const int8 hit = ok & (OCLS_GATHER8(zbuf, j, 1, 0) != -INFINITY);
+            sum += select((float8)(0.0f), OCLS_GATHER8(ao, j, 1, 0), hit);
+            count += select((float8)(0.0f), (float8)(1.0f), hit);
+        }
     }
-    if (inside) {
-        tmp[2 * (row + c)] = sum;
-        tmp[2 * (row + c) + 1] = count;
+    if (c0 + 8 <= W) {
+        vstore8(sum, 0, tmp + row + c0);
+        vstore8(count, 0, tmp + n + row + c0);
+    } else {
+        const float ss[8] = {sum.s0, sum.s1, sum.s2, sum.s3, sum.s4, sum.s5, sum.s6, sum.s7};
+        const float cs[8] = {count.s0, count.s1, count.s2, count.s3, count.s4, count.s5, count.s6, count.s7};
+        for (int k = 0; c0 + k < W; ++k) {
+            tmp[row + c0 + k] = ss[k];
+            tmp[n + row + c0 + k] = cs[k];
+        }
     }
 }
 
 __kernel void ssao_box_v(__global const float *restrict tmp, __global const float *restrict zbuf,
                          int W, int H, int rad, __global float *restrict out)
 {
-    const int c = get_global_id(0), r = get_global_id(1);
-    const int inside = c < W && r < H;
-    const int col = inside ? c : 0;
-    float sum = 0.0f, count = 0.0f;
+    const int c0 = 8 * (int)get_global_id(0), r = get_global_id(1);
+    if (c0 >= W || r >= H) return;
+    const int n = W * H, full = c0 + 8 <= W;
+    const int8 cc = c0 + (int8)(0, 1, 2, 3, 4, 5, 6, 7);
+    const int8 col = select((int8)(c0), cc, cc < W);
+    float8 sum = (float8)(0.0f), count = (float8)(0.0f);
     for (int k = -rad; k <= rad; ++k) {
         const int y = r + k;
-        const int ok = y >= 0 && y < H;
-        const int j = (ok ? y : 0) * W + col;
-        sum += ok ? tmp[2 * j] : 0.0f;
-        count += ok ? tmp[2 * j + 1] : 0.0f;
+        if (y < 0 || y >= H) continue;          /* uniform across the lanes */
+        if (full) {
+            sum += vload8(0, tmp + y * W + c0);
+            count += vload8(0, tmp + n + y * W + c0);
+        } else {
+            const int8 j = y * W + col;
+            sum += OCLS_GATHER8(tmp, j, 1, 0);
+            count += OCLS_GATHER8(tmp, j, 1, n);
+        }
     }
-    if (inside) {
-        const int i = r * W + c;
-        out[i] = zbuf[i] == -INFINITY ? 1.0f : sum / count;   /* count >= 1: the centre is a hit */
+    const int8 i = r * W + col;
+    const float8 res = select(sum / count, (float8)(1.0f), OCLS_GATHER8(zbuf, i, 1, 0) == -INFINITY);
+    if (full) {
+        vstore8(res, 0, out + r * W + c0);
+    } else {
+        const float rs[8] = {res.s0, res.s1, res.s2, res.s3, res.s4, res.s5, res.s6, res.s7};
+        for (int k = 0; c0 + k < W; ++k)
+            out[r * W + c0 + k] = rs[k];
     }
 }
 #endif

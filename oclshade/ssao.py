@@ -237,10 +237,10 @@ class SSAO:
         if features.blur == "box":
             bh = rt.kernel("ssao.cl", "ssao_box_h", defines)
             bh.set_args(work["ao"], work["zbuf"], *dims, half, work["tmp"])
-            self._launch(bh, width, height)
+            self._launch(bh, -(-width // 8), height)   # 8 pixels per work-item
             bv = rt.kernel("ssao.cl", "ssao_box_v", defines)
             bv.set_args(work["tmp"], work["zbuf"], *dims, half, work["out"])
-            self._launch(bv, width, height)
+            self._launch(bv, -(-width // 8), height)
         else:
             tol = float(radius) / 4.0 if plane_tol is None else float(plane_tol)
             if not (math.isfinite(tol) and tol > 0):
