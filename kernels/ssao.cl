@@ -46,7 +46,9 @@
  *     weights depend on the pair of pixels), see "Edge-aware blur" below.
  *
  * -D options: OCLS_ALPHA (alpha map), OCLS_NORMAL_MAP (normal map),
- *   OCLS_RANGE_CHECK (range check), OCLS_BLUR_BOX, OCLS_BLUR_EDGE (which blur
+ *   OCLS_RANGE_CHECK (range check), OCLS_PLANE_TEST (plane test, step 4: adds the
+ *   float4 W*H buffer `plane` as the last argument of ssao_prepare (out) and of
+ *   ssao_ao (in)), OCLS_BLUR_BOX, OCLS_BLUR_EDGE (which blur
  *   kernels the program holds).  A feature not defined is not compiled.
  *
  * AO estimator (paper 001, "AO map"), for a hit pixel with P, N:
@@ -64,6 +66,15 @@
  *      borders);
  *   4. the sample is occluded iff z_t >= A_t.z + delta (z_t = zbuf at its
  *      pixel; an empty pixel has z_t = -inf and never occludes); with
+ *      OCLS_PLANE_TEST (not in the paper) instead iff L.xyz . A_t - L.w <= -delta,
+ *      L = plane[pixel]: the sample lies at least delta below the tangent plane
+ *      of the occluder's surface (written by ssao_prepare: L = (N, N . Q) from
+ *      the pixel's position Q and geometric normal N normalised, before any
+ *      normal map; (0, 0, 1, Q.z) for a degenerate N, i.e. the depth test;
+ *      (0, 0, 0, -inf) on empty pixels: never occludes).  On a plane this is
+ *      exact whatever the pixel size, so the depth test's false occlusion of
+ *      samples just above a slope (compared with the depth at the pixel centre)
+ *      goes; with
  *      OCLS_RANGE_CHECK also z_t - P.z <= R (an occluder more than R in
  *      front of P cannot be inside the hemisphere; the paper has no check);
  *   5. AO = 1 - occluded / counted (1 when nothing is counted).

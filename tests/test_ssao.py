@@ -124,10 +124,29 @@ def test_flat_plane_ortho_and_perspective_unoccluded(ssao: SSAO, dist: str, rang
     np.testing.assert_array_equal(ao, 1.0)
 
 
-def test_right_angle_corner_matches_analytic_volume_fraction(ssao: SSAO) -> None:
+@pytest.mark.parametrize("dist", ["paper", "centre"])
+def test_plane_test_leaves_a_coarse_slope_open_where_the_depth_test_darkens_it(ssao: SSAO, dist: str) -> None:
+    # a 60-degree slope seen from above with pixels of half the radius and no delta: the depth test
+    # compares samples with the pixel-centre depth, up to (px / 2) tan 60 = 1.7 nearer, and falsely
+    # occludes; the plane test evaluates the slope's plane at the sample itself: nothing occluded
+    w, h, px, R = 40, 32, 2.0, 4.0
+    x, y = pixel_xy(w, h, px)
+    s = math.tan(math.radians(60))
+    pos, nrm = heightfield(-50 + s * x, np.full_like(x, s), np.zeros_like(x), x, y)
+    P = ortho(w, h, px)
+    plain = ssao.compute(None, P, position=pos, normal=nrm, radius=R, m=32, delta=0.0,
+                         features=AOFeatures(distribution=dist))
+    plane = ssao.compute(None, P, position=pos, normal=nrm, radius=R, m=32, delta=0.0,
+                         features=AOFeatures(distribution=dist, plane_test=True))
+    assert plain.mean() < 0.97 and plain.min() < 0.85
+    np.testing.assert_array_equal(plane, 1.0)
+
+
+@pytest.mark.parametrize("plane_test", [False, True])
+def test_right_angle_corner_matches_analytic_volume_fraction(ssao: SSAO, plane_test: bool) -> None:
     w, h, px, R, delta = 96, 128, 1.0, 24.0, 0.5
     (pos, nrm), x, y = corner_scene(w, h, px)
-    f = AOFeatures(distribution="uniform")
+    f = AOFeatures(distribution="uniform", plane_test=plane_test)
     ao = ssao.compute(None, ortho(w, h, px), position=pos, normal=nrm, radius=R, m=256, delta=delta,
                       features=f, seed=3)
     # a pixel at |y| lies on its plane at distance d = |y| sqrt(2) from the crease; occluded
@@ -469,8 +488,9 @@ def test_bench_quick_smoke(tmp_path: Path) -> None:
     res = json.loads((out / "ssao.json").read_text())
     assert {"date", "cpu", "cores", "pocl_version"} <= set(res["meta"])
     assert [s["dataset"] for s in res["skipped"]] == ["santo"]
-    (case,) = res["cases"]
-    assert case["dataset"] == "synthetic" and len(case["settings"]) == 2 * 4 * 2 * 3
-    for r in case["settings"]:
-        assert 0 <= r["rmse_volume"] < 0.5 and 0 <= r["rmse_raytraced"] < 0.5 and r["time_ms"]["min"] > 0
-    assert {"time_ratio", "rmse_reduction_volume", "rmse_reduction_raytraced"} <= set(case["comparison"])
+    assert [(c["dataset"], c["view"]) for c in res["cases"]] == [("synthetic", "topdown"), ("synthetic", "oblique")]
+    for case in res["cases"]:
+        assert len(case["settings"]) == 2 * 1 * 2 * 3 * 2     # m, blur, range check, kernel, plane test
+        for r in case["settings"]:
+            assert 0 <= r["rmse_volume"] < 0.5 and 0 <= r["rmse_raytraced"] < 0.5 and r["time_ms"]["min"] > 0
+        assert {"time_ratio", "rmse_reduction_volume", "rmse_reduction_raytraced"} <= set(case["comparison"])
