@@ -110,14 +110,16 @@ class AOFeatures:
 #: the paper's recipe: its half-cube kernel, m = 32, no range check, a 5 x 5 box blur
 PAPER_RECIPE = AOFeatures(distribution="paper", blur="box", blur_size=5)
 PAPER_M = 32
-#: the library default: the ``centre`` kernel with the plane test and the paper's 5 x 5 box blur,
-#: m = 24.  Chosen with bench/ssao.py (bench/results/ssao.md) against ground truth (b), ray-traced
-#: AO, on top-down and perspective oblique views of two real DEMs and the canyon terrain: lower
-#: RMSE than the paper's recipe at no more run time (the figures are in the results).  The plane
-#: test removes the self-occlusion of sloping surfaces (a sample just above a slope compared with
-#: the depth at its pixel's centre), which made ``centre`` far too dark with the plain depth test.
-DEFAULT_FEATURES = AOFeatures(distribution="centre", plane_test=True, blur="box", blur_size=5)
-DEFAULT_M = 24
+#: the library default stays the paper's recipe.  Measured with bench/ssao.py (bench/results/ssao.md,
+#: 12 cases: santo, front_range and the canyon terrain, top-down and perspective oblique views, 640x480
+#: and 1920x1080): no setting beats the recipe's RMSE by 25 % at equal or lower time in every case
+#: against either ground truth.  The best candidate, the ``centre`` kernel with the plane test and
+#: the 5 x 5 box blur, cuts the RMSE against ground truth (b) by 25-46 % on the santo views and the
+#: canyon's oblique views at m = 24, but costs 1.0-1.9x the recipe's time and is 17-25 % *worse* on
+#: the canyon's top-down views (cliffs: the occluder's tangent plane extrapolated across a wall) and
+#: only 4-8 % better on front_range at 1920x1080; at m = 16 it is as fast but loses up to 37 %.
+DEFAULT_FEATURES = PAPER_RECIPE
+DEFAULT_M = PAPER_M
 
 
 @dataclass
