@@ -1,8 +1,13 @@
 """SSAO (paper 001): run time against RMSE versus two ground truths, on real DEMs.
 
-For every dataset and resolution a top-down orthographic G-buffer is built
+For every dataset and resolution two views: a top-down orthographic G-buffer
 (oclshade.reference.topdown_gbuffer: each pixel's position and normal from
-the bilinear surface).  The two ground truths are computed in float64 on a
+the bilinear surface) and a perspective oblique view rendered by
+oclshade.terrain.TerrainRenderer (frame_heightmap at azimuth 200, elevation
+35, then moved to half the distance so the terrain fills the frame); the
+rendered pixels' world positions and normals come from
+oclshade.reference.world_frame (view space mapped back, snapped to the
+bilinear surface).  The two ground truths are computed in float64 on a
 fixed random subset of hit pixels (the same pixels for every setting):
 (a) volume: fraction of the radius-R hemisphere volume under the terrain;
 (b) ray-traced: fraction of cosine-weighted rays of length R that hit.
@@ -29,7 +34,12 @@ sys.path.insert(0, str(HERE))
 
 from shadow_masks import DEFAULT_DATA, log, metadata  # noqa: E402  (shared bench helpers)
 
+from dataclasses import dataclass  # noqa: E402
+
 from oclshade import reference as ref  # noqa: E402
+from oclshade.camera import Camera, frame_heightmap  # noqa: E402
+from oclshade.gbuffer import GBuffer  # noqa: E402
+from oclshade.terrain import Heightfield, TerrainRenderer  # noqa: E402
 from oclshade.heightmap import Heightmap  # noqa: E402
 from oclshade.io import read_dem  # noqa: E402
 from oclshade.ssao import DEFAULT_FEATURES, DEFAULT_M, PAPER_M, PAPER_RECIPE, AOFeatures, SSAO  # noqa: E402
@@ -40,6 +50,16 @@ DATASETS = {
     "front_range": ("dem/landlab/SRTMGL3_40.09_-105.55_40.21_-105.35.asc", 240, 3.0),
 }
 BLURS = {"none": ("none", 3), "box3": ("box", 3), "box5": ("box", 5), "edge5": ("edge", 5)}
+VIEWS = ("topdown", "oblique")
+
+
+@dataclass
+class View:
+    gbuffer: GBuffer
+    projection: np.ndarray
+    world_position: np.ndarray   # float64 (H, W, 3), NaN where empty
+    world_normal: np.ndarray
+    pixel: float                 # median pixel footprint on the terrain (m): depth x pixel angle
 
 
 def load(name: str, data_dir: Path) -> tuple[Heightmap, int, float, str] | None:
@@ -56,21 +76,53 @@ def load(name: str, data_dir: Path) -> tuple[Heightmap, int, float, str] | None:
     return Heightmap.from_array(h, (raster.dx, raster.dy)), cells, r_cells, f"{rel} via oclshade.io.read_dem"
 
 
-def view_for(hm: Heightmap, cells: int, width: int, height: int) -> ref.TopDownView:
-    """A top-down view ``cells`` cells wide, centred on the map."""
-    return ref.topdown_gbuffer(hm, width, height, cells * hm.dx / width)
+def crop(hm: Heightmap, cells: int) -> Heightmap:
+    """The ``cells`` x ``cells`` window (clipped to the map) centred on the median finite sample:
+    what the oblique view renders (the truths use the same cropped map)."""
+    rows, cols = hm.shape
+    if cells >= rows and cells >= cols:
+        return hm
+    fr, fc = np.nonzero(np.isfinite(hm.heights))
+    r0 = min(max(int(np.median(fr)) - cells // 2, 0), max(rows - cells, 0))
+    c0 = min(max(int(np.median(fc)) - cells // 2, 0), max(cols - cells, 0))
+    return Heightmap.from_array(hm.heights[r0:r0 + cells, c0:c0 + cells], (hm.dx, hm.dy))
 
 
-def settings(quick: bool) -> list[tuple[int, str, bool, str]]:
-    ms = (8, 32) if quick else (8, 16, 32, 64, 128)
-    return [(m, blur, rc, dist) for m in ms for blur in BLURS for rc in (False, True)
-            for dist in ("paper", "uniform", "centre")]
+def view_for(kind: str, hm: Heightmap, cells: int, width: int, height: int) -> tuple[View, Heightmap]:
+    """(view, the heightmap it shows): ``topdown`` ``cells`` cells wide centred on the map, or
+    ``oblique``: the cropped map rendered in perspective (see the module docstring)."""
+    if kind == "topdown":
+        pixel = cells * hm.dx / width
+        v = ref.topdown_gbuffer(hm, width, height, pixel)
+        return View(v.gbuffer, v.projection, v.world_position, v.world_normal, pixel), hm
+    hm = crop(hm, cells)
+    cam = frame_heightmap(hm, width, height, azimuth=200.0, elevation=35.0, fov=45.0)
+    cam = Camera(cam.look_at + 0.5 * (cam.position - cam.look_at), cam.look_at, width, height, fov=45.0,
+                 near=0.25 * cam.near, far=cam.far)
+    gb = TerrainRenderer(Heightfield(hm)).render(cam)
+    wp, wn = ref.world_frame(hm, gb, cam.view)
+    depth = -gb.position[..., 2][gb.hit]
+    pixel = float(np.median(depth)) * 2.0 * cam.scale[1] / height
+    return View(gb, cam.projection_matrix, wp, wn, pixel), hm
 
 
-def run_case(pass_: SSAO, view: ref.TopDownView, hm: Heightmap, radius: float, delta: float,
+def settings(quick: bool, large: bool) -> list[tuple[int, str, bool, str, bool]]:
+    """(m, blur, range check, distribution, plane test); at 1920x1080 only the 5 x 5 box blur
+    and fewer m (the must-show setting and its neighbours), to keep the run short."""
+    if quick:
+        ms, blurs = (24, 32), ("box5",)
+    elif large:
+        ms, blurs = (16, 24, 32), ("box5",)
+    else:
+        ms, blurs = (8, 16, 24, 32, 64), ("none", "box5", "edge5")
+    return [(m, blur, rc, dist, pt) for m in ms for blur in blurs for rc in (False, True)
+            for dist in ("paper", "uniform", "centre") for pt in (False, True)]
+
+
+def run_case(pass_: SSAO, view: View, hm: Heightmap, radius: float, delta: float,
              n_truth: int, n_vol: int, n_ray: int, repeats: int, quick: bool) -> dict:
     gb = view.gbuffer
-    hit_idx = np.flatnonzero(gb.hit.ravel())
+    hit_idx = np.flatnonzero(gb.hit.ravel() & np.isfinite(view.world_position[..., 2]).ravel())
     rng = np.random.default_rng(0)
     sub = np.sort(rng.choice(hit_idx, size=min(n_truth, hit_idx.size), replace=False))
     wp = view.world_position.reshape(-1, 3)[sub]
@@ -86,9 +138,9 @@ def run_case(pass_: SSAO, view: ref.TopDownView, hm: Heightmap, radius: float, d
     rows = []
     out = np.empty(gb.shape, np.float32)
     import pyopencl as cl
-    for m, blur, rc, dist in settings(quick):
+    for m, blur, rc, dist, pt in settings(quick, gb.shape[1] >= 1920):
         kind, size = BLURS[blur]
-        f = AOFeatures(range_check=rc, distribution=dist, blur=kind, blur_size=size)
+        f = AOFeatures(range_check=rc, distribution=dist, blur=kind, blur_size=size, plane_test=pt)
         times = []
         for _ in range(repeats + 1):   # the first run builds the program
             queue.finish()
@@ -99,7 +151,7 @@ def run_case(pass_: SSAO, view: ref.TopDownView, hm: Heightmap, radius: float, d
         cl.enqueue_copy(queue, out, buf)
         queue.finish()
         ao = out.ravel()[sub].astype(np.float64)
-        rows.append({"m": m, "blur": blur, "range_check": rc, "distribution": dist,
+        rows.append({"m": m, "blur": blur, "range_check": rc, "distribution": dist, "plane_test": pt,
                      "time_ms": {"min": 1e3 * min(times[1:]), "median": 1e3 * float(np.median(times[1:]))},
                      "rmse_volume": float(np.sqrt(np.mean((ao - truth_vol) ** 2))),
                      "rmse_raytraced": float(np.sqrt(np.mean((ao - truth_ray) ** 2))),
@@ -115,7 +167,7 @@ def run_case(pass_: SSAO, view: ref.TopDownView, hm: Heightmap, radius: float, d
 def find(rows: list[dict], m: int, f: AOFeatures) -> dict:
     blur = "none" if f.blur == "none" else f"{f.blur}{f.blur_size}"
     return next(r for r in rows if r["m"] == m and r["blur"] == blur and r["range_check"] == f.range_check
-                and r["distribution"] == f.distribution)
+                and r["distribution"] == f.distribution and r.get("plane_test", False) == f.plane_test)
 
 
 def compare(rows: list[dict]) -> dict:
@@ -132,15 +184,17 @@ def write_md(res: dict, path: Path) -> None:
              f"- {meta['date']}; CPU: {meta['cpu']}, {meta['cores']} cores; device: {meta['device']}",
              f"- PoCL {meta['pocl_version']} ({meta['platform_version']}); numpy {meta['numpy']}, pyopencl {meta['pyopencl']}",
              f"- command: `{meta['command']}`",
-             "- views: top-down orthographic G-buffers (oclshade.reference.topdown_gbuffer); the machine is "
+             "- views: top-down orthographic G-buffers (oclshade.reference.topdown_gbuffer) and perspective oblique "
+             "views rendered by TerrainRenderer (azimuth 200, elevation 35; truths at the rendered pixels' world "
+             "positions, reference.world_frame); delta = 0.05 x the median pixel footprint; the machine is "
              "shared, times are the min of the repeats (prepare + AO + blur, inputs on the device)",
              "- truths on a fixed random subset of hit pixels: volume = fraction of the hemisphere volume "
              "above the terrain (ground truth a), raytraced = unoccluded fraction of cosine-weighted rays "
              "of length R (ground truth b); 1 = open, like the AO map",
              f"- paper recipe: m = {PAPER_M}, {PAPER_RECIPE}; default: m = {DEFAULT_M}, {DEFAULT_FEATURES}", ""]
     for case in res["cases"]:
-        lines += [f"## {case['dataset']} {case['width']}x{case['height']}", "",
-                  f"source: {case['source']}; {case['cells']} cells across, R = {case['radius_m']:.1f} m, "
+        lines += [f"## {case['dataset']} {case['view']} {case['width']}x{case['height']}", "",
+                  f"source: {case['source']}; {case['cells']} cells across, pixel {case['pixel_m']:.1f} m (median), R = {case['radius_m']:.1f} m, "
                   f"delta = {case['delta_m']:.3f} m; truths on {case['truth_pixels']} pixels "
                   f"(MC error bound: volume {case['truth_mc_error_bound']['volume']:.4f}, raytraced "
                   f"{case['truth_mc_error_bound']['raytraced']:.4f}; means {case['truth_mean']['volume']:.3f}, "
@@ -148,10 +202,11 @@ def write_md(res: dict, path: Path) -> None:
         c = case["comparison"]
         lines += [f"**default vs paper recipe:** time ratio {c['time_ratio']:.2f}, RMSE reduction "
                   f"{100 * c['rmse_reduction_volume']:.0f}% (volume), {100 * c['rmse_reduction_raytraced']:.0f}% (raytraced)", "",
-                  "| m | blur | range | kernel | min ms | median ms | RMSE volume | RMSE raytraced | bias volume | bias raytraced |",
-                  "|---|---|---|---|---|---|---|---|---|---|"]
+                  "| m | blur | range | kernel | plane | min ms | median ms | RMSE volume | RMSE raytraced | bias volume | bias raytraced |",
+                  "|---|---|---|---|---|---|---|---|---|---|---|"]
         for r in case["settings"]:
             lines.append(f"| {r['m']} | {r['blur']} | {'on' if r['range_check'] else 'off'} | {r['distribution']} | "
+                         f"{'on' if r.get('plane_test') else 'off'} | "
                          f"{r['time_ms']['min']:.1f} | {r['time_ms']['median']:.1f} | {r['rmse_volume']:.4f} | "
                          f"{r['rmse_raytraced']:.4f} | {r['bias_volume']:+.4f} | {r['bias_raytraced']:+.4f} |")
         lines.append("")
@@ -163,7 +218,7 @@ def write_png(res: dict, path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     cases = res["cases"]
-    fig, axes = plt.subplots(len(cases), 2, figsize=(12, 4.2 * len(cases)), squeeze=False)
+    fig, axes = plt.subplots(len(cases), 2, figsize=(12, 3.6 * len(cases)), squeeze=False)
     colours = {"paper": "tab:red", "uniform": "tab:blue", "centre": "tab:green"}
     markers = {"none": "o", "box3": "s", "box5": "D", "edge5": "^"}
     for row, case in zip(axes, cases):
@@ -171,7 +226,7 @@ def write_png(res: dict, path: Path) -> None:
             for r in case["settings"]:
                 ax.scatter(r["time_ms"]["min"], r[key], c=colours[r["distribution"]], marker=markers[r["blur"]],
                            s=14 + 3 * np.log2(r["m"]) ** 2, alpha=0.35 if r["range_check"] else 0.85,
-                           edgecolors="none")
+                           edgecolors="black" if r.get("plane_test") else "none", linewidths=0.6)
             c = case["comparison"]
             marks = ((("paper recipe = default", c["paper"]),) if c["paper"] == c["default"]
                      else (("paper recipe", c["paper"]), ("default", c["default"])))
@@ -181,11 +236,12 @@ def write_png(res: dict, path: Path) -> None:
             ax.set_xscale("log")
             ax.set_xlabel("run time, ms (min of repeats)")
             ax.set_ylabel(key.replace("_", " vs "))
-            ax.set_title(f"{case['dataset']} {case['width']}x{case['height']}", fontsize=9)
+            ax.set_title(f"{case['dataset']} {case['view']} {case['width']}x{case['height']}", fontsize=9)
             ax.grid(alpha=0.3)
     handles = [plt.Line2D([], [], color=v, marker="o", ls="", label=k) for k, v in colours.items()]
     handles += [plt.Line2D([], [], color="grey", marker=v, ls="", label=k) for k, v in markers.items()]
-    handles += [plt.Line2D([], [], color="grey", marker="o", ls="", alpha=0.35, label="range check on (faint)")]
+    handles += [plt.Line2D([], [], color="grey", marker="o", ls="", alpha=0.35, label="range check on (faint)"),
+                plt.Line2D([], [], color="grey", marker="o", ls="", markeredgecolor="black", label="plane test (edged)")]
     fig.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, 0.975), ncol=8, fontsize=8)
     meta = res["meta"]
     fig.suptitle(f"oclshade SSAO — {meta['cpu']}, {meta['cores']} cores, PoCL {meta['pocl_version']}, {meta['date'][:10]}"
@@ -198,9 +254,10 @@ def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="smoke test: tiny sizes, reduced grid")
-    ap.add_argument("--datasets", default="santo,front_range", help="comma list of " + ", ".join(DATASETS) + ", synthetic")
+    ap.add_argument("--datasets", default="santo,front_range,synthetic", help="comma list of " + ", ".join(DATASETS) + ", synthetic")
     ap.add_argument("--data", type=Path, default=DEFAULT_DATA, help=f"shared data folder (default {DEFAULT_DATA})")
     ap.add_argument("--sizes", default="1920x1080,640x480")
+    ap.add_argument("--views", default=",".join(VIEWS), help="comma list of " + ", ".join(VIEWS))
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--out", type=Path, default=HERE / "results")
     ap.add_argument("--report-only", action="store_true",
@@ -230,21 +287,21 @@ def main(argv: list[str] | None = None) -> int:
                 continue
         hm, cells, r_cells, source = loaded
         radius = r_cells * hm.dx
-        for width, height in sizes:
-            view = view_for(hm, cells, width, height)
-            pixel = cells * hm.dx / width
-            delta = 0.05 * pixel
-            log(f"{name} {width}x{height}: R = {radius:.1f} m, pixel {pixel:.2f} m")
-            n_truth = 400 if args.quick else 3000
-            case = run_case(pass_, view, hm, radius, delta, n_truth, 128 if args.quick else 512,
-                            64 if args.quick else 256, args.repeats, args.quick)
-            case.update({"dataset": name, "source": source, "width": width, "height": height, "cells": cells,
-                         "radius_m": radius, "delta_m": delta, "pixel_m": pixel,
-                         "comparison": compare(case["settings"])})
-            res["cases"].append(case)
-            c = case["comparison"]
-            log(f"  paper {c['paper']['time_ms']['min']:.1f} ms, default {c['default']['time_ms']['min']:.1f} ms; "
-                f"RMSE reduction {100 * c['rmse_reduction_volume']:.0f}% / {100 * c['rmse_reduction_raytraced']:.0f}%")
+        for kind in args.views.split(","):
+            for width, height in sizes:
+                view, shown = view_for(kind, hm, cells, width, height)
+                delta = 0.05 * view.pixel
+                log(f"{name} {kind} {width}x{height}: R = {radius:.1f} m, pixel {view.pixel:.2f} m")
+                n_truth = 400 if args.quick else 3000
+                case = run_case(pass_, view, shown, radius, delta, n_truth, 128 if args.quick else 512,
+                                64 if args.quick else 256, args.repeats, args.quick)
+                case.update({"dataset": name, "view": kind, "source": source, "width": width, "height": height,
+                             "cells": cells, "radius_m": radius, "delta_m": delta, "pixel_m": view.pixel,
+                             "comparison": compare(case["settings"])})
+                res["cases"].append(case)
+                c = case["comparison"]
+                log(f"  paper {c['paper']['time_ms']['min']:.1f} ms, default {c['default']['time_ms']['min']:.1f} ms; "
+                    f"RMSE reduction {100 * c['rmse_reduction_volume']:.0f}% / {100 * c['rmse_reduction_raytraced']:.0f}%")
     write_all(res, args.out)
     return 0
 

@@ -36,8 +36,9 @@
  *     ao    float, W*H (out): unoccluded fraction 1 - k, 1 on empty pixels
  *   ssao_box_h(ao, zbuf, W, H, rad, tmp)      -D OCLS_BLUR_BOX
  *   ssao_box_v(tmp, zbuf, W, H, rad, out)     -D OCLS_BLUR_BOX
- *     tmp 2 floats per pixel: (sum of AO over hit pixels, count of hit pixels) in the
- *     horizontal window; out = mean over the hit pixels of the clipped
+ *     global size (ceil(W / 8), H): one work-item per 8 adjacent pixels of a row;
+ *     tmp 2 W H floats, two planes: sums of AO over the hit pixels of the
+ *     horizontal window, then their counts; out = mean over the hit pixels of the clipped
  *     (2 rad + 1)^2 window.  Separable exactly: the 2-D sums are products
  *     of 1-D windows (clipping at the border too); empty pixels stay 1.
  *   ssao_edge(ao, pos, nout, zbuf, W, H, rad, plane_tol, out)  -D OCLS_BLUR_EDGE
@@ -45,7 +46,9 @@
  *     weights depend on the pair of pixels), see "Edge-aware blur" below.
  *
  * -D options: OCLS_ALPHA (alpha map), OCLS_NORMAL_MAP (normal map),
- *   OCLS_RANGE_CHECK (range check), OCLS_BLUR_BOX, OCLS_BLUR_EDGE (which blur
+ *   OCLS_RANGE_CHECK (range check), OCLS_PLANE_TEST (plane test, step 4: adds the
+ *   float4 W*H buffer `plane` as the last argument of ssao_prepare (out) and of
+ *   ssao_ao (in)), OCLS_BLUR_BOX, OCLS_BLUR_EDGE (which blur
  *   kernels the program holds).  A feature not defined is not compiled.
  *
  * AO estimator (paper 001, "AO map"), for a hit pixel with P, N:
@@ -63,6 +66,15 @@
  *      borders);
  *   4. the sample is occluded iff z_t >= A_t.z + delta (z_t = zbuf at its
  *      pixel; an empty pixel has z_t = -inf and never occludes); with
+ *      OCLS_PLANE_TEST (not in the paper) instead iff L.xyz . A_t - L.w <= -delta,
+ *      L = plane[pixel]: the sample lies at least delta below the tangent plane
+ *      of the occluder's surface (written by ssao_prepare: L = (N, N . Q) from
+ *      the pixel's position Q and geometric normal N normalised, before any
+ *      normal map; (0, 0, 1, Q.z) for a degenerate N, i.e. the depth test;
+ *      (0, 0, 0, -inf) on empty pixels: never occludes).  On a plane this is
+ *      exact whatever the pixel size, so the depth test's false occlusion of
+ *      samples just above a slope (compared with the depth at the pixel centre)
+ *      goes; with
  *      OCLS_RANGE_CHECK also z_t - P.z <= R (an occluder more than R in
  *      front of P cannot be inside the hemisphere; the paper has no check);
  *   5. AO = 1 - occluded / counted (1 when nothing is counted).
@@ -109,7 +121,11 @@ __kernel void ssao_prepare(__global const float *restrict pos, __global const fl
 #ifdef OCLS_NORMAL_MAP
                            __global const float *restrict nmap, __global const float *restrict tangent,
 #endif
-                           int W, int H, __global float *restrict zbuf, __global float *restrict nout)
+                           int W, int H, __global float *restrict zbuf, __global float *restrict nout
+#ifdef OCLS_PLANE_TEST
+                           , __global float *restrict plane
+#endif
+                           )
 {
     const int c = get_global_id(0), r = get_global_id(1);
     const int inside = c < W && r < H;
@@ -122,6 +138,16 @@ __kernel void ssao_prepare(__global const float *restrict pos, __global const fl
     hit = hit && alpha[i] >= alpha_eps;
 #endif
     float nx = nrm[4 * i], ny = nrm[4 * i + 1], nz = nrm[4 * i + 2];
+#ifdef OCLS_PLANE_TEST
+    /* the occluder's tangent plane from the geometric normal (before any normal map) */
+    const float gnn = nx * nx + ny * ny + nz * nz;
+    const int gok = gnn > 1e-12f && OCLS_FINITE(gnn);
+    const float gl = gok ? sqrt(gnn) : 1.0f;
+    const float plx = gok ? nx / gl : 0.0f, ply = gok ? ny / gl : 0.0f, plz = gok ? nz / gl : 1.0f;
+    const float px = pos[4 * i], py = pos[4 * i + 1];
+    const float pld = plx * px + ply * py + plz * pz;
+    const int pok = hit && OCLS_FINITE(pld);
+#endif
 #ifdef OCLS_NORMAL_MAP
     {
         const float gx = tangent[4 * i], gy = tangent[4 * i + 1], gz = tangent[4 * i + 2];
@@ -149,6 +175,12 @@ __kernel void ssao_prepare(__global const float *restrict pos, __global const fl
         nout[4 * i + 1] = ny;
         nout[4 * i + 2] = nz;
         nout[4 * i + 3] = 0.0f;
+#ifdef OCLS_PLANE_TEST
+        plane[4 * i] = pok ? plx : 0.0f;
+        plane[4 * i + 1] = pok ? ply : 0.0f;
+        plane[4 * i + 2] = pok ? plz : 0.0f;
+        plane[4 * i + 3] = pok ? pld : -INFINITY;
+#endif
     }
 }
 
@@ -183,7 +215,11 @@ OCLS_INLINE float8 ocls_signed_unit8(uint8 h)
 __kernel void ssao_ao(__global const float *restrict pos, __global const float *restrict nrm,
                       __global const float *restrict zbuf, int W, int H,
                       __constant float *prj, __constant float *kern, int m, int mpad, float radius,
-                      float delta, uint seed, __global float *restrict ao)
+                      float delta, uint seed, __global float *restrict ao
+#ifdef OCLS_PLANE_TEST
+                      , __global const float *restrict plane
+#endif
+                      )
 {
     const int c0 = 8 * (int)get_global_id(0), r = get_global_id(1);
     if (c0 >= W || r >= H) return;
@@ -246,9 +282,26 @@ __kernel void ssao_ao(__global const float *restrict pos, __global const float *
         const float8 u = qu * inv, y = qv * inv;
         const int8 on = (qw > 0.0f) & (u >= 0.0f) & (u < fW) & (y >= 0.0f) & (y < fH);
         const int8 j = select(ii, convert_int8(y) * W + convert_int8(u), on);
+#ifdef OCLS_PLANE_TEST
+        const float8 ax_t = Px + (RTx * sx + RBx * sy + RNx * sz);
+        const float8 ay_t = Py + (RTy * sx + RBy * sy + RNy * sz);
+        /* one 16-byte load per lane, then transposed */
+        const float4 l0 = vload4(j.s0, plane), l1 = vload4(j.s1, plane), l2 = vload4(j.s2, plane);
+        const float4 l3 = vload4(j.s3, plane), l4 = vload4(j.s4, plane), l5 = vload4(j.s5, plane);
+        const float4 l6 = vload4(j.s6, plane), l7 = vload4(j.s7, plane);
+        const float8 lx = (float8)(l0.x, l1.x, l2.x, l3.x, l4.x, l5.x, l6.x, l7.x);
+        const float8 ly = (float8)(l0.y, l1.y, l2.y, l3.y, l4.y, l5.y, l6.y, l7.y);
+        const float8 lz = (float8)(l0.z, l1.z, l2.z, l3.z, l4.z, l5.z, l6.z, l7.z);
+        const float8 ld = (float8)(l0.w, l1.w, l2.w, l3.w, l4.w, l5.w, l6.w, l7.w);
+        int8 occ = OCLS_DOT3(lx, ly, lz, ax_t, ay_t, az_t) - ld <= -delta;
+#else
         const float8 zt = OCLS_GATHER8(zbuf, j, 1, 0);
         int8 occ = zt >= az_t + delta;
+#endif
 #ifdef OCLS_RANGE_CHECK
+#ifdef OCLS_PLANE_TEST
+        const float8 zt = OCLS_GATHER8(zbuf, j, 1, 0);
+#endif
         occ = occ & (zt - Pz <= radius);
 #endif
         cnt8 -= on;             /* vector comparisons give -1 for true */
@@ -265,45 +318,77 @@ __kernel void ssao_ao(__global const float *restrict pos, __global const float *
 }
 
 #ifdef OCLS_BLUR_BOX
-/* Window loops run -rad..rad for every work-item (uniform), clipped taps masked. */
+/* One work-item per 8 adjacent pixels of a row (global size (ceil(W / 8), H)); window loops
+ * run -rad..rad in that order for every lane (the sums are those of the scalar definition,
+ * bitwise), clipped taps masked.  Interior items read whole float8 rows (vload8); items whose
+ * window crosses a border take the masked path.  tmp holds two planes: the sums tmp[0, W H)
+ * and the counts tmp[W H, 2 W H). */
 __kernel void ssao_box_h(__global const float *restrict ao, __global const float *restrict zbuf,
                          int W, int H, int rad, __global float *restrict tmp)
 {
-    const int c = get_global_id(0), r = get_global_id(1);
-    const int inside = c < W && r < H;
-    const int row = inside ? r * W : 0;
-    float sum = 0.0f, count = 0.0f;
-    for (int k = -rad; k <= rad; ++k) {
-        const int x = c + k;
-        const int ok = x >= 0 && x < W;
-        const int j = row + (ok ? x : 0);
-        const int hit = ok && zbuf[j] != -INFINITY;
-        sum += hit ? ao[j] : 0.0f;
-        count += hit ? 1.0f : 0.0f;
+    const int c0 = 8 * (int)get_global_id(0), r = get_global_id(1);
+    if (c0 >= W || r >= H) return;
+    const int row = r * W, n = W * H;
+    float8 sum = (float8)(0.0f), count = (float8)(0.0f);
+    if (c0 - rad >= 0 && c0 + 7 + rad < W) {
+        for (int k = -rad; k <= rad; ++k) {
+            const int8 hit = vload8(0, zbuf + row + c0 + k) != -INFINITY;
+            sum += select((float8)(0.0f), vload8(0, ao + row + c0 + k), hit);
+            count += select((float8)(0.0f), (float8)(1.0f), hit);
+        }
+    } else {
+        const int8 cc = c0 + (int8)(0, 1, 2, 3, 4, 5, 6, 7);
+        for (int k = -rad; k <= rad; ++k) {
+            const int8 x = cc + k;
+            const int8 ok = (x >= 0) & (x < W);
+            const int8 j = row + select((int8)(0), x, ok);
+            const int8 hit = ok & (OCLS_GATHER8(zbuf, j, 1, 0) != -INFINITY);
+            sum += select((float8)(0.0f), OCLS_GATHER8(ao, j, 1, 0), hit);
+            count += select((float8)(0.0f), (float8)(1.0f), hit);
+        }
     }
-    if (inside) {
-        tmp[2 * (row + c)] = sum;
-        tmp[2 * (row + c) + 1] = count;
+    if (c0 + 8 <= W) {
+        vstore8(sum, 0, tmp + row + c0);
+        vstore8(count, 0, tmp + n + row + c0);
+    } else {
+        const float ss[8] = {sum.s0, sum.s1, sum.s2, sum.s3, sum.s4, sum.s5, sum.s6, sum.s7};
+        const float cs[8] = {count.s0, count.s1, count.s2, count.s3, count.s4, count.s5, count.s6, count.s7};
+        for (int k = 0; c0 + k < W; ++k) {
+            tmp[row + c0 + k] = ss[k];
+            tmp[n + row + c0 + k] = cs[k];
+        }
     }
 }
 
 __kernel void ssao_box_v(__global const float *restrict tmp, __global const float *restrict zbuf,
                          int W, int H, int rad, __global float *restrict out)
 {
-    const int c = get_global_id(0), r = get_global_id(1);
-    const int inside = c < W && r < H;
-    const int col = inside ? c : 0;
-    float sum = 0.0f, count = 0.0f;
+    const int c0 = 8 * (int)get_global_id(0), r = get_global_id(1);
+    if (c0 >= W || r >= H) return;
+    const int n = W * H, full = c0 + 8 <= W;
+    const int8 cc = c0 + (int8)(0, 1, 2, 3, 4, 5, 6, 7);
+    const int8 col = select((int8)(c0), cc, cc < W);
+    float8 sum = (float8)(0.0f), count = (float8)(0.0f);
     for (int k = -rad; k <= rad; ++k) {
         const int y = r + k;
-        const int ok = y >= 0 && y < H;
-        const int j = (ok ? y : 0) * W + col;
-        sum += ok ? tmp[2 * j] : 0.0f;
-        count += ok ? tmp[2 * j + 1] : 0.0f;
+        if (y < 0 || y >= H) continue;          /* uniform across the lanes */
+        if (full) {
+            sum += vload8(0, tmp + y * W + c0);
+            count += vload8(0, tmp + n + y * W + c0);
+        } else {
+            const int8 j = y * W + col;
+            sum += OCLS_GATHER8(tmp, j, 1, 0);
+            count += OCLS_GATHER8(tmp, j, 1, n);
+        }
     }
-    if (inside) {
-        const int i = r * W + c;
-        out[i] = zbuf[i] == -INFINITY ? 1.0f : sum / count;   /* count >= 1: the centre is a hit */
+    const int8 i = r * W + col;
+    const float8 res = select(sum / count, (float8)(1.0f), OCLS_GATHER8(zbuf, i, 1, 0) == -INFINITY);
+    if (full) {
+        vstore8(res, 0, out + r * W + c0);
+    } else {
+        const float rs[8] = {res.s0, res.s1, res.s2, res.s3, res.s4, res.s5, res.s6, res.s7};
+        for (int k = 0; c0 + k < W; ++k)
+            out[r * W + c0 + k] = rs[k];
     }
 }
 #endif

@@ -71,17 +71,22 @@ def sample_kernel(m: int, distribution: str) -> np.ndarray:
 
 @dataclass(frozen=True)
 class AOFeatures:
-    """Features of the AO pass.  ``normal_map``, ``alpha_map``, ``range_check`` and ``blur``
-    are compile-time (-D options, absent from the program when off); ``distribution``
+    """Features of the AO pass.  ``normal_map``, ``alpha_map``, ``range_check``, ``plane_test``
+    and ``blur`` are compile-time (-D options, absent from the program when off); ``distribution``
     picks the sample table and ``blur_size`` (N of the N x N window, odd >= 3) is a
     kernel argument."""
 
     normal_map: bool = False
     alpha_map: bool = False
     range_check: bool = False
+    plane_test: bool = False
     distribution: str = "paper"
     blur: str = "none"
     blur_size: int = 5
+    #: ``plane_test``: a sample is occluded iff it lies at least delta below the tangent plane of
+    #: the surface at its pixel (plane from the stored position and geometric normal), instead of
+    #: the paper's depth test against the pixel-centre depth; see kernels/ssao.cl step 4
+    #: (not in the paper)
 
     def __post_init__(self) -> None:
         if self.distribution not in DISTRIBUTIONS:
@@ -96,6 +101,7 @@ class AOFeatures:
             "OCLS_NORMAL_MAP": self.normal_map,
             "OCLS_ALPHA": self.alpha_map,
             "OCLS_RANGE_CHECK": self.range_check,
+            "OCLS_PLANE_TEST": self.plane_test,
             "OCLS_BLUR_BOX": self.blur == "box",
             "OCLS_BLUR_EDGE": self.blur == "edge",
         }
@@ -104,14 +110,14 @@ class AOFeatures:
 #: the paper's recipe: its half-cube kernel, m = 32, no range check, a 5 x 5 box blur
 PAPER_RECIPE = AOFeatures(distribution="paper", blur="box", blur_size=5)
 PAPER_M = 32
-#: the library default.  Measured with bench/ssao.py (bench/results/ssao.md) on top-down views
-#: of two real DEMs, none of the other settings beat this recipe's RMSE by 25% at equal time
-#: against either ground truth in every case, so the default stays the paper's recipe.  The
-#: ``uniform`` kernel is unbiased for ground truth (a) only in the limit of small pixels: a
-#: sample just above a sloping surface is compared with the depth at its pixel's centre, which
-#: can lie above it, so near-surface samples are falsely occluded (a one-sided bias, -0.015 to
-#: -0.018 at 1920x1080); the uniform kernel has 1.5x the paper's sample density near the
-#: tangent plane and suffers more.  A plane-extrapolated depth test would remove it (not built).
+#: the library default stays the paper's recipe.  Measured with bench/ssao.py (bench/results/ssao.md,
+#: 12 cases: santo, front_range and the canyon terrain, top-down and perspective oblique views, 640x480
+#: and 1920x1080): no setting beats the recipe's RMSE by 25 % at equal or lower time in every case
+#: against either ground truth.  The best candidate, the ``centre`` kernel with the plane test and
+#: the 5 x 5 box blur, cuts the RMSE against ground truth (b) by 25-46 % on the santo views and the
+#: canyon's oblique views at m = 24, but costs 1.0-1.9x the recipe's time and is 17-25 % *worse* on
+#: the canyon's top-down views (cliffs: the occluder's tangent plane extrapolated across a wall) and
+#: only 4-8 % better on front_range at 1920x1080; at m = 16 it is as fast but loses up to 37 %.
 DEFAULT_FEATURES = PAPER_RECIPE
 DEFAULT_M = PAPER_M
 
@@ -219,14 +225,15 @@ class SSAO:
             args += [inputs.alpha, np.float32(alpha_eps)]
         if features.normal_map:
             args += [inputs.normal_map, inputs.tangent]
-        prep.set_args(*args, *dims, work["zbuf"], work["normal"])
+        plane = [work["plane"]] if features.plane_test else []
+        prep.set_args(*args, *dims, work["zbuf"], work["normal"], *plane)
         self._launch(prep, width, height)
 
         ao = rt.kernel("ssao.cl", "ssao_ao", defines)
         rows = np.concatenate([0.5 * width * (proj[0] + proj[3]), 0.5 * height * (proj[3] - proj[1]), proj[3]])
         prj = rt.to_device(rows.astype(np.float32), "projection rows")   # referenced until enqueued
         ao.set_args(inputs.position, work["normal"], work["zbuf"], *dims, prj, self._table(m, features.distribution),
-                    np.int32(m), np.int32(-(-m // 8) * 8), np.float32(radius), np.float32(delta), np.uint32(seed), work["ao"])
+                    np.int32(m), np.int32(-(-m // 8) * 8), np.float32(radius), np.float32(delta), np.uint32(seed), work["ao"], *plane)
         self._launch(ao, -(-width // 8), height)   # 8 pixels per work-item
         if features.blur == "none":
             return work["ao"]
@@ -234,10 +241,10 @@ class SSAO:
         if features.blur == "box":
             bh = rt.kernel("ssao.cl", "ssao_box_h", defines)
             bh.set_args(work["ao"], work["zbuf"], *dims, half, work["tmp"])
-            self._launch(bh, width, height)
+            self._launch(bh, -(-width // 8), height)   # 8 pixels per work-item
             bv = rt.kernel("ssao.cl", "ssao_box_v", defines)
             bv.set_args(work["tmp"], work["zbuf"], *dims, half, work["out"])
-            self._launch(bv, width, height)
+            self._launch(bv, -(-width // 8), height)
         else:
             tol = float(radius) / 4.0 if plane_tol is None else float(plane_tol)
             if not (math.isfinite(tol) and tol > 0):
@@ -281,7 +288,7 @@ class SSAO:
             n = shape[0] * shape[1]
             rt = self.runtime
             self._work = {"zbuf": rt.empty(4 * n, "AO depth"), "normal": rt.empty(16 * n, "AO normals"),
-                          "ao": rt.empty(4 * n, "AO map"), "tmp": rt.empty(8 * n, "blur sums"),
+                          "ao": rt.empty(4 * n, "AO map"), "plane": rt.empty(16 * n, "occluder planes"), "tmp": rt.empty(8 * n, "blur sums"),
                           "out": rt.empty(4 * n, "blurred AO map")}
             self._work_shape = shape
         return self._work

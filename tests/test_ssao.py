@@ -124,10 +124,29 @@ def test_flat_plane_ortho_and_perspective_unoccluded(ssao: SSAO, dist: str, rang
     np.testing.assert_array_equal(ao, 1.0)
 
 
-def test_right_angle_corner_matches_analytic_volume_fraction(ssao: SSAO) -> None:
+@pytest.mark.parametrize("dist", ["paper", "centre"])
+def test_plane_test_leaves_a_coarse_slope_open_where_the_depth_test_darkens_it(ssao: SSAO, dist: str) -> None:
+    # a 60-degree slope seen from above with pixels of half the radius and no delta: the depth test
+    # compares samples with the pixel-centre depth, up to (px / 2) tan 60 = 1.7 nearer, and falsely
+    # occludes; the plane test evaluates the slope's plane at the sample itself: nothing occluded
+    w, h, px, R = 40, 32, 2.0, 4.0
+    x, y = pixel_xy(w, h, px)
+    s = math.tan(math.radians(60))
+    pos, nrm = heightfield(-50 + s * x, np.full_like(x, s), np.zeros_like(x), x, y)
+    P = ortho(w, h, px)
+    plain = ssao.compute(None, P, position=pos, normal=nrm, radius=R, m=32, delta=0.0,
+                         features=AOFeatures(distribution=dist))
+    plane = ssao.compute(None, P, position=pos, normal=nrm, radius=R, m=32, delta=0.0,
+                         features=AOFeatures(distribution=dist, plane_test=True))
+    assert plain.mean() < 0.97 and plain.min() < 0.85
+    np.testing.assert_array_equal(plane, 1.0)
+
+
+@pytest.mark.parametrize("plane_test", [False, True])
+def test_right_angle_corner_matches_analytic_volume_fraction(ssao: SSAO, plane_test: bool) -> None:
     w, h, px, R, delta = 96, 128, 1.0, 24.0, 0.5
     (pos, nrm), x, y = corner_scene(w, h, px)
-    f = AOFeatures(distribution="uniform")
+    f = AOFeatures(distribution="uniform", plane_test=plane_test)
     ao = ssao.compute(None, ortho(w, h, px), position=pos, normal=nrm, radius=R, m=256, delta=delta,
                       features=f, seed=3)
     # a pixel at |y| lies on its plane at distance d = |y| sqrt(2) from the crease; occluded
@@ -319,9 +338,10 @@ def random_gbuffer(rng: np.random.Generator, w: int, h: int, persp: bool):
 @settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(seed=st.integers(0, 2**31 - 1), w=st.integers(2, 40), h=st.integers(2, 32), persp=st.booleans(),
        m=st.integers(4, 48), dist=st.sampled_from(["paper", "uniform", "centre"]), range_check=st.booleans(),
-       radius=st.floats(0.05, 3.0), delta=st.floats(0.0, 0.2), normal_map=st.booleans(), alpha=st.booleans())
+       radius=st.floats(0.05, 3.0), delta=st.floats(0.0, 0.2), normal_map=st.booleans(), alpha=st.booleans(),
+       plane_test=st.booleans())
 def test_kernel_matches_float64_twin(ssao: SSAO, seed, w, h, persp, m, dist, range_check, radius, delta,
-                                     normal_map, alpha) -> None:
+                                     normal_map, alpha, plane_test) -> None:
     rng = np.random.default_rng(seed)
     pos, nrm, P = random_gbuffer(rng, w, h, persp)
     extra: dict = {}
@@ -333,16 +353,17 @@ def test_kernel_matches_float64_twin(ssao: SSAO, seed, w, h, persp, m, dist, ran
         extra["normal_map"] = q.astype(np.float32)
         extra["tangent"] = np.concatenate([rng.normal(size=(h, w, 3)), rng.choice([-1.0, 1.0], (h, w, 1))],
                                           axis=-1).astype(np.float32)
-    f = AOFeatures(normal_map=normal_map, alpha_map=alpha, range_check=range_check, distribution=dist)
+    f = AOFeatures(normal_map=normal_map, alpha_map=alpha, range_check=range_check, distribution=dist,
+                   plane_test=plane_test)
     ao = ssao.compute(None, P, position=pos, normal=nrm, radius=radius, m=m, delta=delta, features=f,
                       seed=seed, alpha_eps=0.3, **extra)
-    tw = ref.ssao(pos, nrm, P, sample_kernel(m, dist), radius, delta, seed, range_check, alpha_eps=0.3,
-                  **extra)
+    tw = ref.ssao(pos, nrm, P, sample_kernel(m, dist), radius, delta, seed, range_check, plane_test,
+                  alpha_eps=0.3, **extra)
     assert_matches_twin(ao, tw)
     # the blurs, fed with the kernel's own unblurred map
     for blur, size in (("box", 3), ("box", 5), ("edge", 3), ("edge", 5)):
         fb = AOFeatures(normal_map=normal_map, alpha_map=alpha, range_check=range_check, distribution=dist,
-                        blur=blur, blur_size=size)
+                        blur=blur, blur_size=size, plane_test=plane_test)
         got = ssao.compute(None, P, position=pos, normal=nrm, radius=radius, m=m, delta=delta, features=fb,
                            seed=seed, alpha_eps=0.3, plane_tol=0.5, **extra)
         if blur == "box":
@@ -467,8 +488,9 @@ def test_bench_quick_smoke(tmp_path: Path) -> None:
     res = json.loads((out / "ssao.json").read_text())
     assert {"date", "cpu", "cores", "pocl_version"} <= set(res["meta"])
     assert [s["dataset"] for s in res["skipped"]] == ["santo"]
-    (case,) = res["cases"]
-    assert case["dataset"] == "synthetic" and len(case["settings"]) == 2 * 4 * 2 * 3
-    for r in case["settings"]:
-        assert 0 <= r["rmse_volume"] < 0.5 and 0 <= r["rmse_raytraced"] < 0.5 and r["time_ms"]["min"] > 0
-    assert {"time_ratio", "rmse_reduction_volume", "rmse_reduction_raytraced"} <= set(case["comparison"])
+    assert [(c["dataset"], c["view"]) for c in res["cases"]] == [("synthetic", "topdown"), ("synthetic", "oblique")]
+    for case in res["cases"]:
+        assert len(case["settings"]) == 2 * 1 * 2 * 3 * 2     # m, blur, range check, kernel, plane test
+        for r in case["settings"]:
+            assert 0 <= r["rmse_volume"] < 0.5 and 0 <= r["rmse_raytraced"] < 0.5 and r["time_ms"]["min"] > 0
+        assert {"time_ratio", "rmse_reduction_volume", "rmse_reduction_raytraced"} <= set(case["comparison"])

@@ -4,7 +4,7 @@ One module per kernel family; everything public is re-exported here, so
 ``from oclshade import reference as ref; ref.cast_shadows(...)`` works for all.
 """
 from .ao import (ReferenceAO, TopDownView, bilinear, box_blur, cosine_directions, edge_blur,
-                 raytraced_ao, rotation_vectors, ssao, topdown_gbuffer, volume_ao)
+                 raytraced_ao, rotation_vectors, ssao, topdown_gbuffer, volume_ao, world_frame)
 from .compose import compose
 from .pyramid import extrema_pyramid, mip_pyramid
 from .screen_shadows import ReferencePixelShadows, minimal_lod, pixel_shadows, surface_height
@@ -17,5 +17,5 @@ __all__ = [
     "TopDownView", "bilinear", "box_blur", "cast_shadows", "cast_terrain", "compose", "cosine_directions",
     "dilated_max_levels", "edge_blur", "extrema_pyramid", "minimal_lod", "mip_pyramid", "pixel_shadows", "raytraced_ao",
     "rotation_vectors", "shadow_coefficient", "ssao", "surface_height", "tie_tolerance", "topdown_gbuffer",
-    "volume_ao",
+    "volume_ao", "world_frame",
 ]

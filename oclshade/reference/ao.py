@@ -100,6 +100,24 @@ def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.einsum("...i,...i->...", a, b)
 
 
+def occluder_planes(position: np.ndarray, normal: np.ndarray, hit: np.ndarray) -> np.ndarray:
+    """Twin of the ``-D OCLS_PLANE_TEST`` output of ``ssao_prepare``: per pixel the tangent plane
+    (N, N . Q) of its surface, N the normalised geometric G-buffer normal ((0, 0, 1) when it is
+    degenerate: then the plane test is the depth test), (0, 0, 0, -inf) on empty pixels."""
+    p = np.asarray(position, np.float64)[..., :3]
+    n = np.asarray(normal, np.float64)[..., :3]
+    with np.errstate(invalid="ignore", over="ignore"):
+        nn = _dot(n, n)
+        ok = (nn > 1e-12) & np.isfinite(nn)
+        N = np.where(ok[..., None], n / np.sqrt(np.where(ok, nn, 1.0))[..., None], [0.0, 0.0, 1.0])
+        d = _dot(N, p)
+    good = hit & np.isfinite(d)
+    out = np.zeros(p.shape[:-1] + (4,))
+    out[..., :3] = np.where(good[..., None], N, 0.0)
+    out[..., 3] = np.where(good, d, -np.inf)
+    return out
+
+
 @dataclass
 class ReferenceAO:
     ao: np.ndarray        # float64 (H, W): 1 - occluded / counted, 1 on empty pixels
@@ -110,13 +128,14 @@ class ReferenceAO:
 
 
 def ssao(position: np.ndarray, normal: np.ndarray, projection: np.ndarray, kernel: np.ndarray,
-         radius: float, delta: float, seed: int = 0, range_check: bool = False,
+         radius: float, delta: float, seed: int = 0, range_check: bool = False, plane_test: bool = False,
          alpha: np.ndarray | None = None, alpha_eps: float = 0.5,
          normal_map: np.ndarray | None = None, tangent: np.ndarray | None = None) -> ReferenceAO:
     """Twin of ``ssao_prepare`` + ``ssao_ao``: the paper's estimator, see kernels/ssao.cl.
 
     A sample is a *tie* when float32 rounding may change its fate: its depth
-    margin |z_t - (A.z + delta)| or its range margin is within
+    margin |z_t - (A.z + delta)| (plane test: its distance below the occluder's plane less delta,
+    tolerance plus 64 eps32 |N . Q|) or its range margin is within
     ``tol_z = 64 eps32 (|P| + R + |delta|)``, or its pixel coordinate is within
     ``tol_px = 64 eps32 (1 + |u|)`` (in pixels, likewise for rows) of a pixel or
     screen edge, or its clip w within tol_z of 0.
@@ -125,6 +144,8 @@ def ssao(position: np.ndarray, normal: np.ndarray, projection: np.ndarray, kerne
     height, width = pos.shape[:2]
     hit, n = prepare(position, normal, alpha, alpha_eps, normal_map, tangent)
     zbuf = np.where(hit, pos[..., 2], -np.inf)
+    if plane_test:
+        planes = occluder_planes(pos, normal, hit).reshape(-1, 4)
     nn = _dot(n, n)
     live = hit & (nn > 1e-12) & (nn < np.inf)
     ao = np.ones((height, width))
@@ -164,9 +185,14 @@ def ssao(position: np.ndarray, normal: np.ndarray, projection: np.ndarray, kerne
             on = (cw > 0) & (u >= 0) & (u < width) & (y >= 0) & (y < height)
         j = np.where(on, np.floor(np.where(on, y, 0)) * width + np.floor(np.where(on, u, 0)), 0).astype(np.int64)
         zt = zflat[j]
-        margin = zt - (A[:, 2] + delta)
+        if plane_test:
+            pl = planes[j]
+            with np.errstate(invalid="ignore"):
+                margin = -(_dot(pl[:, :3], A) - pl[:, 3]) - delta   # >= 0: at least delta below the plane
+        else:
+            margin = zt - (A[:, 2] + delta)
         occ = margin >= 0
-        tie = np.abs(margin) <= tol_z
+        tie = np.abs(margin) <= (tol_z + 64 * F32 * np.abs(np.nan_to_num(pl[:, 3], neginf=0.0)) if plane_test else tol_z)
         if range_check:
             rmargin = radius - (zt - P[:, 2])
             occ &= rmargin >= 0
@@ -422,3 +448,22 @@ def _ray_hits(hm: Heightmap, p: np.ndarray, w: np.ndarray, radius: float) -> np.
         t = np.where(go, t_out, radius)
         first = np.zeros(idx.size, bool)
     return out
+
+
+def world_frame(hm: Heightmap, gbuffer: GBuffer, view: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """World positions and normals (float64 (H, W, 3), NaN where empty) of a rendered terrain
+    G-buffer: view-space positions mapped back with ``inv(view)``, then snapped to the bilinear
+    surface (z = h(x, y), normal from its gradient there), so the ground truths are evaluated on
+    the true surface at the pixel's hit point (the float32 G-buffer is off by its rounding)."""
+    inv = np.linalg.inv(np.asarray(view, np.float64))
+    p = np.asarray(gbuffer.position, np.float64)
+    wp = p[..., :3] @ inv[:3, :3].T + inv[:3, 3]
+    z, gx, gy = bilinear(hm, wp[..., 0], wp[..., 1])
+    hit = gbuffer.hit & np.isfinite(z)
+    wp[..., 2] = z
+    wn = np.stack([-gx, -gy, np.ones_like(z)], axis=-1)
+    with np.errstate(invalid="ignore"):
+        wn /= np.linalg.norm(wn, axis=-1, keepdims=True)
+    wp[~hit] = np.nan
+    wn[~hit] = np.nan
+    return wp, wn
