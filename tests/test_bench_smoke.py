@@ -45,3 +45,19 @@ def test_shadow_masks_quick(tmp_path: Path) -> None:
     assert {"exact_vs_dda", "exact_vs_maxmip"} <= set(res["speedups"]["canyon"])
     md = (out / "shadow_masks.md").read_text()
     assert "## canyon" in md and "| exact |" in md
+
+
+HEADLINES = SCRIPT.parent / "headlines.py"
+
+
+@pytest.mark.skipif(not HEADLINES.is_file(), reason="bench/ is not in this tree (installed package only)")
+def test_headlines_quick(tmp_path: Path) -> None:
+    cmd = [sys.executable, str(HEADLINES), "--quick", "--reps", "1", "--data", str(tmp_path / "none"),
+           "--out", str(tmp_path)]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    res = json.loads((tmp_path / "headlines.json").read_text())
+    assert [r["map"] for r in res["shadow_masks"]] == ["canyon 256^2"] * 2       # puget absent: left out
+    assert set(res["render"]["ms"]) == {"bisect", "dda", "march"}
+    assert all(res["screen"][k] > 0 for k in ("shadows_exact_ms", "shadows_maxmip_ms", "ao_ms"))
+    assert "| 5 |" in (tmp_path / "headlines.md").read_text()

@@ -1,0 +1,156 @@
+"""The timing must-shows of the issues, measured in one process on one quiet machine.
+
+Each figure is the minimum wall time of ``--reps`` runs after a warm-up (program
+builds excluded), on the same data and views as the full benchmarks:
+
+* issue 2: 4096^2 ``exact`` heightmap mask at 20 degrees (azimuths 37 and 135),
+  pyramid included (a fresh caster per run, caches off), canyon (generated) and
+  Puget Sound (``../shared/data``);
+* issue 3: 1920x1080 frame of the 1024^2 terrain (bench/terrain_cast.py's
+  Puget flyover), bisect against dda and march;
+* issue 4: 1920x1080 per-pixel shadows on the 2048^2 canyon, sun 10 degrees,
+  automatic q (bench/screen_shadows.py's view);
+* issue 5: 1920x1080 SSAO, m = 32 with the 5x5 box blur, on the same view.
+
+Writes ``headlines.json`` and ``headlines.md`` to ``--out``.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+from typing import Callable
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from shadow_masks import DEFAULT_DATA, REPO, Skip, load_dataset, log, metadata  # noqa: E402
+from terrain_cast import flyover, resample, terrain  # noqa: E402
+
+
+def best_ms(fn: Callable[[], object], finish: Callable[[], None], reps: int) -> float:
+    fn()
+    finish()
+    best = float("inf")
+    for _ in range(reps):
+        t0 = time.perf_counter()
+        fn()
+        finish()
+        best = min(best, time.perf_counter() - t0)
+    return 1e3 * best
+
+
+def shadow_masks(data: Path, size: int, reps: int) -> list[dict]:
+    from oclshade.heightmap import Heightmap
+    from oclshade.shadows import ShadowCaster
+
+    rows = []
+    for name in ("canyon", "puget"):
+        try:
+            d = load_dataset(name, size, data)
+        except Skip as why:
+            log(f"shadows: {name} skipped ({why})")
+            continue
+        hm = Heightmap.from_array(d["heights"], (d["dx"], d["dy"]))
+        for az in (37.0, 135.0):
+            def run() -> None:
+                ShadowCaster(hm, cache=False).cast((az, 20.0))
+            ms = best_ms(run, lambda: None, reps)
+            rows.append({"map": f"{name} {size}^2", "sun": [az, 20.0], "ms": ms})
+            log(f"shadows {name} az {az:g}: {ms:.0f} ms")
+    return rows
+
+
+def render(data: Path, size: int, reps: int) -> dict:
+    from oclshade.heightmap import Heightmap
+    from oclshade.terrain import Heightfield, TerrainRenderer
+
+    h, cell, source = terrain(data, quick=False)
+    k = h.shape[0] // size
+    hm = Heightmap.from_array(resample(h, size), cell * k)
+    renderer = TerrainRenderer(Heightfield(hm))
+    cam = flyover(size * cell * k, 1920, 1080)
+    out = {"map": f"{source} resampled to {size}^2", "ms": {}}
+    for method in ("bisect", "dda", "march"):
+        buf = renderer.render(cam, method, on_device=True)
+        out["ms"][method] = best_ms(lambda: renderer.render(cam, method, on_device=True, out=buf),
+                                    renderer.runtime.queue.finish, reps)
+        log(f"render {method}: {out['ms'][method]:.0f} ms")
+    return out
+
+
+def screen_passes(size: int, reps: int) -> dict:
+    from oclshade.camera import frame_heightmap
+    from oclshade.heightmap import Heightmap
+    from oclshade.screen_shadows import ScreenShadowCaster
+    from oclshade.ssao import DEFAULT_FEATURES, DEFAULT_M, SSAO, AOInputs
+    from oclshade.synthetic import canyon_crater
+    from oclshade.terrain import Heightfield, TerrainRenderer
+
+    hm = Heightmap.from_array(canyon_crater(size, size, seed=0, relief=1500.0), 30.0)
+    renderer = TerrainRenderer(Heightfield(hm))
+    cam = frame_heightmap(hm, 1920, 1080, azimuth=200.0, elevation=35.0)
+    gbuf = renderer.render(cam, on_device=True)
+    queue = renderer.runtime.queue
+    caster = ScreenShadowCaster(hm, pyramid=renderer.pyramid)
+    out: dict = {"map": f"canyon_crater({size}, seed=0, relief=1500), 30 m", "view": "frame_heightmap(az 200, el 35)"}
+    for method in ("exact", "maxmip"):
+        bufs = caster.shade_to_device(gbuf, (37.0, 10.0), method)
+        out[f"shadows_{method}_ms"] = best_ms(lambda: caster.shade_to_device(gbuf, (37.0, 10.0), method, out=bufs),
+                                              queue.finish, reps)
+        log(f"screen shadows {method}: {out[f'shadows_{method}_ms']:.0f} ms")
+    ssao = SSAO(renderer.runtime)
+    inputs = AOInputs(gbuf.shape, gbuf.buffers["position"], gbuf.buffers["normal"])
+    radius = 4.0 * hm.dx
+    out["ao_setting"] = f"m = {DEFAULT_M}, {DEFAULT_FEATURES}, radius {radius:g} m"
+    out["ao_ms"] = best_ms(lambda: ssao.run(inputs, cam.projection_matrix, radius=radius, m=32,
+                                            features=DEFAULT_FEATURES), queue.finish, reps)
+    log(f"ssao: {out['ao_ms']:.0f} ms")
+    out["hit_pixels"] = int(gbuf.to_host().hit.sum())
+    return out
+
+
+def write_markdown(path: Path, r: dict) -> None:
+    meta = r["meta"]
+    lines = ["# Headline timings (the issues' must-shows)", "",
+             f"- {meta['date']}; `{meta['command']}`",
+             f"- CPU: {meta['cpu']}, {meta['cores']} cores; device: {meta['device']}; PoCL {meta['pocl_version']}",
+             f"- minimum wall time of {r['reps']} runs after a warm-up", "",
+             "| issue | what | ms | target |", "|---|---|---:|---|"]
+    for row in r["shadow_masks"]:
+        lines.append(f"| 2 | exact mask + pyramid, {row['map']}, sun {row['sun'][0]:g}/20 | {row['ms']:.0f} | <= 1000 |")
+    rd = r["render"]
+    for method, ms in rd["ms"].items():
+        lines.append(f"| 3 | 1920x1080 {method}, {rd['map']} | {ms:.0f} | "
+                     f"{'<= 400' if method == 'bisect' else 'baseline'} |")
+    sp = r["screen"]
+    lines += [f"| 4 | 1920x1080 per-pixel shadows exact, auto q, sun 37/10, {sp['map']} | "
+              f"{sp['shadows_exact_ms']:.0f} | <= 250 |",
+              f"| 4 | same, maxmip (no min early exit) | {sp['shadows_maxmip_ms']:.0f} | exact 1.3x faster expected |",
+              f"| 5 | 1920x1080 SSAO {sp['ao_setting']} | {sp['ao_ms']:.0f} | <= 150 |",
+              "", f"Screen-space view: {sp['view']}, {sp['hit_pixels']} pixels see terrain."]
+    path.write_text("\n".join(lines) + "\n")
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv_list = list(sys.argv[1:] if argv is None else argv)
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--data", type=Path, default=DEFAULT_DATA)
+    p.add_argument("--reps", type=int, default=5)
+    p.add_argument("--quick", action="store_true", help="smoke run on small maps")
+    p.add_argument("--out", type=Path, default=REPO / "bench" / "results")
+    args = p.parse_args(argv_list)
+    big, mid, small = (256, 128, 64) if args.quick else (4096, 2048, 1024)
+    result = {"meta": metadata(["bench/headlines.py", *argv_list]), "reps": args.reps,
+              "shadow_masks": shadow_masks(args.data, big, args.reps),
+              "render": render(args.data, small, args.reps),
+              "screen": screen_passes(mid, args.reps)}
+    args.out.mkdir(parents=True, exist_ok=True)
+    (args.out / "headlines.json").write_text(json.dumps(result, indent=1) + "\n")
+    write_markdown(args.out / "headlines.md", result)
+    log(f"wrote {args.out}/headlines.{{json,md}}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
