@@ -33,6 +33,9 @@ DEFAULT_K_DARK = 0.25
 DEFAULT_K_BRIGHT = 0.65
 
 _METHOD_CODE = {"exact": 1, "paper": 2, "maxmip": 3, "dda": 4}
+CERTIFIED_METHODS = ("exact", "maxmip")   # methods that use far-field tile certificates
+CERT_TILE = 16                            # cells per side of a certificate tile (kernels/shadow.cl)
+CERT_K = 6                                # thresholds per tile (OCLS_CERT_K)
 
 
 def check_method(method: str) -> str:
@@ -65,9 +68,16 @@ class ShadowFeatures:
     method: str = "exact"
     outputs: tuple[str, ...] = ("mask",)
     stats: bool = False
+    certificate: bool = True   # far-field tile certificates (exact and maxmip only)
+
+    @property
+    def certified(self) -> bool:
+        return self.certificate and self.method in CERTIFIED_METHODS
 
     def defines(self) -> dict[str, object]:
         return {
+            "OCLS_CERT": CERT_TILE if self.certified else None,
+            "OCLS_CERT_K": CERT_K if self.certified else None,
             "OCLS_STATS": self.stats,
             "OCLS_METHOD": _METHOD_CODE[check_method(self.method)],
             "OCLS_OUT_MASK": "mask" in self.outputs,
@@ -195,7 +205,9 @@ class ShadowCaster:
         self.pyramid  # built (once) before the launches
         rows, cols = hm.shape
         n = rows * cols
-        kernel = rt.kernel("shadow.cl", "shadow_cells", ShadowFeatures(method, outs).defines())
+        features = ShadowFeatures(method, outs)
+        kernel = rt.kernel("shadow.cl", "shadow_cells", features.defines())
+        certify = self._certifier(features)
         bufs = {
             "mask": rt.empty(n, "shadow mask") if "mask" in outs else self._dummy_u8,
             "self": rt.empty(n, "self-shadow flags") if "self" in outs else self._dummy_u8,
@@ -204,7 +216,8 @@ class ShadowCaster:
         gsize, lsize = self._work_size(kernel)
 
         def launch(sun: Sun, k_dark: float, k_bright: float) -> ShadowResult:
-            kernel.set_args(*self._args(sun, k_dark, k_bright), bufs["mask"], bufs["self"], bufs["coefficient"])
+            kernel.set_args(*self._args(sun, k_dark, k_bright), bufs["mask"], bufs["self"], bufs["coefficient"],
+                            *certify(sun))
             cl.enqueue_nd_range_kernel(rt.queue, kernel, gsize, lsize)
             res = ShadowResult(sun)
             if "mask" in outs:
@@ -230,11 +243,14 @@ class ShadowCaster:
         """
         rt, pyr = self.runtime, self.pyramid
         rows, cols = self.heightmap.shape
-        kernel = rt.kernel("shadow.cl", "shadow_cells", ShadowFeatures(check_method(method), ("mask",), True).defines())
+        features = ShadowFeatures(check_method(method), ("mask",), True)
+        kernel = rt.kernel("shadow.cl", "shadow_cells", features.defines())
         zero = np.zeros(pyr.levels, np.uint32)
         stats_buf = cl.Buffer(rt.context, cl.mem_flags.READ_WRITE | cl.mem_flags.COPY_HOST_PTR, hostbuf=zero)
         mask = rt.empty(rows * cols, "shadow mask")
-        kernel.set_args(*self._args(as_sun(sun), 0.0, 1.0), mask, self._dummy_u8, self._dummy_f32, stats_buf)
+        cert = self._certifier(features)(as_sun(sun))   # kept referenced while the kernel runs
+        kernel.set_args(*self._args(as_sun(sun), 0.0, 1.0), mask, self._dummy_u8, self._dummy_f32,
+                        *cert, stats_buf)
         (gx, gy), (lx, ly) = self._work_size(kernel)
         band = max(ly, band_cells // gx // ly * ly)
         total = np.zeros(pyr.levels, np.int64)
@@ -247,6 +263,30 @@ class ShadowCaster:
             rt.queue.finish()
             total += part
         return total
+
+    def _certifier(self, features: ShadowFeatures) -> Callable[[Sun], tuple]:
+        """A function enqueueing the far-field tile certificates of a sun (kernels/shadow.cl,
+        shadow_certify) and returning shadow_cells' extra argument: () when the
+        features have none, else (certificate buffer,).  Suns that do not trace
+        (zenith, below the horizon) get the buffer unfilled: the kernel does not read it."""
+        if not features.certified:
+            return lambda sun: ()
+        rt, pyr = self.runtime, self.pyramid
+        rows, cols = self.heightmap.shape
+        tr, tc = -(-rows // CERT_TILE), -(-cols // CERT_TILE)
+        kernel = rt.kernel("shadow.cl", "shadow_certify", features.defines())
+        buf = rt.empty(tr * tc * CERT_K * 4, "shadow certificates")
+        gsize, lsize = rt.grid_2d(kernel, tc, tr)
+
+        def certify(sun: Sun) -> tuple:
+            args = self._args(sun, 0.0, 1.0)
+            if int(args[-1]) == 0:
+                kernel.set_args(np.int32(rows), np.int32(cols), pyr.buffer, pyr.offsets, np.int32(pyr.levels),
+                                args[6], buf)
+                cl.enqueue_nd_range_kernel(rt.queue, kernel, gsize, lsize)
+            return (buf,)
+
+        return certify
 
     def _work_size(self, kernel: cl.Kernel) -> tuple[tuple[int, int], tuple[int, int]]:
         rows, cols = self.heightmap.shape
