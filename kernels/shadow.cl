@@ -430,7 +430,7 @@ OCLS_INLINE int trace(__global const float *h, int H, int W, __global const floa
  * segments (OCLS_CERT_SUB per octave [d, 2d]); the box swept over a segment
  * [ta, tb] has a bounding box whose surface max is at most the max of the
  * extrema texels covering it (at the finest level l >= 1 where it spans at
- * most 3 x 3 texels), and S - w t <= that max - w ta there.  The march stops
+ * most OCLS_CERT_SPAN texels per axis), and S - w t <= that max - w ta there.  The march stops
  * when the box has left the map (outside it nothing occludes) or when
  * z_top - w ta falls to the tile's min (that value bounds everything beyond
  * and is folded in), so the bound holds for every t >= t_k.  Each value
@@ -447,6 +447,10 @@ OCLS_INLINE int trace(__global const float *h, int H, int W, __global const floa
  *     __global float *cert   ceil(H/s) * ceil(W/s) * OCLS_CERT_K floats,
  *                            tile (tr, tc) at (tr * ceil(W/s) + tc) * K
  *   global size (ceil(W/s), ceil(H/s)) rounded up to any local size.
+ *   Tuning defines (defaults measured on Puget Sound 4096^2 at 20 degrees,
+ *   bench/results/shadow_masks.md): OCLS_CERT_K = 6 thresholds, OCLS_CERT_D0
+ *   = 2 cells, OCLS_CERT_SUB = 4 segments per octave, OCLS_CERT_SPAN = 5;
+ *   the hosts use s = 16.
  * shadow_cells then takes cert as an extra argument after coef (before
  * stats).  Without -D OCLS_CERT neither the kernel nor the argument exists. */
 #ifdef OCLS_CERT
@@ -458,6 +462,9 @@ OCLS_INLINE int trace(__global const float *h, int H, int W, __global const floa
 #endif
 #ifndef OCLS_CERT_SUB
 #define OCLS_CERT_SUB 4
+#endif
+#ifndef OCLS_CERT_SPAN
+#define OCLS_CERT_SPAN 5
 #endif
 
 __kernel void shadow_certify(const int H, const int W, __global const float2 *ext,
@@ -499,7 +506,7 @@ __kernel void shadow_certify(const int H, const int W, __global const float2 *ex
             const int c_lo = clamp(ocls_floor_int(x_lo), 0, Wp - 1), c_hi = clamp(ocls_floor_int(x_hi), 0, Wp - 1);
             const int r_lo = clamp(ocls_floor_int(y_lo), 0, Hp - 1), r_hi = clamp(ocls_floor_int(y_hi), 0, Hp - 1);
             int l = 1;
-            while (l < top && ((c_hi >> l) - (c_lo >> l) > 2 || (r_hi >> l) - (r_lo >> l) > 2)) ++l;
+            while (l < top && ((c_hi >> l) - (c_lo >> l) >= OCLS_CERT_SPAN || (r_hi >> l) - (r_lo >> l) >= OCLS_CERT_SPAN)) ++l;
             float zmax = -INFINITY;
             for (int r = r_lo >> l; r <= r_hi >> l; ++r)
                 for (int c = c_lo >> l; c <= c_hi >> l; ++c)
