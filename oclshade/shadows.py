@@ -104,14 +104,19 @@ class ShadowCaster:
     their inputs are unchanged); None follows :func:`oclshade.cache.enabled`.
     analyse: decide before any traversal whether a sun can cast a shadow at
     all (:mod:`oclshade.analysis`); False always traces (for comparisons).
+    certificates: ``exact`` and ``maxmip`` first compute far-field tile
+    certificates per sun (``shadow_certify`` in kernels/shadow.cl) that end
+    provably lit rays early; False traces every ray in full (same results,
+    for comparisons).
     """
 
     def __init__(self, heightmap: Heightmap, device: str | int | Runtime | None = None, *,
-                 cache: bool | None = None, analyse: bool = True):
+                 cache: bool | None = None, analyse: bool = True, certificates: bool = True):
         self.heightmap = heightmap
         self.runtime = get_runtime(device)
         self.cache = cache
         self.analyse = analyse
+        self.certificates = certificates
         self._pyramid: ExtremaPyramid | None = None
         self._analysis: SceneAnalysis | None = None
         self._dummy_u8 = self.runtime.empty(1, "dummy")
@@ -154,7 +159,8 @@ class ShadowCaster:
         if self.analyse:
             self.analysis
         self.runtime.queue.finish()
-        self.runtime.program("shadow.cl", ShadowFeatures(method, check_outputs(outputs)).defines())
+        self.runtime.program("shadow.cl", ShadowFeatures(method, check_outputs(outputs),
+                                                         certificate=self.certificates).defines())
 
     def cast(self, sun: SunLike, method: str = "exact", outputs: str | Sequence[str] = ("mask",),
              k_dark: float = DEFAULT_K_DARK, k_bright: float = DEFAULT_K_BRIGHT) -> ShadowResult:
@@ -205,7 +211,7 @@ class ShadowCaster:
         self.pyramid  # built (once) before the launches
         rows, cols = hm.shape
         n = rows * cols
-        features = ShadowFeatures(method, outs)
+        features = ShadowFeatures(method, outs, certificate=self.certificates)
         kernel = rt.kernel("shadow.cl", "shadow_cells", features.defines())
         certify = self._certifier(features)
         bufs = {
@@ -243,7 +249,7 @@ class ShadowCaster:
         """
         rt, pyr = self.runtime, self.pyramid
         rows, cols = self.heightmap.shape
-        features = ShadowFeatures(check_method(method), ("mask",), True)
+        features = ShadowFeatures(check_method(method), ("mask",), True, self.certificates)
         kernel = rt.kernel("shadow.cl", "shadow_cells", features.defines())
         zero = np.zeros(pyr.levels, np.uint32)
         stats_buf = cl.Buffer(rt.context, cl.mem_flags.READ_WRITE | cl.mem_flags.COPY_HOST_PTR, hostbuf=zero)
@@ -263,6 +269,19 @@ class ShadowCaster:
             rt.queue.finish()
             total += part
         return total
+
+    def tile_certificates(self, sun: SunLike) -> np.ndarray:
+        """The far-field certificates of a tracing sun as float32 (tile rows, tile cols,
+        CERT_K): [..., k] bounds S - w t over the rays of the tile's cells beyond
+        t_k = 2^(k+1) major-axis cells (kernels/shadow.cl, shadow_certify)."""
+        sun = as_sun(sun)
+        if sun.below_horizon or sun.at_zenith:
+            raise ValueError(f"sun must be above the horizon and below the zenith to trace, got {sun}")
+        (buf,) = self._certifier(ShadowFeatures("exact"))(sun)
+        rows, cols = self.heightmap.shape
+        out = np.empty((-(-rows // CERT_TILE), -(-cols // CERT_TILE), CERT_K), np.float32)
+        cl.enqueue_copy(self.runtime.queue, out, buf)
+        return out
 
     def _certifier(self, features: ShadowFeatures) -> Callable[[Sun], tuple]:
         """A function enqueueing the far-field tile certificates of a sun (kernels/shadow.cl,
