@@ -13,8 +13,14 @@
  *                  heights, the level-q grids, the extrema pyramid, the G-buffer
  *                  fields position / uv / uv_grad, the sun, eq. (1) constants,
  *                  mode and Algo 1 settings, then the flag / coef / lod outputs.
+ *   shadow_certify with -D OCLS_CERT (EXACT / MAXMIP; the hosts' default):
+ *                  one work-item per s x s tile of cells, run per sun before
+ *                  shadow_cells; far-field certificates that let provably
+ *                  lit rays stop early ("far-field certificates" below);
+ *                  shadow_cells then takes the certificate buffer after coef.
  *   -D options OCLS_METHOD, OCLS_OUT_MASK, OCLS_OUT_SELF (cells only),
- *   OCLS_OUT_COEF, OCLS_OUT_LOD (pixels only), OCLS_STATS.
+ *   OCLS_OUT_COEF, OCLS_OUT_LOD (pixels only), OCLS_STATS, OCLS_CERT (cells
+ *   only, with OCLS_CERT_K / _D0 / _SUB / _SPAN).
  *
  * Geometry (all methods).  Sample (i, j) sits at x = j (east), y = i (south)
  * in cell units; the surface is bilinear over patches (see pyramid.cl).  The
@@ -50,7 +56,8 @@
  *   OCLS_DDA (4)    no hierarchy: walk every patch (Amanatides & Woo) with
  *                   EXACT's patch test; global-max early exit.
  * All methods leave the loop lit when the ray is at or above the global max
- * or leaves the map.
+ * or leaves the map; with -D OCLS_CERT also when it reaches the distance
+ * beyond which its tile's certificate proves it lit.
  *
  * Outputs (-D OCLS_OUT_MASK, OCLS_OUT_SELF, OCLS_OUT_COEF; an output not
  * defined is neither computed nor written, its argument may be a 1-byte
@@ -87,6 +94,8 @@
  *     __global uchar *mask, __global uchar *self, __global float *coef  (H*W
  *                    elements each; an output not compiled in may be a NULL
  *                    cl_mem or a 1-byte dummy buffer)
+ *   -D OCLS_CERT adds __global const float *cert after coef (the certificates
+ *   of this sun from shadow_certify, see below).
  *   -D OCLS_STATS adds a last argument __global uint *stats (nlev counters,
  *   zeroed by the host): traversal iterations per pyramid level, summed over
  *   all cells (for the benchmarks; off by default).
