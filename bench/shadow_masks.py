@@ -307,7 +307,8 @@ def write_markdown(path: Path, result: dict) -> None:
         f"pyopencl {meta['pyopencl']}, Python {meta['python']}",
         f"- repetitions: {cfg['reps']} per method and sun, methods interleaved (a method over "
         f"{cfg['max_seconds']:g} s in total stops repeating: n below); times are wall clock of "
-        "`ShadowCaster.cast` including the mask's copy to the host, pyramid not included",
+        "`ShadowCaster.cast` including the mask's copy to the host and, for exact and maxmip, the "
+        "per-sun far-field tile certificates (`shadow_certify`); pyramid not included",
         f"- error: cells of the centre {cfg['crop']}x{cfg['crop']} crop (whole map if smaller) that differ from "
         "the float64 reference `oclshade.reference.cast_shadows`; `(t)` = of which float32 ties "
         "(`ReferenceShadows.ties(tie_tolerance)`); full-map diff = cells that differ from `exact` on the whole map",

@@ -13,8 +13,14 @@
  *                  heights, the level-q grids, the extrema pyramid, the G-buffer
  *                  fields position / uv / uv_grad, the sun, eq. (1) constants,
  *                  mode and Algo 1 settings, then the flag / coef / lod outputs.
+ *   shadow_certify with -D OCLS_CERT (EXACT / MAXMIP; the hosts' default):
+ *                  one work-item per s x s tile of cells, run per sun before
+ *                  shadow_cells; far-field certificates that let provably
+ *                  lit rays stop early ("far-field certificates" below);
+ *                  shadow_cells then takes the certificate buffer after coef.
  *   -D options OCLS_METHOD, OCLS_OUT_MASK, OCLS_OUT_SELF (cells only),
- *   OCLS_OUT_COEF, OCLS_OUT_LOD (pixels only), OCLS_STATS.
+ *   OCLS_OUT_COEF, OCLS_OUT_LOD (pixels only), OCLS_STATS, OCLS_CERT (cells
+ *   only, with OCLS_CERT_K / _D0 / _SUB / _SPAN).
  *
  * Geometry (all methods).  Sample (i, j) sits at x = j (east), y = i (south)
  * in cell units; the surface is bilinear over patches (see pyramid.cl).  The
@@ -50,7 +56,8 @@
  *   OCLS_DDA (4)    no hierarchy: walk every patch (Amanatides & Woo) with
  *                   EXACT's patch test; global-max early exit.
  * All methods leave the loop lit when the ray is at or above the global max
- * or leaves the map.
+ * or leaves the map; with -D OCLS_CERT also when it reaches the distance
+ * beyond which its tile's certificate proves it lit.
  *
  * Outputs (-D OCLS_OUT_MASK, OCLS_OUT_SELF, OCLS_OUT_COEF; an output not
  * defined is neither computed nor written, its argument may be a 1-byte
@@ -87,6 +94,8 @@
  *     __global uchar *mask, __global uchar *self, __global float *coef  (H*W
  *                    elements each; an output not compiled in may be a NULL
  *                    cl_mem or a 1-byte dummy buffer)
+ *   -D OCLS_CERT adds __global const float *cert after coef (the certificates
+ *   of this sun from shadow_certify, see below).
  *   -D OCLS_STATS adds a last argument __global uint *stats (nlev counters,
  *   zeroed by the host): traversal iterations per pyramid level, summed over
  *   all cells (for the benchmarks; off by default).
@@ -313,8 +322,8 @@ OCLS_INLINE int start_patch(int H, int W, const Ray *ray, int *pr, int *pc)
 #if OCLS_METHOD == OCLS_PAPER
 /* Algo 3 as printed in paper 000. */
 OCLS_INLINE int trace(__global const float *h, int H, int W, __global const float2 *ext,
-                      __global const int *lvl_off, int nlev, int q, float z_top, const Ray *ray,
-                      uint *steps)
+                      __global const int *lvl_off, int nlev, int q, float z_top, float t_lim,
+                      const Ray *ray, uint *steps)
 {
     const int Hp = max(H - 1, 1), Wp = max(W - 1, 1), top = nlev - 1 - q;
     const float x0 = ray->x0, y0 = ray->y0, z0 = ray->z0, ux = ray->ux, uy = ray->uy, w = ray->w;
@@ -357,8 +366,8 @@ OCLS_INLINE int trace(__global const float *h, int H, int W, __global const floa
 #else
 /* EXACT / MAXMIP / DDA: conservative multilevel traversal with climbing. */
 OCLS_INLINE int trace(__global const float *h, int H, int W, __global const float2 *ext,
-                      __global const int *lvl_off, int nlev, int q, float z_top, const Ray *ray,
-                      uint *steps)
+                      __global const int *lvl_off, int nlev, int q, float z_top, float t_lim,
+                      const Ray *ray, uint *steps)
 {
     const int Hp = max(H - 1, 1), Wp = max(W - 1, 1), top = nlev - 1 - q;
     const float z0 = ray->z0, w = ray->w;
@@ -372,6 +381,9 @@ OCLS_INLINE int trace(__global const float *h, int H, int W, __global const floa
         const float t_out = tile_exit(ray, r0, c0, size, &via_x, &via_y);
         const float z_in = z0 + w * t;                 /* lowest ray point in the tile */
         if (z_in >= z_top) return 0;
+#ifdef OCLS_CERT
+        if (t >= t_lim) return 0;                      /* the tile certificate covers the rest */
+#endif
 #if OCLS_METHOD == OCLS_DDA
         if (patch_hits(h, H, W, pr, pc, ray, t, t_out, t == 0.0f)) return 1;
         if (via_x && via_y && !patch_valid(h, H, W, pr, pc) &&
@@ -414,6 +426,124 @@ OCLS_INLINE int trace(__global const float *h, int H, int W, __global const floa
 }
 #endif
 
+/* ------------------------------------------------- far-field certificates
+ * -D OCLS_CERT=s (a power of two >= 2; EXACT and MAXMIP only): one
+ * certificate per s x s tile of cells, computed per sun by shadow_certify and
+ * read by shadow_cells.  The rays of a tile's cells start in the box
+ * B = [c0, c0+s-1] x [r0, r0+s-1] (clipped to the map) and at distance t
+ * lie in B + t (ux, uy).  For the thresholds d_k = OCLS_CERT_D0 * 2^k
+ * major-axis cells (k < OCLS_CERT_K; major = the larger of |ux|, |uy|, so
+ * t_k = d_k / major), cert[k] bounds from above
+ *     sup { S(p) - w t : t >= t_k, p in B + t (ux, uy) inside the map }
+ * S being the bilinear surface: the ray's path from t_k on is cut into
+ * segments (OCLS_CERT_SUB per octave [d, 2d]); the box swept over a segment
+ * [ta, tb] has a bounding box whose surface max is at most the max of the
+ * extrema texels covering it (at the finest level l >= 1 where it spans at
+ * most OCLS_CERT_SPAN texels per axis), and S - w t <= that max - w ta there.  The march stops
+ * when the box has left the map (outside it nothing occludes) or when
+ * z_top - w ta falls to the tile's min (that value bounds everything beyond
+ * and is folded in), so the bound holds for every t >= t_k.  Each value
+ * carries a float32 margin of 64 eps (|max| + w tb).  A cell with height
+ * z0 > cert[k] is therefore lit for every t >= t_k in exact arithmetic (the
+ * float64 reference agrees up to its ties), and its trace only needs
+ * t < t_k (times 1.001, so float rounding of the traversal's t cannot open a
+ * gap).  The certificate is exact (it only skips provably lit parts of rays);
+ * cells of tiles that can neither cast nor receive a shadow stop at once.
+ *
+ *   __kernel shadow_certify(H, W, ext, lvl_off, nlev, ray, cert)
+ *     H, W, ext, lvl_off, nlev, ray as for shadow_cells (mode 0 only: the
+ *     host does not launch it otherwise)
+ *     __global float *cert   ceil(H/s) * ceil(W/s) * OCLS_CERT_K floats,
+ *                            tile (tr, tc) at (tr * ceil(W/s) + tc) * K
+ *   global size (ceil(W/s), ceil(H/s)) rounded up to any local size.
+ *   Tuning defines (defaults measured on Puget Sound 4096^2 at 20 degrees,
+ *   bench/results/shadow_masks.md): OCLS_CERT_K = 6 thresholds, OCLS_CERT_D0
+ *   = 2 cells, OCLS_CERT_SUB = 4 segments per octave, OCLS_CERT_SPAN = 5;
+ *   the hosts use s = 16.
+ * shadow_cells then takes cert as an extra argument after coef (before
+ * stats).  Without -D OCLS_CERT neither the kernel nor the argument exists. */
+#ifdef OCLS_CERT
+#ifndef OCLS_CERT_K
+#define OCLS_CERT_K 6
+#endif
+#ifndef OCLS_CERT_D0
+#define OCLS_CERT_D0 2
+#endif
+#ifndef OCLS_CERT_SUB
+#define OCLS_CERT_SUB 4
+#endif
+#ifndef OCLS_CERT_SPAN
+#define OCLS_CERT_SPAN 5
+#endif
+
+__kernel void shadow_certify(const int H, const int W, __global const float2 *ext,
+                             __global const int *lvl_off, const int nlev, const float4 ray,
+                             __global float *cert)
+{
+    const int s = OCLS_CERT, nc = (W + s - 1) / s, nr = (H + s - 1) / s;
+    const int tc = get_global_id(0), tr = get_global_id(1);
+    if (tc >= nc || tr >= nr) return;
+    const int Hp = max(H - 1, 1), Wp = max(W - 1, 1), top = nlev - 1;
+    const float ux = ray.x, uy = ray.y, w = ray.z, major = fmax(fabs(ux), fabs(uy));
+    const float z_top = ext[lvl_off[top]].x;
+    const float bx0 = (float)(tc * s), bx1 = (float)min(tc * s + s - 1, W - 1);
+    const float by0 = (float)(tr * s), by1 = (float)min(tr * s + s - 1, H - 1);
+    /* a lower bound of the tile's heights: the min of its level-log2(s) texel
+     * (patches [c0, c0+s-1] cover the tile's samples) */
+    const int ls = min(31 - (int)clz(s), top);
+    const float zmin = ext_at(ext, lvl_off, 0, Wp, ls, min(tr * s, Hp - 1), min(tc * s, Wp - 1)).y;
+    float hk[OCLS_CERT_K];
+    for (int k = 0; k < OCLS_CERT_K; ++k) hk[k] = -INFINITY;
+    for (int o = 0; o < 31; ++o) {                     /* octaves [d, 2d] */
+        const float d = (float)OCLS_CERT_D0 * (float)(1u << o), seg = d / (float)OCLS_CERT_SUB;
+        for (int j = 0; j < OCLS_CERT_SUB; ++j) {
+            const float ta = (d + seg * (float)j) / major, tb = (d + seg * (float)(j + 1)) / major;
+            const float tail = z_top - w * ta;         /* bounds S - w t for all t >= ta */
+            const float mt = 64.0f * FLT_EPSILON * (fabs(z_top) + w * tb);
+            if (!(tail + mt > zmin)) {                 /* nothing beyond can matter */
+                for (int k = 0; k < OCLS_CERT_K; ++k) hk[k] = fmax(hk[k], tail + mt);
+                o = 31;
+                break;
+            }
+            const float xa = fmin(ux * ta, ux * tb), xb = fmax(ux * ta, ux * tb);
+            const float ya = fmin(uy * ta, uy * tb), yb = fmax(uy * ta, uy * tb);
+            const float x_lo = bx0 + xa, x_hi = bx1 + xb, y_lo = by0 + ya, y_hi = by1 + yb;
+            if (x_hi < 0.0f || x_lo > (float)(W - 1) || y_hi < 0.0f || y_lo > (float)(H - 1)) {
+                o = 31;                                /* the box has left the map for good */
+                break;
+            }
+            const int c_lo = clamp(ocls_floor_int(x_lo), 0, Wp - 1), c_hi = clamp(ocls_floor_int(x_hi), 0, Wp - 1);
+            const int r_lo = clamp(ocls_floor_int(y_lo), 0, Hp - 1), r_hi = clamp(ocls_floor_int(y_hi), 0, Hp - 1);
+            int l = 1;
+            while (l < top && ((c_hi >> l) - (c_lo >> l) >= OCLS_CERT_SPAN || (r_hi >> l) - (r_lo >> l) >= OCLS_CERT_SPAN)) ++l;
+            float zmax = -INFINITY;
+            for (int r = r_lo >> l; r <= r_hi >> l; ++r)
+                for (int c = c_lo >> l; c <= c_hi >> l; ++c)
+                    zmax = fmax(zmax, ext_at(ext, lvl_off, 0, Wp, l, r << l, c << l).x);
+            const float v = zmax - w * ta + 64.0f * FLT_EPSILON * (fabs(zmax) + w * tb);
+            for (int k = 0; k < OCLS_CERT_K; ++k)
+                if (d >= (float)OCLS_CERT_D0 * (float)(1u << k)) hk[k] = fmax(hk[k], v);
+        }
+    }
+    __global float *out = cert + (tr * nc + tc) * OCLS_CERT_K;
+    for (int k = 0; k < OCLS_CERT_K; ++k) out[k] = hk[k];
+}
+
+/* The traversal limit of cell (i, j) of height z0: t_k (times 1.001) for the
+ * least k whose certificate it clears, else infinity. */
+OCLS_INLINE float cert_limit(__global const float *cert, int W, int i, int j, float z0, float4 ray)
+{
+    const int nc = (W + OCLS_CERT - 1) / OCLS_CERT;
+    __global const float *c = cert + ((i / OCLS_CERT) * nc + j / OCLS_CERT) * OCLS_CERT_K;
+    const float major = fmax(fabs(ray.x), fabs(ray.y));
+    for (int k = 0; k < OCLS_CERT_K; ++k)
+        if (z0 > c[k]) return 1.001f * ((float)OCLS_CERT_D0 * (float)(1u << k) / major);
+    return INFINITY;
+}
+#else
+#define cert_limit(cert, W, i, j, z0, ray) INFINITY
+#endif
+
 /* Self-shadow: sun at or below the tangent plane of the central-difference
  * normal (one-sided next to holes and at the edges, 0 slope if neither). */
 OCLS_INLINE int self_shadowed(__global const float *h, int H, int W, int i, int j, float2 cell, float4 s)
@@ -437,6 +567,9 @@ __kernel void shadow_cells(__global const float *h, const int H, const int W,
                            const float4 ray, const float4 sunvec, const float2 cell,
                            const float2 kcoef, const int mode,
                            __global uchar *mask, __global uchar *self, __global float *coef
+#ifdef OCLS_CERT
+                           , __global const float *cert
+#endif
 #ifdef OCLS_STATS
                            , __global uint *stats
 #endif
@@ -457,7 +590,8 @@ __kernel void shadow_cells(__global const float *h, const int H, const int W,
         if (mode == 2) shadow = 1;
         else if (mode == 0) {
             const Ray r = make_ray((float)j, (float)i, z0, ray.x, ray.y, ray.z);
-            shadow = trace(h, H, W, ext, lvl_off, nlev, 0, ext[lvl_off[nlev - 1]].x, &r, steps);
+            shadow = trace(h, H, W, ext, lvl_off, nlev, 0, ext[lvl_off[nlev - 1]].x,
+                           cert_limit(cert, W, i, j, z0, ray), &r, steps);
         }
     }
 #endif
@@ -566,7 +700,7 @@ __kernel void shadow_pixels(__global const float *h, __global const float *coars
             if (mode == 2) shadow = 1;
             else if (mode == 0) {
                 const Ray rr = make_ray(x0, y0, z0, ray.x * scale, ray.y * scale, ray.z);
-                shadow = trace(g, Hq, Wq, ext, lvl_off, nlev, q, ext[lvl_off[top]].x, &rr, steps);
+                shadow = trace(g, Hq, Wq, ext, lvl_off, nlev, q, ext[lvl_off[top]].x, INFINITY, &rr, steps);
             }
         }
 #endif

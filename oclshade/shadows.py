@@ -33,6 +33,9 @@ DEFAULT_K_DARK = 0.25
 DEFAULT_K_BRIGHT = 0.65
 
 _METHOD_CODE = {"exact": 1, "paper": 2, "maxmip": 3, "dda": 4}
+CERTIFIED_METHODS = ("exact", "maxmip")   # methods that use far-field tile certificates
+CERT_TILE = 16                            # cells per side of a certificate tile (kernels/shadow.cl)
+CERT_K = 6                                # thresholds per tile (OCLS_CERT_K)
 
 
 def check_method(method: str) -> str:
@@ -65,9 +68,16 @@ class ShadowFeatures:
     method: str = "exact"
     outputs: tuple[str, ...] = ("mask",)
     stats: bool = False
+    certificate: bool = True   # far-field tile certificates (exact and maxmip only)
+
+    @property
+    def certified(self) -> bool:
+        return self.certificate and self.method in CERTIFIED_METHODS
 
     def defines(self) -> dict[str, object]:
         return {
+            "OCLS_CERT": CERT_TILE if self.certified else None,
+            "OCLS_CERT_K": CERT_K if self.certified else None,
             "OCLS_STATS": self.stats,
             "OCLS_METHOD": _METHOD_CODE[check_method(self.method)],
             "OCLS_OUT_MASK": "mask" in self.outputs,
@@ -94,14 +104,19 @@ class ShadowCaster:
     their inputs are unchanged); None follows :func:`oclshade.cache.enabled`.
     analyse: decide before any traversal whether a sun can cast a shadow at
     all (:mod:`oclshade.analysis`); False always traces (for comparisons).
+    certificates: ``exact`` and ``maxmip`` first compute far-field tile
+    certificates per sun (``shadow_certify`` in kernels/shadow.cl) that end
+    provably lit rays early; False traces every ray in full (same results,
+    for comparisons).
     """
 
     def __init__(self, heightmap: Heightmap, device: str | int | Runtime | None = None, *,
-                 cache: bool | None = None, analyse: bool = True):
+                 cache: bool | None = None, analyse: bool = True, certificates: bool = True):
         self.heightmap = heightmap
         self.runtime = get_runtime(device)
         self.cache = cache
         self.analyse = analyse
+        self.certificates = certificates
         self._pyramid: ExtremaPyramid | None = None
         self._analysis: SceneAnalysis | None = None
         self._dummy_u8 = self.runtime.empty(1, "dummy")
@@ -144,7 +159,8 @@ class ShadowCaster:
         if self.analyse:
             self.analysis
         self.runtime.queue.finish()
-        self.runtime.program("shadow.cl", ShadowFeatures(method, check_outputs(outputs)).defines())
+        self.runtime.program("shadow.cl", ShadowFeatures(method, check_outputs(outputs),
+                                                         certificate=self.certificates).defines())
 
     def cast(self, sun: SunLike, method: str = "exact", outputs: str | Sequence[str] = ("mask",),
              k_dark: float = DEFAULT_K_DARK, k_bright: float = DEFAULT_K_BRIGHT) -> ShadowResult:
@@ -195,7 +211,9 @@ class ShadowCaster:
         self.pyramid  # built (once) before the launches
         rows, cols = hm.shape
         n = rows * cols
-        kernel = rt.kernel("shadow.cl", "shadow_cells", ShadowFeatures(method, outs).defines())
+        features = ShadowFeatures(method, outs, certificate=self.certificates)
+        kernel = rt.kernel("shadow.cl", "shadow_cells", features.defines())
+        certify = self._certifier(features)
         bufs = {
             "mask": rt.empty(n, "shadow mask") if "mask" in outs else self._dummy_u8,
             "self": rt.empty(n, "self-shadow flags") if "self" in outs else self._dummy_u8,
@@ -204,7 +222,8 @@ class ShadowCaster:
         gsize, lsize = self._work_size(kernel)
 
         def launch(sun: Sun, k_dark: float, k_bright: float) -> ShadowResult:
-            kernel.set_args(*self._args(sun, k_dark, k_bright), bufs["mask"], bufs["self"], bufs["coefficient"])
+            kernel.set_args(*self._args(sun, k_dark, k_bright), bufs["mask"], bufs["self"], bufs["coefficient"],
+                            *certify(sun))
             cl.enqueue_nd_range_kernel(rt.queue, kernel, gsize, lsize)
             res = ShadowResult(sun)
             if "mask" in outs:
@@ -230,11 +249,14 @@ class ShadowCaster:
         """
         rt, pyr = self.runtime, self.pyramid
         rows, cols = self.heightmap.shape
-        kernel = rt.kernel("shadow.cl", "shadow_cells", ShadowFeatures(check_method(method), ("mask",), True).defines())
+        features = ShadowFeatures(check_method(method), ("mask",), True, self.certificates)
+        kernel = rt.kernel("shadow.cl", "shadow_cells", features.defines())
         zero = np.zeros(pyr.levels, np.uint32)
         stats_buf = cl.Buffer(rt.context, cl.mem_flags.READ_WRITE | cl.mem_flags.COPY_HOST_PTR, hostbuf=zero)
         mask = rt.empty(rows * cols, "shadow mask")
-        kernel.set_args(*self._args(as_sun(sun), 0.0, 1.0), mask, self._dummy_u8, self._dummy_f32, stats_buf)
+        cert = self._certifier(features)(as_sun(sun))   # kept referenced while the kernel runs
+        kernel.set_args(*self._args(as_sun(sun), 0.0, 1.0), mask, self._dummy_u8, self._dummy_f32,
+                        *cert, stats_buf)
         (gx, gy), (lx, ly) = self._work_size(kernel)
         band = max(ly, band_cells // gx // ly * ly)
         total = np.zeros(pyr.levels, np.int64)
@@ -247,6 +269,43 @@ class ShadowCaster:
             rt.queue.finish()
             total += part
         return total
+
+    def tile_certificates(self, sun: SunLike) -> np.ndarray:
+        """The far-field certificates of a tracing sun as float32 (tile rows, tile cols,
+        CERT_K): [..., k] bounds S - w t over the rays of the tile's cells beyond
+        t_k = 2^(k+1) major-axis cells (kernels/shadow.cl, shadow_certify)."""
+        sun = as_sun(sun)
+        if sun.below_horizon or sun.at_zenith:
+            raise ValueError(f"sun must be above the horizon and below the zenith to trace, got {sun}")
+        (buf,) = self._certifier(ShadowFeatures("exact"))(sun)
+        rows, cols = self.heightmap.shape
+        out = np.empty((-(-rows // CERT_TILE), -(-cols // CERT_TILE), CERT_K), np.float32)
+        cl.enqueue_copy(self.runtime.queue, out, buf)
+        return out
+
+    def _certifier(self, features: ShadowFeatures) -> Callable[[Sun], tuple]:
+        """A function enqueueing the far-field tile certificates of a sun (kernels/shadow.cl,
+        shadow_certify) and returning shadow_cells' extra argument: () when the
+        features have none, else (certificate buffer,).  Suns that do not trace
+        (zenith, below the horizon) get the buffer unfilled: the kernel does not read it."""
+        if not features.certified:
+            return lambda sun: ()
+        rt, pyr = self.runtime, self.pyramid
+        rows, cols = self.heightmap.shape
+        tr, tc = -(-rows // CERT_TILE), -(-cols // CERT_TILE)
+        kernel = rt.kernel("shadow.cl", "shadow_certify", features.defines())
+        buf = rt.empty(tr * tc * CERT_K * 4, "shadow certificates")
+        gsize, lsize = rt.grid_2d(kernel, tc, tr)
+
+        def certify(sun: Sun) -> tuple:
+            args = self._args(sun, 0.0, 1.0)
+            if int(args[-1]) == 0:
+                kernel.set_args(np.int32(rows), np.int32(cols), pyr.buffer, pyr.offsets, np.int32(pyr.levels),
+                                args[6], buf)
+                cl.enqueue_nd_range_kernel(rt.queue, kernel, gsize, lsize)
+            return (buf,)
+
+        return certify
 
     def _work_size(self, kernel: cl.Kernel) -> tuple[tuple[int, int], tuple[int, int]]:
         rows, cols = self.heightmap.shape

@@ -181,8 +181,8 @@ const char *oclshade_program_source(const oclshade *lib, const char *file);
 oclshade_status oclshade_prepare(oclshade *lib, oclshade_method method, unsigned outputs);
 
 /* The -D options and the program file an enqueue with (method, outputs) builds,
- * e.g. "-DOCLS_METHOD=1 -DOCLS_OUT_MASK -cl-std=CL1.2" (the Python host's,
- * sorted by name).  Writes at most size bytes including the NUL; returns the
+ * e.g. "-DOCLS_CERT=16 -DOCLS_CERT_K=6 -DOCLS_METHOD=1 -DOCLS_OUT_MASK -cl-std=CL1.2"
+ * (the Python host's, sorted by name; OCLS_CERT only for EXACT and MAXMIP).  Writes at most size bytes including the NUL; returns the
  * length the full string needs (snprintf-style), or 0 for a bad method or
  * outputs.  For logs and for users building kernels/shadow.cl themselves. */
 size_t oclshade_shadow_build_options(oclshade_method method, unsigned outputs, char *buf, size_t size);
@@ -265,7 +265,10 @@ typedef struct oclshade_shadow_params {
 void oclshade_shadow_params_init(oclshade_shadow_params *params);
 
 /* Enqueue one shadow pass (one launch of shadow_cells, global size (cols,
- * rows) rounded up to the local size).  At least one output buffer must be
+ * rows) rounded up to the local size; for EXACT and MAXMIP with the sun above
+ * the horizon and below the zenith, preceded by one launch of shadow_certify
+ * into a temporary buffer of far-field tile certificates, see
+ * kernels/shadow.cl; the returned event is the last command's).  At least one output buffer must be
  * non-NULL; the program variant compiled is the one for that output set
  * (an output not asked for is not in the program).  Buffer sizes are checked
  * against rows, cols and the pyramid layout. */

@@ -35,11 +35,18 @@ extern const size_t oclshade_embedded_source_count;
 #define MAX_INCLUDES 16
 #define N_METHODS 4
 #define N_OUTPUT_SETS 8   /* indexed by the OCLSHADE_OUT_* bits; 0 unused */
+/* far-field tile certificates of EXACT and MAXMIP (kernels/shadow.cl, -D OCLS_CERT);
+ * the values of oclshade/shadows.py CERT_TILE and CERT_K */
+#define CERT_TILE 16
+#define CERT_K 6
+#define CERTIFIED(method) ((method) == OCLSHADE_EXACT || (method) == OCLSHADE_MAXMIP)
 
 typedef struct variant {
     cl_program program;
     cl_kernel kernel;     /* shadow_cells */
     size_t local[2];
+    cl_kernel certify;    /* shadow_certify, NULL for methods without certificates */
+    size_t cert_local[2];
 } variant;
 
 struct oclshade {
@@ -348,6 +355,7 @@ void oclshade_destroy(oclshade *lib)
     for (int m = 0; m < N_METHODS; ++m) {
         for (int o = 0; o < N_OUTPUT_SETS; ++o) {
             if (lib->shadow[m][o].kernel) clReleaseKernel(lib->shadow[m][o].kernel);
+            if (lib->shadow[m][o].certify) clReleaseKernel(lib->shadow[m][o].certify);
             if (lib->shadow[m][o].program) clReleaseProgram(lib->shadow[m][o].program);
         }
     }
@@ -466,7 +474,9 @@ size_t oclshade_shadow_build_options(oclshade_method method, unsigned outputs, c
 {
     if (method < OCLSHADE_EXACT || method > OCLSHADE_DDA || outputs == 0 || outputs >= N_OUTPUT_SETS) return 0;
     /* ShadowFeatures.defines through runtime.define_options: sorted by name, then the standard */
-    int n = snprintf(buf, size, "-DOCLS_METHOD=%d%s%s%s " CL_STD_OPTION, (int)method,
+    int n = snprintf(buf, size, "%s-DOCLS_METHOD=%d%s%s%s " CL_STD_OPTION,
+                     CERTIFIED(method) ? "-DOCLS_CERT=" OCLS_STR(CERT_TILE) " -DOCLS_CERT_K=" OCLS_STR(CERT_K) " " : "",
+                     (int)method,
                      (outputs & OCLSHADE_OUT_COEFFICIENT) ? " -DOCLS_OUT_COEF" : "",
                      (outputs & OCLSHADE_OUT_MASK) ? " -DOCLS_OUT_MASK" : "",
                      (outputs & OCLSHADE_OUT_SELF) ? " -DOCLS_OUT_SELF" : "");
@@ -478,13 +488,17 @@ static oclshade_status shadow_variant(oclshade *lib, oclshade_method method, uns
 {
     variant *v = &lib->shadow[method - 1][outputs];
     if (v->program == NULL) {
-        char options[128];
+        char options[192];
         oclshade_shadow_build_options(method, outputs, options, sizeof options);
         cl_program prog = NULL;
         oclshade_status st = build(lib, SHADOW_FILE, lib->shadow_src, options, &prog);
         if (st != OCLSHADE_OK) return st;
         /* oclshade/shadows.py launches with grid_2d(wanted=64, max_x=16) */
         st = make_kernel(lib, prog, "shadow_cells", 64, 16, &v->kernel, v->local);
+        if (st == OCLSHADE_OK && CERTIFIED(method)) {
+            st = make_kernel(lib, prog, "shadow_certify", 64, 16, &v->certify, v->cert_local);
+            if (st != OCLSHADE_OK) { clReleaseKernel(v->kernel); v->kernel = NULL; }
+        }
         if (st != OCLSHADE_OK) { clReleaseProgram(prog); return st; }
         v->program = prog;
     }
@@ -843,13 +857,32 @@ oclshade_status oclshade_enqueue_shadows(oclshade *lib, cl_command_queue queue, 
     if (st == OCLSHADE_OK) {
         cl_kernel k = v->kernel;
         cl_int err = CL_SUCCESS;
+        cl_mem cert = NULL;   /* released below: OpenCL keeps it until the kernels are done */
+        if (v->certify) {
+            const int tr = (H + CERT_TILE - 1) / CERT_TILE, tc = (W + CERT_TILE - 1) / CERT_TILE;
+            cert = clCreateBuffer(lib->context, CL_MEM_READ_WRITE, (size_t)tr * (size_t)tc * CERT_K * 4u, NULL, &err);
+            if (err != CL_SUCCESS) {
+                mutex_unlock(&lib->lock);
+                return chain_finish(&ch, fail_cl(lib, err, "clCreateBuffer(shadow certificates)"), event);
+            }
+            if (mode == 0) {
+                cl_kernel c = v->certify;
+                SET_ARG(c, 0, H); SET_ARG(c, 1, W); SET_ARG(c, 2, p->pyramid); SET_ARG(c, 3, p->offsets);
+                SET_ARG(c, 4, nlev); SET_ARG(c, 5, ray); SET_ARG(c, 6, cert);
+                if (err != CL_SUCCESS) st = fail_cl(lib, err, "clSetKernelArg(shadow_certify)");
+                else st = launch(lib, &ch, queue, c, v->cert_local, tc, tr, "clEnqueueNDRangeKernel(shadow_certify)");
+            }
+            SET_ARG(k, 14, cert);
+        }
         SET_ARG(k, 0, p->heights); SET_ARG(k, 1, H); SET_ARG(k, 2, W); SET_ARG(k, 3, p->pyramid);
         SET_ARG(k, 4, p->offsets); SET_ARG(k, 5, nlev); SET_ARG(k, 6, ray); SET_ARG(k, 7, vec);
         SET_ARG(k, 8, cell); SET_ARG(k, 9, kcoef); SET_ARG(k, 10, mode);
         /* an output not compiled in gets a NULL buffer (allowed for __global pointers) */
         SET_ARG(k, 11, p->mask); SET_ARG(k, 12, p->self_shadow); SET_ARG(k, 13, p->coefficient);
-        if (err != CL_SUCCESS) st = fail_cl(lib, err, "clSetKernelArg(shadow_cells)");
-        else st = launch(lib, &ch, queue, k, v->local, W, H, "clEnqueueNDRangeKernel(shadow_cells)");
+        if (st == OCLSHADE_OK)
+            st = err != CL_SUCCESS ? fail_cl(lib, err, "clSetKernelArg(shadow_cells)")
+                 : launch(lib, &ch, queue, k, v->local, W, H, "clEnqueueNDRangeKernel(shadow_cells)");
+        if (cert) clReleaseMemObject(cert);
     }
     mutex_unlock(&lib->lock);
     return chain_finish(&ch, st, event);

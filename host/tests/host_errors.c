@@ -77,7 +77,7 @@ int main(int argc, char **argv)
     oclshade_status st;
 
     /* ---- pure host functions */
-    char opts[128];
+    char opts[192];
     for (int m = OCLSHADE_EXACT; m <= OCLSHADE_DDA; ++m) {
         for (unsigned o = 1; o < 8; ++o) {
             size_t need = oclshade_shadow_build_options((oclshade_method)m, o, opts, sizeof opts);
@@ -87,7 +87,7 @@ int main(int argc, char **argv)
     expect(oclshade_shadow_build_options(OCLSHADE_EXACT, 0, opts, sizeof opts) == 0, "build options: empty outputs", "");
     expect(oclshade_shadow_build_options((oclshade_method)5, 1, opts, sizeof opts) == 0, "build options: bad method", "");
     size_t need = oclshade_shadow_build_options(OCLSHADE_EXACT, 7, opts, 4);
-    expect(need == strlen("-DOCLS_METHOD=1 -DOCLS_OUT_COEF -DOCLS_OUT_MASK -DOCLS_OUT_SELF -cl-std=CL1.2") + 1 &&
+    expect(need == strlen("-DOCLS_CERT=16 -DOCLS_CERT_K=6 -DOCLS_METHOD=1 -DOCLS_OUT_COEF -DOCLS_OUT_MASK -DOCLS_OUT_SELF -cl-std=CL1.2") + 1 &&
            strlen(opts) == 3, "build options: truncation reports the size needed", opts);
 
     oclshade_pyramid_layout lay;
