@@ -26,7 +26,7 @@
 OCLS_INLINE float srgb_encode(float c)
 {
     c = clamp(c, 0.0f, 1.0f);
-    return c <= 0.0031308f ? 12.92f * c : 1.055f * pow(c, 1.0f / 2.4f) - 0.055f;
+    return c <= 0.0031308f ? 12.92f * c : 1.055f * exp2(log2(c) * (1.0f / 2.4f)) - 0.055f;
 }
 
 __kernel void compose(__global const float4 *position, __global const float4 *normal,
