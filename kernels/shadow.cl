@@ -158,10 +158,18 @@
  * direction octant with -D constants was measured: no gain on PoCL.) */
 #define OCLS_SX(u) ((u) > 0.0f ? 1 : ((u) < 0.0f ? -1 : 0))
 #define OCLS_SY(u) OCLS_SX(u)
+/* Profiling (-D OCLS_STATS): each work-item counts its traversal iterations per
+ * level in a private steps[] and adds them to the global counters at the end. */
 #ifdef OCLS_STATS
 #define OCLS_COUNT(l) (steps[l] += 1u)
+#define OCLS_STEPS_BEGIN uint steps[OCLS_STATS_LEVELS]; \
+    for (int l_ = 0; l_ < OCLS_STATS_LEVELS; ++l_) steps[l_] = 0u
+#define OCLS_STEPS_END(n) for (int l_ = 0; l_ < (n); ++l_) \
+    if (steps[l_]) atomic_add(&stats[l_], steps[l_])
 #else
 #define OCLS_COUNT(l) ((void)0)
+#define OCLS_STEPS_BEGIN uint steps[1]
+#define OCLS_STEPS_END(n) ((void)0)
 #endif
 
 /* A sun ray in the units of one level-q grid (see "Levels" above): it starts
@@ -575,10 +583,7 @@ __kernel void shadow_cells(__global const float *h, const int H, const int W,
 #endif
                            )
 {
-    uint steps[OCLS_STATS_LEVELS];
-#ifdef OCLS_STATS
-    for (int l = 0; l < OCLS_STATS_LEVELS; ++l) steps[l] = 0u;
-#endif
+    OCLS_STEPS_BEGIN;
     const int j = get_global_id(0), i = get_global_id(1);
     if (j >= W || i >= H) return;
     const int idx = i * W + j;
@@ -595,10 +600,7 @@ __kernel void shadow_cells(__global const float *h, const int H, const int W,
         }
     }
 #endif
-#ifdef OCLS_STATS
-    for (int l = 0; l < nlev; ++l)
-        if (steps[l]) atomic_add(&stats[l], steps[l]);
-#endif
+    OCLS_STEPS_END(nlev);
 #ifdef OCLS_OUT_MASK
     mask[idx] = nodata ? (uchar)255 : (uchar)shadow;
 #endif
@@ -673,10 +675,7 @@ __kernel void shadow_pixels(__global const float *h, __global const float *coars
 #endif
                             )
 {
-    uint steps[OCLS_STATS_LEVELS];
-#ifdef OCLS_STATS
-    for (int l = 0; l < OCLS_STATS_LEVELS; ++l) steps[l] = 0u;
-#endif
+    OCLS_STEPS_BEGIN;
     const int c = get_global_id(0), r = get_global_id(1);
     if (c >= width || r >= height) return;
     const int idx = r * width + c;
@@ -705,10 +704,7 @@ __kernel void shadow_pixels(__global const float *h, __global const float *coars
         }
 #endif
     }
-#ifdef OCLS_STATS
-    for (int l = 0; l < nlev; ++l)
-        if (steps[l]) atomic_add(&stats[l], steps[l]);
-#endif
+    OCLS_STEPS_END(nlev);
 #ifdef OCLS_OUT_MASK
     flag[idx] = valid ? (uchar)shadow : (uchar)255;
 #endif

@@ -1,5 +1,51 @@
 /* terrain.cl — heightmap terrain ray casting into a G-buffer (paper 004, voxel bisection).
  *
+ * ABI
+ *   terrain_cast(h, H, W, ext, ext_off, levels, dil, dil_lev, g0, g1, g2, r0, r1, r2, cam, IW, IH, cu, cv,
+ *                geo, hrange, tex, tex_levels, ntex,
+ *                position, normal, uv, uv_grad, depth, albedo)
+ *   global size (>= IW, >= IH), any local size; one work-item per pixel.
+ *     __global const float *h      H*W relative heights, row-major, NaN = hole
+ *     int H, W                     map rows, cols
+ *     __global const float2 *ext   extrema pyramid levels 1..levels-1 (pyramid.cl)
+ *     __global const int *ext_off  level offsets in float2, indexed by level ([0] unused)
+ *     int levels                   pyramid levels counting level 0
+ *     __global const float *dil    dilated max levels 0..levels-1, back to back (terrain_dilate)
+ *     __global const int2 *dil_lev per level: (offset in floats, columns); read by bisect only
+ *     float4 g0, g1, g2            rows of the 3x4 affine map view -> (u', v', z)
+ *     float4 r0, r1, r2            rows of the world -> view rotation (xyz)
+ *     float4 cam                   (sx, sy, near, far): pixel-ray slopes (pinhole) or half
+ *                                  extents (-D OCLS_ORTHO), see oclshade/camera.py
+ *     int IW, IH                   image width, height in pixels
+ *     int cu, cv                   centre sample (col, row)
+ *     float4 geo                   (dx, dy, kx, ky)
+ *     float4 hrange                (hmin, hmax, -, -) finite relative heights
+ *     __global const float4 *tex   colour mip levels (linear RGBA), back to back (-D OCLS_COLOUR)
+ *     __global const int4 *tex_levels  per level (offset in float4, cols, rows, 0)
+ *     int ntex                     number of colour levels
+ *   outputs (layout of oclshade/gbuffer.py), IW*IH each, row-major from the top row:
+ *     float4 position (view xyz, w = 1 hit / 0 empty), float4 normal (view, w = 0),
+ *     float2 uv, float4 uv_grad (du/dc, dv/dc, du/dr, dv/dr), float depth (+inf empty),
+ *     float4 albedo (linear RGBA).  Empty pixels: 0 everywhere, depth +inf.
+ *   terrain_dilate(h, H, W, ext, ext_off, l, Rl, Cl, out, off)
+ *   builds dilated max level l for bisect, once per map, launched for l = 0..levels-1;
+ *   global size (>= Cl, >= Rl), any local size; one work-item per output texel.
+ *     h, H, W, ext, ext_off        as for terrain_cast
+ *     int l                        the level written
+ *     int Rl, Cl                   its rows, cols: ceil(Hp / 2^l), ceil(Wp / 2^l) with
+ *                                  Hp, Wp = max(H-1, 1), max(W-1, 1)
+ *     __global float *out          all dilated levels back to back (the dil of terrain_cast)
+ *     int off                      offset of level l in out (floats); texel (R, C) at off + R*Cl + C
+ *   -D options (both kernels; the host passes -cl-std=CL1.2 and nothing else, no fast-math):
+ *     OCLS_METHOD    1 bisect (default), 2 march, 3 dda
+ *     OCLS_ORTHO     orthographic camera (cam.xy = half extents) instead of pinhole
+ *     OCLS_SPHERE    paraboloid base of a sphere (geo.zw = kx, ky) instead of the plane
+ *     OCLS_COLOUR    albedo from the colour mip levels (tex, tex_levels, ntex), else a
+ *                    hypsometric tint of the height
+ *     OCLS_DESCEND   bisect: levels descended per split (int >= 1, default 3; 1 = paper's halving)
+ *     OCLS_MARCH_STEP  march: step in cells (float, default 0.5f)
+ *     OCLS_MAX_IT    iteration bound of every loop (default 65536; reaching it = empty pixel)
+ *
  * Surface (paper 004 sec. 4-5, differential heightmap): a base surface plus
  * per-sample deviations h (relative float32 heights, NaN = hole), bilinear
  * over each patch between 4 samples; no surface over a patch with a hole
@@ -53,37 +99,6 @@
  *   All loops are bounded by OCLS_MAX_IT iterations (not reached on valid
  *   input; reaching it reports an empty pixel).
  *
- * ABI
- *   terrain_cast(h, H, W, ext, ext_off, levels, dil, dil_lev, g0, g1, g2, r0, r1, r2, cam, IW, IH, cu, cv,
- *                geo, hrange, tex, tex_levels, ntex,
- *                position, normal, uv, uv_grad, depth, albedo)
- *   global size (>= IW, >= IH), any local size; one work-item per pixel.
- *     __global const float *h      H*W relative heights, row-major, NaN = hole
- *     int H, W                     map rows, cols
- *     __global const float2 *ext   extrema pyramid levels 1..levels-1 (pyramid.cl)
- *     __global const int *ext_off  level offsets in float2, indexed by level ([0] unused)
- *     int levels                   pyramid levels counting level 0
- *     __global const float *dil    dilated max levels 0..levels-1, back to back (terrain_dilate)
- *     __global const int2 *dil_lev per level: (offset in floats, columns); read by bisect only
- *     float4 g0, g1, g2            rows of the 3x4 affine map view -> (u', v', z)
- *     float4 r0, r1, r2            rows of the world -> view rotation (xyz)
- *     float4 cam                   (sx, sy, near, far): pixel-ray slopes (pinhole) or half
- *                                  extents (-D OCLS_ORTHO), see oclshade/camera.py
- *     int IW, IH                   image width, height in pixels
- *     int cu, cv                   centre sample (col, row)
- *     float4 geo                   (dx, dy, kx, ky)
- *     float4 hrange                (hmin, hmax, -, -) finite relative heights
- *     __global const float4 *tex   colour mip levels (linear RGBA), back to back (-D OCLS_COLOUR)
- *     __global const int4 *tex_levels  per level (offset in float4, cols, rows, 0)
- *     int ntex                     number of colour levels
- *   outputs (layout of oclshade/gbuffer.py), IW*IH each, row-major from the top row:
- *     float4 position (view xyz, w = 1 hit / 0 empty), float4 normal (view, w = 0),
- *     float2 uv, float4 uv_grad (du/dc, dv/dc, du/dr, dv/dr), float depth (+inf empty),
- *     float4 albedo (linear RGBA).  Empty pixels: 0 everywhere, depth +inf.
- *   -D options: OCLS_METHOD (1|2|3), OCLS_ORTHO, OCLS_SPHERE, OCLS_COLOUR,
- *     OCLS_DESCEND (int >= 1), OCLS_MARCH_STEP (float, cells), OCLS_MAX_IT (int).
- *   terrain_dilate(h, H, W, ext, ext_off, l, Rl, Cl, out, off): see its comment; the
- *     host launches it once per level when it builds the extrema pyramid's companion.
  */
 #include "common.h"
 

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import hashlib
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pyopencl as cl
@@ -130,8 +130,7 @@ class TerrainScene:
     def frame(self, camera: Camera, sun: SunLike, settings: FrameSettings = FrameSettings()) -> Frame:
         """Render one frame; passes whose inputs are unchanged since the last frame are reused."""
         sun = as_sun(sun)
-        lighting = Lighting(sun=sun, sun_intensity=settings.lighting.sun_intensity, sky=settings.lighting.sky,
-                            background=settings.lighting.background)
+        lighting = replace(settings.lighting, sun=sun)
         ao_on = settings.ao is not None and settings.ao.radius > 0 and settings.ao.m > 0
         g_key = _digest(camera_digest(camera), settings.caster)
         keys = {

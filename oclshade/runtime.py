@@ -260,6 +260,28 @@ class Runtime:
         ly = max(1, ls // lx)
         return (-(-cols // lx) * lx, -(-rows // ly) * ly), (lx, ly)
 
+    def count_in_bands(self, kernel: cl.Kernel, args: tuple, n_counters: int, cols: int, rows: int,
+                       band_items: int) -> np.ndarray:
+        """Run a profiling kernel whose last argument is ``n_counters`` uint32 counters
+        (atomically incremented) after ``args``, one work-item per (col, row), in bands of
+        rows of at most ``band_items`` items; each band starts from zero and the bands
+        are summed here in int64, so the uint32 counters cannot wrap over a large launch."""
+        zero = np.zeros(n_counters, np.uint32)
+        counters = cl.Buffer(self.context, cl.mem_flags.READ_WRITE | cl.mem_flags.COPY_HOST_PTR, hostbuf=zero)
+        kernel.set_args(*args, counters)
+        (gx, gy), (lx, ly) = self.grid_2d(kernel, cols, rows)
+        band = max(ly, band_items // gx // ly * ly)
+        total = np.zeros(n_counters, np.int64)
+        part = np.empty_like(zero)
+        for r0 in range(0, gy, band):
+            cl.enqueue_copy(self.queue, counters, zero)
+            cl.enqueue_nd_range_kernel(self.queue, kernel, (gx, min(band, gy - r0)), (lx, ly),
+                                       global_work_offset=(0, r0))
+            cl.enqueue_copy(self.queue, part, counters)
+            self.queue.finish()
+            total += part
+        return total
+
 
 _default_lock = threading.Lock()
 _runtimes: dict[int, Runtime] = {}

@@ -264,23 +264,9 @@ class ScreenShadowCaster:
         height, width = gb.shape
         kernel = rt.kernel("shadow.cl", "shadow_pixels",
                            PixelShadowFeatures(check_method(method), ("flag",), True).defines())
-        levels = self.pyramid.levels
-        zero = np.zeros(levels, np.uint32)
-        stats = cl.Buffer(rt.context, cl.mem_flags.READ_WRITE | cl.mem_flags.COPY_HOST_PTR, hostbuf=zero)
         flag = rt.empty(height * width, "pixel shadow flag")
-        kernel.set_args(*self._args(gb, as_sun(sun), lod, 0.0, 1.0), flag, self._dummy, self._dummy, stats)
-        (gx, gy), (lx, ly) = rt.grid_2d(kernel, width, height)
-        band = max(ly, band_pixels // gx // ly * ly)
-        total = np.zeros(levels, np.int64)
-        part = np.empty_like(zero)
-        for r0 in range(0, gy, band):
-            cl.enqueue_copy(rt.queue, stats, zero)
-            cl.enqueue_nd_range_kernel(rt.queue, kernel, (gx, min(band, gy - r0)), (lx, ly),
-                                       global_work_offset=(0, r0))
-            cl.enqueue_copy(rt.queue, part, stats)
-            rt.queue.finish()
-            total += part
-        return total
+        args = (*self._args(gb, as_sun(sun), lod, 0.0, 1.0), flag, self._dummy, self._dummy)
+        return rt.count_in_bands(kernel, args, self.pyramid.levels, width, height, band_pixels)
 
     def _device_gbuffer(self, gbuffer: GBufferLike) -> PixelBuffers:
         if isinstance(gbuffer, PixelBuffers):

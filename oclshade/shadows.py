@@ -251,24 +251,10 @@ class ShadowCaster:
         rows, cols = self.heightmap.shape
         features = ShadowFeatures(check_method(method), ("mask",), True, self.certificates)
         kernel = rt.kernel("shadow.cl", "shadow_cells", features.defines())
-        zero = np.zeros(pyr.levels, np.uint32)
-        stats_buf = cl.Buffer(rt.context, cl.mem_flags.READ_WRITE | cl.mem_flags.COPY_HOST_PTR, hostbuf=zero)
         mask = rt.empty(rows * cols, "shadow mask")
         cert = self._certifier(features)(as_sun(sun))   # kept referenced while the kernel runs
-        kernel.set_args(*self._args(as_sun(sun), 0.0, 1.0), mask, self._dummy_u8, self._dummy_f32,
-                        *cert, stats_buf)
-        (gx, gy), (lx, ly) = self._work_size(kernel)
-        band = max(ly, band_cells // gx // ly * ly)
-        total = np.zeros(pyr.levels, np.int64)
-        part = np.empty_like(zero)
-        for r0 in range(0, gy, band):
-            cl.enqueue_copy(rt.queue, stats_buf, zero)
-            cl.enqueue_nd_range_kernel(rt.queue, kernel, (gx, min(band, gy - r0)), (lx, ly),
-                                       global_work_offset=(0, r0))
-            cl.enqueue_copy(rt.queue, part, stats_buf)
-            rt.queue.finish()
-            total += part
-        return total
+        args = (*self._args(as_sun(sun), 0.0, 1.0), mask, self._dummy_u8, self._dummy_f32, *cert)
+        return rt.count_in_bands(kernel, args, pyr.levels, cols, rows, band_cells)
 
     def tile_certificates(self, sun: SunLike) -> np.ndarray:
         """The far-field certificates of a tracing sun as float32 (tile rows, tile cols,

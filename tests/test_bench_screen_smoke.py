@@ -1,30 +1,16 @@
 """Smoke test of bench/screen_shadows.py: a quick canyon-only run writes its three reports."""
 from __future__ import annotations
 
-import json
-import subprocess
-import sys
 from pathlib import Path
 
-import pytest
-
-SCRIPT = Path(__file__).resolve().parents[1] / "bench" / "screen_shadows.py"
+from bench_smoke import needs_bench, run_quick
 
 
-@pytest.mark.skipif(not SCRIPT.is_file(), reason="bench/ is not in this tree (installed package only)")
+@needs_bench
 def test_screen_shadows_quick(tmp_path: Path) -> None:
     out = tmp_path / "results"
     # puget is asked for with an absent data folder: it must be recorded as skipped, not fail
-    cmd = [sys.executable, str(SCRIPT), "--quick", "--datasets", "canyon,puget",
-           "--data", str(tmp_path / "no-shared-data"), "--out", str(out)]
-    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
-    assert proc.returncode == 0, proc.stderr[-4000:]
-    for ext in ("json", "md", "png"):
-        f = out / f"screen_shadows.{ext}"
-        assert f.is_file() and f.stat().st_size > 0, f
-    assert (out / "screen_shadows.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-
-    res = json.loads((out / "screen_shadows.json").read_text())
+    res = run_quick("screen_shadows", out, "--datasets", "canyon,puget", "--data", str(tmp_path / "no-shared-data"))
     assert {"date", "cpu", "cores", "device", "pocl_version", "command"} <= set(res["meta"])
     by_name = {d["name"]: d for d in res["datasets"]}
     assert by_name["puget"]["skipped"]

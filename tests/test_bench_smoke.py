@@ -1,30 +1,16 @@
 """Smoke test of bench/shadow_masks.py: a quick synthetic-only run writes its three reports."""
 from __future__ import annotations
 
-import json
-import subprocess
-import sys
 from pathlib import Path
 
-import pytest
-
-SCRIPT = Path(__file__).resolve().parents[1] / "bench" / "shadow_masks.py"
+from bench_smoke import needs_bench, run_quick
 
 
-@pytest.mark.skipif(not SCRIPT.is_file(), reason="bench/ is not in this tree (installed package only)")
+@needs_bench
 def test_shadow_masks_quick(tmp_path: Path) -> None:
     out = tmp_path / "results"
     # puget is asked for with an absent data folder: it must be recorded as skipped, not fail
-    cmd = [sys.executable, str(SCRIPT), "--quick", "--datasets", "synthetic,puget",
-           "--data", str(tmp_path / "no-shared-data"), "--out", str(out)]
-    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
-    assert proc.returncode == 0, proc.stderr[-4000:]
-    for ext in ("json", "md", "png"):
-        f = out / f"shadow_masks.{ext}"
-        assert f.is_file() and f.stat().st_size > 0, f
-    assert (out / "shadow_masks.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-
-    res = json.loads((out / "shadow_masks.json").read_text())
+    res = run_quick("shadow_masks", out, "--datasets", "synthetic,puget", "--data", str(tmp_path / "no-shared-data"))
     assert {"meta", "config", "datasets", "speedups"} <= set(res)
     assert {"date", "cpu", "cores", "device", "pocl_version", "platform_version", "numpy", "pyopencl",
             "command"} <= set(res["meta"])
@@ -47,16 +33,9 @@ def test_shadow_masks_quick(tmp_path: Path) -> None:
     assert "## canyon" in md and "| exact |" in md
 
 
-HEADLINES = SCRIPT.parent / "headlines.py"
-
-
-@pytest.mark.skipif(not HEADLINES.is_file(), reason="bench/ is not in this tree (installed package only)")
+@needs_bench
 def test_headlines_quick(tmp_path: Path) -> None:
-    cmd = [sys.executable, str(HEADLINES), "--quick", "--reps", "1", "--data", str(tmp_path / "none"),
-           "--out", str(tmp_path)]
-    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
-    assert proc.returncode == 0, proc.stderr
-    res = json.loads((tmp_path / "headlines.json").read_text())
+    res = run_quick("headlines", tmp_path, "--reps", "1", "--data", str(tmp_path / "none"), plot=False)
     assert [r["map"] for r in res["shadow_masks"]] == ["canyon 256^2"] * 2       # puget absent: left out
     assert set(res["render"]["ms"]) == {"bisect", "dda", "march"}
     assert all(res["screen"][k] > 0 for k in ("shadows_exact_ms", "shadows_maxmip_ms", "ao_ms"))

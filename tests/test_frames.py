@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from oclshade.camera import frame_heightmap
-from oclshade.compose import compose
+from oclshade.compose import Lighting, compose
 from oclshade.frames import AOSettings, FrameSettings, TerrainScene
 from oclshade.heightmap import Heightmap
 from oclshade.screen_shadows import ScreenShadowCaster
@@ -28,11 +28,7 @@ def test_frame_equals_passes_run_by_hand(scene_parts):
     gbuf = TerrainRenderer(Heightfield(hm)).render(camera)
     shadow = ScreenShadowCaster(hm).shade(gbuf, (135.0, 12.0)).coefficient
     ao = SSAO().compute(gbuf, camera.projection_matrix, radius=90.0, m=16)
-    lighting = FrameSettings().lighting
-    from oclshade.compose import Lighting
-    expected = compose(gbuf, camera, Lighting(sun=(135.0, 12.0), sun_intensity=lighting.sun_intensity,
-                                              sky=lighting.sky, background=lighting.background),
-                       shadow=shadow, ao=ao)
+    expected = compose(gbuf, camera, Lighting(sun=(135.0, 12.0)), shadow=shadow, ao=ao)
     assert np.array_equal(frame.image, expected)
     assert 0.0 < (shadow[gbuf.hit] < 1.0).mean() < 1.0, "the test view must show both shadow and light"
 

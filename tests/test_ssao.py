@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from bench_smoke import needs_bench, run_quick
 
 from oclshade import reference as ref
 from oclshade.heightmap import Heightmap
@@ -472,20 +473,10 @@ def test_write_ao_exr_round_trip(ssao: SSAO, tmp_path: Path) -> None:
         write_ao_exr(tmp_path / "ao.tif", ao)
 
 
-BENCH = ROOT / "bench" / "ssao.py"
-
-
-@pytest.mark.skipif(not BENCH.is_file(), reason="bench/ is not in this tree (installed package only)")
+@needs_bench
 def test_bench_quick_smoke(tmp_path: Path) -> None:
-    out = tmp_path / "results"
-    cmd = [sys.executable, str(BENCH), "--quick", "--datasets", "synthetic,santo", "--data",
-           str(tmp_path / "no-shared-data"), "--out", str(out)]
-    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
-    assert proc.returncode == 0, proc.stderr[-4000:]
-    for ext in ("json", "md", "png"):
-        assert (out / f"ssao.{ext}").stat().st_size > 0
-    import json
-    res = json.loads((out / "ssao.json").read_text())
+    res = run_quick("ssao", tmp_path / "results", "--datasets", "synthetic,santo",
+                    "--data", str(tmp_path / "no-shared-data"))
     assert {"date", "cpu", "cores", "pocl_version"} <= set(res["meta"])
     assert [s["dataset"] for s in res["skipped"]] == ["santo"]
     assert [(c["dataset"], c["view"]) for c in res["cases"]] == [("synthetic", "topdown"), ("synthetic", "oblique")]
