@@ -118,6 +118,12 @@ def _patch_slope(h: np.ndarray, r: int, c: int, ux: float, uy: float) -> float:
     return max(ux * top, ux * bottom) + max(uy * left, uy * right)
 
 
+def _widened(hi: float, lo: float) -> tuple[float, float]:
+    """(hi, lo) of float32 differences widened to bound the exact ones."""
+    e = FLOAT32_EPS * max(abs(hi), abs(lo))
+    return hi + e, lo - e
+
+
 class SlopeFronts:
     """Per-map data of the no-shadow bound (see the module docstring).
 
@@ -130,15 +136,20 @@ class SlopeFronts:
 
     def __init__(self, h32: np.ndarray):
         self._h = h32                    # the kernel's float32 relative heights (read-only)
-        h = h32.astype(np.float64)
-        dxe, dye = np.diff(h, axis=1), np.diff(h, axis=0)
-        self.relief = float(h.max() - h.min())
+        self.relief = float(h32.max()) - float(h32.min())
+        rows, cols = h32.shape
+        # Edge differences in float32, one axis at a time into one scratch array (a
+        # float64 copy of a 4096^2 map costs more than the whole shadow pass).  Each is
+        # rounded by at most half an ulp of itself, so widening the extremes by eps32
+        # times the largest magnitude keeps them bounds of the exact differences.
+        scratch = np.empty(max(rows * (cols - 1), (rows - 1) * cols), np.float32)
+        dxe = np.subtract(h32[:, 1:], h32[:, :-1], out=scratch[:rows * (cols - 1)].reshape(rows, cols - 1))
         ix = (np.unravel_index(int(np.argmax(dxe)), dxe.shape), np.unravel_index(int(np.argmin(dxe)), dxe.shape))
+        self.x_ext = _widened(float(dxe[ix[0]]), float(dxe[ix[1]]))      # max, min x-edge difference
+        dye = np.subtract(h32[1:], h32[:-1], out=scratch[:(rows - 1) * cols].reshape(rows - 1, cols))
         iy = (np.unravel_index(int(np.argmax(dye)), dye.shape), np.unravel_index(int(np.argmin(dye)), dye.shape))
-        self.x_ext = (float(dxe[ix[0]]), float(dxe[ix[1]]))      # max, min x-edge difference
-        self.y_ext = (float(dye[iy[0]]), float(dye[iy[1]]))
+        self.y_ext = _widened(float(dye[iy[0]]), float(dye[iy[1]]))
         self.axis_step = (max(abs(v) for v in self.x_ext), max(abs(v) for v in self.y_ext))
-        rows, cols = h.shape
         # patches holding the extreme edges (an x-edge (r, c) is in patches (r-1, c), (r, c))
         self._probe = sorted({(min(r, rows - 2), c) for r, c in ix} | {(r, min(c, cols - 2)) for r, c in iy})
         self._fronts: dict[tuple[int, int], np.ndarray] | None = None
@@ -171,7 +182,7 @@ class SlopeFronts:
 def slope_fronts(hm: Heightmap) -> SlopeFronts | None:
     """The per-map data of the bound, or None where no bound holds (holes, one row or column)."""
     h = hm.relative32
-    if min(h.shape) < 2 or not np.isfinite(h).all():
+    if min(h.shape) < 2 or np.isnan(h.max()):     # NaN propagates through max; inf is never stored
         return None
     return SlopeFronts(h)
 
