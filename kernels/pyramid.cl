@@ -57,6 +57,16 @@ __kernel void extrema_base(__global const float *h, const int H, const int W,
     const int r_end = min(2 * r + 1, Hp - 1) + 1, c_end = min(2 * c + 1, Wp - 1) + 1;
     float hi = -INFINITY, lo = INFINITY;
     int hole = 0;
+    if (r_end == 2 * r + 2 && c_end == 2 * c + 2) {   /* a full 3 x 3 block: straight-line code */
+        __global const float *p = h + 2 * r * W + 2 * c;
+#define OCLS_TAKE(k) { const float v = p[k]; hole |= isnan(v); hi = fmax(hi, v); lo = fmin(lo, v); }
+        OCLS_TAKE(0) OCLS_TAKE(1) OCLS_TAKE(2)
+        OCLS_TAKE(W) OCLS_TAKE(W + 1) OCLS_TAKE(W + 2)
+        OCLS_TAKE(2 * W) OCLS_TAKE(2 * W + 1) OCLS_TAKE(2 * W + 2)
+#undef OCLS_TAKE
+        out[r * C + c] = (float2)(hi, hole ? -INFINITY : lo);
+        return;
+    }
     for (int i = 2 * r; i <= r_end; ++i) {
         for (int j = 2 * c; j <= c_end; ++j) {
             const float v = ocls_sample(h, H, W, i, j);

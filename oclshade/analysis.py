@@ -67,6 +67,7 @@ Not covered, by decision:
 from __future__ import annotations
 
 import math
+from functools import cached_property
 
 import numpy as np
 
@@ -79,6 +80,7 @@ QUADRANTS = ((1, 1), (1, -1), (-1, 1), (-1, -1))
 
 
 PIVOT_DIRECTIONS = 4
+SAMPLE_ROWS = 16         # patch-row stride of SlopeFronts.sampled_slope
 
 
 def _pareto_front(x: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -125,18 +127,38 @@ def _widened(hi: float, lo: float) -> tuple[float, float]:
 
 
 class SlopeFronts:
-    """Per-map data of the no-shadow bound (see the module docstring).
+    """Per-map data of the no-shadow bound (see the module docstring), in three stages
+    each computed on first need:
 
-    Built in O(N) from the edge differences: their extremes give, per sun, an
-    upper bound U (the separable bound |ux| max x-edge + |uy| max y-edge) and
-    a lower bound L (the exact slope of the patches holding those extremes)
-    on G.  Only a sun with L < w <= U + margin needs G itself; the Pareto
-    fronts are built then, once.
+    * a sample: the slopes of every SAMPLE_ROWS-th patch row, whose maximum is a
+      lower bound on G (a few ms on 4096^2: a low sun stops here, it cannot skip);
+    * the edge extremes, O(N): an upper bound U (the separable bound |ux| max
+      x-edge + |uy| max y-edge) and a lower bound L (the exact slope of the
+      patches holding those extremes) on G, and the margin's numbers;
+    * the Pareto fronts, for a sun with L < w <= U + margin, which needs G itself.
     """
 
     def __init__(self, h32: np.ndarray):
         self._h = h32                    # the kernel's float32 relative heights (read-only)
-        self.relief = float(h32.max()) - float(h32.min())
+        self._fronts: dict[tuple[int, int], np.ndarray] | None = None
+
+    def sampled_slope(self, ux: float, uy: float) -> float:
+        """Largest directional slope of the patches in every SAMPLE_ROWS-th patch row: <= G."""
+        h = self._h
+        rows = np.arange(0, h.shape[0] - 1, SAMPLE_ROWS)
+        top, bottom = np.diff(h[rows], axis=1), np.diff(h[rows + 1], axis=1)
+        left, right = h[rows + 1, :-1] - h[rows, :-1], h[rows + 1, 1:] - h[rows, 1:]
+        slope = np.maximum(ux * top, ux * bottom) + np.maximum(uy * left, uy * right)
+        return float(slope.max())
+
+    @cached_property
+    def relief(self) -> float:
+        return float(self._h.max()) - float(self._h.min())
+
+    @cached_property
+    def _extremes(self) -> tuple[tuple[float, float], tuple[float, float], list[tuple[int, int]]]:
+        """(max, min) x-edge and y-edge differences, and the patches holding them."""
+        h32 = self._h
         rows, cols = h32.shape
         # Edge differences in float32, one axis at a time into one scratch array (a
         # float64 copy of a 4096^2 map costs more than the whole shadow pass).  Each is
@@ -145,14 +167,19 @@ class SlopeFronts:
         scratch = np.empty(max(rows * (cols - 1), (rows - 1) * cols), np.float32)
         dxe = np.subtract(h32[:, 1:], h32[:, :-1], out=scratch[:rows * (cols - 1)].reshape(rows, cols - 1))
         ix = (np.unravel_index(int(np.argmax(dxe)), dxe.shape), np.unravel_index(int(np.argmin(dxe)), dxe.shape))
-        self.x_ext = _widened(float(dxe[ix[0]]), float(dxe[ix[1]]))      # max, min x-edge difference
+        x_ext = _widened(float(dxe[ix[0]]), float(dxe[ix[1]]))
         dye = np.subtract(h32[1:], h32[:-1], out=scratch[:(rows - 1) * cols].reshape(rows - 1, cols))
         iy = (np.unravel_index(int(np.argmax(dye)), dye.shape), np.unravel_index(int(np.argmin(dye)), dye.shape))
-        self.y_ext = _widened(float(dye[iy[0]]), float(dye[iy[1]]))
-        self.axis_step = (max(abs(v) for v in self.x_ext), max(abs(v) for v in self.y_ext))
+        y_ext = _widened(float(dye[iy[0]]), float(dye[iy[1]]))
         # patches holding the extreme edges (an x-edge (r, c) is in patches (r-1, c), (r, c))
-        self._probe = sorted({(min(r, rows - 2), c) for r, c in ix} | {(r, min(c, cols - 2)) for r, c in iy})
-        self._fronts: dict[tuple[int, int], np.ndarray] | None = None
+        probe = sorted({(min(r, rows - 2), c) for r, c in ix} | {(r, min(c, cols - 2)) for r, c in iy})
+        return x_ext, y_ext, probe
+
+    @property
+    def axis_step(self) -> tuple[float, float]:
+        """The largest |x-edge| and |y-edge| difference."""
+        x_ext, y_ext, _ = self._extremes
+        return max(abs(v) for v in x_ext), max(abs(v) for v in y_ext)
 
     @property
     def nbytes(self) -> int:
@@ -167,9 +194,9 @@ class SlopeFronts:
 
     def slope_bounds(self, ux: float, uy: float) -> tuple[float, float]:
         """(L, U) with L <= G <= U, in O(1)."""
-        lower = max(_patch_slope(self._h, r, c, ux, uy) for r, c in self._probe)
-        upper = (ux * self.x_ext[0] if ux >= 0 else ux * self.x_ext[1]) + \
-                (uy * self.y_ext[0] if uy >= 0 else uy * self.y_ext[1])
+        x_ext, y_ext, probe = self._extremes
+        lower = max(_patch_slope(self._h, r, c, ux, uy) for r, c in probe)
+        upper = (ux * x_ext[0] if ux >= 0 else ux * x_ext[1]) + (uy * y_ext[0] if uy >= 0 else uy * y_ext[1])
         return lower, upper
 
     def steepest_slope(self, ux: float, uy: float) -> float:
@@ -218,6 +245,8 @@ class SceneAnalysis:
         if sun.at_zenith:
             return True
         ux, uy, w = sun.ray(self.heightmap.dx, self.heightmap.dy)
+        if w <= self.fronts.sampled_slope(ux, uy):      # <= G: no skip (the margin only adds)
+            return False
         lower, upper = self.fronts.slope_bounds(ux, uy)
         margin = self.margin(w)
         if w <= lower + margin:         # G + margin >= w: no skip, and no need for G itself

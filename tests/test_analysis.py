@@ -72,6 +72,8 @@ def test_skip_identical_to_traversal_around_the_bound(h, az, cell, rel):
     assert g == pytest.approx(brute_force_slope(hm, probe), rel=1e-12, abs=1e-300)
     lower, upper = analysis.fronts.slope_bounds(*probe.ray(hm.dx, hm.dy)[:2])
     assert lower <= g <= upper
+    sampled = analysis.fronts.sampled_slope(*probe.ray(hm.dx, hm.dy)[:2])   # float32 differences
+    assert sampled <= g + 1e-6 * abs(g) + 1e-30
     bound = analysis.no_shadow_bound(probe)
     above = sun_at_tan(az, max(bound + rel * abs(bound) + 1e-9, 1e-7))   # G may be < 0: downhill
     below = sun_at_tan(az, max(g - rel * abs(g), 1e-7))
