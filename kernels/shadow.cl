@@ -222,8 +222,14 @@ OCLS_INLINE int patch_hits(__global const float *h, int H, int W, int pr, int pc
         s1 = (b - a) * uy;
         s2 = 0.0f;
     } else {
-        const float h00 = ocls_sample(h, H, W, pr, pc), h01 = ocls_sample(h, H, W, pr, pc + 1);
-        const float h10 = ocls_sample(h, H, W, pr + 1, pc), h11 = ocls_sample(h, H, W, pr + 1, pc + 1);
+        float h00, h01, h10, h11;
+        if (H > 1 && W > 1) {          /* every patch has its four samples: no bounds checks */
+            __global const float *p = h + pr * W + pc;
+            h00 = p[0]; h01 = p[1]; h10 = p[W]; h11 = p[W + 1];
+        } else {
+            h00 = ocls_sample(h, H, W, pr, pc); h01 = ocls_sample(h, H, W, pr, pc + 1);
+            h10 = ocls_sample(h, H, W, pr + 1, pc); h11 = ocls_sample(h, H, W, pr + 1, pc + 1);
+        }
         if (isnan(h00) || isnan(h01) || isnan(h10) || isnan(h11)) return 0;
         const float ex = h01 - h00, ey = h10 - h00, k = (h00 - h01) - (h10 - h11);
         s_a = h00 + ex * fx + ey * fy + k * (fx * fy);
