@@ -69,6 +69,46 @@ def sample_kernel(m: int, distribution: str) -> np.ndarray:
     return out
 
 
+def disk_points(n: int) -> np.ndarray:
+    """The line samples' disk set (``AOFeatures.lines``): n points stratified and uniform in the
+    area of the unit disk (the Vogel spiral: radius sqrt((i + 1/2) / n), azimuth 2 pi frac(i g),
+    g the golden ratio's fraction), float64 (n, 2)."""
+    i = np.arange(n)
+    r = np.sqrt((i + 0.5) / n)
+    phi = 2.0 * np.pi * ((i * _GOLDEN[0]) % 1.0)
+    return np.stack([r * np.cos(phi), r * np.sin(phi)], axis=1)
+
+
+def line_table(m: int) -> np.ndarray:
+    """The kernel's table for line samples: float32 (m, 3) = (x, y, sqrt(1 - x^2 - y^2)) of
+    :func:`disk_points` (the third: the half-length of the unit sphere's chord through the point)."""
+    d = disk_points(m)
+    return np.stack([d[:, 0], d[:, 1], np.sqrt(np.maximum(1.0 - (d * d).sum(axis=1), 0.0))], axis=1).astype(np.float32)
+
+
+def line_eye(projection: np.ndarray) -> np.ndarray:
+    """The point every pixel's line of sight passes through, homogeneous (float64 (4,)), scaled so
+    that ``E.xyz - E.w X`` points from a view-space point X towards the camera.
+
+    The lines of sight are the lines of constant pixel: points X with rows 0, 1 and 3 of the
+    projection (x, y, w of clip space) proportional, so E spans the null space of those rows.
+    Perspective: E = (camera centre, 1); orthographic: E = (view direction, 0), oriented to +z
+    (the depth test's convention: a larger view-space z is nearer the camera)."""
+    rows = np.asarray(projection, np.float64)[[0, 1, 3]]
+    _, sv, vt = np.linalg.svd(rows)
+    if not sv[2] > 1e-12 * sv[0]:
+        raise ValueError("projection: rows 0, 1 and 3 (clip x, y, w) must have rank 3 (a camera)")
+    e = vt[-1]
+    if abs(e[3]) > 1e-9 * float(np.abs(e[:3]).max()):
+        return e / e[3]
+    if abs(e[2]) <= 1e-9 * float(np.abs(e[:3]).max()):
+        raise ValueError("projection: the lines of sight lie in the view plane z = const (no depth); "
+                         "line samples need a view direction with a z component")
+    e = e / np.linalg.norm(e[:3]) * np.sign(e[2])
+    e[3] = 0.0
+    return e
+
+
 @dataclass(frozen=True)
 class AOFeatures:
     """Features of the AO pass.  ``normal_map``, ``alpha_map``, ``range_check``, ``plane_test``

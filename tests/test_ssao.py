@@ -74,9 +74,10 @@ def disk_fraction(t: np.ndarray) -> np.ndarray:
 
 
 def assert_matches_twin(ao: np.ndarray, tw: ref.ReferenceAO) -> None:
-    """Kernel vs float64 twin: 1e-6 where no sample is a tie, else within ties / (counted - ties)."""
+    """Kernel vs float64 twin within the twin's bound (point samples: 0 where no sample is a tie,
+    else ties / (counted - ties); line samples: see ref.ssao_lines) + 1e-6."""
     diff = np.abs(ao.astype(np.float64) - tw.ao)
-    bound = np.where(tw.ties > 0, tw.ties / np.maximum(tw.counted - tw.ties, 1), 0.0) + 1e-6
+    bound = tw.bound + 1e-6
     bad = diff > bound
     assert not bad.any(), (f"{bad.sum()} pixels beyond the tie bound, worst {diff[bad].max()} "
                            f"at {np.argwhere(bad)[:3].tolist()}")
