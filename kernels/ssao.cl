@@ -230,29 +230,41 @@ __kernel void ssao_ao(__global const float *restrict pos, __global const float *
     const float8 n0x = OCLS_GATHER8(nrm, ii, 4, 0), n0y = OCLS_GATHER8(nrm, ii, 4, 1), n0z = OCLS_GATHER8(nrm, ii, 4, 2);
     const float8 Px = OCLS_GATHER8(pos, ii, 4, 0), Py = OCLS_GATHER8(pos, ii, 4, 1), Pz = OCLS_GATHER8(pos, ii, 4, 2);
     const float8 nn = OCLS_DOT3(n0x, n0y, n0z, n0x, n0y, n0z);
-    const int8 live = inside & (zc != -INFINITY) & (nn > 1e-12f) & (nn < INFINITY);
+    const int8 live0 = inside & (zc != -INFINITY) & (nn > 1e-12f) & (nn < INFINITY);
     const float8 one = (float8)(1.0f), zero = (float8)(0.0f);
+#ifdef OCLS_LINES
+    /* P's line of sight U = (E.xyz - E.w P) / |.| towards the camera, E = prj[12..15] */
+    const float8 gux = prj[12] - prj[15] * Px, guy = prj[13] - prj[15] * Py, guz = prj[14] - prj[15] * Pz;
+    const float8 gu = OCLS_DOT3(gux, guy, guz, gux, guy, guz);
+    const int8 live = live0 & (gu < INFINITY) & (guz > 0.0f);
+    const float8 ul = select(one, sqrt(gu), live);
+    const float8 Fx = select(zero, gux / ul, live), Fy = select(zero, guy / ul, live), Fz = select(one, guz / ul, live);
+#else
+    const int8 live = live0;
+#endif
     const float8 nl = select(one, sqrt(nn), live);
     const float8 Nx = select(zero, n0x / nl, live), Ny = select(zero, n0y / nl, live), Nz = select(one, n0z / nl, live);
+#ifndef OCLS_LINES
+    const float8 Fx = Nx, Fy = Ny, Fz = Nz;     /* the frame's axis: N (lines: U) */
+#endif
 
-    /* steps 1-2: rotation vector and Gram-Schmidt */
+    /* steps 1-2: rotation vector and Gram-Schmidt against the frame's axis F */
     const uint8 h = ocls_mix8(convert_uint8(cc) ^ (uint8)(ocls_mix((uint)r ^ ocls_mix(seed))));
     const float8 vx = ocls_signed_unit8(h), vy = ocls_signed_unit8(ocls_mix8(h ^ OCLS_HASH_SALT));
-    const float8 vn = vx * Nx + vy * Ny;
-    const float8 gx = vx - Nx * vn, gy = vy - Ny * vn, gz = 0.0f - Nz * vn;
-    const float8 ax = fabs(Nx), ay = fabs(Ny), az = fabs(Nz);
+    const float8 vn = vx * Fx + vy * Fy;
+    const float8 gx = vx - Fx * vn, gy = vy - Fy * vn, gz = 0.0f - Fz * vn;
+    const float8 ax = fabs(Fx), ay = fabs(Fy), az = fabs(Fz);
     const int8 ex = (ax <= ay) & (ax <= az), ey = ~ex & (ay <= az), ez = ~ex & ~ey;
-    const float8 en = select(select(Nz, Ny, ey), Nx, ex);     /* e . N for the axis e */
+    const float8 en = select(select(Fz, Fy, ey), Fx, ex);     /* e . F for the axis e */
     const int8 fallback = ~(OCLS_DOT3(gx, gy, gz, gx, gy, gz) >= 1e-8f);
-    const float8 tx = select(gx, select(zero, one, ex) - Nx * en, fallback);
-    const float8 ty = select(gy, select(zero, one, ey) - Ny * en, fallback);
-    const float8 tz = select(gz, select(zero, one, ez) - Nz * en, fallback);
+    const float8 tx = select(gx, select(zero, one, ex) - Fx * en, fallback);
+    const float8 ty = select(gy, select(zero, one, ey) - Fy * en, fallback);
+    const float8 tz = select(gz, select(zero, one, ez) - Fz * en, fallback);
     const float8 tl = sqrt(OCLS_DOT3(tx, ty, tz, tx, ty, tz));
     const float8 Tx = tx / tl, Ty = ty / tl, Tz = tz / tl;
-    const float8 Bx = Ny * Tz - Nz * Ty, By = Nz * Tx - Nx * Tz, Bz = Nx * Ty - Ny * Tx;
+    const float8 Bx = Fy * Tz - Fz * Ty, By = Fz * Tx - Fx * Tz, Bz = Fx * Ty - Fy * Tx;
     const float8 RTx = Tx * radius, RTy = Ty * radius, RTz = Tz * radius;
     const float8 RBx = Bx * radius, RBy = By * radius, RBz = Bz * radius;
-    const float8 RNx = Nx * radius, RNy = Ny * radius, RNz = Nz * radius;
 
     /* step 3, projected: clip coordinates are linear in A_t, so the pixel's
      * P, R T, R B and R N are projected once (rows prj, see the ABI). */
@@ -265,10 +277,69 @@ __kernel void ssao_ao(__global const float *restrict pos, __global const float *
     const float8 cbu = OCLS_DOT3(prj[0], prj[1], prj[2], RBx, RBy, RBz);
     const float8 cbv = OCLS_DOT3(prj[4], prj[5], prj[6], RBx, RBy, RBz);
     const float8 cbw = OCLS_DOT3(prj[8], prj[9], prj[10], RBx, RBy, RBz);
+    const float fW = (float)W, fH = (float)H;
+
+#ifdef OCLS_LINES
+    /* line samples (see "Line samples"): the chord |t| <= R hs of the line A + t U, cut by the
+     * base plane a + t c >= 0 at t_c = -a / c (c = 0: a >= 0 keeps the chord, a < 0 empties it) */
+    const float8 RnT = radius * OCLS_DOT3(Nx, Ny, Nz, Tx, Ty, Tz), RnB = radius * OCLS_DOT3(Nx, Ny, Nz, Bx, By, Bz);
+    const float8 cN = OCLS_DOT3(Nx, Ny, Nz, Fx, Fy, Fz);
+    const int8 cpos = cN >= 0.0f;
+    const float8 ninv_c = select(-1.0f / cN, (float8)(-INFINITY), cN == 0.0f);
+#ifndef OCLS_PLANE_TEST
+    const float8 inv_uz = 1.0f / Fz;
+#endif
+    float8 len8 = zero, occ8 = zero;
+    for (int t = 0; t < m; ++t) {
+        const float sx = kern[t], sy = kern[mpad + t], hc = radius * kern[2 * mpad + t];
+        const float8 qu = cpu + (ctu * sx + cbu * sy);
+        const float8 qv = cpv + (ctv * sx + cbv * sy);
+        const float8 qw = cpw + (ctw * sx + cbw * sy);
+        const float8 az_t = Pz + (RTz * sx + RBz * sy);
+        const float8 inv = 1.0f / qw;
+        const float8 u = qu * inv, y = qv * inv;
+        const int8 on = (qw > 0.0f) & (u >= 0.0f) & (u < fW) & (y >= 0.0f) & (y < fH);
+        const int8 j = select(ii, convert_int8(y) * W + convert_int8(u), on);
+        const float8 tc = (RnT * sx + RnB * sy) * ninv_c;
+        const float8 lo = select((float8)(-hc), fmax(-hc, tc), cpos);
+        const float8 hi = select(fmin(hc, tc), (float8)(hc), cpos);
+#ifdef OCLS_PLANE_TEST
+        /* solid: t <= t_s, the line below the occluder's plane by delta; a plane not facing
+         * along U (L . U <= 0): the point test at A decides the whole line */
+        const float8 ax_t = Px + (RTx * sx + RBx * sy);
+        const float8 ay_t = Py + (RTy * sx + RBy * sy);
+        const float4 l0 = vload4(j.s0, plane), l1 = vload4(j.s1, plane), l2 = vload4(j.s2, plane);
+        const float4 l3 = vload4(j.s3, plane), l4 = vload4(j.s4, plane), l5 = vload4(j.s5, plane);
+        const float4 l6 = vload4(j.s6, plane), l7 = vload4(j.s7, plane);
+        const float8 lx = (float8)(l0.x, l1.x, l2.x, l3.x, l4.x, l5.x, l6.x, l7.x);
+        const float8 ly = (float8)(l0.y, l1.y, l2.y, l3.y, l4.y, l5.y, l6.y, l7.y);
+        const float8 lz = (float8)(l0.z, l1.z, l2.z, l3.z, l4.z, l5.z, l6.z, l7.z);
+        const float8 ld = (float8)(l0.w, l1.w, l2.w, l3.w, l4.w, l5.w, l6.w, l7.w);
+        const float8 lu = OCLS_DOT3(lx, ly, lz, Fx, Fy, Fz);
+        const float8 la = OCLS_DOT3(lx, ly, lz, ax_t, ay_t, az_t) - ld;
+        const float8 ts = select(select((float8)(-INFINITY), (float8)(INFINITY), la <= -delta), (-delta - la) / lu,
+                                 lu > 0.0f);
+#else
+        /* solid: t <= t_s, the line at least delta behind the stored depth (depth test along U) */
+        const float8 zt = OCLS_GATHER8(zbuf, j, 1, 0);
+        const float8 ts = (zt - delta - az_t) * inv_uz;
+#endif
+        float8 occl = fmax(fmin(hi, ts) - lo, 0.0f);
+#ifdef OCLS_RANGE_CHECK
+#ifdef OCLS_PLANE_TEST
+        const float8 zt = OCLS_GATHER8(zbuf, j, 1, 0);
+#endif
+        occl = select(zero, occl, zt - Pz <= radius);
+#endif
+        len8 += select(zero, fmax(hi - lo, 0.0f), on);
+        occ8 += select(zero, occl, on);
+    }
+    const float8 res = select(one, 1.0f - occ8 / len8, live & (len8 > 0.0f));
+#else
+    const float8 RNx = Nx * radius, RNy = Ny * radius, RNz = Nz * radius;
     const float8 cnu = OCLS_DOT3(prj[0], prj[1], prj[2], RNx, RNy, RNz);
     const float8 cnv = OCLS_DOT3(prj[4], prj[5], prj[6], RNx, RNy, RNz);
     const float8 cnw = OCLS_DOT3(prj[8], prj[9], prj[10], RNx, RNy, RNz);
-    const float fW = (float)W, fH = (float)H;
 
     /* steps 3-5 */
     int8 cnt8 = (int8)(0), occ8 = (int8)(0);
@@ -308,6 +379,7 @@ __kernel void ssao_ao(__global const float *restrict pos, __global const float *
         occ8 -= on & occ;
     }
     const float8 res = select(one, 1.0f - convert_float8(occ8) / convert_float8(cnt8), live & (cnt8 > 0));
+#endif
     if (c0 + 8 <= W) {
         vstore8(res, 0, ao + r * W + c0);
     } else {

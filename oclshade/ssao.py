@@ -39,7 +39,8 @@ import pyopencl as cl
 from .gbuffer import GBuffer
 from .runtime import Runtime, get_runtime
 
-DISTRIBUTIONS = ("paper", "uniform", "centre")
+POINT_DISTRIBUTIONS = ("paper", "uniform", "centre")
+DISTRIBUTIONS = POINT_DISTRIBUTIONS + ("lines",)
 BLURS = ("none", "box", "edge")
 M_MIN, M_MAX = 4, 256
 PAPER_SEED = 2019
@@ -48,8 +49,9 @@ _GOLDEN = (0.6180339887498949, 0.7548776662466927, 0.5698402909980532)
 
 def hemisphere_points(n: int, distribution: str) -> np.ndarray:
     """n points of a tangent-space sample kernel (float64, (n, 3)), see the module docstring."""
-    if distribution not in DISTRIBUTIONS:
-        raise ValueError(f"distribution must be one of {', '.join(DISTRIBUTIONS)}; got {distribution!r}")
+    if distribution not in POINT_DISTRIBUTIONS:
+        raise ValueError(f"distribution must be one of {', '.join(POINT_DISTRIBUTIONS)} (point samples; "
+                         f"'lines' has line_table), got {distribution!r}")
     if distribution == "paper":
         f = np.random.default_rng(PAPER_SEED).random((n, 3))
         return np.stack([2 * f[:, 0] - 1, 2 * f[:, 1] - 1, f[:, 2]], axis=1)
@@ -142,6 +144,7 @@ class AOFeatures:
             "OCLS_ALPHA": self.alpha_map,
             "OCLS_RANGE_CHECK": self.range_check,
             "OCLS_PLANE_TEST": self.plane_test,
+            "OCLS_LINES": self.distribution == "lines",
             "OCLS_BLUR_BOX": self.blur == "box",
             "OCLS_BLUR_EDGE": self.blur == "edge",
         }
@@ -270,7 +273,8 @@ class SSAO:
         self._launch(prep, width, height)
 
         ao = rt.kernel("ssao.cl", "ssao_ao", defines)
-        rows = np.concatenate([0.5 * width * (proj[0] + proj[3]), 0.5 * height * (proj[3] - proj[1]), proj[3]])
+        eye = line_eye(proj) if features.distribution == "lines" else np.zeros(4)
+        rows = np.concatenate([0.5 * width * (proj[0] + proj[3]), 0.5 * height * (proj[3] - proj[1]), proj[3], eye])
         prj = rt.to_device(rows.astype(np.float32), "projection rows")   # referenced until enqueued
         ao.set_args(inputs.position, work["normal"], work["zbuf"], *dims, prj, self._table(m, features.distribution),
                     np.int32(m), np.int32(-(-m // 8) * 8), np.float32(radius), np.float32(delta), np.uint32(seed), work["ao"], *plane)
@@ -319,7 +323,7 @@ class SSAO:
         if key not in self._tables:
             mpad = -(-m // 8) * 8    # structure of arrays x[mpad], y[mpad], z[mpad]; NaN padding
             table = np.full((3, mpad), np.nan, np.float32)
-            table[:, :m] = sample_kernel(m, distribution)[:, :3].T
+            table[:, :m] = (line_table(m) if distribution == "lines" else sample_kernel(m, distribution)[:, :3]).T
             self._tables[key] = self.runtime.to_device(table, "sample kernel")
         return self._tables[key]
 

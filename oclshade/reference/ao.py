@@ -192,32 +192,35 @@ def ssao(position: np.ndarray, normal: np.ndarray, projection: np.ndarray, kerne
 
 
 def ssao_lines(position: np.ndarray, normal: np.ndarray, projection: np.ndarray, m: int, radius: float,
-               delta: float, seed: int = 0, range_check: bool = False,
+               delta: float, seed: int = 0, range_check: bool = False, plane_test: bool = False,
                alpha: np.ndarray | None = None, alpha_eps: float = 0.5,
                normal_map: np.ndarray | None = None, tangent: np.ndarray | None = None) -> ReferenceAO:
     """Twin of ``ssao_prepare`` + ``ssao_ao`` with ``-D OCLS_LINES`` (line samples, see
-    kernels/ssao.cl): the occupied fraction of the hemisphere's volume, integrated along m lines of
-    sight, each through the surface point its pixel stores, so one depth fetch integrates a whole
-    line exactly under the depth-buffer model (everything behind a stored surface is solid).
+    kernels/ssao.cl "Line samples"): the occupied fraction of the hemisphere's volume, integrated
+    analytically along m lines parallel to P's line of sight, one depth (or occluder plane) fetch
+    per line.
 
     ``counted`` holds the lines on screen, ``ties`` those whose pixel, screen-edge, camera-plane
-    (as in :func:`ssao`), range-check or clip-side decision float32 rounding may flip.  ``bound``:
-    a per-sample float32 error bound on both sums (chord ends ``64 eps32 S`` plus the sqrt's error
-    ``min(8 sqrt(eps32) S, 64 eps32 S^2 / h)``, the clip ``64 eps32 (S + |t_c|) / |c|`` when it is
-    active, S = |Q - P| + R + |delta|; a tie line counts 2 R), summed as E, bounds the AO by
-    (E (1 + O / L)) / (L - E), L and O the sums of lengths and occupied lengths."""
+    (as in :func:`ssao`), range-check or occluder-side decision float32 rounding may flip.
+    ``bound`` bounds |kernel - twin| per pixel: each line's two sums (length and occupied length)
+    may differ by e = the chord ends' error 2 (64 eps32 S) (S = R + |delta|), plus, where they fall
+    inside the chord, the base-plane cut's 64 eps32 (S + |t_c|) / |c| and the occluder cut's
+    8 eps32 (|L.w| + |A| + |delta|) / |U . L| (depth: L = (0, 0, 1), L.w = z_t); a tie line adds the most its
+    alternatives differ (another pixel: evaluated; a flipped decision: 2 R).  With E the sum of e,
+    |AO error| <= E (1 + O / L) / (L - E), L and O the sums of lengths and occupied lengths."""
     pos = np.asarray(position, np.float64)
     height, width = pos.shape[:2]
     hit, n = prepare(position, normal, alpha, alpha_eps, normal_map, tangent)
     E = line_eye(projection)
     M = np.asarray(projection, np.float64)
-    flat = pos.reshape(-1, 4)[:, :3]
-    hflat = hit.ravel()
+    zflat = np.where(hit, pos[..., 2], -np.inf).ravel()
+    planes = occluder_planes(pos, normal, hit).reshape(-1, 4) if plane_test else None
     nn = _dot(n, n)
     with np.errstate(invalid="ignore", over="ignore"):
         g = E[:3] - E[3] * pos[..., :3]
         gg = _dot(g, g)
-    live = hit & (nn > 1e-12) & (nn < np.inf) & (gg > 0) & (gg < np.inf)
+        uz = g[..., 2] / np.sqrt(gg)
+    live = hit & (nn > 1e-12) & (nn < np.inf) & (gg < np.inf) & (uz > 0)
     ao = np.ones((height, width))
     counted = np.zeros((height, width), np.int64)
     ties = np.zeros((height, width), np.int64)
@@ -227,65 +230,72 @@ def ssao_lines(position: np.ndarray, normal: np.ndarray, projection: np.ndarray,
         return ReferenceAO(ao, counted, ties, hit, n, bound)
     N = n[rr, cc] / np.sqrt(nn[rr, cc])[:, None]
     P = pos[rr, cc, :3]
-    uP = g[rr, cc] / np.sqrt(gg[rr, cc])[:, None]
-    T, B = _rotated_frame(rotation_vectors(width, height, seed)[rr, cc], uP)
-    nT, nB, cP = _dot(N, T), _dot(N, B), _dot(N, uP)
+    U = g[rr, cc] / np.sqrt(gg[rr, cc])[:, None]          # P's line of sight, towards the camera
+    T, B = _rotated_frame(rotation_vectors(width, height, seed)[rr, cc], U)
+    nT, nB, c = _dot(N, T), _dot(N, B), _dot(N, U)
     k = 64 * F32
     tol_z = k * (np.linalg.norm(P, axis=1) + abs(radius) + abs(delta))
     L, O, EL = (np.zeros(rr.size) for _ in range(3))
     cnt_n = np.zeros(rr.size, np.int64)
     tie_n = np.zeros(rr.size, np.int64)
+
+    def occluder(ix: slice | np.ndarray, A: np.ndarray, j: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(t_s, its float32 error, tie): the line A + t U is solid for t <= t_s (step 4 on the line)."""
+        zt, U_ = zflat[j], U[ix]
+        with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
+            ts = (zt - delta - A[:, 2]) / U_[:, 2]
+            err = 8 * F32 * (np.abs(np.nan_to_num(zt, neginf=0.0)) + np.abs(A[:, 2]) + abs(delta)) / U_[:, 2]
+            tie = np.zeros(len(j), bool)
+            if plane_test:
+                pl = planes[j]
+                lu = _dot(pl[:, :3], U_)
+                lw = np.nan_to_num(pl[:, 3], neginf=0.0)
+                below = _dot(pl[:, :3], A) - pl[:, 3] <= -delta       # the point test at A
+                tsp = np.where(lu > 0, (pl[:, 3] - _dot(pl[:, :3], A) - delta) / lu, np.where(below, np.inf, -np.inf))
+                ts = tsp
+                err = np.where(lu > 0, 8 * F32 * (np.abs(lw) + np.linalg.norm(A, axis=1) + abs(delta)) / lu, 0.0)
+                tie = np.isfinite(pl[:, 3]) & ((np.abs(lu) <= k) | (
+                    (lu <= 0) & (np.abs(_dot(pl[:, :3], A) - pl[:, 3] + delta) <= tol_z[ix] + k * np.abs(lw))))
+        return ts, err, tie
+
     def line(ix: slice | np.ndarray, A: np.ndarray, on: np.ndarray, j: np.ndarray, sx: float, sy: float, hs: float):
-        """(length, occupied length, float32 error bound, c-sign or range tie) of the sample's line,
-        for the live pixels ``ix``."""
-        P_, N_, uP_, tz = P[ix], N[ix], uP[ix], tol_z[ix]
-        qhit = on & hflat[j]
-        Q = flat[j]
-        with np.errstate(invalid="ignore", over="ignore"):
-            gq = E[:3] - E[3] * Q
-            gqq = _dot(gq, gq)
-        qhit &= (gqq > 0) & (gqq < np.inf)
-        # the line through the stored point Q along its line of sight; an empty pixel: through A along P's
-        d = np.where(qhit[:, None], Q - P_, A - P_)
-        u = np.where(qhit[:, None], gq / np.sqrt(np.where(qhit, gqq, 1.0))[:, None], uP_)
-        b = np.where(qhit, _dot(d, u), 0.0)
-        h = np.where(qhit, np.sqrt(np.maximum(radius * radius - (_dot(d, d) - b * b), 0.0)), radius * hs)
-        a = np.where(qhit, _dot(N_, d), radius * (sx * nT[ix] + sy * nB[ix]))
-        c = np.where(qhit, _dot(N_, u), cP[ix])
-        t0, t1 = -b - h, -b + h
+        """(length, occupied length, float32 error bound, tie) of the sample's line, for the live pixels ``ix``."""
+        h = radius * hs
+        a = radius * (sx * nT[ix] + sy * nB[ix])
+        c_ = c[ix]
         with np.errstate(divide="ignore", invalid="ignore"):
-            tc = -a / c
-        lo = np.where(c > 0, np.maximum(t0, tc), t0)
-        hi = np.where(c < 0, np.minimum(t1, tc), t1)
-        hi = np.where((c == 0) & (a < 0), lo, hi)
+            tc = np.where(c_ != 0, -a / c_, np.where(a >= 0, -np.inf, np.inf))
+        lo = np.where(c_ >= 0, np.maximum(-h, tc), -h)
+        hi = np.where(c_ >= 0, h, np.minimum(h, tc))
+        ts, e_s, tie = occluder(ix, A, j)
         length = np.where(on, np.maximum(hi - lo, 0.0), 0.0)
-        occ = np.where(qhit, np.maximum(np.minimum(hi, -delta) - lo, 0.0), 0.0)
-        tie = on & (np.abs(c) <= k)
+        occ = np.where(on, np.maximum(np.minimum(hi, ts) - lo, 0.0), 0.0)
         if range_check:
-            rmargin = radius - (Q[:, 2] - P_[:, 2])
+            rmargin = radius - (zflat[j] - P[ix, 2])
             occ = np.where(rmargin >= 0, occ, 0.0)
-            tie |= qhit & (np.abs(rmargin) <= tz)
-        S = np.linalg.norm(d, axis=1) + radius + abs(delta)
+            tie |= np.abs(rmargin) <= tol_z[ix]
+        S = radius + abs(delta)
         with np.errstate(divide="ignore", invalid="ignore"):
-            e_h = np.minimum(4 * np.sqrt(F32) * S, 16 * F32 * S * S / h)
-            e_c = k * (S + np.abs(tc)) / np.abs(c)
-        e_t = k * S + e_h
-        active = (np.abs(c) > 0) & (tc >= t0 - e_c) & (tc <= t1 + e_c)
-        e = np.where(on, np.minimum(2 * e_t + np.where(active, e_c, 0.0), 2 * (h + e_t)), 0.0)
-        return length, occ, e, tie
+            e_c = k * (S + np.abs(tc)) / np.abs(c_)
+        e_t = k * S
+        inside = lambda t, e: np.isfinite(t) & (t >= lo - e) & (t <= hi + e)  # noqa: E731
+        e = 2 * e_t + np.where(inside(tc, e_c), e_c, 0.0) + np.where(inside(ts, e_s), e_s, 0.0)
+        e = np.where(on, np.minimum(np.nan_to_num(e, nan=np.inf), 2 * (h + e_t)), 0.0)
+        return length, occ, e, on & tie
 
     for sx, sy, hs in line_table(m).astype(np.float64):
         A = P + radius * (T * sx + B * sy)
         on, j, pixel_tie = _pixel_of(A, M, width, height, tol_z)
         length, occ, e, tie = line(slice(None), A, on, j, sx, sy, hs)
-        # a tie line: what it would add on any pixel rounding may give it (a sign flip: everything)
+        # a tie line: what it would add on any pixel rounding may give it (a flipped decision: 2 R)
         alt = np.flatnonzero(pixel_tie)
         for su in (-1, 0, 1):
             for sv in (-1, 0, 1):
                 if alt.size and (su or sv):
                     on2, j2, _ = _pixel_of(A[alt], M, width, height, tol_z[alt], (su, sv))
-                    l2, o2, e2, _ = line(alt, A[alt], on2, j2, sx, sy, hs)
-                    e[alt] = np.maximum(e[alt], np.maximum(np.abs(l2 - length[alt]), np.abs(o2 - occ[alt])) + e2)
+                    l2, o2, e2, t2 = line(alt, A[alt], on2, j2, sx, sy, hs)
+                    e[alt] = np.maximum(e[alt], np.maximum(np.abs(l2 - length[alt]), np.abs(o2 - occ[alt]))
+                                        + np.where(t2, 2 * radius, e2))
         camera = pixel_tie & (np.abs(A @ M[3, :3] + M[3, 3]) <= tol_z)
         e = np.where(tie | camera, 2 * radius + e, e)
         cnt_n += on
@@ -295,7 +305,7 @@ def ssao_lines(position: np.ndarray, normal: np.ndarray, projection: np.ndarray,
         EL += e
     with np.errstate(invalid="ignore", divide="ignore"):
         ao[rr, cc] = np.where(L > 0, 1.0 - O / np.where(L > 0, L, 1.0), 1.0)
-        bnd = np.where(L > EL, EL * (1.0 + O / np.where(L > 0, L, 1.0)) / (L - EL), 1.0)
+        bnd = np.where(L > EL, np.minimum(EL * (1.0 + O / np.where(L > 0, L, 1.0)) / (L - EL), 1.0), 1.0)
     counted[rr, cc] = cnt_n
     ties[rr, cc] = tie_n
     bound[rr, cc] = np.where(EL > 0, bnd, 0.0)
