@@ -445,7 +445,8 @@ hm = Heightmap.from_array(canyon_crater(96, 96, seed=5), 10.0)
 view = ref.topdown_gbuffer(hm, 160, 120, 5.0)
 s = SSAO()
 out = []
-for f in (AOFeatures(distribution="paper", blur="box"), AOFeatures(distribution="uniform", blur="edge", range_check=True)):
+for f in (AOFeatures(distribution="paper", blur="box"), AOFeatures(distribution="uniform", blur="edge", range_check=True),
+          AOFeatures(distribution="lines"), AOFeatures(distribution="lines", plane_test=True, range_check=True, blur="box")):
     out.append(s.compute(view.gbuffer, view.projection, radius=30.0, m=32, delta=0.2, features=f, seed=3).tobytes())
 print(hashlib.sha256(b"".join(out)).hexdigest())
 """

@@ -278,7 +278,9 @@ def ssao_lines(position: np.ndarray, normal: np.ndarray, projection: np.ndarray,
         with np.errstate(divide="ignore", invalid="ignore"):
             e_c = k * (S + np.abs(tc)) / np.abs(c_)
         e_t = k * S
-        inside = lambda t, e: np.isfinite(t) & (t >= lo - e) & (t <= hi + e)  # noqa: E731
+        def inside(t: np.ndarray, e: np.ndarray) -> np.ndarray:
+            with np.errstate(invalid="ignore"):
+                return np.isfinite(t) & (t >= lo - e) & (t <= hi + e)
         e = 2 * e_t + np.where(inside(tc, e_c), e_c, 0.0) + np.where(inside(ts, e_s), e_s, 0.0)
         e = np.where(on, np.minimum(np.nan_to_num(e, nan=np.inf), 2 * (h + e_t)), 0.0)
         return length, occ, e, on & tie
