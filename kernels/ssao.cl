@@ -1,5 +1,6 @@
 /* ssao.cl — screen-space ambient occlusion over a G-buffer (paper 001):
- * preparation, the AO estimator, the N x N box blur and an edge-aware blur.
+ * preparation, the AO estimator (the paper's point samples, or line samples),
+ * the N x N box blur and an edge-aware blur.
  *
  * ABI summary: four kernels, one work-item per pixel (ssao_ao: per 8 pixels of a
  * row), global size (W, H) (ssao_ao: (ceil(W / 8), H)) rounded up to any local size (surplus items store nothing; no early
@@ -23,17 +24,22 @@
  *   ssao_ao(pos, nout, zbuf, W, H, prj, kern, m, mpad, radius, delta, seed, ao)
  *     global size (ceil(W / 8), H): one work-item per 8 adjacent pixels of a row
  *     pos, nout as float * (4 floats per pixel; scalar loads, see below)
- *     prj   __constant float[12]: three rows (host float64, rounded once):
+ *     prj   __constant float[16]: three rows (host float64, rounded once):
  *           with M the projection matrix, pru = W/2 (M[0] + M[3]),
  *           prv = H/2 (M[3] - M[1]), prw = M[3], so a view-space point A
- *           (w = 1) lands on pixel coordinates (pru.A / prw.A, prv.A / prw.A)
- *     kern  __constant float[3 mpad]: the tangent-space sample kernel (unit
- *           radius, z along the normal), structure of arrays x[mpad], y[mpad],
- *           z[mpad], entries m..mpad-1 NaN (they land nowhere, never counted);
- *           generated once by the host
+ *           (w = 1) lands on pixel coordinates (pru.A / prw.A, prv.A / prw.A);
+ *           then E (read with -D OCLS_LINES only): the homogeneous point all
+ *           lines of sight meet (null vector of M's rows 0, 1, 3; camera
+ *           centre with E.w = 1, or the view direction with E.w = 0, E.z > 0)
+ *     kern  __constant float[3 mpad]: the sample table, structure of arrays
+ *           x[mpad], y[mpad], z[mpad], entries m..mpad-1 NaN (they land nowhere,
+ *           never counted); generated once by the host.  Point samples: the
+ *           tangent-space kernel (unit radius, z along the normal); line
+ *           samples: disk points (x, y) and chord half-lengths z = sqrt(1 - x^2 - y^2)
  *     m     int, 1..256; mpad = m rounded up to a multiple of 8; radius,
  *           delta float (radius > 0); seed uint
  *     ao    float, W*H (out): unoccluded fraction 1 - k, 1 on empty pixels
+ *           (line samples: 1 - occupied length / length)
  *   ssao_box_h(ao, zbuf, W, H, rad, tmp)      -D OCLS_BLUR_BOX
  *   ssao_box_v(tmp, zbuf, W, H, rad, out)     -D OCLS_BLUR_BOX
  *     global size (ceil(W / 8), H): one work-item per 8 adjacent pixels of a row;
@@ -48,7 +54,8 @@
  * -D options: OCLS_ALPHA (alpha map), OCLS_NORMAL_MAP (normal map),
  *   OCLS_RANGE_CHECK (range check), OCLS_PLANE_TEST (plane test, step 4: adds the
  *   float4 W*H buffer `plane` as the last argument of ssao_prepare (out) and of
- *   ssao_ao (in)), OCLS_BLUR_BOX, OCLS_BLUR_EDGE (which blur
+ *   ssao_ao (in)), OCLS_LINES (line samples, see below; not in the paper),
+ *   OCLS_BLUR_BOX, OCLS_BLUR_EDGE (which blur
  *   kernels the program holds).  A feature not defined is not compiled.
  *
  * AO estimator (paper 001, "AO map"), for a hit pixel with P, N:
@@ -79,6 +86,35 @@
  *      front of P cannot be inside the hemisphere; the paper has no check);
  *   5. AO = 1 - occluded / counted (1 when nothing is counted).
  *   Normals with |N|^2 not in (1e-12, inf) (zero, NaN) give AO = 1.
+ *
+ * Line samples (-D OCLS_LINES; volumetric obscurance after Loos and Sloan 2010):
+ *   the same quantity as the points of a volume-uniform kernel, the occupied
+ *   fraction of the hemisphere (ball of radius R at P cut by N . (X - P) >= 0),
+ *   integrated along lines instead of sampled at points.  Under the depth-buffer
+ *   model the solid along a line of sight is one interval, behind the stored
+ *   surface, so one fetch per line suffices; along the normal it would not (the
+ *   line crosses many pixels).  For a hit pixel with P, N:
+ *   L1. U = (E.xyz - E.w P) / |.|, P's line of sight towards the camera; a pixel
+ *       with U.z <= 0 or a non-finite |.|^2 gets AO = 1;
+ *   L2. steps 1-2 with U in place of N: T, B span the disk perpendicular to U;
+ *   L3. for each table entry (x, y, hs): A = P + R (T x + B y), its pixel as in
+ *       step 3 (skipped off screen or behind the camera); the line A + t U meets
+ *       the ball for |t| <= h = R hs, and the base plane where a + t c >= 0,
+ *       a = R (x N.T + y N.B), c = N . U: t >= t_c = -a / c when c >= 0 (c = 0:
+ *       everything when a >= 0, nothing when a < 0), t <= t_c when c < 0; so the
+ *       line's chord is [lo, hi] and its length max(hi - lo, 0);
+ *   L4. the solid part is t <= t_s: without the plane test the line lies at
+ *       least delta behind the pixel's depth, t_s = (z_t - delta - A.z) / U.z
+ *       (an empty pixel: -inf, nothing); with it, at least delta below the
+ *       occluder's plane L, t_s = (-delta - (L.xyz . A - L.w)) / (L.xyz . U) when
+ *       L.xyz . U > 0, else the point test of step 4 at A decides the whole line
+ *       (+inf or -inf); occupied length max(min(hi, t_s) - lo, 0), 0 when the
+ *       range check (z_t - P.z <= R) fails;
+ *   L5. AO = 1 - (sum of occupied lengths) / (sum of lengths) over the lines on
+ *       screen, 1 when that sum is 0.
+ *   Exact for orthographic views up to the per-pixel depth (or plane) and the
+ *   m-line quadrature; in perspective the lines are parallel to U, off the
+ *   pixels' own lines of sight by at most R / |P| radians.
  *
  * Edge-aware blur: weight of neighbour q for centre p (both hit) is
  *   w = c^4 / (1 + (d / plane_tol)^2),  c = max(N_p . N_q, 0),

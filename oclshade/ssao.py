@@ -6,19 +6,45 @@
 Stages: ``ssao_prepare`` (empty pixels, alpha cut-outs, normal map), the AO
 estimator ``ssao_ao``, then an optional blur (the paper's box blur or an
 edge-aware one).  Definitions, buffer layouts and the -D options are in
-``kernels/ssao.cl``; the float64 twin is :func:`oclshade.reference.ssao` and
-the ground truths it is measured against are
-:func:`oclshade.reference.volume_ao` and :func:`oclshade.reference.raytraced_ao`.
+``kernels/ssao.cl``; the float64 twins are :func:`oclshade.reference.ssao`
+(point samples) and :func:`oclshade.reference.ssao_lines` (line samples), and
+the ground truths they are measured against are
+:func:`oclshade.reference.volume_ao_lines` (and its point-quadrature check
+:func:`oclshade.reference.volume_ao`) and :func:`oclshade.reference.raytraced_ao`.
 
 The AO map is the *unoccluded* fraction: the compose pass multiplies it into
 the ambient term (``kernels/compose.cl`` with ``-D OCLS_AO``).
 
-Sample kernels (tangent space, unit radius, z along the normal), generated
-once on the host and uploaded to ``__constant`` memory:
+What each estimator estimates.  The depth-buffer model behind all of them:
+everything behind a stored surface (along the line of sight) is solid.
 
-* ``paper``: S = (2 f1 - 1, 2 f2 - 1, f3), f ~ U[0, 1) (seeded numpy PCG64):
-  the paper's half-cube, not normalised; it stands for the box
-  [-R, R]^2 x [0, R], not the hemisphere.
+* Point samples (the paper's AO map; ``paper``, ``uniform``, ``centre``): the
+  fraction of m points around P whose pixel holds a surface at least delta
+  nearer the camera: a Monte Carlo estimate of the occupied fraction of the
+  volume the point set stands for (``uniform``: the hemisphere of radius R on
+  the normal, i.e. ground truth (a); ``paper``: the half-cube [-R, R]^2 x [0, R]).
+* Line samples (``lines``, -D OCLS_LINES; volumetric obscurance in the manner
+  of Loos and Sloan 2010, not in the paper): the same occupied fraction of the
+  hemisphere as ground truth (a), integrated over m lines of sight instead of
+  points.  Under the model the solid along a line of sight is one interval
+  (behind the surface its pixel stores), so one depth fetch gives the exact
+  occupied length of the line's chord through the hemisphere (the ball of
+  radius R cut by the tangent plane); lines along the *normal* would cross
+  many pixels and need many fetches.  The lines are parallel to P's line of
+  sight (exact for orthographic views; in perspective they leave their pixel
+  by at most R / distance radians) through m points of a stratified disk of
+  radius R perpendicular to it, and the estimate is the sum of occupied
+  lengths over the sum of lengths.  The 1-D integral's variance is gone, so
+  far fewer samples reach the same error (bench/results/ssao.md).
+* Neither estimates ground truth (b), ray-traced AO (cosine-weighted
+  visibility within R), which bench/ssao.py reports for comparison.
+
+Sample tables (unit radius), generated once on the host and uploaded to
+``__constant`` memory:
+
+* ``paper``: tangent space (z along the normal), S = (2 f1 - 1, 2 f2 - 1, f3),
+  f ~ U[0, 1) (seeded numpy PCG64): the paper's half-cube, not normalised; it
+  stands for the box [-R, R]^2 x [0, R], not the hemisphere.
 * ``uniform``: stratified, uniform in the volume of the unit hemisphere
   (radius (i + 1/2)/m cubed-rooted, cos(polar) and azimuth from a golden-ratio
   sequence): an unbiased estimator of ground truth (a).
@@ -26,6 +52,9 @@ once on the host and uploaded to ``__constant`` memory:
   more samples near the centre (the common "normalised, scaled" kernel): it
   weights near occluders more, i.e. a distance falloff; it estimates neither
   ground truth exactly.
+* ``lines``: :func:`line_table`, the Vogel spiral uniform in the disk's area
+  (x, y in the plane perpendicular to the line of sight) and each point's
+  chord half-length sqrt(1 - x^2 - y^2).
 """
 from __future__ import annotations
 
@@ -115,8 +144,8 @@ def line_eye(projection: np.ndarray) -> np.ndarray:
 class AOFeatures:
     """Features of the AO pass.  ``normal_map``, ``alpha_map``, ``range_check``, ``plane_test``
     and ``blur`` are compile-time (-D options, absent from the program when off); ``distribution``
-    picks the sample table and ``blur_size`` (N of the N x N window, odd >= 3) is a
-    kernel argument."""
+    picks the sample table, and ``"lines"`` also the line-sample estimator (-D OCLS_LINES, see the
+    module docstring); ``blur_size`` (N of the N x N window, odd >= 3) is a kernel argument."""
 
     normal_map: bool = False
     alpha_map: bool = False
@@ -128,7 +157,8 @@ class AOFeatures:
     #: ``plane_test``: a sample is occluded iff it lies at least delta below the tangent plane of
     #: the surface at its pixel (plane from the stored position and geometric normal), instead of
     #: the paper's depth test against the pixel-centre depth; see kernels/ssao.cl step 4
-    #: (not in the paper)
+    #: (not in the paper).  With line samples: each line is cut at that plane instead of at the
+    #: pixel's depth
 
     def __post_init__(self) -> None:
         if self.distribution not in DISTRIBUTIONS:
@@ -153,16 +183,12 @@ class AOFeatures:
 #: the paper's recipe: its half-cube kernel, m = 32, no range check, a 5 x 5 box blur
 PAPER_RECIPE = AOFeatures(distribution="paper", blur="box", blur_size=5)
 PAPER_M = 32
-#: the library default stays the paper's recipe.  Measured with bench/ssao.py (bench/results/ssao.md,
-#: 12 cases: santo, front_range and the canyon terrain, top-down and perspective oblique views, 640x480
-#: and 1920x1080): no setting beats the recipe's RMSE by 25 % at equal or lower time in every case
-#: against either ground truth.  The best candidate, the ``centre`` kernel with the plane test and
-#: the 5 x 5 box blur, cuts the RMSE against ground truth (b) by 25-46 % on the santo views and the
-#: canyon's oblique views at m = 24, but costs 1.0-1.9x the recipe's time and is 17-25 % *worse* on
-#: the canyon's top-down views (cliffs: the occluder's tangent plane extrapolated across a wall) and
-#: only 4-8 % better on front_range at 1920x1080; at m = 16 it is as fast but loses up to 37 %.
-DEFAULT_FEATURES = PAPER_RECIPE
-DEFAULT_M = PAPER_M
+#: the library default: 20 line samples, no blur (``oclshade render --ao``, frames.AOSettings).
+#: Measured with bench/ssao.py (bench/results/ssao.md: santo and front_range, top-down and
+#: perspective oblique views, 640x480 and 1920x1080): RMSE against ground truth (a) at least 25 %
+#: below the paper's recipe's at lower time in every one of those views; numbers in README.md.
+DEFAULT_FEATURES = AOFeatures(distribution="lines")
+DEFAULT_M = 20
 
 
 @dataclass
