@@ -243,19 +243,17 @@ def ssao_lines(position: np.ndarray, normal: np.ndarray, projection: np.ndarray,
         """(t_s, its float32 error, tie): the line A + t U is solid for t <= t_s (step 4 on the line)."""
         zt, U_ = zflat[j], U[ix]
         with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
-            ts = (zt - delta - A[:, 2]) / U_[:, 2]
-            err = 8 * F32 * (np.abs(np.nan_to_num(zt, neginf=0.0)) + np.abs(A[:, 2]) + abs(delta)) / U_[:, 2]
-            tie = np.zeros(len(j), bool)
-            if plane_test:
-                pl = planes[j]
-                lu = _dot(pl[:, :3], U_)
-                lw = np.nan_to_num(pl[:, 3], neginf=0.0)
-                below = _dot(pl[:, :3], A) - pl[:, 3] <= -delta       # the point test at A
-                tsp = np.where(lu > 0, (pl[:, 3] - _dot(pl[:, :3], A) - delta) / lu, np.where(below, np.inf, -np.inf))
-                ts = tsp
-                err = np.where(lu > 0, 8 * F32 * (np.abs(lw) + np.linalg.norm(A, axis=1) + abs(delta)) / lu, 0.0)
-                tie = np.isfinite(pl[:, 3]) & ((np.abs(lu) <= k) | (
-                    (lu <= 0) & (np.abs(_dot(pl[:, :3], A) - pl[:, 3] + delta) <= tol_z[ix] + k * np.abs(lw))))
+            if not plane_test:     # at least delta behind the stored depth
+                err = 8 * F32 * (np.abs(np.nan_to_num(zt, neginf=0.0)) + np.abs(A[:, 2]) + abs(delta)) / U_[:, 2]
+                return (zt - delta - A[:, 2]) / U_[:, 2], err, np.zeros(len(j), bool)
+            # at least delta below the occluder's plane L; L not facing along U: the point test at A
+            pl = planes[j]
+            la = _dot(pl[:, :3], A) - pl[:, 3]          # A's height above L (+inf for an empty pixel)
+            lu = _dot(pl[:, :3], U_)
+            lw = np.abs(np.nan_to_num(pl[:, 3], neginf=0.0))
+            ts = np.where(lu > 0, (-delta - la) / lu, np.where(la <= -delta, np.inf, -np.inf))
+            err = np.where(lu > 0, 8 * F32 * (lw + np.linalg.norm(A, axis=1) + abs(delta)) / lu, 0.0)
+            tie = np.isfinite(pl[:, 3]) & ((np.abs(lu) <= k) | ((lu <= 0) & (np.abs(la + delta) <= tol_z[ix] + k * lw)))
         return ts, err, tie
 
     def line(ix: slice | np.ndarray, A: np.ndarray, on: np.ndarray, j: np.ndarray, sx: float, sy: float, hs: float):
