@@ -184,9 +184,11 @@ class AOFeatures:
 PAPER_RECIPE = AOFeatures(distribution="paper", blur="box", blur_size=5)
 PAPER_M = 32
 #: the library default: 20 line samples, no blur (``oclshade render --ao``, frames.AOSettings).
-#: Measured with bench/ssao.py (bench/results/ssao.md: santo and front_range, top-down and
-#: perspective oblique views, 640x480 and 1920x1080): RMSE against ground truth (a) at least 25 %
-#: below the paper's recipe's at lower time in every one of those views; numbers in README.md.
+#: Chosen by bench/ssao.py (bench/results/ssao.md, "Contenders"): over the eight views of santo and
+#: front_range (top-down and perspective oblique, 640x480 and 1920x1080) its RMSE against ground
+#: truth (a) is 34-70 % below the paper's recipe's at 0.67-0.84 of its time (timed in rotation);
+#: 24 and 28 lines are more accurate but not reliably faster than the recipe, 16 lines only 28 %
+#: better in the worst view.  Against ray-traced AO (b) it is 4-25 % worse than the recipe.
 DEFAULT_FEATURES = AOFeatures(distribution="lines")
 DEFAULT_M = 20
 
