@@ -9,11 +9,20 @@ rendered pixels' world positions and normals come from
 oclshade.reference.world_frame (view space mapped back, snapped to the
 bilinear surface).  The two ground truths are computed in float64 on a
 fixed random subset of hit pixels (the same pixels for every setting):
-(a) volume: fraction of the radius-R hemisphere volume under the terrain;
-(b) ray-traced: fraction of cosine-weighted rays of length R that hit.
-Every setting (m, blur, range check, kernel distribution) is timed on the
-device (inputs resident, min of --repeats runs of prepare + AO + blur) and
-its RMSE against each truth is taken over the subset.
+(a) volume: fraction of the radius-R hemisphere volume under the terrain, by
+exact vertical chords on 4096 lines per pixel (reference.volume_ao_lines); its
+error is stated as the RMS difference to the same quadrature on 1024 lines
+(an over-estimate: the error falls at least as fast as 1 / lines);
+(b) ray-traced: fraction of cosine-weighted rays of length R that hit, two
+independent stratified sets of 256 rays averaged; its error is stated as half
+the RMS difference of the two (the standard error of their mean).
+Every setting (m, blur, range check, kernel distribution or line samples,
+plane test) is timed on the device (inputs resident, min of --repeats runs of
+prepare + AO + blur) and its RMSE against each truth is taken over the subset.
+The paper's recipe, the default and the contenders for the default (line
+samples without blur, m in CONTENDER_MS) are then timed again in rotation
+(--interleave runs each, min): those times make the "default vs paper recipe"
+line and the contenders' ranking (see ``ranking``).
 
 Writes bench/results/ssao.json, .md and .png.  ``--quick``: tiny sizes, a
 synthetic terrain when the shared data is absent, a reduced grid.
@@ -42,7 +51,8 @@ from oclshade.gbuffer import GBuffer  # noqa: E402
 from oclshade.terrain import Heightfield, TerrainRenderer  # noqa: E402
 from oclshade.heightmap import Heightmap  # noqa: E402
 from oclshade.io import read_dem  # noqa: E402
-from oclshade.ssao import DEFAULT_FEATURES, DEFAULT_M, PAPER_M, PAPER_RECIPE, AOFeatures, SSAO  # noqa: E402
+from oclshade.ssao import (DEFAULT_FEATURES, DEFAULT_M, PAPER_M, PAPER_RECIPE, POINT_DISTRIBUTIONS,  # noqa: E402
+                           AOFeatures, SSAO)
 
 DATASETS = {
     # name: (path under the data folder, cells across the 1920-pixel width, R in cells)
@@ -51,6 +61,9 @@ DATASETS = {
 }
 BLURS = {"none": ("none", 3), "box3": ("box", 3), "box5": ("box", 5), "edge5": ("edge", 5)}
 VIEWS = ("topdown", "oblique")
+#: timed alternately with the paper's recipe in every view (the grid's consecutive times are too
+#: noisy on the shared machine to rank settings by): line samples without blur, and the default
+CONTENDER_MS = (16, 20, 24, 28)
 
 
 @dataclass
@@ -107,40 +120,84 @@ def view_for(kind: str, hm: Heightmap, cells: int, width: int, height: int) -> t
 
 
 def settings(quick: bool, large: bool) -> list[tuple[int, str, bool, str, bool]]:
-    """(m, blur, range check, distribution, plane test); at 1920x1080 only the 5 x 5 box blur
-    and fewer m (the must-show setting and its neighbours), to keep the run short."""
+    """(m, blur, range check, distribution, plane test).  Point samples: at 1920x1080 only the
+    5 x 5 box blur and fewer m (the must-show setting and its neighbours), to keep the run short;
+    line samples: fewer m (they need fewer) and every blur but the edge-aware one at 1920x1080.
+    The default's and the contenders' m are always among the line samples' m."""
     if quick:
-        ms, blurs = (24, 32), ("box5",)
+        ms, blurs, line_ms, line_blurs = (24, 32), ("box5",), (), ("none",)
     elif large:
-        ms, blurs = (16, 24, 32), ("box5",)
+        ms, blurs, line_ms, line_blurs = (16, 24, 32), ("box5",), (8, 12, 16, 20, 24, 28), ("none", "box3", "box5")
     else:
         ms, blurs = (8, 16, 24, 32, 64), ("none", "box5", "edge5")
-    return [(m, blur, rc, dist, pt) for m in ms for blur in blurs for rc in (False, True)
-            for dist in ("paper", "uniform", "centre") for pt in (False, True)]
+        line_ms, line_blurs = (8, 12, 16, 20, 24, 28, 32), ("none", "box3", "box5", "edge5")
+    points = [(m, blur, rc, dist, pt) for m in ms for blur in blurs for rc in (False, True)
+              for dist in POINT_DISTRIBUTIONS for pt in (False, True)]
+    line_ms = sorted(set(line_ms) | {DEFAULT_M} | set(CONTENDER_MS))
+    lines = [(m, blur, rc, "lines", pt) for m in line_ms for blur in line_blurs
+             for rc in (False, True) for pt in (False, True)]
+    return points + lines
+
+
+def features_of(blur: str, rc: bool, dist: str, pt: bool) -> AOFeatures:
+    kind, size = BLURS[blur]
+    return AOFeatures(range_check=rc, distribution=dist, blur=kind, blur_size=size, plane_test=pt)
+
+
+def setting_key(m: int, f: AOFeatures) -> str:
+    blur = "none" if f.blur == "none" else f"{f.blur}{f.blur_size}"
+    return (f"m = {m}, {f.distribution}, {blur}, range check {'on' if f.range_check else 'off'}, "
+            f"plane test {'on' if f.plane_test else 'off'}")
+
+
+def contenders() -> list[tuple[int, AOFeatures]]:
+    out = [(m, AOFeatures(distribution="lines")) for m in CONTENDER_MS]
+    return out + ([] if (DEFAULT_M, DEFAULT_FEATURES) in out else [(DEFAULT_M, DEFAULT_FEATURES)])
+
+
+def interleaved_ms(pass_: SSAO, inputs, view: View, radius: float, delta: float, runs: int) -> dict[str, float]:
+    """Min wall time (ms) of the paper's recipe and of each contender, all run in rotation ``runs``
+    times after a warm-up (the machine is shared: the rotation spreads its noise over all)."""
+    queue = pass_.runtime.queue
+    pair = {setting_key(PAPER_M, PAPER_RECIPE): (PAPER_M, PAPER_RECIPE)}
+    pair.update({setting_key(m, f): (m, f) for m, f in contenders()})
+    times: dict[str, list[float]] = {k: [] for k in pair}
+    for i in range(runs + 1):
+        for key, (m, f) in pair.items():
+            queue.finish()
+            t0 = time.perf_counter()
+            pass_.run(inputs, view.projection, radius=radius, m=m, delta=delta, features=f)
+            queue.finish()
+            if i:
+                times[key].append(time.perf_counter() - t0)
+    return {k: 1e3 * min(v) for k, v in times.items()}
 
 
 def run_case(pass_: SSAO, view: View, hm: Heightmap, radius: float, delta: float,
-             n_truth: int, n_vol: int, n_ray: int, repeats: int, quick: bool) -> dict:
+             n_truth: int, n_vol: int, n_ray: int, repeats: int, interleave: int, quick: bool) -> dict:
     gb = view.gbuffer
     hit_idx = np.flatnonzero(gb.hit.ravel() & np.isfinite(view.world_position[..., 2]).ravel())
     rng = np.random.default_rng(0)
     sub = np.sort(rng.choice(hit_idx, size=min(n_truth, hit_idx.size), replace=False))
     wp = view.world_position.reshape(-1, 3)[sub]
     wn = view.world_normal.reshape(-1, 3)[sub]
+    rms = lambda a: float(np.sqrt(np.mean(a * a)))  # noqa: E731
     t0 = time.perf_counter()
-    truth_vol = ref.volume_ao(hm, wp, wn, radius, n=n_vol)
+    truth_vol = ref.volume_ao_lines(hm, wp, wn, radius, n=n_vol)
     t_vol = time.perf_counter() - t0
+    err_vol = rms(truth_vol - ref.volume_ao_lines(hm, wp, wn, radius, n=n_vol // 4, seed=2))
     t0 = time.perf_counter()
-    truth_ray = ref.raytraced_ao(hm, wp, wn, radius, n=n_ray)
+    halves = [ref.raytraced_ao(hm, wp, wn, radius, n=n_ray // 2, seed=seed) for seed in (1, 2)]
     t_ray = time.perf_counter() - t0
+    truth_ray = 0.5 * (halves[0] + halves[1])
+    err_ray = 0.5 * rms(halves[0] - halves[1])
     inputs = pass_.upload(gb)
     queue = pass_.runtime.queue
     rows = []
     out = np.empty(gb.shape, np.float32)
     import pyopencl as cl
     for m, blur, rc, dist, pt in settings(quick, gb.shape[1] >= 1920):
-        kind, size = BLURS[blur]
-        f = AOFeatures(range_check=rc, distribution=dist, blur=kind, blur_size=size, plane_test=pt)
+        f = features_of(blur, rc, dist, pt)
         times = []
         for _ in range(repeats + 1):   # the first run builds the program
             queue.finish()
@@ -156,11 +213,11 @@ def run_case(pass_: SSAO, view: View, hm: Heightmap, radius: float, delta: float
                      "rmse_volume": float(np.sqrt(np.mean((ao - truth_vol) ** 2))),
                      "rmse_raytraced": float(np.sqrt(np.mean((ao - truth_ray) ** 2))),
                      "bias_volume": float(np.mean(ao - truth_vol)), "bias_raytraced": float(np.mean(ao - truth_ray))})
-    se = lambda p, n: float(np.sqrt(np.mean(p * (1 - p) / n)))  # noqa: E731
-    return {"truth_pixels": int(sub.size), "truth_samples": {"volume": n_vol, "raytraced": n_ray},
+    return {"truth_pixels": int(sub.size), "truth_samples": {"volume_lines": n_vol, "raytraced_rays": n_ray},
             "truth_seconds": {"volume": t_vol, "raytraced": t_ray},
             "truth_mean": {"volume": float(truth_vol.mean()), "raytraced": float(truth_ray.mean())},
-            "truth_mc_error_bound": {"volume": se(truth_vol, n_vol), "raytraced": se(truth_ray, n_ray)},
+            "truth_error": {"volume": err_vol, "raytraced": err_ray},
+            "interleaved_ms": interleaved_ms(pass_, inputs, view, radius, delta, interleave),
             "settings": rows}
 
 
@@ -170,12 +227,45 @@ def find(rows: list[dict], m: int, f: AOFeatures) -> dict:
                 and r["distribution"] == f.distribution and r.get("plane_test", False) == f.plane_test)
 
 
-def compare(rows: list[dict]) -> dict:
+def compare(case: dict) -> dict:
+    """The default against the paper's recipe: RMSEs from the grid, times from the interleaved runs."""
+    rows = case["settings"]
     paper, default = find(rows, PAPER_M, PAPER_RECIPE), find(rows, DEFAULT_M, DEFAULT_FEATURES)
-    return {"paper": paper, "default": default,
-            "time_ratio": default["time_ms"]["min"] / paper["time_ms"]["min"],
+    ms = case["interleaved_ms"]
+    paper_ms, default_ms = ms[setting_key(PAPER_M, PAPER_RECIPE)], ms[setting_key(DEFAULT_M, DEFAULT_FEATURES)]
+    return {"paper": paper, "default": default, "paper_ms": paper_ms, "default_ms": default_ms,
+            "time_ratio": default_ms / paper_ms,
             "rmse_reduction_volume": 1 - default["rmse_volume"] / paper["rmse_volume"],
             "rmse_reduction_raytraced": 1 - default["rmse_raytraced"] / paper["rmse_raytraced"]}
+
+
+def comparison_line(c: dict) -> str:
+    pct = lambda x: f"{abs(100 * x):.0f}% {'lower' if x >= 0 else 'higher'}"  # noqa: E731
+    return (f"default vs paper recipe: {c['default_ms']:.1f} vs {c['paper_ms']:.1f} ms (ratio {c['time_ratio']:.2f}); "
+            f"RMSE volume {c['default']['rmse_volume']:.4f} vs {c['paper']['rmse_volume']:.4f} "
+            f"({pct(c['rmse_reduction_volume'])}), raytraced {c['default']['rmse_raytraced']:.4f} vs "
+            f"{c['paper']['rmse_raytraced']:.4f} ({pct(c['rmse_reduction_raytraced'])})")
+
+
+def ranking(cases: list[dict]) -> list[dict]:
+    """Each contender over the views of the real DEMs (not the synthetic canyon): its worst RMSE
+    ratio to the paper's recipe against ground truth (a) and its worst interleaved time ratio.
+    The default is chosen as the contender with the lowest worst RMSE ratio among those with a
+    worst RMSE ratio <= 0.75 and a worst time ratio <= 0.9 (equal or lower time, with a 10 % margin
+    for the shared machine's noise)."""
+    real = [c for c in cases if c["dataset"] != "synthetic"]
+    out = []
+    for m, f in contenders():
+        key = setting_key(m, f)
+        if not real or any(key not in c["interleaved_ms"] for c in real):
+            continue
+        rmse = [find(c["settings"], m, f)["rmse_volume"] / find(c["settings"], PAPER_M, PAPER_RECIPE)["rmse_volume"]
+                for c in real]
+        ms = [c["interleaved_ms"][key] / c["interleaved_ms"][setting_key(PAPER_M, PAPER_RECIPE)] for c in real]
+        out.append({"setting": key, "worst_rmse_ratio": max(rmse), "worst_time_ratio": max(ms),
+                    "eligible": max(rmse) <= 0.75 and max(ms) <= 0.9,
+                    "default": (m, f) == (DEFAULT_M, DEFAULT_FEATURES)})
+    return out
 
 
 def write_md(res: dict, path: Path) -> None:
@@ -189,19 +279,44 @@ def write_md(res: dict, path: Path) -> None:
              "positions, reference.world_frame); delta = 0.05 x the median pixel footprint; the machine is "
              "shared, times are the min of the repeats (prepare + AO + blur, inputs on the device)",
              "- truths on a fixed random subset of hit pixels: volume = fraction of the hemisphere volume "
-             "above the terrain (ground truth a), raytraced = unoccluded fraction of cosine-weighted rays "
-             "of length R (ground truth b); 1 = open, like the AO map",
-             f"- paper recipe: m = {PAPER_M}, {PAPER_RECIPE}; default: m = {DEFAULT_M}, {DEFAULT_FEATURES}", ""]
+             "above the terrain (ground truth a; exact vertical chords on 4096 lines per pixel), raytraced = "
+             "unoccluded fraction of cosine-weighted rays of length R (ground truth b; 2 x 256 rays); 1 = open, "
+             "like the AO map.  'truth error': volume, RMS difference to the same quadrature on 1024 lines; "
+             "raytraced, the standard error of the two ray sets' mean",
+             "- kernel `lines`: line samples (volumetric obscurance, -D OCLS_LINES), the other kernels point samples",
+             f"- paper recipe: m = {PAPER_M}, {PAPER_RECIPE}; default: m = {DEFAULT_M}, {DEFAULT_FEATURES}",
+             "- 'default vs paper recipe' and contender times: the paper recipe and the contenders run in rotation "
+             "after the grid, min of each; the grid's own times are min of the repeats, run one setting after the "
+             "other (noisier)", ""]
+    ranked = res.get("ranking", [])
+    if ranked:
+        lines += ["## Contenders for the default (real-DEM views; times interleaved with the paper recipe)", "",
+                  "Eligible: worst RMSE ratio (volume) <= 0.75 and worst time ratio <= 0.9; the default is the eligible "
+                  "one with the lowest worst RMSE ratio.", "",
+                  "| setting | worst RMSE ratio | worst time ratio | eligible | default |", "|---|---|---|---|---|"]
+        lines += [f"| {r['setting']} | {r['worst_rmse_ratio']:.2f} | {r['worst_time_ratio']:.2f} | "
+                  f"{'yes' if r['eligible'] else 'no'} | {'**yes**' if r['default'] else ''} |" for r in ranked]
+        lines.append("")
+    lines += ["## Default vs paper recipe, every view", "",
+              "| view | default ms | paper ms | time ratio | RMSE volume default / paper | reduction | RMSE raytraced default / paper | reduction | truth error volume / raytraced |",
+              "|---|---|---|---|---|---|---|---|---|"]
+    for case in res["cases"]:
+        c = case["comparison"]
+        lines.append(f"| {case['dataset']} {case['view']} {case['width']}x{case['height']} | {c['default_ms']:.1f} | "
+                     f"{c['paper_ms']:.1f} | {c['time_ratio']:.2f} | {c['default']['rmse_volume']:.4f} / "
+                     f"{c['paper']['rmse_volume']:.4f} | {100 * c['rmse_reduction_volume']:.0f}% | "
+                     f"{c['default']['rmse_raytraced']:.4f} / {c['paper']['rmse_raytraced']:.4f} | "
+                     f"{100 * c['rmse_reduction_raytraced']:.0f}% | {case['truth_error']['volume']:.5f} / "
+                     f"{case['truth_error']['raytraced']:.4f} |")
+    lines.append("")
     for case in res["cases"]:
         lines += [f"## {case['dataset']} {case['view']} {case['width']}x{case['height']}", "",
                   f"source: {case['source']}; {case['cells']} cells across, pixel {case['pixel_m']:.1f} m (median), R = {case['radius_m']:.1f} m, "
                   f"delta = {case['delta_m']:.3f} m; truths on {case['truth_pixels']} pixels "
-                  f"(MC error bound: volume {case['truth_mc_error_bound']['volume']:.4f}, raytraced "
-                  f"{case['truth_mc_error_bound']['raytraced']:.4f}; means {case['truth_mean']['volume']:.3f}, "
+                  f"(truth error: volume {case['truth_error']['volume']:.5f}, raytraced "
+                  f"{case['truth_error']['raytraced']:.4f}; means {case['truth_mean']['volume']:.3f}, "
                   f"{case['truth_mean']['raytraced']:.3f})", ""]
-        c = case["comparison"]
-        lines += [f"**default vs paper recipe:** time ratio {c['time_ratio']:.2f}, RMSE reduction "
-                  f"{100 * c['rmse_reduction_volume']:.0f}% (volume), {100 * c['rmse_reduction_raytraced']:.0f}% (raytraced)", "",
+        lines += [f"**{comparison_line(case['comparison'])}**", "",
                   "| m | blur | range | kernel | plane | min ms | median ms | RMSE volume | RMSE raytraced | bias volume | bias raytraced |",
                   "|---|---|---|---|---|---|---|---|---|---|---|"]
         for r in case["settings"]:
@@ -219,7 +334,7 @@ def write_png(res: dict, path: Path) -> None:
     import matplotlib.pyplot as plt
     cases = res["cases"]
     fig, axes = plt.subplots(len(cases), 2, figsize=(12, 3.6 * len(cases)), squeeze=False)
-    colours = {"paper": "tab:red", "uniform": "tab:blue", "centre": "tab:green"}
+    colours = {"paper": "tab:red", "uniform": "tab:blue", "centre": "tab:green", "lines": "tab:purple"}
     markers = {"none": "o", "box3": "s", "box5": "D", "edge5": "^"}
     for row, case in zip(axes, cases):
         for ax, key in zip(row, ("rmse_volume", "rmse_raytraced")):
@@ -233,6 +348,7 @@ def write_png(res: dict, path: Path) -> None:
             for tag, r in marks:
                 ax.annotate(tag, (r["time_ms"]["min"], r[key]), fontsize=8, xytext=(6, 6), textcoords="offset points",
                             arrowprops={"arrowstyle": "-", "lw": 0.5})
+            ax.axhline(case["truth_error"][key.split("_")[1]], color="grey", lw=0.6, ls=":")
             ax.set_xscale("log")
             ax.set_xlabel("run time, ms (min of repeats)")
             ax.set_ylabel(key.replace("_", " vs "))
@@ -242,7 +358,8 @@ def write_png(res: dict, path: Path) -> None:
     handles += [plt.Line2D([], [], color="grey", marker=v, ls="", label=k) for k, v in markers.items()]
     handles += [plt.Line2D([], [], color="grey", marker="o", ls="", alpha=0.35, label="range check on (faint)"),
                 plt.Line2D([], [], color="grey", marker="o", ls="", markeredgecolor="black", label="plane test (edged)")]
-    fig.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, 0.975), ncol=8, fontsize=8)
+    handles += [plt.Line2D([], [], color="grey", lw=0.6, ls=":", label="truth error")]
+    fig.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, 0.975), ncol=6, fontsize=8)
     meta = res["meta"]
     fig.suptitle(f"oclshade SSAO — {meta['cpu']}, {meta['cores']} cores, PoCL {meta['pocl_version']}, {meta['date'][:10]}"
                  " (marker size ~ m)", y=0.995, fontsize=9)
@@ -259,6 +376,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--sizes", default="1920x1080,640x480")
     ap.add_argument("--views", default=",".join(VIEWS), help="comma list of " + ", ".join(VIEWS))
     ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--interleave", type=int, default=7, help="alternate runs of the default and the paper recipe")
     ap.add_argument("--out", type=Path, default=HERE / "results")
     ap.add_argument("--report-only", action="store_true",
                     help="rewrite the comparisons, .md and .png from an existing ssao.json in --out")
@@ -266,12 +384,13 @@ def main(argv: list[str] | None = None) -> int:
     if args.report_only:
         res = json.loads((args.out / "ssao.json").read_text())
         for case in res["cases"]:
-            case["comparison"] = compare(case["settings"])
+            case["comparison"] = compare(case)
+        res["ranking"] = ranking(res["cases"])
         write_all(res, args.out)
         return 0
     sizes = [tuple(int(v) for v in s.split("x")) for s in args.sizes.split(",")]
     if args.quick:
-        sizes, args.repeats = [(96, 64)], 1
+        sizes, args.repeats, args.interleave = [(96, 64)], 1, 1
     names = args.datasets.split(",")
     res = {"meta": metadata(["bench/ssao.py", *argv]), "config": {"sizes": sizes, "repeats": args.repeats},
            "cases": [], "skipped": []}
@@ -293,15 +412,14 @@ def main(argv: list[str] | None = None) -> int:
                 delta = 0.05 * view.pixel
                 log(f"{name} {kind} {width}x{height}: R = {radius:.1f} m, pixel {view.pixel:.2f} m")
                 n_truth = 400 if args.quick else 3000
-                case = run_case(pass_, view, shown, radius, delta, n_truth, 128 if args.quick else 512,
-                                64 if args.quick else 256, args.repeats, args.quick)
+                case = run_case(pass_, view, shown, radius, delta, n_truth, 256 if args.quick else 4096,
+                                64 if args.quick else 512, args.repeats, args.interleave, args.quick)
                 case.update({"dataset": name, "view": kind, "source": source, "width": width, "height": height,
-                             "cells": cells, "radius_m": radius, "delta_m": delta, "pixel_m": view.pixel,
-                             "comparison": compare(case["settings"])})
+                             "cells": cells, "radius_m": radius, "delta_m": delta, "pixel_m": view.pixel})
+                case["comparison"] = compare(case)
                 res["cases"].append(case)
-                c = case["comparison"]
-                log(f"  paper {c['paper']['time_ms']['min']:.1f} ms, default {c['default']['time_ms']['min']:.1f} ms; "
-                    f"RMSE reduction {100 * c['rmse_reduction_volume']:.0f}% / {100 * c['rmse_reduction_raytraced']:.0f}%")
+                print(f"{name} {kind} {width}x{height}: {comparison_line(case['comparison'])}", flush=True)
+    res["ranking"] = ranking(res["cases"])
     write_all(res, args.out)
     return 0
 

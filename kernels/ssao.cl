@@ -1,5 +1,6 @@
 /* ssao.cl — screen-space ambient occlusion over a G-buffer (paper 001):
- * preparation, the AO estimator, the N x N box blur and an edge-aware blur.
+ * preparation, the AO estimator (the paper's point samples, or line samples),
+ * the N x N box blur and an edge-aware blur.
  *
  * ABI summary: four kernels, one work-item per pixel (ssao_ao: per 8 pixels of a
  * row), global size (W, H) (ssao_ao: (ceil(W / 8), H)) rounded up to any local size (surplus items store nothing; no early
@@ -23,17 +24,22 @@
  *   ssao_ao(pos, nout, zbuf, W, H, prj, kern, m, mpad, radius, delta, seed, ao)
  *     global size (ceil(W / 8), H): one work-item per 8 adjacent pixels of a row
  *     pos, nout as float * (4 floats per pixel; scalar loads, see below)
- *     prj   __constant float[12]: three rows (host float64, rounded once):
+ *     prj   __constant float[16]: three rows (host float64, rounded once):
  *           with M the projection matrix, pru = W/2 (M[0] + M[3]),
  *           prv = H/2 (M[3] - M[1]), prw = M[3], so a view-space point A
- *           (w = 1) lands on pixel coordinates (pru.A / prw.A, prv.A / prw.A)
- *     kern  __constant float[3 mpad]: the tangent-space sample kernel (unit
- *           radius, z along the normal), structure of arrays x[mpad], y[mpad],
- *           z[mpad], entries m..mpad-1 NaN (they land nowhere, never counted);
- *           generated once by the host
+ *           (w = 1) lands on pixel coordinates (pru.A / prw.A, prv.A / prw.A);
+ *           then E (read with -D OCLS_LINES only): the homogeneous point all
+ *           lines of sight meet (null vector of M's rows 0, 1, 3; camera
+ *           centre with E.w = 1, or the view direction with E.w = 0, E.z > 0)
+ *     kern  __constant float[3 mpad]: the sample table, structure of arrays
+ *           x[mpad], y[mpad], z[mpad], entries m..mpad-1 NaN (they land nowhere,
+ *           never counted); generated once by the host.  Point samples: the
+ *           tangent-space kernel (unit radius, z along the normal); line
+ *           samples: disk points (x, y) and chord half-lengths z = sqrt(1 - x^2 - y^2)
  *     m     int, 1..256; mpad = m rounded up to a multiple of 8; radius,
  *           delta float (radius > 0); seed uint
  *     ao    float, W*H (out): unoccluded fraction 1 - k, 1 on empty pixels
+ *           (line samples: 1 - occupied length / length)
  *   ssao_box_h(ao, zbuf, W, H, rad, tmp)      -D OCLS_BLUR_BOX
  *   ssao_box_v(tmp, zbuf, W, H, rad, out)     -D OCLS_BLUR_BOX
  *     global size (ceil(W / 8), H): one work-item per 8 adjacent pixels of a row;
@@ -48,7 +54,8 @@
  * -D options: OCLS_ALPHA (alpha map), OCLS_NORMAL_MAP (normal map),
  *   OCLS_RANGE_CHECK (range check), OCLS_PLANE_TEST (plane test, step 4: adds the
  *   float4 W*H buffer `plane` as the last argument of ssao_prepare (out) and of
- *   ssao_ao (in)), OCLS_BLUR_BOX, OCLS_BLUR_EDGE (which blur
+ *   ssao_ao (in)), OCLS_LINES (line samples, see below; not in the paper),
+ *   OCLS_BLUR_BOX, OCLS_BLUR_EDGE (which blur
  *   kernels the program holds).  A feature not defined is not compiled.
  *
  * AO estimator (paper 001, "AO map"), for a hit pixel with P, N:
@@ -79,6 +86,35 @@
  *      front of P cannot be inside the hemisphere; the paper has no check);
  *   5. AO = 1 - occluded / counted (1 when nothing is counted).
  *   Normals with |N|^2 not in (1e-12, inf) (zero, NaN) give AO = 1.
+ *
+ * Line samples (-D OCLS_LINES; volumetric obscurance after Loos and Sloan 2010):
+ *   the same quantity as the points of a volume-uniform kernel, the occupied
+ *   fraction of the hemisphere (ball of radius R at P cut by N . (X - P) >= 0),
+ *   integrated along lines instead of sampled at points.  Under the depth-buffer
+ *   model the solid along a line of sight is one interval, behind the stored
+ *   surface, so one fetch per line suffices; along the normal it would not (the
+ *   line crosses many pixels).  For a hit pixel with P, N:
+ *   L1. U = (E.xyz - E.w P) / |.|, P's line of sight towards the camera; a pixel
+ *       with U.z <= 0 or a non-finite |.|^2 gets AO = 1;
+ *   L2. steps 1-2 with U in place of N: T, B span the disk perpendicular to U;
+ *   L3. for each table entry (x, y, hs): A = P + R (T x + B y), its pixel as in
+ *       step 3 (skipped off screen or behind the camera); the line A + t U meets
+ *       the ball for |t| <= h = R hs, and the base plane where a + t c >= 0,
+ *       a = R (x N.T + y N.B), c = N . U: t >= t_c = -a / c when c >= 0 (c = 0:
+ *       everything when a >= 0, nothing when a < 0), t <= t_c when c < 0; so the
+ *       line's chord is [lo, hi] and its length max(hi - lo, 0);
+ *   L4. the solid part is t <= t_s: without the plane test the line lies at
+ *       least delta behind the pixel's depth, t_s = (z_t - delta - A.z) / U.z
+ *       (an empty pixel: -inf, nothing); with it, at least delta below the
+ *       occluder's plane L, t_s = (-delta - (L.xyz . A - L.w)) / (L.xyz . U) when
+ *       L.xyz . U > 0, else the point test of step 4 at A decides the whole line
+ *       (+inf or -inf); occupied length max(min(hi, t_s) - lo, 0), 0 when the
+ *       range check (z_t - P.z <= R) fails;
+ *   L5. AO = 1 - (sum of occupied lengths) / (sum of lengths) over the lines on
+ *       screen, 1 when that sum is 0.
+ *   Exact for orthographic views up to the per-pixel depth (or plane) and the
+ *   m-line quadrature; in perspective the lines are parallel to U, off the
+ *   pixels' own lines of sight by at most R / |P| radians.
  *
  * Edge-aware blur: weight of neighbour q for centre p (both hit) is
  *   w = c^4 / (1 + (d / plane_tol)^2),  c = max(N_p . N_q, 0),
@@ -230,29 +266,41 @@ __kernel void ssao_ao(__global const float *restrict pos, __global const float *
     const float8 n0x = OCLS_GATHER8(nrm, ii, 4, 0), n0y = OCLS_GATHER8(nrm, ii, 4, 1), n0z = OCLS_GATHER8(nrm, ii, 4, 2);
     const float8 Px = OCLS_GATHER8(pos, ii, 4, 0), Py = OCLS_GATHER8(pos, ii, 4, 1), Pz = OCLS_GATHER8(pos, ii, 4, 2);
     const float8 nn = OCLS_DOT3(n0x, n0y, n0z, n0x, n0y, n0z);
-    const int8 live = inside & (zc != -INFINITY) & (nn > 1e-12f) & (nn < INFINITY);
+    const int8 live0 = inside & (zc != -INFINITY) & (nn > 1e-12f) & (nn < INFINITY);
     const float8 one = (float8)(1.0f), zero = (float8)(0.0f);
+#ifdef OCLS_LINES
+    /* P's line of sight U = (E.xyz - E.w P) / |.| towards the camera, E = prj[12..15] */
+    const float8 gux = prj[12] - prj[15] * Px, guy = prj[13] - prj[15] * Py, guz = prj[14] - prj[15] * Pz;
+    const float8 gu = OCLS_DOT3(gux, guy, guz, gux, guy, guz);
+    const int8 live = live0 & (gu < INFINITY) & (guz > 0.0f);
+    const float8 ul = select(one, sqrt(gu), live);
+    const float8 Fx = select(zero, gux / ul, live), Fy = select(zero, guy / ul, live), Fz = select(one, guz / ul, live);
+#else
+    const int8 live = live0;
+#endif
     const float8 nl = select(one, sqrt(nn), live);
     const float8 Nx = select(zero, n0x / nl, live), Ny = select(zero, n0y / nl, live), Nz = select(one, n0z / nl, live);
+#ifndef OCLS_LINES
+    const float8 Fx = Nx, Fy = Ny, Fz = Nz;     /* the frame's axis: N (lines: U) */
+#endif
 
-    /* steps 1-2: rotation vector and Gram-Schmidt */
+    /* steps 1-2: rotation vector and Gram-Schmidt against the frame's axis F */
     const uint8 h = ocls_mix8(convert_uint8(cc) ^ (uint8)(ocls_mix((uint)r ^ ocls_mix(seed))));
     const float8 vx = ocls_signed_unit8(h), vy = ocls_signed_unit8(ocls_mix8(h ^ OCLS_HASH_SALT));
-    const float8 vn = vx * Nx + vy * Ny;
-    const float8 gx = vx - Nx * vn, gy = vy - Ny * vn, gz = 0.0f - Nz * vn;
-    const float8 ax = fabs(Nx), ay = fabs(Ny), az = fabs(Nz);
+    const float8 vn = vx * Fx + vy * Fy;
+    const float8 gx = vx - Fx * vn, gy = vy - Fy * vn, gz = 0.0f - Fz * vn;
+    const float8 ax = fabs(Fx), ay = fabs(Fy), az = fabs(Fz);
     const int8 ex = (ax <= ay) & (ax <= az), ey = ~ex & (ay <= az), ez = ~ex & ~ey;
-    const float8 en = select(select(Nz, Ny, ey), Nx, ex);     /* e . N for the axis e */
+    const float8 en = select(select(Fz, Fy, ey), Fx, ex);     /* e . F for the axis e */
     const int8 fallback = ~(OCLS_DOT3(gx, gy, gz, gx, gy, gz) >= 1e-8f);
-    const float8 tx = select(gx, select(zero, one, ex) - Nx * en, fallback);
-    const float8 ty = select(gy, select(zero, one, ey) - Ny * en, fallback);
-    const float8 tz = select(gz, select(zero, one, ez) - Nz * en, fallback);
+    const float8 tx = select(gx, select(zero, one, ex) - Fx * en, fallback);
+    const float8 ty = select(gy, select(zero, one, ey) - Fy * en, fallback);
+    const float8 tz = select(gz, select(zero, one, ez) - Fz * en, fallback);
     const float8 tl = sqrt(OCLS_DOT3(tx, ty, tz, tx, ty, tz));
     const float8 Tx = tx / tl, Ty = ty / tl, Tz = tz / tl;
-    const float8 Bx = Ny * Tz - Nz * Ty, By = Nz * Tx - Nx * Tz, Bz = Nx * Ty - Ny * Tx;
+    const float8 Bx = Fy * Tz - Fz * Ty, By = Fz * Tx - Fx * Tz, Bz = Fx * Ty - Fy * Tx;
     const float8 RTx = Tx * radius, RTy = Ty * radius, RTz = Tz * radius;
     const float8 RBx = Bx * radius, RBy = By * radius, RBz = Bz * radius;
-    const float8 RNx = Nx * radius, RNy = Ny * radius, RNz = Nz * radius;
 
     /* step 3, projected: clip coordinates are linear in A_t, so the pixel's
      * P, R T, R B and R N are projected once (rows prj, see the ABI). */
@@ -265,10 +313,69 @@ __kernel void ssao_ao(__global const float *restrict pos, __global const float *
     const float8 cbu = OCLS_DOT3(prj[0], prj[1], prj[2], RBx, RBy, RBz);
     const float8 cbv = OCLS_DOT3(prj[4], prj[5], prj[6], RBx, RBy, RBz);
     const float8 cbw = OCLS_DOT3(prj[8], prj[9], prj[10], RBx, RBy, RBz);
+    const float fW = (float)W, fH = (float)H;
+
+#ifdef OCLS_LINES
+    /* line samples (see "Line samples"): the chord |t| <= R hs of the line A + t U, cut by the
+     * base plane a + t c >= 0 at t_c = -a / c (c = 0: a >= 0 keeps the chord, a < 0 empties it) */
+    const float8 RnT = radius * OCLS_DOT3(Nx, Ny, Nz, Tx, Ty, Tz), RnB = radius * OCLS_DOT3(Nx, Ny, Nz, Bx, By, Bz);
+    const float8 cN = OCLS_DOT3(Nx, Ny, Nz, Fx, Fy, Fz);
+    const int8 cpos = cN >= 0.0f;
+    const float8 ninv_c = select(-1.0f / cN, (float8)(-INFINITY), cN == 0.0f);
+#ifndef OCLS_PLANE_TEST
+    const float8 inv_uz = 1.0f / Fz;
+#endif
+    float8 len8 = zero, occ8 = zero;
+    for (int t = 0; t < m; ++t) {
+        const float sx = kern[t], sy = kern[mpad + t], hc = radius * kern[2 * mpad + t];
+        const float8 qu = cpu + (ctu * sx + cbu * sy);
+        const float8 qv = cpv + (ctv * sx + cbv * sy);
+        const float8 qw = cpw + (ctw * sx + cbw * sy);
+        const float8 az_t = Pz + (RTz * sx + RBz * sy);
+        const float8 inv = 1.0f / qw;
+        const float8 u = qu * inv, y = qv * inv;
+        const int8 on = (qw > 0.0f) & (u >= 0.0f) & (u < fW) & (y >= 0.0f) & (y < fH);
+        const int8 j = select(ii, convert_int8(y) * W + convert_int8(u), on);
+        const float8 tc = (RnT * sx + RnB * sy) * ninv_c;
+        const float8 lo = select((float8)(-hc), fmax(-hc, tc), cpos);
+        const float8 hi = select(fmin(hc, tc), (float8)(hc), cpos);
+#ifdef OCLS_PLANE_TEST
+        /* solid: t <= t_s, the line below the occluder's plane by delta; a plane not facing
+         * along U (L . U <= 0): the point test at A decides the whole line */
+        const float8 ax_t = Px + (RTx * sx + RBx * sy);
+        const float8 ay_t = Py + (RTy * sx + RBy * sy);
+        const float4 l0 = vload4(j.s0, plane), l1 = vload4(j.s1, plane), l2 = vload4(j.s2, plane);
+        const float4 l3 = vload4(j.s3, plane), l4 = vload4(j.s4, plane), l5 = vload4(j.s5, plane);
+        const float4 l6 = vload4(j.s6, plane), l7 = vload4(j.s7, plane);
+        const float8 lx = (float8)(l0.x, l1.x, l2.x, l3.x, l4.x, l5.x, l6.x, l7.x);
+        const float8 ly = (float8)(l0.y, l1.y, l2.y, l3.y, l4.y, l5.y, l6.y, l7.y);
+        const float8 lz = (float8)(l0.z, l1.z, l2.z, l3.z, l4.z, l5.z, l6.z, l7.z);
+        const float8 ld = (float8)(l0.w, l1.w, l2.w, l3.w, l4.w, l5.w, l6.w, l7.w);
+        const float8 lu = OCLS_DOT3(lx, ly, lz, Fx, Fy, Fz);
+        const float8 la = OCLS_DOT3(lx, ly, lz, ax_t, ay_t, az_t) - ld;
+        const float8 ts = select(select((float8)(-INFINITY), (float8)(INFINITY), la <= -delta), (-delta - la) / lu,
+                                 lu > 0.0f);
+#else
+        /* solid: t <= t_s, the line at least delta behind the stored depth (depth test along U) */
+        const float8 zt = OCLS_GATHER8(zbuf, j, 1, 0);
+        const float8 ts = (zt - delta - az_t) * inv_uz;
+#endif
+        float8 occl = fmax(fmin(hi, ts) - lo, 0.0f);
+#ifdef OCLS_RANGE_CHECK
+#ifdef OCLS_PLANE_TEST
+        const float8 zt = OCLS_GATHER8(zbuf, j, 1, 0);
+#endif
+        occl = select(zero, occl, zt - Pz <= radius);
+#endif
+        len8 += select(zero, fmax(hi - lo, 0.0f), on);
+        occ8 += select(zero, occl, on);
+    }
+    const float8 res = select(one, 1.0f - occ8 / len8, live & (len8 > 0.0f));
+#else
+    const float8 RNx = Nx * radius, RNy = Ny * radius, RNz = Nz * radius;
     const float8 cnu = OCLS_DOT3(prj[0], prj[1], prj[2], RNx, RNy, RNz);
     const float8 cnv = OCLS_DOT3(prj[4], prj[5], prj[6], RNx, RNy, RNz);
     const float8 cnw = OCLS_DOT3(prj[8], prj[9], prj[10], RNx, RNy, RNz);
-    const float fW = (float)W, fH = (float)H;
 
     /* steps 3-5 */
     int8 cnt8 = (int8)(0), occ8 = (int8)(0);
@@ -308,6 +415,7 @@ __kernel void ssao_ao(__global const float *restrict pos, __global const float *
         occ8 -= on & occ;
     }
     const float8 res = select(one, 1.0f - convert_float8(occ8) / convert_float8(cnt8), live & (cnt8 > 0));
+#endif
     if (c0 + 8 <= W) {
         vstore8(res, 0, ao + r * W + c0);
     } else {

@@ -23,6 +23,7 @@ from .io import read_dem, write_raster
 from .preview import write_preview
 from .runtime import list_devices
 from .shadows import DEFAULT_K_BRIGHT, DEFAULT_K_DARK, METHODS, ShadowCaster
+from .ssao import DEFAULT_M
 from .sun import DEFAULT_AZIMUTH, DEFAULT_ELEVATION, Sun
 
 PROG = "oclshade"
@@ -297,8 +298,8 @@ def add_render_parser(sub) -> None:
                     help="per-pixel shadow traversal (default exact)")
     rd.add_argument("--ao", type=_positive, nargs="?", const=4.0, default=None, metavar="CELLS",
                     help="screen-space ambient occlusion (paper 001) of radius CELLS cells (default 4)")
-    rd.add_argument("--ao-samples", type=_ao_samples, default=32, metavar="M",
-                    help="AO samples per pixel, 4..256 (default 32)")
+    rd.add_argument("--ao-samples", type=_ao_samples, default=DEFAULT_M, metavar="M",
+                    help=f"AO samples (line samples: oclshade.ssao.DEFAULT_FEATURES) per pixel, 4..256 (default {DEFAULT_M})")
     rd.add_argument("--ao-map", metavar="EXR", help="also write the AO factor (1 = unoccluded) as an EXR")
     rd.add_argument("-z", dest="z_factor", type=_nonzero, default=1.0, metavar="ZFACTOR",
                     help="multiply heights by ZFACTOR (default 1)")

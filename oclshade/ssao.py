@@ -6,19 +6,45 @@
 Stages: ``ssao_prepare`` (empty pixels, alpha cut-outs, normal map), the AO
 estimator ``ssao_ao``, then an optional blur (the paper's box blur or an
 edge-aware one).  Definitions, buffer layouts and the -D options are in
-``kernels/ssao.cl``; the float64 twin is :func:`oclshade.reference.ssao` and
-the ground truths it is measured against are
-:func:`oclshade.reference.volume_ao` and :func:`oclshade.reference.raytraced_ao`.
+``kernels/ssao.cl``; the float64 twins are :func:`oclshade.reference.ssao`
+(point samples) and :func:`oclshade.reference.ssao_lines` (line samples), and
+the ground truths they are measured against are
+:func:`oclshade.reference.volume_ao_lines` (and its point-quadrature check
+:func:`oclshade.reference.volume_ao`) and :func:`oclshade.reference.raytraced_ao`.
 
 The AO map is the *unoccluded* fraction: the compose pass multiplies it into
 the ambient term (``kernels/compose.cl`` with ``-D OCLS_AO``).
 
-Sample kernels (tangent space, unit radius, z along the normal), generated
-once on the host and uploaded to ``__constant`` memory:
+What each estimator estimates.  The depth-buffer model behind all of them:
+everything behind a stored surface (along the line of sight) is solid.
 
-* ``paper``: S = (2 f1 - 1, 2 f2 - 1, f3), f ~ U[0, 1) (seeded numpy PCG64):
-  the paper's half-cube, not normalised; it stands for the box
-  [-R, R]^2 x [0, R], not the hemisphere.
+* Point samples (the paper's AO map; ``paper``, ``uniform``, ``centre``): the
+  fraction of m points around P whose pixel holds a surface at least delta
+  nearer the camera: a Monte Carlo estimate of the occupied fraction of the
+  volume the point set stands for (``uniform``: the hemisphere of radius R on
+  the normal, i.e. ground truth (a); ``paper``: the half-cube [-R, R]^2 x [0, R]).
+* Line samples (``lines``, -D OCLS_LINES; volumetric obscurance in the manner
+  of Loos and Sloan 2010, not in the paper): the same occupied fraction of the
+  hemisphere as ground truth (a), integrated over m lines of sight instead of
+  points.  Under the model the solid along a line of sight is one interval
+  (behind the surface its pixel stores), so one depth fetch gives the exact
+  occupied length of the line's chord through the hemisphere (the ball of
+  radius R cut by the tangent plane); lines along the *normal* would cross
+  many pixels and need many fetches.  The lines are parallel to P's line of
+  sight (exact for orthographic views; in perspective they leave their pixel
+  by at most R / distance radians) through m points of a stratified disk of
+  radius R perpendicular to it, and the estimate is the sum of occupied
+  lengths over the sum of lengths.  The 1-D integral's variance is gone, so
+  far fewer samples reach the same error (bench/results/ssao.md).
+* Neither estimates ground truth (b), ray-traced AO (cosine-weighted
+  visibility within R), which bench/ssao.py reports for comparison.
+
+Sample tables (unit radius), generated once on the host and uploaded to
+``__constant`` memory:
+
+* ``paper``: tangent space (z along the normal), S = (2 f1 - 1, 2 f2 - 1, f3),
+  f ~ U[0, 1) (seeded numpy PCG64): the paper's half-cube, not normalised; it
+  stands for the box [-R, R]^2 x [0, R], not the hemisphere.
 * ``uniform``: stratified, uniform in the volume of the unit hemisphere
   (radius (i + 1/2)/m cubed-rooted, cos(polar) and azimuth from a golden-ratio
   sequence): an unbiased estimator of ground truth (a).
@@ -26,6 +52,9 @@ once on the host and uploaded to ``__constant`` memory:
   more samples near the centre (the common "normalised, scaled" kernel): it
   weights near occluders more, i.e. a distance falloff; it estimates neither
   ground truth exactly.
+* ``lines``: :func:`line_table`, the Vogel spiral uniform in the disk's area
+  (x, y in the plane perpendicular to the line of sight) and each point's
+  chord half-length sqrt(1 - x^2 - y^2).
 """
 from __future__ import annotations
 
@@ -39,7 +68,8 @@ import pyopencl as cl
 from .gbuffer import GBuffer
 from .runtime import Runtime, get_runtime
 
-DISTRIBUTIONS = ("paper", "uniform", "centre")
+POINT_DISTRIBUTIONS = ("paper", "uniform", "centre")
+DISTRIBUTIONS = POINT_DISTRIBUTIONS + ("lines",)
 BLURS = ("none", "box", "edge")
 M_MIN, M_MAX = 4, 256
 PAPER_SEED = 2019
@@ -48,8 +78,9 @@ _GOLDEN = (0.6180339887498949, 0.7548776662466927, 0.5698402909980532)
 
 def hemisphere_points(n: int, distribution: str) -> np.ndarray:
     """n points of a tangent-space sample kernel (float64, (n, 3)), see the module docstring."""
-    if distribution not in DISTRIBUTIONS:
-        raise ValueError(f"distribution must be one of {', '.join(DISTRIBUTIONS)}; got {distribution!r}")
+    if distribution not in POINT_DISTRIBUTIONS:
+        raise ValueError(f"distribution must be one of {', '.join(POINT_DISTRIBUTIONS)} (point samples; "
+                         f"'lines' has line_table), got {distribution!r}")
     if distribution == "paper":
         f = np.random.default_rng(PAPER_SEED).random((n, 3))
         return np.stack([2 * f[:, 0] - 1, 2 * f[:, 1] - 1, f[:, 2]], axis=1)
@@ -69,12 +100,52 @@ def sample_kernel(m: int, distribution: str) -> np.ndarray:
     return out
 
 
+def disk_points(n: int) -> np.ndarray:
+    """The line samples' disk set (``AOFeatures.lines``): n points stratified and uniform in the
+    area of the unit disk (the Vogel spiral: radius sqrt((i + 1/2) / n), azimuth 2 pi frac(i g),
+    g the golden ratio's fraction), float64 (n, 2)."""
+    i = np.arange(n)
+    r = np.sqrt((i + 0.5) / n)
+    phi = 2.0 * np.pi * ((i * _GOLDEN[0]) % 1.0)
+    return np.stack([r * np.cos(phi), r * np.sin(phi)], axis=1)
+
+
+def line_table(m: int) -> np.ndarray:
+    """The kernel's table for line samples: float32 (m, 3) = (x, y, sqrt(1 - x^2 - y^2)) of
+    :func:`disk_points` (the third: the half-length of the unit sphere's chord through the point)."""
+    d = disk_points(m)
+    return np.stack([d[:, 0], d[:, 1], np.sqrt(np.maximum(1.0 - (d * d).sum(axis=1), 0.0))], axis=1).astype(np.float32)
+
+
+def line_eye(projection: np.ndarray) -> np.ndarray:
+    """The point every pixel's line of sight passes through, homogeneous (float64 (4,)), scaled so
+    that ``E.xyz - E.w X`` points from a view-space point X towards the camera.
+
+    The lines of sight are the lines of constant pixel: points X with rows 0, 1 and 3 of the
+    projection (x, y, w of clip space) proportional, so E spans the null space of those rows.
+    Perspective: E = (camera centre, 1); orthographic: E = (view direction, 0), oriented to +z
+    (the depth test's convention: a larger view-space z is nearer the camera)."""
+    rows = np.asarray(projection, np.float64)[[0, 1, 3]]
+    _, sv, vt = np.linalg.svd(rows)
+    if not sv[2] > 1e-12 * sv[0]:
+        raise ValueError("projection: rows 0, 1 and 3 (clip x, y, w) must have rank 3 (a camera)")
+    e = vt[-1]
+    if abs(e[3]) > 1e-9 * float(np.abs(e[:3]).max()):
+        return e / e[3]
+    if abs(e[2]) <= 1e-9 * float(np.abs(e[:3]).max()):
+        raise ValueError("projection: the lines of sight lie in the view plane z = const (no depth); "
+                         "line samples need a view direction with a z component")
+    e = e / np.linalg.norm(e[:3]) * np.sign(e[2])
+    e[3] = 0.0
+    return e
+
+
 @dataclass(frozen=True)
 class AOFeatures:
     """Features of the AO pass.  ``normal_map``, ``alpha_map``, ``range_check``, ``plane_test``
     and ``blur`` are compile-time (-D options, absent from the program when off); ``distribution``
-    picks the sample table and ``blur_size`` (N of the N x N window, odd >= 3) is a
-    kernel argument."""
+    picks the sample table, and ``"lines"`` also the line-sample estimator (-D OCLS_LINES, see the
+    module docstring); ``blur_size`` (N of the N x N window, odd >= 3) is a kernel argument."""
 
     normal_map: bool = False
     alpha_map: bool = False
@@ -86,7 +157,8 @@ class AOFeatures:
     #: ``plane_test``: a sample is occluded iff it lies at least delta below the tangent plane of
     #: the surface at its pixel (plane from the stored position and geometric normal), instead of
     #: the paper's depth test against the pixel-centre depth; see kernels/ssao.cl step 4
-    #: (not in the paper)
+    #: (not in the paper).  With line samples: each line is cut at that plane instead of at the
+    #: pixel's depth
 
     def __post_init__(self) -> None:
         if self.distribution not in DISTRIBUTIONS:
@@ -102,6 +174,7 @@ class AOFeatures:
             "OCLS_ALPHA": self.alpha_map,
             "OCLS_RANGE_CHECK": self.range_check,
             "OCLS_PLANE_TEST": self.plane_test,
+            "OCLS_LINES": self.distribution == "lines",
             "OCLS_BLUR_BOX": self.blur == "box",
             "OCLS_BLUR_EDGE": self.blur == "edge",
         }
@@ -110,16 +183,14 @@ class AOFeatures:
 #: the paper's recipe: its half-cube kernel, m = 32, no range check, a 5 x 5 box blur
 PAPER_RECIPE = AOFeatures(distribution="paper", blur="box", blur_size=5)
 PAPER_M = 32
-#: the library default stays the paper's recipe.  Measured with bench/ssao.py (bench/results/ssao.md,
-#: 12 cases: santo, front_range and the canyon terrain, top-down and perspective oblique views, 640x480
-#: and 1920x1080): no setting beats the recipe's RMSE by 25 % at equal or lower time in every case
-#: against either ground truth.  The best candidate, the ``centre`` kernel with the plane test and
-#: the 5 x 5 box blur, cuts the RMSE against ground truth (b) by 25-46 % on the santo views and the
-#: canyon's oblique views at m = 24, but costs 1.0-1.9x the recipe's time and is 17-25 % *worse* on
-#: the canyon's top-down views (cliffs: the occluder's tangent plane extrapolated across a wall) and
-#: only 4-8 % better on front_range at 1920x1080; at m = 16 it is as fast but loses up to 37 %.
-DEFAULT_FEATURES = PAPER_RECIPE
-DEFAULT_M = PAPER_M
+#: the library default: 20 line samples, no blur (``oclshade render --ao``, frames.AOSettings).
+#: Chosen by bench/ssao.py (bench/results/ssao.md, "Contenders"): over the eight views of santo and
+#: front_range (top-down and perspective oblique, 640x480 and 1920x1080) its RMSE against ground
+#: truth (a) is 34-70 % below the paper's recipe's at 0.67-0.84 of its time (timed in rotation);
+#: 24 and 28 lines are more accurate but not reliably faster than the recipe, 16 lines only 28 %
+#: better in the worst view.  Against ray-traced AO (b) it is 4-25 % worse than the recipe.
+DEFAULT_FEATURES = AOFeatures(distribution="lines")
+DEFAULT_M = 20
 
 
 @dataclass
@@ -230,7 +301,8 @@ class SSAO:
         self._launch(prep, width, height)
 
         ao = rt.kernel("ssao.cl", "ssao_ao", defines)
-        rows = np.concatenate([0.5 * width * (proj[0] + proj[3]), 0.5 * height * (proj[3] - proj[1]), proj[3]])
+        eye = line_eye(proj) if features.distribution == "lines" else np.zeros(4)
+        rows = np.concatenate([0.5 * width * (proj[0] + proj[3]), 0.5 * height * (proj[3] - proj[1]), proj[3], eye])
         prj = rt.to_device(rows.astype(np.float32), "projection rows")   # referenced until enqueued
         ao.set_args(inputs.position, work["normal"], work["zbuf"], *dims, prj, self._table(m, features.distribution),
                     np.int32(m), np.int32(-(-m // 8) * 8), np.float32(radius), np.float32(delta), np.uint32(seed), work["ao"], *plane)
@@ -279,7 +351,7 @@ class SSAO:
         if key not in self._tables:
             mpad = -(-m // 8) * 8    # structure of arrays x[mpad], y[mpad], z[mpad]; NaN padding
             table = np.full((3, mpad), np.nan, np.float32)
-            table[:, :m] = sample_kernel(m, distribution)[:, :3].T
+            table[:, :m] = (line_table(m) if distribution == "lines" else sample_kernel(m, distribution)[:, :3]).T
             self._tables[key] = self.runtime.to_device(table, "sample kernel")
         return self._tables[key]
 

@@ -74,9 +74,10 @@ def disk_fraction(t: np.ndarray) -> np.ndarray:
 
 
 def assert_matches_twin(ao: np.ndarray, tw: ref.ReferenceAO) -> None:
-    """Kernel vs float64 twin: 1e-6 where no sample is a tie, else within ties / (counted - ties)."""
+    """Kernel vs float64 twin within the twin's bound (point samples: 0 where no sample is a tie,
+    else ties / (counted - ties); line samples: see ref.ssao_lines) + 1e-6."""
     diff = np.abs(ao.astype(np.float64) - tw.ao)
-    bound = np.where(tw.ties > 0, tw.ties / np.maximum(tw.counted - tw.ties, 1), 0.0) + 1e-6
+    bound = tw.bound + 1e-6
     bad = diff > bound
     assert not bad.any(), (f"{bad.sum()} pixels beyond the tie bound, worst {diff[bad].max()} "
                            f"at {np.argwhere(bad)[:3].tolist()}")
@@ -444,7 +445,8 @@ hm = Heightmap.from_array(canyon_crater(96, 96, seed=5), 10.0)
 view = ref.topdown_gbuffer(hm, 160, 120, 5.0)
 s = SSAO()
 out = []
-for f in (AOFeatures(distribution="paper", blur="box"), AOFeatures(distribution="uniform", blur="edge", range_check=True)):
+for f in (AOFeatures(distribution="paper", blur="box"), AOFeatures(distribution="uniform", blur="edge", range_check=True),
+          AOFeatures(distribution="lines"), AOFeatures(distribution="lines", plane_test=True, range_check=True, blur="box")):
     out.append(s.compute(view.gbuffer, view.projection, radius=30.0, m=32, delta=0.2, features=f, seed=3).tobytes())
 print(hashlib.sha256(b"".join(out)).hexdigest())
 """
@@ -481,7 +483,13 @@ def test_bench_quick_smoke(tmp_path: Path) -> None:
     assert [s["dataset"] for s in res["skipped"]] == ["santo"]
     assert [(c["dataset"], c["view"]) for c in res["cases"]] == [("synthetic", "topdown"), ("synthetic", "oblique")]
     for case in res["cases"]:
-        assert len(case["settings"]) == 2 * 1 * 2 * 3 * 2     # m, blur, range check, kernel, plane test
+        # points: m, blur, range check, kernel, plane test; lines: the contenders' m, no blur, range check, plane test
+        assert len(case["settings"]) == 2 * 1 * 2 * 3 * 2 + 4 * 1 * 2 * 2
+        assert sum(r["distribution"] == "lines" for r in case["settings"]) == 16
         for r in case["settings"]:
             assert 0 <= r["rmse_volume"] < 0.5 and 0 <= r["rmse_raytraced"] < 0.5 and r["time_ms"]["min"] > 0
         assert {"time_ratio", "rmse_reduction_volume", "rmse_reduction_raytraced"} <= set(case["comparison"])
+        assert len(case["interleaved_ms"]) == 5 and min(case["interleaved_ms"].values()) > 0   # paper + 4 contenders
+        assert 0 <= case["truth_error"]["volume"] < 0.05 and 0 <= case["truth_error"]["raytraced"] < 0.1
+    md = (tmp_path / "results" / "ssao.md").read_text()
+    assert md.count("default vs paper recipe:") == len(res["cases"])

@@ -4,7 +4,8 @@ One module per kernel family; everything public is re-exported here, so
 ``from oclshade import reference as ref; ref.cast_shadows(...)`` works for all.
 """
 from .ao import (ReferenceAO, TopDownView, bilinear, box_blur, cosine_directions, edge_blur,
-                 raytraced_ao, rotation_vectors, ssao, topdown_gbuffer, volume_ao, world_frame)
+                 raytraced_ao, rotation_vectors, ssao, ssao_lines, topdown_gbuffer, volume_ao,
+                 volume_ao_lines, world_frame)
 from .compose import compose
 from .pyramid import extrema_pyramid, mip_pyramid
 from .screen_shadows import ReferencePixelShadows, minimal_lod, pixel_shadows, surface_height
@@ -16,6 +17,6 @@ __all__ = [
     "CORNER_SNAP", "CORNER_TIE", "ReferenceAO", "ReferencePixelShadows", "ReferenceShadows", "ReferenceTerrain",
     "TopDownView", "bilinear", "box_blur", "cast_shadows", "cast_terrain", "compose", "cosine_directions",
     "dilated_max_levels", "edge_blur", "extrema_pyramid", "minimal_lod", "mip_pyramid", "pixel_shadows", "raytraced_ao",
-    "rotation_vectors", "shadow_coefficient", "ssao", "surface_height", "tie_tolerance", "topdown_gbuffer",
-    "volume_ao", "world_frame",
+    "rotation_vectors", "shadow_coefficient", "ssao", "ssao_lines", "surface_height", "tie_tolerance", "topdown_gbuffer",
+    "volume_ao", "volume_ao_lines", "world_frame",
 ]
