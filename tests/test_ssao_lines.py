@@ -174,14 +174,15 @@ def test_empty_pixels_border_and_degenerate_normals(ssao: SSAO) -> None:
 # ----------------------------------------------------------------------------- kernel vs twin
 def assert_matches_twin(ao: np.ndarray, tw: ref.ReferenceAO) -> None:
     """Within the twin's float32 bound everywhere, and the bound is not vacuous: tight (< 1e-3)
-    on most pixels with lines on screen."""
+    on a good share of the pixels with lines on screen (over half on most random G-buffers;
+    hypothesis found a 34 x 2 one at 0.49, hence 0.3)."""
     diff = np.abs(ao.astype(np.float64) - tw.ao)
     bad = diff > tw.bound + 1e-6
     assert not bad.any(), (f"{bad.sum()} pixels beyond the bound, worst {diff[bad].max()} "
                            f"at {np.argwhere(bad)[:3].tolist()}")
     counted = tw.counted > 0
     if counted.sum() >= 20:
-        assert np.mean(tw.bound[counted] < 1e-3) > 0.5
+        assert np.mean(tw.bound[counted] < 1e-3) > 0.3
 
 
 @settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
