@@ -279,6 +279,15 @@ class TerrainRenderer:
                 f4(hmin, hmax, 0.0, 0.0),
                 tex, table, np.int32(ntex))
 
+    def _gbuffer(self, camera: Camera, out: DeviceGBuffer | None) -> DeviceGBuffer:
+        """``out`` if it has the camera's shape, else new device buffers."""
+        shape = (camera.height, camera.width)
+        if out is not None and out.shape == shape:
+            return out
+        n = camera.width * camera.height
+        return DeviceGBuffer(self.runtime, shape, {name: self.runtime.empty(4 * ch * n, f"G-buffer {name}")
+                                                   for name, ch in CHANNELS.items()})
+
     def render(self, camera: Camera, method: str = "bisect", on_device: bool = False,
                out: DeviceGBuffer | None = None) -> GBuffer | DeviceGBuffer:
         """Cast one ray per pixel.  ``on_device``: return a :class:`DeviceGBuffer` (no copy back);
@@ -286,11 +295,7 @@ class TerrainRenderer:
         rt = self.runtime
         args = self.kernel_args(camera)
         kernel = rt.kernel("terrain.cl", "terrain_cast", self.features(camera, method).defines())
-        shape = (camera.height, camera.width)
-        if out is None or out.shape != shape:
-            n = camera.width * camera.height
-            out = DeviceGBuffer(rt, shape, {name: rt.empty(4 * ch * n, f"G-buffer {name}")
-                                            for name, ch in CHANNELS.items()})
+        out = self._gbuffer(camera, out)
         kernel.set_args(*args, *(out.buffers[name] for name in CHANNELS))
         cl.enqueue_nd_range_kernel(rt.queue, kernel, *rt.grid_2d(kernel, camera.width, camera.height))
         if on_device:
@@ -298,18 +303,18 @@ class TerrainRenderer:
         return out.to_host()
 
 
-    def step_counts(self, camera: Camera, method: str = "bisect", band_pixels: int = 1 << 18) -> dict[str, object]:
+    def step_counts(self, camera: Camera, method: str = "bisect", band_pixels: int = 1 << 18,
+                    out: DeviceGBuffer | None = None) -> dict[str, object]:
         """Traversal counters of one frame summed over its pixels (a profiling build, -D OCLS_STATS):
         ``levels``, int64 per pyramid level (bisect voxel tests, dda texel visits, march samples at
         that level); ``patches`` (exact patch tests); ``rays`` (pixels with a non-empty segment);
         ``hits``.  Bands of at most ``band_pixels`` pixels keep the uint32 counters from wrapping
-        (Runtime.count_in_bands)."""
+        (Runtime.count_in_bands).  ``out``: where the frame itself goes (default: scratch buffers)."""
         rt = self.runtime
         kernel = rt.kernel("terrain.cl", "terrain_cast", self.features(camera, method, stats=True).defines())
-        n = camera.width * camera.height
-        bufs = [rt.empty(4 * ch * n, f"G-buffer {name}") for name, ch in CHANNELS.items()]
-        total = rt.count_in_bands(kernel, (*self.kernel_args(camera), *bufs), STATS_COUNTERS, camera.width,
-                                  camera.height, band_pixels)
+        out = self._gbuffer(camera, out)
+        total = rt.count_in_bands(kernel, (*self.kernel_args(camera), *(out.buffers[name] for name in CHANNELS)),
+                                  STATS_COUNTERS, camera.width, camera.height, band_pixels)
         return {"levels": total[:self.pyramid.levels], "patches": int(total[_ST_PATCH]),
                 "rays": int(total[_ST_PATCH + 1]), "hits": int(total[_ST_PATCH + 2])}
 

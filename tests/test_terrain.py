@@ -210,6 +210,49 @@ def test_bisection_options_are_exact_too():
             compare(field, cam, r).assert_exact(f"descend={descend} leaf={leaf} {kind}")
 
 
+def test_step_counts_profile_without_changing_the_frame():
+    """The profiling build (-D OCLS_STATS) renders the same G-buffer, and its counters add up: every
+    ray with a segment makes at least one test, every hit comes from an exact patch test, bisect
+    tests no level finer than its leaf level, and the hit counter is the frame's hit count."""
+    field = jacksboro()
+    cam = camera_for(field, "framed", 96, 64, az=110.0)
+    for leaf in (2, 0):
+        r = TerrainRenderer(field, leaf=leaf)
+        for method in ("bisect", "dda", "march"):
+            plain = r.render(cam, method)
+            out = r.render(cam, method, on_device=True)
+            counts = r.step_counts(cam, method, band_pixels=1000, out=out)
+            profiled = out.to_host()
+            for name in ("position", "normal", "uv", "uv_grad", "depth", "albedo"):
+                assert np.array_equal(getattr(profiled, name), getattr(plain, name)), (leaf, method, name)
+            levels = counts["levels"]
+            assert len(levels) == r.pyramid.levels
+            assert counts["hits"] == int(plain.hit.sum()) > 0
+            assert plain.hit.size >= counts["rays"] >= counts["hits"]
+            assert levels.sum() >= counts["rays"] and counts["patches"] >= counts["hits"]
+            if method == "bisect":
+                assert not levels[:r.leaf_level].any() and levels[r.leaf_level] > 0
+            if method == "march":
+                assert not levels[1:].any()
+
+
+def test_far_camera_stays_bounded():
+    """Cameras so far away that a cell is about one float32 ulp of t, and then far below it: the
+    work per ray stays small (no loop runs to its iteration bound) and hits stay in the map."""
+    rng = np.random.default_rng(1)
+    field = Heightfield.from_array(rng.random((30, 30)) * 5.0, 1.0)
+    for dist in (1e5, 1e7, 1e9):
+        cam = Camera([15 + 0.6 * dist, -15 - 0.6 * dist, 0.5 * dist], [15, -15, 0], 64, 48,
+                     fov=min(3600.0 / dist, 60.0), near=0.5 * dist, far=2.0 * dist)
+        r = TerrainRenderer(field)
+        counts = r.step_counts(cam)
+        assert counts["rays"] > 0
+        assert counts["levels"].sum() < 20 * counts["rays"] and counts["patches"] < 20 * counts["rays"], dist
+        g = r.render(cam)
+        assert np.all((g.uv[g.hit] >= 0.0) & (g.uv[g.hit] <= 29.0))
+        assert np.all((g.depth[g.hit] >= cam.near) & (g.depth[g.hit] <= cam.far))
+
+
 def test_baselines_agree_where_exact():
     """dda is exact like bisect; march misses crossings between samples but never invents hits."""
     field = jacksboro()
