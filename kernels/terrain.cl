@@ -97,7 +97,8 @@
  *       discarding of a voxel above the max applied to the part), and the next
  *       voxel starts there with the length of level l - j (the t-length of
  *       2^(l-j) cells along the ray's major axis, shrunk by 1e-3 so the
- *       footprint cannot round up to the next level);
+ *       footprint cannot round up to the next level); a leaf discards its near
+ *       part the same way before its walk;
  *     - after a rejected voxel (or a leaf without a hit) the next voxel starts
  *       at its end with the length of its level: the subdivision is not
  *       dyadic, the walk needs no stack and no node indices, and neighbours
@@ -303,19 +304,20 @@ OCLS_INLINE float cast(__global const float *h, __global const float2 *ext, __gl
 {
     const int top = levels - 1, lmin = min(OCLS_LEAF, top);
     const float3 o = ray->o, d = ray->d;
+    const float4 o4 = (float4)(o, 0.0f), d4 = (float4)(d, 0.0f);
     /* t-length of one cell along the major axis, shrunk so that a voxel of 2^l such lengths
      * spans at most 2^l patches after rounding (INFINITY for a vertical ray: one voxel) */
     const float cell_t = 0.999f / fmax(fabs(d.x), fabs(d.y));
     const float leaf_t = cell_t * pow2i(lmin);
     const int2 lo = (int2)(0, 0), hi = (int2)(ray->Wp - 1, ray->Hp - 1), ctr = (int2)(ray->cu, ray->cv);
     float ta = ts, len = te - ts;
-    float4 pa = (float4)(o.x + ta * d.x, o.y + ta * d.y, o.z + ta * d.z, 0.0f);
+    float4 pa = o4 + ta * d4;
     int2 ia = floor_int2(pa.xy) + ctr;
     int above = 0;                                      /* the segment may start under the surface */
     for (int it = 0; it < OCLS_MAX_IT; ++it) {
         float tb = min_nn(ta + len, te);
         if (!(tb > ta)) tb = te;                        /* len below the rounding of ta: finish */
-        const float4 pb = (float4)(o.x + tb * d.x, o.y + tb * d.y, o.z + tb * d.z, 0.0f);
+        const float4 pb = o4 + tb * d4;
         const int2 ib = floor_int2(pb.xy) + ctr;
         /* its projection on the map: patch columns c0..c1 (x), rows r0..r1 (y) */
         const int2 q0 = clamp(min(ia, ib), lo, hi), nq = clamp(max(ia, ib), lo, hi) - q0;
@@ -332,28 +334,29 @@ OCLS_INLINE float cast(__global const float *h, __global const float2 *ext, __gl
 #else
         const float low = min_nn(pa.z, pb.z);
 #endif
-        const int leaf = l <= lmin || len <= leaf_t;
-        if (low <= hmax && !leaf) {
-            /* split: discard the near part above hmax (a plane: the ray meets hmax at fraction g
-             * of the voxel, 1e-5 short of it against rounding), then a voxel of level l - j */
-#ifndef OCLS_SPHERE
-            if (pa.z > hmax) {
-                const float g = (pa.z - hmax) / (pa.z - pb.z) * 0.99999f;
-                ta = ta + g * (tb - ta);
-                above = 1;                              /* the discarded part is above the surface */
-                pa = (float4)(o.x + ta * d.x, o.y + ta * d.y, o.z + ta * d.z, 0.0f);
-                ia = floor_int2(pa.xy) + ctr;
-            }
-#endif
-            len = cell_t * pow2i(max(l - OCLS_DESCEND, lmin));
-            continue;
-        }
         if (low > hmax) {
             above = 1;                                  /* wholly above the max: discard */
         } else {
+            /* discard the near part above hmax (a plane: the ray meets hmax at fraction g of the
+             * voxel, 1e-5 short of it against rounding) */
+            float tw = ta;
+#ifndef OCLS_SPHERE
+            if (pa.z > hmax) {
+                tw = ta + (pa.z - hmax) / (pa.z - pb.z) * 0.99999f * (tb - ta);
+                above = 1;                              /* the discarded part is above the surface */
+            }
+#endif
+            if (l > lmin && len > leaf_t) {
+                /* split: the next voxel starts there, with the length of level l - j */
+                ta = tw;
+                pa = o4 + ta * d4;
+                ia = floor_int2(pa.xy) + ctr;
+                len = cell_t * pow2i(max(l - OCLS_DESCEND, lmin));
+                continue;
+            }
             /* leaf: at most 2^(l+1) + 1 patches along the ray (one more if rounding puts the
              * first cell behind the ray), each tested exactly */
-            const float th = walk(h, ray, ta, tb, (2 << l) + 2, &above, cell);
+            const float th = walk(h, ray, tw, tb, (2 << l) + 2, &above, cell);
             if (th < INFINITY) return th;
         }
         if (tb >= te) break;                            /* past the segment's end */
