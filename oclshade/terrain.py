@@ -28,7 +28,7 @@ from .runtime import Runtime, get_runtime
 METHODS = ("bisect", "march", "dda")
 _METHOD_CODE = {"bisect": 1, "march": 2, "dda": 3}
 MAX_ITERATIONS = 1 << 16      # hard bound of every traversal loop (never reached on valid input)
-STATS_COUNTERS, _ST_PATCH = 35, 32   # OCLS_STATS_N, OCLS_ST_PATCH of kernels/terrain.cl (rays, hits follow)
+_STATS_N, _ST_PATCH = 35, 32   # OCLS_STATS_N, OCLS_ST_PATCH of kernels/terrain.cl (rays, hits follow)
 
 
 def check_method(method: str) -> str:
@@ -314,7 +314,7 @@ class TerrainRenderer:
         kernel = rt.kernel("terrain.cl", "terrain_cast", self.features(camera, method, stats=True).defines())
         out = self._gbuffer(camera, out)
         total = rt.count_in_bands(kernel, (*self.kernel_args(camera), *(out.buffers[name] for name in CHANNELS)),
-                                  STATS_COUNTERS, camera.width, camera.height, band_pixels)
+                                  _STATS_N, camera.width, camera.height, band_pixels)
         return {"levels": total[:self.pyramid.levels], "patches": int(total[_ST_PATCH]),
                 "rays": int(total[_ST_PATCH + 1]), "hits": int(total[_ST_PATCH + 2])}
 
