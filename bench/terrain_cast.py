@@ -13,7 +13,9 @@ and down at the map (most pixels see terrain, the far ones near the horizon).
 Times: one render call with the G-buffer left on the device (kernel launch and
 its argument setup), minimum of --repeats runs after a warm-up, all methods in
 the same process; the interleaved section also reports the process CPU time
-(both PoCL threads), steadier than wall time on a shared machine.  Traversal
+(both PoCL threads), steadier than wall time on a shared machine, and paired
+ratios (medians of ratios of calls made back to back, so both calls see the
+same load: growth 256^2 -> 4096^2 and bisect / baseline).  Traversal
 counts (a profiling build, -D OCLS_STATS): voxel tests per hit pixel by
 pyramid level and exact patch tests, bisect and dda.  Errors: the float64
 reference (oclshade.reference.cast_terrain) on every --stride-th pixel in both
@@ -161,22 +163,41 @@ def main(argv: list[str] | None = None) -> int:
     # the same frames again, interleaved (round robin over sizes and methods, min of the rounds):
     # a shared machine's load drifts over minutes, so growth and ratios are read from here
     inter = {(n, m): [float("inf"), float("inf")] for n in sizes for m in METHODS}
+    rounds: list[dict] = []
     outs = {}
+
+    def timed(n: int, m: str) -> tuple[float, float]:
+        """(wall, cpu) ms of one render call of size n, method m."""
+        cam = flyover(extent - extent / n, *frame)
+        if (n, m) not in outs:
+            outs[n, m] = renderers[n].render(cam, m, on_device=True)
+            renderers[n].runtime.queue.finish()
+        c, t = time.process_time(), time.perf_counter()
+        renderers[n].render(cam, m, on_device=True, out=outs[n, m])
+        renderers[n].runtime.queue.finish()
+        return 1e3 * (time.perf_counter() - t), 1e3 * (time.process_time() - c)
+
     for _ in range(repeats):
+        rounds.append({})
         for n in sizes:
-            cam = flyover(extent - extent / n, *frame)
-            for m in METHODS:
-                if (n, m) not in outs:
-                    outs[n, m] = renderers[n].render(cam, m, on_device=True)
-                    renderers[n].runtime.queue.finish()
-                c, t = time.process_time(), time.perf_counter()
-                renderers[n].render(cam, m, on_device=True, out=outs[n, m])
-                renderers[n].runtime.queue.finish()
+            for m in ("bisect", "dda", "march"):          # bisect and dda back to back
+                rounds[-1][n, m] = timed(n, m)
                 best = inter[n, m]
-                best[0] = min(best[0], 1e3 * (time.perf_counter() - t))
-                best[1] = min(best[1], 1e3 * (time.process_time() - c))
-    outs.clear()
+                best[0], best[1] = min(best[0], rounds[-1][n, m][0]), min(best[1], rounds[-1][n, m][1])
     res["interleaved"] = [{"size": n, "method": m, "time_ms": v[0], "cpu_ms": v[1]} for (n, m), v in inter.items()]
+    # paired ratios: each ratio from two calls made back to back (a fraction of a second apart,
+    # so both see the same load), median over the pairs
+    res["paired"] = {
+        "bisect_over": {m: {str(n): [float(np.median([r[n, "bisect"][j] / r[n, m][j] for r in rounds]))
+                                     for j in (0, 1)] for n in sizes} for m in ("dda", "march")},
+        "growth": {}}
+    for m in ("bisect", "dda"):
+        pairs = []
+        for _ in range(2 * repeats + 1):
+            small, big_ = timed(sizes[0], m), timed(sizes[-1], m)
+            pairs.append([big_[j] / small[j] for j in (0, 1)])
+        res["paired"]["growth"][m] = [float(np.median([p[j] for p in pairs])) for j in (0, 1)]
+    outs.clear()
     mid = sizes[len(sizes) // 2]
     r = renderers[mid]
     scale_frames = [(160, 90), (320, 180), (640, 360)] if quick else [(480, 270), (960, 540), (1920, 1080), (3840, 2160)]
@@ -249,11 +270,18 @@ def write_md(res: dict, path: Path) -> None:
         lines.append(f"| {n}^2 | " + " | ".join(f"{inter[n, m]['time_ms']:.1f} | {inter[n, m]['cpu_ms']:.1f}"
                                                 for m in METHODS) + " |")
     g = s["interleaved_growth_smallest_to_largest"]
+    pg, pb = res["paired"]["growth"], res["paired"]["bisect_over"]
     lines += ["", f"interleaved time growth {c['sizes'][0]}^2 -> {c['sizes'][-1]}^2 (wall, cpu): "
               + ", ".join(f"{m} {g[m]['time']:.2f}x, {g[m]['cpu']:.2f}x" for m in METHODS), "",
               "interleaved bisect / baseline time: " + "; ".join(
                   f"{m}: " + ", ".join(f"{k}^2 {v:.2f}" for k, v in d.items())
-                  for m, d in s["interleaved_bisect_over"].items()),
+                  for m, d in s["interleaved_bisect_over"].items()), "",
+              f"paired (median over {2 * c['repeats'] + 1} pairs of back-to-back calls, wall / cpu) time growth "
+              f"{c['sizes'][0]}^2 -> {c['sizes'][-1]}^2: "
+              + ", ".join(f"{m} {v[0]:.2f}x / {v[1]:.2f}x" for m, v in pg.items()), "",
+              f"paired (median over the {c['repeats']} rounds, bisect and the baseline back to back, wall / cpu) "
+              "bisect / baseline time: " + "; ".join(
+                  f"{m}: " + ", ".join(f"{k}^2 {v[0]:.2f} / {v[1]:.2f}" for k, v in d.items()) for m, d in pb.items()),
               ""]
     lines += per_hit_table(res)
     lines += ["", "## time against frame size", "", "| frame | bisect ms | dda ms |", "|---|---|---|"]
