@@ -10,8 +10,14 @@ terrain; without the file, oclshade.synthetic.canyon_crater.  Camera: a
 flyover from the southern edge, 12 % of the map's width high, looking north
 and down at the map (most pixels see terrain, the far ones near the horizon).
 
-Times: kernel only (G-buffer left on the device), minimum of --repeats runs
-after a warm-up, all methods in the same process.  Errors: the float64
+Times: one render call with the G-buffer left on the device (kernel launch and
+its argument setup), minimum of --repeats runs after a warm-up, all methods in
+the same process; the interleaved section also reports the process CPU time
+(both PoCL threads), steadier than wall time on a shared machine, and paired
+ratios (medians of ratios of calls made back to back, so both calls see the
+same load: growth 256^2 -> 4096^2 and bisect / baseline).  Traversal
+counts (a profiling build, -D OCLS_STATS): voxel tests per hit pixel by
+pyramid level and exact patch tests, bisect and dda.  Errors: the float64
 reference (oclshade.reference.cast_terrain) on every --stride-th pixel in both
 directions; "cell mismatch" counts pixels not in the reference's patch within
 1e-3 cell (or hit/empty disagreements); silhouette pixels are those whose 3x3
@@ -73,6 +79,13 @@ def time_render(renderer: TerrainRenderer, cam: Camera, method: str, repeats: in
         renderer.runtime.queue.finish()
         best = min(best, time.perf_counter() - t)
     return best, out.to_host()
+
+
+def per_hit(counts: dict) -> dict:
+    """Traversal counters of one frame (TerrainRenderer.step_counts) per hit pixel."""
+    hits = max(counts["hits"], 1)
+    levels = [float(v) / hits for v in counts["levels"]]
+    return {"levels": levels, "tests": sum(levels), "patches": counts["patches"] / hits, "hits": counts["hits"]}
 
 
 def silhouette(hit: np.ndarray) -> np.ndarray:
@@ -138,29 +151,53 @@ def main(argv: list[str] | None = None) -> int:
             entry["methods"][m] = {"time_ms": 1e3 * dt, **errors(g, ref, rows, cols)}
             print(f"{n}^2 {m}: {1e3 * dt:.1f} ms, different cell {entry['methods'][m]['different_cell_fraction']:.2e}",
                   file=sys.stderr)
-        r.descend = 1                   # the paper's plain halving, for the OCLS_DESCEND deviation
+        entry["per_hit"] = {m: per_hit(r.step_counts(cam, m)) for m in ("bisect", "dda")}
+        r.descend = 1                   # a split halves the footprint (the paper's halving), OCLS_DESCEND
         entry["bisect_descend1_ms"] = 1e3 * time_render(r, cam, "bisect", repeats)[0]
         r.descend = 3
+        leaf0 = TerrainRenderer(field, leaf=0)  # leaves at level 0 (the paper's), OCLS_LEAF
+        entry["bisect_leaf0_ms"] = 1e3 * time_render(leaf0, cam, "bisect", repeats)[0]
+        entry["per_hit"]["bisect_leaf0"] = per_hit(leaf0.step_counts(cam, "bisect"))
+        del leaf0
         res["maps"].append(entry)
     # the same frames again, interleaved (round robin over sizes and methods, min of the rounds):
     # a shared machine's load drifts over minutes, so growth and ratios are read from here
     inter = {(n, m): [float("inf"), float("inf")] for n in sizes for m in METHODS}
+    rounds: list[dict] = []
     outs = {}
+
+    def timed(n: int, m: str) -> tuple[float, float]:
+        """(wall, cpu) ms of one render call of size n, method m."""
+        cam = flyover(extent - extent / n, *frame)
+        if (n, m) not in outs:
+            outs[n, m] = renderers[n].render(cam, m, on_device=True)
+            renderers[n].runtime.queue.finish()
+        c, t = time.process_time(), time.perf_counter()
+        renderers[n].render(cam, m, on_device=True, out=outs[n, m])
+        renderers[n].runtime.queue.finish()
+        return 1e3 * (time.perf_counter() - t), 1e3 * (time.process_time() - c)
+
     for _ in range(repeats):
+        rounds.append({})
         for n in sizes:
-            cam = flyover(extent - extent / n, *frame)
-            for m in METHODS:
-                if (n, m) not in outs:
-                    outs[n, m] = renderers[n].render(cam, m, on_device=True)
-                    renderers[n].runtime.queue.finish()
-                c, t = time.process_time(), time.perf_counter()
-                renderers[n].render(cam, m, on_device=True, out=outs[n, m])
-                renderers[n].runtime.queue.finish()
+            for m in ("bisect", "dda", "march"):          # bisect and dda back to back
+                rounds[-1][n, m] = timed(n, m)
                 best = inter[n, m]
-                best[0] = min(best[0], 1e3 * (time.perf_counter() - t))
-                best[1] = min(best[1], 1e3 * (time.process_time() - c))
-    outs.clear()
+                best[0], best[1] = min(best[0], rounds[-1][n, m][0]), min(best[1], rounds[-1][n, m][1])
     res["interleaved"] = [{"size": n, "method": m, "time_ms": v[0], "cpu_ms": v[1]} for (n, m), v in inter.items()]
+    # paired ratios: each ratio from two calls made back to back (a fraction of a second apart,
+    # so both see the same load), median over the pairs
+    res["paired"] = {
+        "bisect_over": {m: {str(n): [float(np.median([r[n, "bisect"][j] / r[n, m][j] for r in rounds]))
+                                     for j in (0, 1)] for n in sizes} for m in ("dda", "march")},
+        "growth": {}}
+    for m in ("bisect", "dda"):
+        pairs = []
+        for _ in range(2 * repeats + 1):
+            small, big_ = timed(sizes[0], m), timed(sizes[-1], m)
+            pairs.append([big_[j] / small[j] for j in (0, 1)])
+        res["paired"]["growth"][m] = [float(np.median([p[j] for p in pairs])) for j in (0, 1)]
+    outs.clear()
     mid = sizes[len(sizes) // 2]
     r = renderers[mid]
     scale_frames = [(160, 90), (320, 180), (640, 360)] if quick else [(480, 270), (960, 540), (1920, 1080), (3840, 2160)]
@@ -186,6 +223,8 @@ def main(argv: list[str] | None = None) -> int:
                               for e in res["maps"]},
         "descend1_over_descend3": {str(e["size"]): e["bisect_descend1_ms"] / e["methods"]["bisect"]["time_ms"]
                                    for e in res["maps"]},
+        "leaf0_over_leaf2": {str(e["size"]): e["bisect_leaf0_ms"] / e["methods"]["bisect"]["time_ms"]
+                             for e in res["maps"]},
     }
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -201,7 +240,8 @@ def write_md(res: dict, path: Path) -> None:
     lines = [f"# Terrain ray casting, {c['frame'][0]}x{c['frame'][1]} frames (paper 004's table)", "",
              f"- {m['date']}; CPU: {m['cpu']}, {m['cores']} cores; device: {m['device']}; "
              f"PoCL {m['pocl_version']} ({m['platform_version']})",
-             f"- terrain: {c['terrain']}; flyover camera; kernel time only, min of {c['repeats']}",
+             f"- terrain: {c['terrain']}; flyover camera; time of a render call (kernel and its argument "
+             f"setup, G-buffer left on the device), min of {c['repeats']}",
              f"- errors against the float64 reference on every {c['stride']}-th pixel (both directions)",
              f"- command: `{m['command']}`", "",
              "| map | method | time ms | different cell | hit/empty mismatches (off silhouette) | "
@@ -217,8 +257,10 @@ def write_md(res: dict, path: Path) -> None:
               f"{s['bisect_growth_smallest_to_largest']:.2f}x", "",
               "bisect / dda time: " + ", ".join(f"{k}^2 {v:.2f}" for k, v in s["bisect_over_dda"].items()),
               "", "bisect / march time: " + ", ".join(f"{k}^2 {v:.2f}" for k, v in s["bisect_over_march"].items()),
-              "", "bisect with plain halving (descend=1, the paper's) / default (descend=3) time: "
-              + ", ".join(f"{k}^2 {v:.2f}" for k, v in s["descend1_over_descend3"].items()),
+              "", "bisect with splits halving the footprint (descend=1, the paper's halving) / default "
+              "(descend=3) time: " + ", ".join(f"{k}^2 {v:.2f}" for k, v in s["descend1_over_descend3"].items()),
+              "", "bisect with leaves at level 0 (leaf=0, the paper's) / default (leaf=2) time: "
+              + ", ".join(f"{k}^2 {v:.2f}" for k, v in s["leaf0_over_leaf2"].items()),
               "", "## the same frames, interleaved (round robin over sizes and methods, min of "
               f"{c['repeats']} rounds; cpu = process CPU time, both PoCL threads)", "",
               "| map | " + " | ".join(f"{m} ms | {m} cpu ms" for m in METHODS) + " |",
@@ -228,12 +270,21 @@ def write_md(res: dict, path: Path) -> None:
         lines.append(f"| {n}^2 | " + " | ".join(f"{inter[n, m]['time_ms']:.1f} | {inter[n, m]['cpu_ms']:.1f}"
                                                 for m in METHODS) + " |")
     g = s["interleaved_growth_smallest_to_largest"]
+    pg, pb = res["paired"]["growth"], res["paired"]["bisect_over"]
     lines += ["", f"interleaved time growth {c['sizes'][0]}^2 -> {c['sizes'][-1]}^2 (wall, cpu): "
               + ", ".join(f"{m} {g[m]['time']:.2f}x, {g[m]['cpu']:.2f}x" for m in METHODS), "",
               "interleaved bisect / baseline time: " + "; ".join(
                   f"{m}: " + ", ".join(f"{k}^2 {v:.2f}" for k, v in d.items())
-                  for m, d in s["interleaved_bisect_over"].items()),
-              "", "## time against frame size", "", "| frame | bisect ms | dda ms |", "|---|---|---|"]
+                  for m, d in s["interleaved_bisect_over"].items()), "",
+              f"paired (median over {2 * c['repeats'] + 1} pairs of back-to-back calls, wall / cpu) time growth "
+              f"{c['sizes'][0]}^2 -> {c['sizes'][-1]}^2: "
+              + ", ".join(f"{m} {v[0]:.2f}x / {v[1]:.2f}x" for m, v in pg.items()), "",
+              f"paired (median over the {c['repeats']} rounds, bisect and the baseline back to back, wall / cpu) "
+              "bisect / baseline time: " + "; ".join(
+                  f"{m}: " + ", ".join(f"{k}^2 {v[0]:.2f} / {v[1]:.2f}" for k, v in d.items()) for m, d in pb.items()),
+              ""]
+    lines += per_hit_table(res)
+    lines += ["", "## time against frame size", "", "| frame | bisect ms | dda ms |", "|---|---|---|"]
     for e in res["resolution"]:
         lines.append(f"| {e['frame'][0]}x{e['frame'][1]} | {e['time_ms']['bisect']:.1f} | {e['time_ms']['dda']:.1f} |")
     lines += ["", "## time against depth range (far plane / map extent)", "", "| far | bisect ms | dda ms |",
@@ -241,6 +292,24 @@ def write_md(res: dict, path: Path) -> None:
     for e in res["depth_range"]:
         lines.append(f"| {e['far_over_extent']:g} | {e['time_ms']['bisect']:.1f} | {e['time_ms']['dda']:.1f} |")
     path.write_text("\n".join(lines) + "\n")
+
+
+def per_hit_table(res: dict) -> list[str]:
+    """Voxel tests (texel visits for dda) per hit pixel by pyramid level, and patch tests."""
+    top = max(len(e["per_hit"]["bisect"]["levels"]) for e in res["maps"])
+    lines = ["## traversal work per hit pixel (profiling build, -D OCLS_STATS)", "",
+             "bisect: voxel tests by the level of their footprint (voxels finer than the leaf level "
+             "are tested at the leaf level); dda: texel visits by level; patches: exact patch tests.", "",
+             "| map | method | " + " | ".join(f"l{k}" for k in range(top)) + " | tests | patches |",
+             "|---|---|" + "---|" * (top + 2)]
+    for e in res["maps"]:
+        for name in ("bisect", "bisect_leaf0", "dda"):
+            v = e["per_hit"][name]
+            cells = [f"{x:.2f}" for x in v["levels"]] + [""] * (top - len(v["levels"]))
+            label = "bisect, leaf=0" if name == "bisect_leaf0" else name
+            lines.append(f"| {e['size']}^2 | {label} | " + " | ".join(cells)
+                         + f" | {v['tests']:.2f} | {v['patches']:.2f} |")
+    return lines
 
 
 def write_png(res: dict, path: Path) -> None:

@@ -3,15 +3,17 @@
  * ABI
  *   terrain_cast(h, H, W, ext, ext_off, levels, dil, dil_lev, g0, g1, g2, r0, r1, r2, cam, IW, IH, cu, cv,
  *                geo, hrange, tex, tex_levels, ntex,
- *                position, normal, uv, uv_grad, depth, albedo)
+ *                position, normal, uv, uv_grad, depth, albedo[, stats])
  *   global size (>= IW, >= IH), any local size; one work-item per pixel.
  *     __global const float *h      H*W relative heights, row-major, NaN = hole
  *     int H, W                     map rows, cols
  *     __global const float2 *ext   extrema pyramid levels 1..levels-1 (pyramid.cl)
  *     __global const int *ext_off  level offsets in float2, indexed by level ([0] unused)
  *     int levels                   pyramid levels counting level 0
- *     __global const float *dil    dilated max levels 0..levels-1, back to back (terrain_dilate)
- *     __global const int2 *dil_lev per level: (offset in floats, columns); read by bisect only
+ *     __global const float *dil    dilated max levels lmin..levels-1, back to back (terrain_dilate),
+ *                                  lmin = min(OCLS_LEAF, levels-1); read by bisect only
+ *     __global const int2 *dil_lev per level 0..levels-1: (offset in floats, columns); entries
+ *                                  below lmin are not read
  *     float4 g0, g1, g2            rows of the 3x4 affine map view -> (u', v', z)
  *     float4 r0, r1, r2            rows of the world -> view rotation (xyz)
  *     float4 cam                   (sx, sy, near, far): pixel-ray slopes (pinhole) or half
@@ -27,8 +29,12 @@
  *     float4 position (view xyz, w = 1 hit / 0 empty), float4 normal (view, w = 0),
  *     float2 uv, float4 uv_grad (du/dc, dv/dc, du/dr, dv/dr), float depth (+inf empty),
  *     float4 albedo (linear RGBA).  Empty pixels: 0 everywhere, depth +inf.
+ *     __global uint *stats         (-D OCLS_STATS only) OCLS_STATS_N counters, atomically added:
+ *                                  [l] (l < 32) voxel tests (bisect), texel visits (dda) or samples
+ *                                  (march) at level l; [32] exact patch tests; [33] pixels with a
+ *                                  non-empty segment; [34] hits
  *   terrain_dilate(h, H, W, ext, ext_off, l, Rl, Cl, out, off)
- *   builds dilated max level l for bisect, once per map, launched for l = 0..levels-1;
+ *   builds dilated max level l for bisect, once per map, launched for l = lmin..levels-1;
  *   global size (>= Cl, >= Rl), any local size; one work-item per output texel.
  *     h, H, W, ext, ext_off        as for terrain_cast
  *     int l                        the level written
@@ -42,7 +48,10 @@
  *     OCLS_SPHERE    paraboloid base of a sphere (geo.zw = kx, ky) instead of the plane
  *     OCLS_COLOUR    albedo from the colour mip levels (tex, tex_levels, ntex), else a
  *                    hypsometric tint of the height
- *     OCLS_DESCEND   bisect: levels descended per split (int >= 1, default 3; 1 = paper's halving)
+ *     OCLS_DESCEND   bisect: levels a split descends (int >= 1, default 3)
+ *     OCLS_LEAF      bisect: the leaf level (int >= 0, default 2): a voxel spanning at most
+ *                    2^OCLS_LEAF patches that is not rejected is walked patch by patch
+ *     OCLS_STATS     profiling counters (the stats argument)
  *     OCLS_MARCH_STEP  march: step in cells (float, default 0.5f)
  *     OCLS_MAX_IT    iteration bound of every loop (default 65536; reaching it = empty pixel)
  *
@@ -66,29 +75,42 @@
  *
  * Methods (-D OCLS_METHOD):
  *   1 bisect (paper 004): the segment, clipped to the map's box (and, on a
- *     plane, to the height slab [hmin, hmax]), is bisected front to back.
- *     Voxels are nodes (k, i) of a binary subdivision — node i of 2^k equal
- *     parts, boundaries at the exact dyadic fractions i * 2^-k, so neighbours
- *     share their end points bit for bit; "near half first" is the order of a
- *     stackless walk (after a finished node: i += 1, then climb while i is
- *     even, i.e. z = trailing zeros of i + 1 levels at once).  Per voxel: LOD
+ *     plane, to the height slab [hmin, hmax]), is subdivided front to back
+ *     into voxels [ta, tb], starting with the whole segment.  Per voxel: LOD
  *     from its projection on the map (the paper's footprint, measured in
  *     patches: n = max(c1 - c0, r1 - r0) over the patch columns c0..c1 and
  *     rows r0..r1 under its end points), l = ceil(log2 n), so the projection
  *     meets at most 2 x 2 tiles of extrema level l; their max is one texel
  *     of the dilated max level l (terrain_dilate below, derived from the
  *     extrema pyramid once per map), so each test is one read.  The voxel is
- *     rejected when its lowest point is above that max, split otherwise; at
- *     l = 0 (at most 2 x 2 patches) its patches are tested exactly.
+ *     rejected (discarded) when its lowest point is above that max, split
+ *     otherwise; a voxel of level <= OCLS_LEAF that is not rejected has its
+ *     patches tested exactly (a walk over the at most 2^(l+1) + 1 it crosses).
  *     Paper fix: the paper compares with "the max at that LOD under the
  *     voxel" without saying which texels; one texel under a point is not
  *     conservative, the 2 x 2 tiles of the bounding box are.
- *     Deviation (-D OCLS_DESCEND j, default 3; 1 = plain halving): a split
- *     descends j levels at once, to the first of its 2^j sub-voxels that is
- *     not wholly above the max just read (on a plane the ray meets that max
- *     at a closed-form fraction of the voxel; the sub-voxels before it are
- *     discarded exactly as the paper discards a voxel above the max).  It
- *     halves the voxel tests per ray (bench/results/terrain_cast.md).
+ *     Deviations, measured in bench/results/terrain_cast.md (fewer voxel tests
+ *     per ray, and a time that grows less with the map size):
+ *     - split (-D OCLS_DESCEND j, default 3): instead of halving, the near
+ *       part of the voxel that lies above the max just read is discarded (on
+ *       a plane the ray meets that max at a closed-form t, the paper's
+ *       discarding of a voxel above the max applied to the part), and the next
+ *       voxel starts there with the length of level l - j (the t-length of
+ *       2^(l-j) cells along the ray's major axis, shrunk by 1e-3 so the
+ *       footprint cannot round up to the next level); a leaf discards its near
+ *       part the same way before its walk;
+ *     - after a rejected voxel (or a leaf without a hit) the next voxel starts
+ *       at its end with the length of its level: the subdivision is not
+ *       dyadic, the walk needs no stack and no node indices, and neighbours
+ *       share their end point t bit for bit (the next ta is the last tb);
+ *     - leaves (-D OCLS_LEAF, default 2) are voxels of level <= 2, not 0: the
+ *       exact patch tests read the heights themselves, so dilated levels 0
+ *       and 1 (4/3 of the map's size in floats) are neither built nor read,
+ *       a voxel of level < OCLS_LEAF is tested against its level-OCLS_LEAF
+ *       texel (the tiles of level OCLS_LEAF under its end points contain its
+ *       footprint), and large maps touch far less memory per ray.
+ *     OCLS_LEAF = 0 and OCLS_DESCEND = 1 are the paper's finest leaf and a
+ *     halving of the footprint per split.
  *   2 march: uniform steps of OCLS_MARCH_STEP cells, the sign of f sampled at
  *     the steps; the first step that goes from above to below is walked
  *     exactly.  Misses crossings between samples (a baseline).
@@ -114,7 +136,14 @@
 #ifndef OCLS_DESCEND
 #define OCLS_DESCEND 3
 #endif
-#define OCLS_KMAX 24            /* bisection depth: 2^24 parts > any map diagonal in cells */
+#ifndef OCLS_LEAF
+#define OCLS_LEAF 2
+#endif
+
+/* min / max of two floats that are never NaN (fmin / fmax also handle NaN: 3 instructions
+ * instead of 1 on x86; the hot loops use these). */
+OCLS_INLINE float min_nn(float a, float b) { return a < b ? a : b; }
+OCLS_INLINE float max_nn(float a, float b) { return a > b ? a : b; }
 
 /* The map and the ray, read by every helper. */
 typedef struct {
@@ -122,7 +151,21 @@ typedef struct {
     float3 o, d;        /* ray in centred heightmap coordinates, t = depth */
     float iu, iv;       /* 1 / d.x, 1 / d.y (INFINITY where 0: such boundaries are never met) */
     float kx, ky;       /* paraboloid (OCLS_SPHERE) */
+#ifdef OCLS_STATS
+    uint *steps;        /* this work-item's counters (OCLS_STATS_N), added to stats at the end */
+#endif
 } Ray;
+
+/* Profiling (-D OCLS_STATS): counters of the stats argument (see the ABI above). */
+#define OCLS_STATS_N 35
+#define OCLS_ST_PATCH 32
+#define OCLS_ST_RAYS 33
+#define OCLS_ST_HITS 34
+#ifdef OCLS_STATS
+#define OCLS_COUNT(ray, k) ((ray)->steps[k] += 1u)
+#else
+#define OCLS_COUNT(ray, k) ((void)0)
+#endif
 
 /* Ray height above the base at t (z, plus the paraboloid on a sphere). */
 OCLS_INLINE float ray_height(const Ray *ray, float t)
@@ -138,13 +181,13 @@ OCLS_INLINE float ray_height(const Ray *ray, float t)
 /* Lowest ray height above the base over [ta, tb] (convex on a sphere: ends or vertex). */
 OCLS_INLINE float ray_low(const Ray *ray, float ta, float tb)
 {
-    float lo = fmin(ray_height(ray, ta), ray_height(ray, tb));
+    float lo = min_nn(ray_height(ray, ta), ray_height(ray, tb));
 #ifdef OCLS_SPHERE
     const float3 o = ray->o, d = ray->d;
     const float qa = ray->kx * d.x * d.x + ray->ky * d.y * d.y;
     if (qa > 0.0f) {
         const float tv = -(d.z + 2.0f * (ray->kx * o.x * d.x + ray->ky * o.y * d.y)) / (2.0f * qa);
-        if (tv > ta && tv < tb) lo = fmin(lo, ray_height(ray, tv));
+        if (tv > ta && tv < tb) lo = min_nn(lo, ray_height(ray, tv));
     }
 #endif
     return lo;
@@ -163,9 +206,10 @@ OCLS_INLINE float ray_low(const Ray *ray, float ta, float tb)
 OCLS_INLINE float patch_hit(__global const float *h, const Ray *ray, int r, int c, float ta, float tb, int *above)
 {
     const int i = r * ray->W + c, W = ray->W;
+    OCLS_COUNT(ray, OCLS_ST_PATCH);
     const float h00 = h[i], h01 = h[i + 1], h10 = h[i + W], h11 = h[i + W + 1];
     if (isnan(h00) || isnan(h01) || isnan(h10) || isnan(h11)) { *above = 0; return INFINITY; }
-    if (ray_low(ray, ta, tb) > fmax(fmax(h00, h01), fmax(h10, h11))) { *above = 1; return INFINITY; }
+    if (ray_low(ray, ta, tb) > max_nn(max_nn(h00, h01), max_nn(h10, h11))) { *above = 1; return INFINITY; }
     const float3 o = ray->o, d = ray->d;
     const float px = o.x + ta * d.x, py = o.y + ta * d.y, pz = o.z + ta * d.z;
     const float s = px - (float)(c - ray->cu), w = py - (float)(r - ray->cv);
@@ -202,7 +246,7 @@ OCLS_INLINE float patch_hit(__global const float *h, const Ray *ray, int r, int 
             const float r1 = q / cq;
             const float r2 = q != 0.0f ? a / q : INFINITY;
             if (r1 >= 0.0f && r1 <= len && b + 2.0f * cq * r1 < 0.0f) best = r1;
-            if (r2 >= 0.0f && r2 <= len && b + 2.0f * cq * r2 < 0.0f) best = fmin(best, r2);
+            if (r2 >= 0.0f && r2 <= len && b + 2.0f * cq * r2 < 0.0f) best = min_nn(best, r2);
         }
     }
     *above = fe > 0.0f;
@@ -222,8 +266,8 @@ OCLS_INLINE float walk(__global const float *h, const Ray *ray, float ta, float 
     for (int k = 0; k < max_steps; ++k) {
         const float tu = d.x != 0.0f ? ((float)(c - ray->cu + (sc > 0)) - o.x) * ray->iu : INFINITY;
         const float tv = d.y != 0.0f ? ((float)(r - ray->cv + (sr > 0)) - o.y) * ray->iv : INFINITY;
-        const float tx = fmin(fmin(tu, tv), tb);
-        const float t1 = fmax(tx, t);
+        const float tx = min_nn(min_nn(tu, tv), tb);
+        const float t1 = max_nn(tx, t);
         const float th = patch_hit(h, ray, r, c, t, t1, above);
         if (th < INFINITY) { *cell = (int2)(r, c); return th; }
         if (tx >= tb) break;
@@ -243,68 +287,81 @@ OCLS_INLINE int2 floor_int2(float2 p)
     return i + (convert_float2(i) > p);                 /* true is -1 in vector comparisons */
 }
 
-/* Paper 004: voxel bisection of the segment [ts, te], near half first, LOD from the voxel's
- * footprint, reject a voxel wholly above the max at that LOD, split it otherwise.
- * Voxel (k, i) = [ts + span i 2^-k, ts + span (i+1) 2^-k]; the walk is stackless (after a voxel
- * is done: i += 1, then climb while i is even, i.e. while the voxel was a right child). */
+/* 2^k as a float, exact for -126 <= k <= 127 (ldexp is a library call on some devices). */
+OCLS_INLINE float pow2i(int k) { return as_float((127 + k) << 23); }
+
+/* Paper 004: voxel subdivision of the segment [ts, te] front to back, LOD from the voxel's
+ * footprint, reject a voxel wholly above the max at that LOD, split it otherwise; leaves are
+ * walked patch by patch.  See "Methods" above for the split and the voxel lengths.  Bounded:
+ * every iteration rejects or walks a voxel (ta moves to tb > ta) or splits one; a split sets
+ * the length to 2^m cell lengths, m = max(l - OCLS_DESCEND, lmin), shorter than the voxel split
+ * (its footprint n > 2^(l-1) patches spans more than 2^(l-1) - 1 cells, 2^m <= 2^(l-1)), and a
+ * voxel of the leaf length is a leaf whatever its rounded footprint says, so at most `top`
+ * splits come between two advances. */
 OCLS_INLINE float cast(__global const float *h, __global const float2 *ext, __global const int *ext_off,
                        __global const float *dil, __global const int2 *dil_lev,
                        int levels, const Ray *ray, float ts, float te, int2 *cell)
 {
-    const float span = te - ts;
-    const int top = levels - 1;
-    /* hoisted: the segment's start and extent in (u, v, z) and patch indices (G = T M applied once) */
-    const float4 p0 = (float4)(ray->o.x + ts * ray->d.x, ray->o.y + ts * ray->d.y, ray->o.z + ts * ray->d.z, 0.0f);
-    const float4 dp = (float4)(span * ray->d.x, span * ray->d.y, span * ray->d.z, 0.0f);
+    const int top = levels - 1, lmin = min(OCLS_LEAF, top);
+    const float3 o = ray->o, d = ray->d;
+    const float4 o4 = (float4)(o, 0.0f), d4 = (float4)(d, 0.0f);
+    /* t-length of one cell along the major axis, shrunk so that a voxel of 2^l such lengths
+     * spans at most 2^l patches after rounding (INFINITY for a vertical ray: one voxel) */
+    const float cell_t = 0.999f / fmax(fabs(d.x), fabs(d.y));
+    const float leaf_t = cell_t * pow2i(lmin);
     const int2 lo = (int2)(0, 0), hi = (int2)(ray->Wp - 1, ray->Hp - 1), ctr = (int2)(ray->cu, ray->cv);
-    uint k = 0, i = 0;
+    float ta = ts, len = te - ts;
+    float4 pa = o4 + ta * d4;
+    int2 ia = floor_int2(pa.xy) + ctr;
     int above = 0;                                      /* the segment may start under the surface */
     for (int it = 0; it < OCLS_MAX_IT; ++it) {
-        const float part = as_float((127 - (int)k) << 23);          /* 2^-k, k <= 24 */
-        const float fa = (float)i * part, fb = (float)(i + 1u) * part;
-        const float4 pa = p0 + fa * dp, pb = p0 + fb * dp;          /* the voxel's end points */
+        float tb = min_nn(ta + len, te);
+        if (!(tb > ta)) tb = te;                        /* len below the rounding of ta: finish */
+        const float4 pb = o4 + tb * d4;
+        const int2 ib = floor_int2(pb.xy) + ctr;
         /* its projection on the map: patch columns c0..c1 (x), rows r0..r1 (y) */
-        const int2 ia = floor_int2(pa.xy) + ctr, ib = floor_int2(pb.xy) + ctr;
-        const int2 q0 = clamp(min(ia, ib), lo, hi), q1 = clamp(max(ia, ib), lo, hi);
+        const int2 q0 = clamp(min(ia, ib), lo, hi), nq = clamp(max(ia, ib), lo, hi) - q0;
         /* LOD from the footprint: the smallest l with 2^l >= n = max(c1 - c0, r1 - r0), so the
          * projection meets at most 2 x 2 tiles of level l, all under one texel of the dilated
-         * max level l (tiles (R..R+1, C..C+1), R = r0 >> l, C = c0 >> l): one read per test. */
-        const int2 nq = q1 - q0;
+         * max level l (tiles (R..R+1, C..C+1), R = r0 >> l, C = c0 >> l): one read per test */
         const int n = max(nq.x, nq.y);
-        const int l = min(n <= 1 ? 0 : 32 - (int)clz(n - 1), top);
+        const int l = clamp(n <= 1 ? 0 : 32 - (int)clz(n - 1), lmin, top);
+        OCLS_COUNT(ray, l);
         const int2 lev = dil_lev[l];                                /* (offset, columns) */
         const float hmax = dil[lev.x + (q0.y >> l) * lev.y + (q0.x >> l)];
 #ifdef OCLS_SPHERE
-        const float low = ray_low(ray, ts + span * fa, ts + span * fb);
+        const float low = ray_low(ray, ta, tb);
 #else
-        const float low = pa.z < pb.z ? pa.z : pb.z;
+        const float low = min_nn(pa.z, pb.z);
 #endif
         if (low > hmax) {
             above = 1;                                  /* wholly above the max: discard */
-        } else if (l == 0 || k >= OCLS_KMAX) {
-            /* finest level: at most 2 x 2 patches (3 along the ray), each tested exactly */
-            const float th = walk(h, ray, ts + span * fa, ts + span * fb, 4, &above, cell);
-            if (th < INFINITY) return th;
         } else {
-            /* split: near half first.  Deviation (measured faster, see bench/results): descend
-             * OCLS_DESCEND levels at once, to the first of the voxel's 2^j sub-voxels that is not
-             * wholly above hmax (on a plane the ray meets hmax at fraction g of the voxel; the
-             * sub-voxels before it are discarded as the paper discards voxels above the max). */
-            const int j = min(min(l, OCLS_DESCEND), OCLS_KMAX - (int)k);
-#ifdef OCLS_SPHERE
-            const uint m = 0u;
-#else
-            const float g = pa.z > hmax ? (pa.z - hmax) / (pa.z - pb.z) * 0.99999f : 0.0f;
-            const uint m = min((uint)(g * (float)(1 << j)), (1u << j) - 1u);
-            above |= m > 0u;                            /* the discarded part is above the surface */
+            /* discard the near part above hmax (a plane: the ray meets hmax at fraction g of the
+             * voxel, 1e-5 short of it against rounding) */
+            float tw = ta;
+#ifndef OCLS_SPHERE
+            if (pa.z > hmax) {
+                tw = ta + (pa.z - hmax) / (pa.z - pb.z) * 0.99999f * (tb - ta);
+                above = 1;                              /* the discarded part is above the surface */
+            }
 #endif
-            k += (uint)j; i = (i << j) + m;
-            continue;
+            if (l > lmin && len > leaf_t) {
+                /* split: the next voxel starts there, with the length of level l - j */
+                ta = tw;
+                pa = o4 + ta * d4;
+                ia = floor_int2(pa.xy) + ctr;
+                len = cell_t * pow2i(max(l - OCLS_DESCEND, lmin));
+                continue;
+            }
+            /* leaf: at most 2^(l+1) + 1 patches along the ray (one more if rounding puts the
+             * first cell behind the ray), each tested exactly */
+            const float th = walk(h, ray, tw, tb, (2 << l) + 2, &above, cell);
+            if (th < INFINITY) return th;
         }
-        /* next voxel: i + 1, climbing z levels while it is a right child (z = trailing zeros) */
-        const uint j = i + 1u, z = 31u - clz(j & (0u - j));
-        k -= z; i = j >> z;
-        if (k == 0u) break;                             /* past the segment's end */
+        if (tb >= te) break;                            /* past the segment's end */
+        ta = tb; pa = pb; ia = ib;                      /* the next voxel, as long as this one's level */
+        len = cell_t * pow2i(l);
     }
     return INFINITY;
 }
@@ -335,6 +392,7 @@ OCLS_INLINE float cast(__global const float *h, __global const float2 *ext, __gl
     int was_above = above(h, ray, ts) > 0.0f;
     for (int k = 1; k <= n; ++k) {
         const float t = k == n ? te : ts + span * ((float)k / (float)n);
+        OCLS_COUNT(ray, 0);
         const int is_above = above(h, ray, t) > 0.0f;
         if (was_above && !is_above) {
             int above = 1;
@@ -364,6 +422,7 @@ OCLS_INLINE float cast(__global const float *h, __global const float2 *ext, __gl
         const float tv = d.y != 0.0f ? ((float)(((r + (sr > 0)) << l) - ray->cv) - o.y) * ray->iv : INFINITY;
         const float tx = fmin(fmin(tu, tv), te);
         const float t1 = fmax(tx, t);
+        OCLS_COUNT(ray, l);
         if (l == 0) {
             const float th = patch_hit(h, ray, r, c, t, t1, &above);
             if (th < INFINITY) { *cell = (int2)(r, c); return th; }
@@ -457,7 +516,11 @@ __kernel void terrain_cast(__global const float *h, const int H, const int W,
                            const float4 geo, const float4 hrange,
                            __global const float4 *tex, __global const int4 *tex_levels, const int ntex,
                            __global float4 *position, __global float4 *normal, __global float2 *uv,
-                           __global float4 *uv_grad, __global float *depth, __global float4 *albedo)
+                           __global float4 *uv_grad, __global float *depth, __global float4 *albedo
+#ifdef OCLS_STATS
+                           , __global uint *stats
+#endif
+                           )
 {
     const int px = get_global_id(0), py = get_global_id(1);
     if (px >= IW || py >= IH) return;
@@ -487,9 +550,22 @@ __kernel void terrain_cast(__global const float *h, const int H, const int W,
         clip_axis(ray.o.z, ray.d.z, hrange.x - mh, hrange.y + mh, &ts, &te);
     }
 #endif
+#ifdef OCLS_STATS
+    uint steps[OCLS_STATS_N];
+    for (int k = 0; k < OCLS_STATS_N; ++k) steps[k] = 0u;
+    ray.steps = steps;
+#endif
     int2 cell = (int2)(0, 0);
     float th = INFINITY;
-    if (H >= 2 && W >= 2 && ts <= te) th = cast(h, ext, ext_off, dil, dil_lev, levels, &ray, ts, te, &cell);
+    if (H >= 2 && W >= 2 && ts <= te) {
+        OCLS_COUNT(&ray, OCLS_ST_RAYS);
+        th = cast(h, ext, ext_off, dil, dil_lev, levels, &ray, ts, te, &cell);
+    }
+#ifdef OCLS_STATS
+    if (th < INFINITY) OCLS_COUNT(&ray, OCLS_ST_HITS);
+    for (int k = 0; k < OCLS_STATS_N; ++k)
+        if (steps[k]) atomic_add(&stats[k], steps[k]);
+#endif
     if (!(th < INFINITY)) {
         position[idx] = (float4)(0.0f); normal[idx] = (float4)(0.0f); uv[idx] = (float2)(0.0f);
         uv_grad[idx] = (float4)(0.0f); depth[idx] = INFINITY; albedo[idx] = (float4)(0.0f);

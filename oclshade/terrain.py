@@ -14,6 +14,7 @@ surface at all).  Kernel: ``kernels/terrain.cl``; float64 twin:
 from __future__ import annotations
 
 from dataclasses import dataclass, field as dc_field
+from functools import cached_property
 
 import numpy as np
 import pyopencl as cl
@@ -27,6 +28,7 @@ from .runtime import Runtime, get_runtime
 METHODS = ("bisect", "march", "dda")
 _METHOD_CODE = {"bisect": 1, "march": 2, "dda": 3}
 MAX_ITERATIONS = 1 << 16      # hard bound of every traversal loop (never reached on valid input)
+_STATS_N, _ST_PATCH = 35, 32   # OCLS_STATS_N, OCLS_ST_PATCH of kernels/terrain.cl (rays, hits follow)
 
 
 def check_method(method: str) -> str:
@@ -103,12 +105,14 @@ class Heightfield:
         """k = 1 / (2 R) (1/m), 0 on a plane."""
         return 0.0 if self.radius is None else 0.5 / self.radius
 
-    @property
+    @cached_property
     def height_range(self) -> tuple[float, float]:
-        """(min, max) of the finite relative float32 heights; (0, 0) for an all-hole map."""
+        """(min, max) of the finite relative float32 heights; (0, 0) for an all-hole map.  Computed
+        once (every render passes it: recomputing it cost 170 ms per frame of a 4096^2 map)."""
         rel = self.heightmap.relative32
-        finite = rel[np.isfinite(rel)]
-        return (float(finite.min()), float(finite.max())) if finite.size else (0.0, 0.0)
+        if not np.isfinite(rel).any():
+            return (0.0, 0.0)
+        return (float(np.nanmin(rel)), float(np.nanmax(rel)))
 
 
 @dataclass(frozen=True)
@@ -120,7 +124,9 @@ class TerrainFeatures:
     sphere: bool = False
     colour: bool = False
     march_step: float = 0.5       # march: step in cells
-    descend: int = 3              # bisect: levels a split voxel descends at once (1 = plain halving)
+    descend: int = 3              # bisect: levels a split voxel descends at once
+    leaf: int = 2                 # bisect: voxels of this level or finer are walked patch by patch
+    stats: bool = False           # profiling build: traversal counters (TerrainRenderer.step_counts)
 
     def defines(self) -> dict[str, object]:
         return {
@@ -131,7 +137,15 @@ class TerrainFeatures:
             "OCLS_MARCH_STEP": f"{float(self.march_step)!r}f",
             "OCLS_MAX_IT": MAX_ITERATIONS,
             "OCLS_DESCEND": self.descend,
+            "OCLS_LEAF": self.leaf,
+            "OCLS_STATS": self.stats,
         }
+
+
+def _small_int(name: str, value: object, lo: int, hi: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not lo <= value <= hi:
+        raise ValueError(f"{name} must be an int in {lo}..{hi}, got {value!r}")
+    return int(value)
 
 
 @dataclass
@@ -156,15 +170,17 @@ class DeviceGBuffer:
 class TerrainRenderer:
     """Ray-casts one heightfield for any number of cameras; pyramids stay on the device."""
 
-    def __init__(self, heightfield: Heightfield, device: str | int | Runtime | None = None, descend: int = 3):
-        """``descend``: levels a split bisection voxel descends at once (1 = the paper's halving;
-        see kernels/terrain.cl, OCLS_DESCEND)."""
+    def __init__(self, heightfield: Heightfield, device: str | int | Runtime | None = None, descend: int = 3,
+                 leaf: int = 2):
+        """Bisection options (kernels/terrain.cl): ``descend``, the levels a split voxel descends
+        at once (1 halves its footprint, like the paper's halving; OCLS_DESCEND); ``leaf``, the
+        level at or below which a voxel that is not rejected is walked patch by patch (0 is the
+        paper's finest level; dilated levels below it are not built; OCLS_LEAF)."""
         if not isinstance(heightfield, Heightfield):
             raise TypeError(f"heightfield must be an oclshade.terrain.Heightfield, got {type(heightfield).__name__}")
-        if isinstance(descend, bool) or not isinstance(descend, (int, np.integer)) or not 1 <= descend <= 8:
-            raise ValueError(f"descend must be an int in 1..8, got {descend!r}")
         self.field = heightfield
-        self.descend = int(descend)
+        self.descend = _small_int("descend", descend, 1, 8)
+        self._leaf = _small_int("leaf", leaf, 0, 4)
         self.runtime = get_runtime(device)
         self._pyramid: ExtremaPyramid | None = None
         self._dilated: tuple[cl.Buffer, cl.Buffer] | None = None
@@ -177,23 +193,35 @@ class TerrainRenderer:
         return self._pyramid
 
     @property
+    def leaf(self) -> int:
+        """The bisection's leaf level option (fixed: the dilated levels are built for it)."""
+        return self._leaf
+
+    @property
+    def leaf_level(self) -> int:
+        """The finest dilated level bisection reads: min(leaf, top level)."""
+        return min(self.leaf, self.pyramid.levels - 1)
+
+    @property
     def dilated(self) -> tuple[cl.Buffer, cl.Buffer]:
-        """(float max texels of dilated levels 0..L back to back, int2 (offset, cols) per level): texel
-        (R, C) of level l bounds the surface over the level-l tiles (R..R+1, C..C+1), so bisection
-        tests a voxel with one read (kernels/terrain.cl, terrain_dilate).  Derived from
-        :attr:`pyramid` (level 0 from the heights) and cached with it."""
+        """(float max texels of dilated levels :attr:`leaf_level`..L back to back, int2 (offset, cols)
+        per level 0..L, offset 0 below leaf_level): texel (R, C) of level l bounds the surface over
+        the level-l tiles (R..R+1, C..C+1), so bisection tests a voxel with one read
+        (kernels/terrain.cl, terrain_dilate).  Derived from :attr:`pyramid` (level 0 from the
+        heights) and cached with it."""
         if self._dilated is None:
-            rt, pyr = self.runtime, self.pyramid
+            rt, pyr, lmin = self.runtime, self.pyramid, self.leaf_level
             shapes = [self.field.heightmap.patch_shape] + list(pyr.shapes)
-            offs = level_offsets(shapes)
+            offs = level_offsets(shapes[lmin:])
             buf = rt.empty(4 * (int(offs[-1]) + shapes[-1][0] * shapes[-1][1]), "dilated max levels")
             rows, cols = self.field.heightmap.shape
             k = rt.kernel("terrain.cl", "terrain_dilate", TerrainFeatures().defines())
-            for lev, ((r, c), off) in enumerate(zip(shapes, offs)):
+            for lev, (r, c), off in zip(range(lmin, len(shapes)), shapes[lmin:], offs):
                 k.set_args(pyr.heights, np.int32(rows), np.int32(cols), pyr.buffer, pyr.offsets, np.int32(lev),
                            np.int32(r), np.int32(c), buf, np.int32(off))
                 cl.enqueue_nd_range_kernel(rt.queue, k, *rt.grid_2d(k, c, r))
-            table = np.array([[o, c] for o, (_, c) in zip(offs, shapes)], np.int32)
+            table = np.array([[0, c] for _, c in shapes[:lmin]] + [[o, c] for o, (_, c) in zip(offs, shapes[lmin:])],
+                             np.int32)
             self._dilated = (buf, rt.to_device(table, "dilated levels (offset, cols)"))
         return self._dilated
 
@@ -215,10 +243,12 @@ class TerrainRenderer:
                                  len(levels))
         return self._texture
 
-    def features(self, camera: Camera, method: str) -> TerrainFeatures:
-        return TerrainFeatures(check_method(method), camera.projection == "orthographic",
+    def features(self, camera: Camera, method: str, stats: bool = False) -> TerrainFeatures:
+        bisect = check_method(method) == "bisect"
+        return TerrainFeatures(method, camera.projection == "orthographic",
                                self.field.radius is not None, self.field.colour is not None,
-                               descend=self.descend if method == "bisect" else TerrainFeatures.descend)
+                               descend=self.descend if bisect else TerrainFeatures.descend,
+                               leaf=self.leaf if bisect else TerrainFeatures.leaf, stats=stats)
 
     def warm_up(self, camera: Camera, method: str = "bisect") -> None:
         self.pyramid, self.dilated, self.texture
@@ -249,6 +279,15 @@ class TerrainRenderer:
                 f4(hmin, hmax, 0.0, 0.0),
                 tex, table, np.int32(ntex))
 
+    def _gbuffer(self, camera: Camera, out: DeviceGBuffer | None) -> DeviceGBuffer:
+        """``out`` if it has the camera's shape, else new device buffers."""
+        shape = (camera.height, camera.width)
+        if out is not None and out.shape == shape:
+            return out
+        n = camera.width * camera.height
+        return DeviceGBuffer(self.runtime, shape, {name: self.runtime.empty(4 * ch * n, f"G-buffer {name}")
+                                                   for name, ch in CHANNELS.items()})
+
     def render(self, camera: Camera, method: str = "bisect", on_device: bool = False,
                out: DeviceGBuffer | None = None) -> GBuffer | DeviceGBuffer:
         """Cast one ray per pixel.  ``on_device``: return a :class:`DeviceGBuffer` (no copy back);
@@ -256,16 +295,28 @@ class TerrainRenderer:
         rt = self.runtime
         args = self.kernel_args(camera)
         kernel = rt.kernel("terrain.cl", "terrain_cast", self.features(camera, method).defines())
-        shape = (camera.height, camera.width)
-        if out is None or out.shape != shape:
-            n = camera.width * camera.height
-            out = DeviceGBuffer(rt, shape, {name: rt.empty(4 * ch * n, f"G-buffer {name}")
-                                            for name, ch in CHANNELS.items()})
+        out = self._gbuffer(camera, out)
         kernel.set_args(*args, *(out.buffers[name] for name in CHANNELS))
         cl.enqueue_nd_range_kernel(rt.queue, kernel, *rt.grid_2d(kernel, camera.width, camera.height))
         if on_device:
             return out
         return out.to_host()
+
+
+    def step_counts(self, camera: Camera, method: str = "bisect", band_pixels: int = 1 << 18,
+                    out: DeviceGBuffer | None = None) -> dict[str, object]:
+        """Traversal counters of one frame summed over its pixels (a profiling build, -D OCLS_STATS):
+        ``levels``, int64 per pyramid level (bisect voxel tests, dda texel visits, march samples at
+        that level); ``patches`` (exact patch tests); ``rays`` (pixels with a non-empty segment);
+        ``hits``.  Bands of at most ``band_pixels`` pixels keep the uint32 counters from wrapping
+        (Runtime.count_in_bands).  ``out``: where the frame itself goes (default: scratch buffers)."""
+        rt = self.runtime
+        kernel = rt.kernel("terrain.cl", "terrain_cast", self.features(camera, method, stats=True).defines())
+        out = self._gbuffer(camera, out)
+        total = rt.count_in_bands(kernel, (*self.kernel_args(camera), *(out.buffers[name] for name in CHANNELS)),
+                                  _STATS_N, camera.width, camera.height, band_pixels)
+        return {"levels": total[:self.pyramid.levels], "patches": int(total[_ST_PATCH]),
+                "rays": int(total[_ST_PATCH + 1]), "hits": int(total[_ST_PATCH + 2])}
 
 
 def render_terrain(heights: object, camera: Camera, cellsize: float | tuple[float, float] = 1.0, *,

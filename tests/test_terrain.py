@@ -173,9 +173,10 @@ def test_jacksboro_real_dem():
 
 
 @settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(st.integers(1, 19), st.integers(1, 23), st.integers(0, 2**31 - 1), st.booleans())
-def test_dilated_max_levels_equal_reference(rows, cols, seed, holes):
-    """terrain_dilate (the bisection's one-read bound) is bit-identical to its numpy twin."""
+@given(st.integers(1, 19), st.integers(1, 23), st.integers(0, 2**31 - 1), st.booleans(), st.integers(0, 4))
+def test_dilated_max_levels_equal_reference(rows, cols, seed, holes, leaf):
+    """terrain_dilate (the bisection's one-read bound) is bit-identical to its numpy twin on the
+    levels the bisection reads (leaf level and up; the finer ones are not built)."""
     import pyopencl as cl
 
     rng = np.random.default_rng(seed)
@@ -183,27 +184,73 @@ def test_dilated_max_levels_equal_reference(rows, cols, seed, holes):
     if holes:
         h[rng.random(h.shape) < 0.3] = np.nan
     field = Heightfield.from_array(h, 1.0)
-    r = TerrainRenderer(field)
+    r = TerrainRenderer(field, leaf=leaf)
     buf, table = r.dilated
     want = dilated_max_levels(field.heightmap)
+    lmin = r.leaf_level
+    assert lmin == min(leaf, len(want) - 1)
     lev = np.empty((len(want), 2), np.int32)
     cl.enqueue_copy(r.runtime.queue, lev, table)
-    flat = np.empty(int(lev[-1, 0]) + want[-1].size, np.float32)
+    flat = np.empty(buf.size // 4, np.float32)
     cl.enqueue_copy(r.runtime.queue, flat, buf)
-    for (off, ncols), w in zip(lev, want):
+    assert flat.size == sum(w.size for w in want[lmin:])
+    for (off, ncols), w in zip(lev[lmin:], want[lmin:]):
         assert ncols == w.shape[1]
         np.testing.assert_array_equal(flat[off:off + w.size].reshape(w.shape), w)
 
 
-def test_plain_halving_is_exact_too():
-    """descend=1 (the paper's plain halving) and the default multi-level descent both agree
-    with the reference (and so with each other) on the real DEM."""
+def test_bisection_options_are_exact_too():
+    """Other split depths (descend) and leaf levels (0: the paper's finest level) agree with the
+    reference (and so with the default) on the real DEM."""
     field = jacksboro()
-    for descend in (1, 5):
-        r = TerrainRenderer(field, descend=descend)
+    for descend, leaf in ((1, 0), (5, 2), (3, 0), (2, 4)):
+        r = TerrainRenderer(field, descend=descend, leaf=leaf)
         for kind, az in (("framed", 30.0), ("grazing", 250.0)):
             cam = camera_for(field, kind, 96, 64, az=az)
-            compare(field, cam, r).assert_exact(f"descend={descend} {kind}")
+            compare(field, cam, r).assert_exact(f"descend={descend} leaf={leaf} {kind}")
+
+
+def test_step_counts_profile_without_changing_the_frame():
+    """The profiling build (-D OCLS_STATS) renders the same G-buffer, and its counters add up: every
+    ray with a segment makes at least one test, every hit comes from an exact patch test, bisect
+    tests no level finer than its leaf level, and the hit counter is the frame's hit count."""
+    field = jacksboro()
+    cam = camera_for(field, "framed", 96, 64, az=110.0)
+    for leaf in (2, 0):
+        r = TerrainRenderer(field, leaf=leaf)
+        for method in ("bisect", "dda", "march"):
+            plain = r.render(cam, method)
+            out = r.render(cam, method, on_device=True)
+            counts = r.step_counts(cam, method, band_pixels=1000, out=out)
+            profiled = out.to_host()
+            for name in ("position", "normal", "uv", "uv_grad", "depth", "albedo"):
+                assert np.array_equal(getattr(profiled, name), getattr(plain, name)), (leaf, method, name)
+            levels = counts["levels"]
+            assert len(levels) == r.pyramid.levels
+            assert counts["hits"] == int(plain.hit.sum()) > 0
+            assert plain.hit.size >= counts["rays"] >= counts["hits"]
+            assert levels.sum() >= counts["rays"] and counts["patches"] >= counts["hits"]
+            if method == "bisect":
+                assert not levels[:r.leaf_level].any() and levels[r.leaf_level] > 0
+            if method == "march":
+                assert not levels[1:].any()
+
+
+def test_far_camera_stays_bounded():
+    """Cameras so far away that a cell is about one float32 ulp of t, and then far below it: the
+    work per ray stays small (no loop runs to its iteration bound) and hits stay in the map."""
+    rng = np.random.default_rng(1)
+    field = Heightfield.from_array(rng.random((30, 30)) * 5.0, 1.0)
+    for dist in (1e5, 1e7, 1e9):
+        cam = Camera([15 + 0.6 * dist, -15 - 0.6 * dist, 0.5 * dist], [15, -15, 0], 64, 48,
+                     fov=min(3600.0 / dist, 60.0), near=0.5 * dist, far=2.0 * dist)
+        r = TerrainRenderer(field)
+        counts = r.step_counts(cam)
+        assert counts["rays"] > 0
+        assert counts["levels"].sum() < 20 * counts["rays"] and counts["patches"] < 20 * counts["rays"], dist
+        g = r.render(cam)
+        assert np.all((g.uv[g.hit] >= 0.0) & (g.uv[g.hit] <= 29.0))
+        assert np.all((g.depth[g.hit] >= cam.near) & (g.depth[g.hit] <= cam.far))
 
 
 def test_baselines_agree_where_exact():
@@ -307,6 +354,8 @@ def test_bad_arguments_are_named():
         Heightfield.from_array(np.zeros((3, 3)), colour=np.zeros((3, 3)))
     with pytest.raises(ValueError, match="descend"):
         TerrainRenderer(Heightfield.from_array(np.zeros((3, 3))), descend=0)
+    with pytest.raises(ValueError, match="leaf"):
+        TerrainRenderer(Heightfield.from_array(np.zeros((3, 3))), leaf=5)
     with pytest.raises(ValueError, match="method"):
         TerrainRenderer(Heightfield.from_array(np.zeros((3, 3)))).render(
             Camera([1, -1, 10], [1, -1, 0], 4, 4), method="nope")

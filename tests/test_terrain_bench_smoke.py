@@ -18,4 +18,8 @@ def test_terrain_cast_quick(tmp_path: Path) -> None:
             v = e["methods"][name]
             assert v["different_cell_fraction"] <= 1e-3 and v["hit_mismatch_off_silhouette"] == 0
     assert len(res["resolution"]) == 3 and len(res["depth_range"]) == 4
+    assert set(res["paired"]["growth"]) == {"bisect", "dda"}
+    for e in res["maps"]:
+        levels = e["per_hit"]["bisect"]["levels"]
+        assert len(levels) == len(e["per_hit"]["dda"]["levels"]) and not any(levels[:2])   # leaf level 2
     assert "| bisect |" in (out / "terrain_cast.md").read_text()

@@ -177,7 +177,8 @@ def cast_terrain(field, camera: Camera, rows: np.ndarray | None = None,
 
 
 def dilated_max_levels(hm) -> list[np.ndarray]:
-    """The bisection's dilated max levels 0..L (kernels/terrain.cl, terrain_dilate), float32.
+    """The bisection's dilated max levels 0..L (kernels/terrain.cl, terrain_dilate), float32; the
+    renderer builds and reads only its leaf level and up (``TerrainRenderer.leaf_level``).
 
     Texel (R, C) of level l bounds the surface over the level-l tiles (R..R+1, C..C+1) (clamped
     to the level): level 0 from per-patch maxima of the valid corners (-inf for all-hole
