@@ -85,7 +85,7 @@
  *     extrema pyramid once per map), so each test is one read.  The voxel is
  *     rejected (discarded) when its lowest point is above that max, split
  *     otherwise; a voxel of level <= OCLS_LEAF that is not rejected has its
- *     patches tested exactly (a walk over the at most 2^(l+1) + 1 it crosses).
+ *     patches tested exactly (a walk over the at most 2^(l+1) + 1 patches it crosses).
  *     Paper fix: the paper compares with "the max at that LOD under the
  *     voxel" without saying which texels; one texel under a point is not
  *     conservative, the 2 x 2 tiles of the bounding box are.
@@ -105,7 +105,7 @@
  *       share their end point t bit for bit (the next ta is the last tb);
  *     - leaves (-D OCLS_LEAF, default 2) are voxels of level <= 2, not 0: the
  *       exact patch tests read the heights themselves, so dilated levels 0
- *       and 1 (4/3 of the map's size in floats) are neither built nor read,
+ *       and 1 (1.25 times the map's size in floats) are neither built nor read,
  *       a voxel of level < OCLS_LEAF is tested against its level-OCLS_LEAF
  *       texel (the tiles of level OCLS_LEAF under its end points contain its
  *       footprint), and large maps touch far less memory per ray.
