@@ -127,14 +127,13 @@
 /* x is finite (no isfinite(): PoCL's builtin call keeps the work-item loop scalar) */
 #define OCLS_FINITE(x) ((x) - (x) == 0.0f)
 
-/* A 32-bit integer mix (xorshift-multiply rounds); CPU twin: reference/ao.py. */
+/* A 32-bit integer mix (xorshift-multiply rounds), on uint or uint8 lanes alike;
+ * CPU twin: reference/ao.py. */
+#define OCLS_MIX_ROUNDS(x) \
+    x ^= x >> 16; x *= 0x7feb352du; x ^= x >> 15; x *= 0x846ca68bu; x ^= x >> 16
 OCLS_INLINE uint ocls_mix(uint x)
 {
-    x ^= x >> 16;
-    x *= 0x7feb352du;
-    x ^= x >> 15;
-    x *= 0x846ca68bu;
-    x ^= x >> 16;
+    OCLS_MIX_ROUNDS(x);
     return x;
 }
 
@@ -234,11 +233,7 @@ __kernel void ssao_prepare(__global const float *restrict pos, __global const fl
 
 OCLS_INLINE uint8 ocls_mix8(uint8 x)
 {
-    x ^= x >> 16;
-    x *= 0x7feb352du;
-    x ^= x >> 15;
-    x *= 0x846ca68bu;
-    x ^= x >> 16;
+    OCLS_MIX_ROUNDS(x);
     return x;
 }
 
