@@ -231,6 +231,17 @@ __kernel void ssao_prepare(__global const float *restrict pos, __global const fl
              (buf)[(stride) * (idx).s4 + (off)], (buf)[(stride) * (idx).s5 + (off)], \
              (buf)[(stride) * (idx).s6 + (off)], (buf)[(stride) * (idx).s7 + (off)])
 
+/* The occluder planes (x, y, z, d) of the 8 pixels j: one 16-byte load per lane, transposed
+ * into lx, ly, lz, ld. */
+#define OCLS_PLANES8(plane, j, lx, ly, lz, ld) { \
+    const float4 l0 = vload4((j).s0, plane), l1 = vload4((j).s1, plane), l2 = vload4((j).s2, plane); \
+    const float4 l3 = vload4((j).s3, plane), l4 = vload4((j).s4, plane), l5 = vload4((j).s5, plane); \
+    const float4 l6 = vload4((j).s6, plane), l7 = vload4((j).s7, plane); \
+    lx = (float8)(l0.x, l1.x, l2.x, l3.x, l4.x, l5.x, l6.x, l7.x); \
+    ly = (float8)(l0.y, l1.y, l2.y, l3.y, l4.y, l5.y, l6.y, l7.y); \
+    lz = (float8)(l0.z, l1.z, l2.z, l3.z, l4.z, l5.z, l6.z, l7.z); \
+    ld = (float8)(l0.w, l1.w, l2.w, l3.w, l4.w, l5.w, l6.w, l7.w); }
+
 OCLS_INLINE uint8 ocls_mix8(uint8 x)
 {
     OCLS_MIX_ROUNDS(x);
@@ -339,13 +350,8 @@ __kernel void ssao_ao(__global const float *restrict pos, __global const float *
          * along U (L . U <= 0): the point test at A decides the whole line */
         const float8 ax_t = Px + (RTx * sx + RBx * sy);
         const float8 ay_t = Py + (RTy * sx + RBy * sy);
-        const float4 l0 = vload4(j.s0, plane), l1 = vload4(j.s1, plane), l2 = vload4(j.s2, plane);
-        const float4 l3 = vload4(j.s3, plane), l4 = vload4(j.s4, plane), l5 = vload4(j.s5, plane);
-        const float4 l6 = vload4(j.s6, plane), l7 = vload4(j.s7, plane);
-        const float8 lx = (float8)(l0.x, l1.x, l2.x, l3.x, l4.x, l5.x, l6.x, l7.x);
-        const float8 ly = (float8)(l0.y, l1.y, l2.y, l3.y, l4.y, l5.y, l6.y, l7.y);
-        const float8 lz = (float8)(l0.z, l1.z, l2.z, l3.z, l4.z, l5.z, l6.z, l7.z);
-        const float8 ld = (float8)(l0.w, l1.w, l2.w, l3.w, l4.w, l5.w, l6.w, l7.w);
+        float8 lx, ly, lz, ld;
+        OCLS_PLANES8(plane, j, lx, ly, lz, ld);
         const float8 lu = OCLS_DOT3(lx, ly, lz, Fx, Fy, Fz);
         const float8 la = OCLS_DOT3(lx, ly, lz, ax_t, ay_t, az_t) - ld;
         const float8 ts = select(select((float8)(-INFINITY), (float8)(INFINITY), la <= -delta), (-delta - la) / lu,
@@ -387,14 +393,8 @@ __kernel void ssao_ao(__global const float *restrict pos, __global const float *
 #ifdef OCLS_PLANE_TEST
         const float8 ax_t = Px + (RTx * sx + RBx * sy + RNx * sz);
         const float8 ay_t = Py + (RTy * sx + RBy * sy + RNy * sz);
-        /* one 16-byte load per lane, then transposed */
-        const float4 l0 = vload4(j.s0, plane), l1 = vload4(j.s1, plane), l2 = vload4(j.s2, plane);
-        const float4 l3 = vload4(j.s3, plane), l4 = vload4(j.s4, plane), l5 = vload4(j.s5, plane);
-        const float4 l6 = vload4(j.s6, plane), l7 = vload4(j.s7, plane);
-        const float8 lx = (float8)(l0.x, l1.x, l2.x, l3.x, l4.x, l5.x, l6.x, l7.x);
-        const float8 ly = (float8)(l0.y, l1.y, l2.y, l3.y, l4.y, l5.y, l6.y, l7.y);
-        const float8 lz = (float8)(l0.z, l1.z, l2.z, l3.z, l4.z, l5.z, l6.z, l7.z);
-        const float8 ld = (float8)(l0.w, l1.w, l2.w, l3.w, l4.w, l5.w, l6.w, l7.w);
+        float8 lx, ly, lz, ld;
+        OCLS_PLANES8(plane, j, lx, ly, lz, ld);
         int8 occ = OCLS_DOT3(lx, ly, lz, ax_t, ay_t, az_t) - ld <= -delta;
 #else
         const float8 zt = OCLS_GATHER8(zbuf, j, 1, 0);

@@ -45,6 +45,7 @@ from .heightmap import Heightmap
 from .pyramid import ExtremaPyramid, build_extrema_pyramid, build_mip_pyramid, level_offsets
 from .runtime import Runtime, get_runtime
 from .shadows import DEFAULT_K_BRIGHT, DEFAULT_K_DARK, ShadowFeatures, check_coefficients, check_method
+from .shadows import check_outputs as check_shadow_outputs
 from .sun import Sun, SunLike, as_sun
 from .terrain import DeviceGBuffer
 
@@ -54,13 +55,7 @@ DEFAULT_N_A_MAX = 16
 
 
 def check_outputs(outputs: str | Sequence[str]) -> tuple[str, ...]:
-    items = (outputs,) if isinstance(outputs, str) else tuple(outputs)
-    if "all" in items:
-        return OUTPUTS
-    bad = [o for o in items if o not in OUTPUTS]
-    if bad or not items:
-        raise ValueError(f"outputs must be a non-empty subset of {', '.join(OUTPUTS)} (or 'all'); got {outputs!r}")
-    return tuple(o for o in OUTPUTS if o in items)
+    return check_shadow_outputs(outputs, OUTPUTS)
 
 
 @dataclass(frozen=True)

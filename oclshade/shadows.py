@@ -44,14 +44,15 @@ def check_method(method: str) -> str:
     return method
 
 
-def check_outputs(outputs: str | Sequence[str]) -> tuple[str, ...]:
+def check_outputs(outputs: str | Sequence[str], allowed: tuple[str, ...] = OUTPUTS) -> tuple[str, ...]:
+    """The requested outputs (a name, names, or 'all') in the order of ``allowed``."""
     items = (outputs,) if isinstance(outputs, str) else tuple(outputs)
     if "all" in items:
-        return OUTPUTS
-    bad = [o for o in items if o not in OUTPUTS]
+        return allowed
+    bad = [o for o in items if o not in allowed]
     if bad or not items:
-        raise ValueError(f"outputs must be a non-empty subset of {', '.join(OUTPUTS)} (or 'all'); got {outputs!r}")
-    return tuple(o for o in OUTPUTS if o in items)
+        raise ValueError(f"outputs must be a non-empty subset of {', '.join(allowed)} (or 'all'); got {outputs!r}")
+    return tuple(o for o in allowed if o in items)
 
 
 def check_coefficients(k_dark: float, k_bright: float) -> tuple[float, float]:

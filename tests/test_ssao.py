@@ -400,18 +400,24 @@ def test_real_dem_kernel_vs_twin_and_ground_truth(ssao: SSAO) -> None:
 
 
 # ----------------------------------------------------------------------------- ground truths
-def v_valley(rows: int = 101, cols: int = 101) -> Heightmap:
+VALLEY_TS = np.array([0.0, 0.2, 0.4, 0.6, 0.8, 1.1])
+
+
+def valley_points(radius: float) -> tuple[Heightmap, np.ndarray, np.ndarray]:
+    """A right-angle valley (both slopes at 45 degrees) and points on its south slope at
+    distances VALLEY_TS x radius from the crease, with their normals."""
+    rows = cols = 101
     i = np.arange(rows)[:, None] * np.ones(cols)
-    return Heightmap.from_array(np.abs(i - rows // 2), 1.0)
+    hm = Heightmap.from_array(np.abs(i - rows // 2), 1.0)
+    s = math.sqrt(0.5)
+    off = VALLEY_TS * radius * s
+    pts = np.stack([np.full_like(VALLEY_TS, 50.0), -(50 + off), off], axis=1)
+    return hm, pts, np.broadcast_to([0.0, s, s], pts.shape)
 
 
 def test_ground_truths_on_a_right_angle_valley() -> None:
-    # points on the south slope at distance t R from the crease; both planes at 45 degrees
-    hm, R, s = v_valley(), 10.0, math.sqrt(0.5)
-    ts = np.array([0.0, 0.2, 0.4, 0.6, 0.8, 1.1])
-    off = ts * R * s
-    pts = np.stack([np.full_like(ts, 50.0), -(50 + off), off], axis=1)
-    nrm = np.broadcast_to([0.0, s, s], pts.shape)
+    R, ts = 10.0, VALLEY_TS
+    hm, pts, nrm = valley_points(R)
     va = ref.volume_ao(hm, pts, nrm, R, n=2048)
     rt = ref.raytraced_ao(hm, pts, nrm, R, n=1024)
     np.testing.assert_allclose(1 - va, cap_fraction(ts), atol=0.01)

@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from test_ssao import cap_fraction, corner_scene, heightfield, ortho, perspective, pixel_xy, random_gbuffer
+from test_ssao import (VALLEY_TS, cap_fraction, corner_scene, heightfield, ortho, perspective, pixel_xy,
+                       random_gbuffer, valley_points)
 
 from oclshade import reference as ref
 from oclshade.heightmap import Heightmap
@@ -174,15 +175,15 @@ def test_empty_pixels_border_and_degenerate_normals(ssao: SSAO) -> None:
 # ----------------------------------------------------------------------------- kernel vs twin
 def assert_matches_twin(ao: np.ndarray, tw: ref.ReferenceAO) -> None:
     """Within the twin's float32 bound everywhere, and the bound is not vacuous: tight (< 1e-3)
-    on a good share of the pixels with lines on screen (over half on most random G-buffers;
-    hypothesis found a 34 x 2 one at 0.49, hence 0.3)."""
+    on most pixels with lines on screen, where the image is not all border (a 34 x 2 one,
+    every pixel on the border, had 0.49)."""
     diff = np.abs(ao.astype(np.float64) - tw.ao)
     bad = diff > tw.bound + 1e-6
     assert not bad.any(), (f"{bad.sum()} pixels beyond the bound, worst {diff[bad].max()} "
                            f"at {np.argwhere(bad)[:3].tolist()}")
     counted = tw.counted > 0
-    if counted.sum() >= 20:
-        assert np.mean(tw.bound[counted] < 1e-3) > 0.3
+    if counted.sum() >= 20 and min(ao.shape) >= 4:
+        assert np.mean(tw.bound[counted] < 1e-3) > 0.5
 
 
 @settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
@@ -243,19 +244,11 @@ def test_real_dem_kernel_vs_twin_and_against_the_paper_recipe(ssao: SSAO) -> Non
     assert rmse["lines"] < 0.5 * rmse["paper"], rmse
 
 
-def v_valley(rows: int = 101, cols: int = 101) -> Heightmap:
-    i = np.arange(rows)[:, None] * np.ones(cols)
-    return Heightmap.from_array(np.abs(i - rows // 2), 1.0)
-
-
 def test_volume_truth_by_lines() -> None:
     # the right-angle valley: the cap beyond the other slope, to 1e-4 with 4096 lines (the point
     # quadrature of volume_ao needs 0.01)
-    hm, R, s = v_valley(), 10.0, math.sqrt(0.5)
-    ts = np.array([0.0, 0.2, 0.4, 0.6, 0.8, 1.1])
-    off = ts * R * s
-    pts = np.stack([np.full_like(ts, 50.0), -(50 + off), off], axis=1)
-    nrm = np.broadcast_to([0.0, s, s], pts.shape)
+    R, ts = 10.0, VALLEY_TS
+    hm, pts, nrm = valley_points(R)
     np.testing.assert_allclose(1 - ref.volume_ao_lines(hm, pts, nrm, R, n=4096), cap_fraction(ts), atol=1e-4)
     # flat: exactly open; outside the map nothing is under
     flat = Heightmap.from_array(np.full((30, 30), 5.0), 2.0)
