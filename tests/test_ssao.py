@@ -337,15 +337,8 @@ def random_gbuffer(rng: np.random.Generator, w: int, h: int, persp: bool):
     return pos, nrm, P
 
 
-@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
-@given(seed=st.integers(0, 2**31 - 1), w=st.integers(2, 40), h=st.integers(2, 32), persp=st.booleans(),
-       m=st.integers(4, 48), dist=st.sampled_from(["paper", "uniform", "centre"]), range_check=st.booleans(),
-       radius=st.floats(0.05, 3.0), delta=st.floats(0.0, 0.2), normal_map=st.booleans(), alpha=st.booleans(),
-       plane_test=st.booleans())
-def test_kernel_matches_float64_twin(ssao: SSAO, seed, w, h, persp, m, dist, range_check, radius, delta,
-                                     normal_map, alpha, plane_test) -> None:
-    rng = np.random.default_rng(seed)
-    pos, nrm, P = random_gbuffer(rng, w, h, persp)
+def random_extras(rng: np.random.Generator, w: int, h: int, alpha: bool, normal_map: bool) -> dict:
+    """Random optional SSAO inputs: an alpha map, a normal map with its tangents."""
     extra: dict = {}
     if alpha:
         extra["alpha"] = rng.random((h, w)).astype(np.float32)
@@ -355,6 +348,19 @@ def test_kernel_matches_float64_twin(ssao: SSAO, seed, w, h, persp, m, dist, ran
         extra["normal_map"] = q.astype(np.float32)
         extra["tangent"] = np.concatenate([rng.normal(size=(h, w, 3)), rng.choice([-1.0, 1.0], (h, w, 1))],
                                           axis=-1).astype(np.float32)
+    return extra
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(seed=st.integers(0, 2**31 - 1), w=st.integers(2, 40), h=st.integers(2, 32), persp=st.booleans(),
+       m=st.integers(4, 48), dist=st.sampled_from(["paper", "uniform", "centre"]), range_check=st.booleans(),
+       radius=st.floats(0.05, 3.0), delta=st.floats(0.0, 0.2), normal_map=st.booleans(), alpha=st.booleans(),
+       plane_test=st.booleans())
+def test_kernel_matches_float64_twin(ssao: SSAO, seed, w, h, persp, m, dist, range_check, radius, delta,
+                                     normal_map, alpha, plane_test) -> None:
+    rng = np.random.default_rng(seed)
+    pos, nrm, P = random_gbuffer(rng, w, h, persp)
+    extra = random_extras(rng, w, h, alpha, normal_map)
     f = AOFeatures(normal_map=normal_map, alpha_map=alpha, range_check=range_check, distribution=dist,
                    plane_test=plane_test)
     ao = ssao.compute(None, P, position=pos, normal=nrm, radius=radius, m=m, delta=delta, features=f,

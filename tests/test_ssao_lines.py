@@ -11,7 +11,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from test_ssao import (VALLEY_TS, cap_fraction, corner_scene, heightfield, ortho, perspective, pixel_xy,
-                       random_gbuffer, valley_points)
+                       random_extras, random_gbuffer, valley_points)
 
 from oclshade import reference as ref
 from oclshade.heightmap import Heightmap
@@ -194,15 +194,7 @@ def test_kernel_matches_float64_twin(ssao: SSAO, seed, w, h, persp, m, range_che
                                      normal_map, alpha) -> None:
     rng = np.random.default_rng(seed)
     pos, nrm, P = random_gbuffer(rng, w, h, persp)
-    extra: dict = {}
-    if alpha:
-        extra["alpha"] = rng.random((h, w)).astype(np.float32)
-    if normal_map:
-        q = rng.normal(size=(h, w, 4))
-        q[..., 2] = np.abs(q[..., 2]) + 0.5
-        extra["normal_map"] = q.astype(np.float32)
-        extra["tangent"] = np.concatenate([rng.normal(size=(h, w, 3)), rng.choice([-1.0, 1.0], (h, w, 1))],
-                                          axis=-1).astype(np.float32)
+    extra = random_extras(rng, w, h, alpha, normal_map)
     f = AOFeatures(distribution="lines", normal_map=normal_map, alpha_map=alpha, range_check=range_check,
                    plane_test=plane_test)
     ao = ssao.compute(None, P, position=pos, normal=nrm, radius=radius, m=m, delta=delta, features=f,
