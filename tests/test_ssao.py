@@ -111,18 +111,8 @@ def test_flat_plane_ortho_and_perspective_unoccluded(ssao: SSAO, dist: str, rang
     f = AOFeatures(distribution=dist, range_check=range_check)
     ao = ssao.compute(None, ortho(w, h, px), position=pos, normal=nrm, radius=6.0, m=32, delta=0.3, features=f)
     np.testing.assert_array_equal(ao, 1.0)
-    # perspective: plane through (0, 0, -10) tilted 30 degrees, positions on the pixel rays
-    P = perspective(60, w / h)
-    n = np.array([0.0, math.sin(math.radians(30)), math.cos(math.radians(30))])
-    ndc_x = (2 * (np.arange(w) + 0.5) / w - 1)[None, :]
-    ndc_y = (1 - 2 * (np.arange(h) + 0.5) / h)[:, None]
-    d = np.stack(np.broadcast_arrays(ndc_x / P[0, 0], ndc_y / P[1, 1], -np.ones((1, 1))), axis=-1)
-    t = (n @ np.array([0, 0, -10.0])) / (d @ n)
-    p3 = d * t[..., None]
-    pos = np.concatenate([p3, np.ones((h, w, 1))], axis=-1).astype(np.float32)
-    nrm = np.concatenate([np.broadcast_to(n, (h, w, 3)), np.zeros((h, w, 1))], axis=-1).astype(np.float32)
-    dz = max(np.abs(np.diff(p3[..., 2], axis=0)).max(), np.abs(np.diff(p3[..., 2], axis=1)).max())
-    ao = ssao.compute(None, P, position=pos, normal=nrm, radius=2.0, m=32, delta=float(dz), features=f)
+    P, pos, nrm, dz = tilted_plane_view(w, h)
+    ao = ssao.compute(None, P, position=pos, normal=nrm, radius=2.0, m=32, delta=dz, features=f)
     np.testing.assert_array_equal(ao, 1.0)
 
 
@@ -313,6 +303,22 @@ def test_off_switches_and_validation(ssao: SSAO) -> None:
 
 
 # ----------------------------------------------------------------------------- kernel vs twin
+def tilted_plane_view(w: int, h: int):
+    """A 60-degree perspective view of the plane through (0, 0, -10) tilted 30 degrees:
+    (projection, positions on the pixel rays, normals, largest view-z step between
+    neighbouring pixels)."""
+    P = perspective(60, w / h)
+    n = np.array([0.0, math.sin(math.radians(30)), math.cos(math.radians(30))])
+    ndc_x = (2 * (np.arange(w) + 0.5) / w - 1)[None, :]
+    ndc_y = (1 - 2 * (np.arange(h) + 0.5) / h)[:, None]
+    d = np.stack(np.broadcast_arrays(ndc_x / P[0, 0], ndc_y / P[1, 1], -np.ones((1, 1))), axis=-1)
+    p3 = d * ((n @ np.array([0, 0, -10.0])) / (d @ n))[..., None]
+    pos = np.concatenate([p3, np.ones((h, w, 1))], axis=-1).astype(np.float32)
+    nrm = np.concatenate([np.broadcast_to(n, (h, w, 3)), np.zeros((h, w, 1))], axis=-1).astype(np.float32)
+    dz = max(np.abs(np.diff(p3[..., 2], axis=0)).max(), np.abs(np.diff(p3[..., 2], axis=1)).max())
+    return P, pos, nrm, float(dz)
+
+
 def random_gbuffer(rng: np.random.Generator, w: int, h: int, persp: bool):
     """Positions on the pixel rays at smooth random depths with steps; random normals; holes."""
     yy, xx = np.mgrid[0:h, 0:w]

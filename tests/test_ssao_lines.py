@@ -11,7 +11,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from test_ssao import (VALLEY_TS, cap_fraction, corner_scene, heightfield, ortho, perspective, pixel_xy,
-                       random_extras, random_gbuffer, valley_points)
+                       random_extras, random_gbuffer, tilted_plane_view, valley_points)
 
 from oclshade import reference as ref
 from oclshade.heightmap import Heightmap
@@ -73,16 +73,8 @@ def test_flat_plane_is_unoccluded(ssao: SSAO, plane_test: bool, range_check: boo
     ao = ssao.compute(None, ortho(w, h, px), position=pos, normal=nrm, radius=6.0, m=32, delta=delta, features=f)
     np.testing.assert_array_equal(ao, 1.0)
     # perspective: a plane through (0, 0, -10) tilted 30 degrees, positions on the pixel rays
-    P = perspective(60, w / h)
-    n = np.array([0.0, math.sin(math.radians(30)), math.cos(math.radians(30))])
-    ndc_x = (2 * (np.arange(w) + 0.5) / w - 1)[None, :]
-    ndc_y = (1 - 2 * (np.arange(h) + 0.5) / h)[:, None]
-    d = np.stack(np.broadcast_arrays(ndc_x / P[0, 0], ndc_y / P[1, 1], -np.ones((1, 1))), axis=-1)
-    p3 = d * ((n @ np.array([0, 0, -10.0])) / (d @ n))[..., None]
-    pos = np.concatenate([p3, np.ones((h, w, 1))], axis=-1).astype(np.float32)
-    nrm = np.concatenate([np.broadcast_to(n, (h, w, 3)), np.zeros((h, w, 1))], axis=-1).astype(np.float32)
-    dz = max(np.abs(np.diff(p3[..., 2], axis=0)).max(), np.abs(np.diff(p3[..., 2], axis=1)).max())
-    delta = 1e-3 if plane_test else float(dz)
+    P, pos, nrm, dz = tilted_plane_view(w, h)
+    delta = 1e-3 if plane_test else dz
     ao = ssao.compute(None, P, position=pos, normal=nrm, radius=2.0, m=32, delta=delta, features=f)
     np.testing.assert_array_equal(ao, 1.0)
 

@@ -5,6 +5,17 @@ import numpy as np
 
 from ..heightmap import Heightmap
 from ..pyramid import level_shapes
+def patch_corners(hm: Heightmap) -> np.ndarray:
+    """The four corner samples of every patch, (4, Hp, Wp) float32: NaN for a hole or a
+    corner past the map (a single row or column has one degenerate patch row / column)."""
+    h = hm.relative32
+    rows, cols = h.shape
+    hp, wp = hm.patch_shape
+    pad = np.full((hp + 1, wp + 1), np.nan, np.float32)
+    pad[:rows, :cols] = h
+    return np.stack([pad[:-1, :-1], pad[:-1, 1:], pad[1:, :-1], pad[1:, 1:]])
+
+
 def extrema_pyramid(hm: Heightmap) -> list[np.ndarray]:
     """Stored levels 1..L as (rows, cols, 2) float32 arrays (max, min) — see kernels/pyramid.cl.
 
@@ -12,12 +23,8 @@ def extrema_pyramid(hm: Heightmap) -> list[np.ndarray]:
     corner is a hole) reduced 2x2 — a different route from the kernel's 3x3
     sample windows, so the test compares two constructions.
     """
-    h = hm.relative32
-    rows, cols = h.shape
     hp, wp = hm.patch_shape
-    pad = np.full((hp + 1, wp + 1), np.nan, np.float32)
-    pad[:rows, :cols] = h
-    corners = np.stack([pad[:-1, :-1], pad[:-1, 1:], pad[1:, :-1], pad[1:, 1:]])
+    corners = patch_corners(hm)
     with np.errstate(invalid="ignore"):
         hi = np.where(np.isnan(corners).all(0), -np.inf, np.nanmax(np.where(np.isnan(corners), -np.inf, corners), 0))
     lo = np.where(np.isnan(corners).any(0), -np.inf, np.min(corners, 0))

@@ -185,14 +185,9 @@ def dilated_max_levels(hm) -> list[np.ndarray]:
     patches), levels >= 1 from :func:`oclshade.reference.extrema_pyramid`'s maxima — a different
     route from the kernel's 3 x 3 sample windows at level 0.  Max only: bit-identical.
     """
-    from .pyramid import extrema_pyramid
+    from .pyramid import extrema_pyramid, patch_corners
 
-    h = hm.relative32
-    rows, cols = h.shape
-    hp, wp = hm.patch_shape
-    pad = np.full((hp + 1, wp + 1), np.nan, np.float32)
-    pad[:rows, :cols] = h
-    corners = np.stack([pad[:-1, :-1], pad[:-1, 1:], pad[1:, :-1], pad[1:, 1:]])
+    corners = patch_corners(hm)
     patch_max = np.where(np.isnan(corners), -np.inf, corners).max(0).astype(np.float32)
     out = []
     for lev in [patch_max] + [e[..., 0] for e in extrema_pyramid(hm)]:
