@@ -18,6 +18,10 @@
  *                  shadow_cells; far-field certificates that let provably
  *                  lit rays stop early ("far-field certificates" below);
  *                  shadow_cells then takes the certificate buffer after coef.
+ *   shadow_cells_packet with -D OCLS_PACKET=run (EXACT / MAXMIP; the Python
+ *                  host's choice on CPU devices): shadow_cells' results, 16
+ *                  rays per work-item on vector lanes ("ray packets" below);
+ *                  global size (ceil(W / run), H).
  *   -D options OCLS_METHOD, OCLS_OUT_MASK, OCLS_OUT_SELF (cells only),
  *   OCLS_OUT_COEF, OCLS_OUT_LOD (pixels only), OCLS_STATS, OCLS_CERT (cells
  *   only, with OCLS_CERT_K / _D0 / _SUB / _SPAN).
@@ -543,16 +547,28 @@ __kernel void shadow_certify(const int H, const int W, __global const float2 *ex
     for (int k = 0; k < OCLS_CERT_K; ++k) out[k] = hk[k];
 }
 
+/* t_k times 1.001: the traversal limit of a cell that clears certificate k. */
+OCLS_INLINE float cert_distance(int k, float4 ray)
+{
+    return 1.001f * ((float)OCLS_CERT_D0 * (float)(1u << k) / fmax(fabs(ray.x), fabs(ray.y)));
+}
+
+/* The least k whose certificate cell (i, j) of height z0 clears, OCLS_CERT_K if none. */
+OCLS_INLINE int cert_index(__global const float *cert, int W, int i, int j, float z0)
+{
+    const int nc = (W + OCLS_CERT - 1) / OCLS_CERT;
+    __global const float *c = cert + ((i / OCLS_CERT) * nc + j / OCLS_CERT) * OCLS_CERT_K;
+    int k = 0;
+    while (k < OCLS_CERT_K && !(z0 > c[k])) ++k;
+    return k;
+}
+
 /* The traversal limit of cell (i, j) of height z0: t_k (times 1.001) for the
  * least k whose certificate it clears, else infinity. */
 OCLS_INLINE float cert_limit(__global const float *cert, int W, int i, int j, float z0, float4 ray)
 {
-    const int nc = (W + OCLS_CERT - 1) / OCLS_CERT;
-    __global const float *c = cert + ((i / OCLS_CERT) * nc + j / OCLS_CERT) * OCLS_CERT_K;
-    const float major = fmax(fabs(ray.x), fabs(ray.y));
-    for (int k = 0; k < OCLS_CERT_K; ++k)
-        if (z0 > c[k]) return 1.001f * ((float)OCLS_CERT_D0 * (float)(1u << k) / major);
-    return INFINITY;
+    const int k = cert_index(cert, W, i, j, z0);
+    return k < OCLS_CERT_K ? cert_distance(k, ray) : INFINITY;
 }
 #else
 #define cert_limit(cert, W, i, j, z0, ray) INFINITY
@@ -576,6 +592,44 @@ OCLS_INLINE int self_shadowed(__global const float *h, int H, int W, int i, int 
     return (s.z - gx * s.x + gy * s.y) <= 0.0f;
 }
 
+/* Cast shadow of cell (i, j) of height z0 (not nodata) by the scalar traversal. */
+OCLS_INLINE int cell_shadow(__global const float *h, int H, int W, __global const float2 *ext,
+                            __global const int *lvl_off, int nlev, float4 ray, int mode,
+                            __global const float *cert, int i, int j, float z0, uint *steps)
+{
+    if (mode != 0) return mode == 2;
+    const Ray r = make_ray((float)j, (float)i, z0, ray.x, ray.y, ray.z);
+    return trace(h, H, W, ext, lvl_off, nlev, 0, ext[lvl_off[nlev - 1]].x,
+                 cert_limit(cert, W, i, j, z0, ray), &r, steps);
+}
+
+/* The outputs of cell (i, j) from its cast-shadow flag (ignored for nodata). */
+OCLS_INLINE void write_cell(__global const float *h, int H, int W, int i, int j, int shadow, int mode,
+                            float4 sunvec, float2 cell, float2 kcoef,
+                            __global uchar *mask, __global uchar *self, __global float *coef)
+{
+    const int idx = i * W + j;
+    const int nodata = isnan(h[idx]);
+#ifdef OCLS_OUT_MASK
+    mask[idx] = nodata ? (uchar)255 : (uchar)shadow;
+#endif
+#ifdef OCLS_OUT_SELF
+    self[idx] = nodata ? (uchar)255
+              : (uchar)(mode == 2 ? 1 : (mode == 1 ? 0 : self_shadowed(h, H, W, i, j, cell, sunvec)));
+#endif
+#ifdef OCLS_OUT_COEF
+    coef[idx] = nodata ? NAN
+              : (shadow ? kcoef.x + (kcoef.y - kcoef.x) * fmax(sunvec.z, 0.0f) : 1.0f);
+#endif
+}
+
+/* the certificate argument of the kernels below (a null pointer without -D OCLS_CERT) */
+#ifdef OCLS_CERT
+#define OCLS_CERT_BUF cert
+#else
+#define OCLS_CERT_BUF 0
+#endif
+
 __kernel void shadow_cells(__global const float *h, const int H, const int W,
                            __global const float2 *ext, __global const int *lvl_off, const int nlev,
                            const float4 ray, const float4 sunvec, const float2 cell,
@@ -592,34 +646,237 @@ __kernel void shadow_cells(__global const float *h, const int H, const int W,
     OCLS_STEPS_BEGIN;
     const int j = get_global_id(0), i = get_global_id(1);
     if (j >= W || i >= H) return;
-    const int idx = i * W + j;
-    const float z0 = h[idx];
-    const int nodata = isnan(z0);
-#if defined(OCLS_OUT_MASK) || defined(OCLS_OUT_COEF)
+    const float z0 = h[i * W + j];
     int shadow = 0;
-    if (!nodata) {
-        if (mode == 2) shadow = 1;
-        else if (mode == 0) {
-            const Ray r = make_ray((float)j, (float)i, z0, ray.x, ray.y, ray.z);
-            shadow = trace(h, H, W, ext, lvl_off, nlev, 0, ext[lvl_off[nlev - 1]].x,
-                           cert_limit(cert, W, i, j, z0, ray), &r, steps);
-        }
-    }
+#if defined(OCLS_OUT_MASK) || defined(OCLS_OUT_COEF)
+    if (!isnan(z0)) shadow = cell_shadow(h, H, W, ext, lvl_off, nlev, ray, mode, OCLS_CERT_BUF, i, j, z0, steps);
 #endif
     OCLS_STEPS_END(nlev);
-#ifdef OCLS_OUT_MASK
-    mask[idx] = nodata ? (uchar)255 : (uchar)shadow;
-#endif
-#ifdef OCLS_OUT_SELF
-    self[idx] = nodata ? (uchar)255
-              : (uchar)(mode == 2 ? 1 : (mode == 1 ? 0 : self_shadowed(h, H, W, i, j, cell, sunvec)));
-#endif
-#ifdef OCLS_OUT_COEF
-    coef[idx] = nodata ? NAN
-              : (shadow ? kcoef.x + (kcoef.y - kcoef.x) * fmax(sunvec.z, 0.0f) : 1.0f);
-#endif
+    write_cell(h, H, W, i, j, shadow, mode, sunvec, cell, kcoef, mask, self, coef);
 }
 
+/* ------------------------------------------------------ ray packets (CPU)
+ * shadow_cells_packet (EXACT and MAXMIP): the outputs of shadow_cells, bit
+ * for bit, faster on CPU devices.  PoCL vectorises the work-item loop only
+ * around straight-line code, so shadow_cells runs one ray at a time on
+ * scalar code.  Here one work-item traces a run of OCLS_RUN cells of a row
+ * with 16 rays in flight, one per lane of float16 / int16 vectors (one
+ * AVX-512 register each): a lane holds one ray in trace()'s state (t, level,
+ * patch); one lockstep iteration takes one traversal step on every lane (the
+ * extrema test of its tile and the patch test are both computed, from
+ * gathered loads, and blended by lane masks into the descent, the step out
+ * and climb, or the end of the ray); a lane whose ray has ended takes the
+ * run's next cell at once, so lanes stay busy until the run's last rays
+ * (96 % of lane-steps do work on Puget Sound 4096^2).  Per lane the
+ * operations are trace()'s (EXACT / MAXMIP branch) in the same order, in
+ * float32 without contraction, so the results are the scalar kernel's.  The
+ * rare cases run the scalar code: rays along a grid axis (ux == 0 or
+ * uy == 0), maps one sample wide or high, modes 1 and 2, and a lane passing a
+ * patch corner out of a hole (corner_hits).  On GPUs shadow_cells is the
+ * kernel to use (there the hardware runs work-items in lockstep already).
+ *
+ *   __kernel shadow_cells_packet(...)  built with -D OCLS_PACKET=run (cells
+ *     per work-item; the Python host passes 1024), EXACT or MAXMIP, without
+ *     -D OCLS_STATS; the arguments of shadow_cells (with -D OCLS_CERT the
+ *     certificate buffer)
+ *   global size (ceil(W / run), H) rounded up to any local size. */
+#if defined(OCLS_PACKET) && (OCLS_METHOD == OCLS_EXACT || OCLS_METHOD == OCLS_MAXMIP) && !defined(OCLS_STATS)
+#define OCLS_RUN OCLS_PACKET
+
+/* The run's next cell that needs a trace, from *next on; the cells passed
+ * over (nodata, or leaving the map at once) get res = 0.  Returns its index
+ * in the run, -1 when the run is used up. */
+OCLS_INLINE int next_cell(int *next, int n, __global const float *h, int W, int Wp, int row_in, int west,
+                          int i, int j0, uchar *res)
+{
+    while (*next < n) {
+        const int c = (*next)++, pc = west ? j0 + c - 1 : j0 + c;   /* start_patch at an integer start */
+        if (row_in && pc >= 0 && pc < Wp && !isnan(h[i * W + j0 + c])) return c;
+        res[c] = 0;
+    }
+    return -1;
+}
+
+/* base[idx] on 16 lanes (compilers for AVX2 / AVX-512 emit gather instructions) */
+#define OCLS_GATHER16(T, base, idx) \
+    (T)((base)[(idx).s0], (base)[(idx).s1], (base)[(idx).s2], (base)[(idx).s3], \
+        (base)[(idx).s4], (base)[(idx).s5], (base)[(idx).s6], (base)[(idx).s7], \
+        (base)[(idx).s8], (base)[(idx).s9], (base)[(idx).sa], (base)[(idx).sb], \
+        (base)[(idx).sc], (base)[(idx).sd], (base)[(idx).se], (base)[(idx).sf])
+
+/* floor / ceil of float lanes as ints (ocls_floor_int / ocls_ceil_int; a true
+ * comparison is -1) */
+#define OCLS_FLOOR16(p, i) ((i) + (convert_float16(i) > (p)))
+#define OCLS_CEIL16(p, i) ((i) - (convert_float16(i) < (p)))
+
+/* Bit k set iff lane k of the mask m is true. */
+OCLS_INLINE int lane_bits(int16 m)
+{
+    int bits = 0;
+    int v[16];
+    vstore16(m, 0, v);
+    for (int k = 0; k < 16; ++k) bits |= (v[k] & 1) << k;
+    return bits;
+}
+
+/* Trace the cells j0 .. j0+n-1 of row i (mode 0, ux != 0, uy != 0, H, W > 1):
+ * res[c] = 1 iff cell j0 + c is in cast shadow (0 for nodata).  The 16 rays'
+ * state lives in vectors; a lane is refilled by blending in its new ray. */
+OCLS_INLINE void trace_run(__global const float *h, int H, int W, __global const float2 *ext,
+                           __global const int *lvl_off, int nlev, float4 ray,
+                           __global const float *cert, int i, int j0, int n, uchar *res)
+{
+    const int Hp = H - 1, Wp = W - 1, top = nlev - 1;
+    const float ux = ray.x, uy = ray.y, w = ray.z, ix = 1.0f / ux, iy = 1.0f / uy, y0 = (float)i;
+    const int east = ux > 0.0f, south = uy > 0.0f;
+    const float z_top = ext[lvl_off[top]].x;
+    const int pr0 = south ? i : i - 1;                  /* start_patch's row at an integer start */
+    const int row_in = pr0 >= 0 && pr0 < Hp;
+    __global const float *ext1 = (__global const float *)ext;
+#ifdef OCLS_CERT
+    float tk[OCLS_CERT_K + 1];                         /* the limits t_k, infinity past the last */
+    for (int k = 0; k < OCLS_CERT_K; ++k) tk[k] = cert_distance(k, ray);
+    tk[OCLS_CERT_K] = INFINITY;
+#endif
+    const int16 lane_id = (int16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+    float16 X0 = 0.0f, Z0 = 0.0f, T = 0.0f, TL = 0.0f;
+    int16 PR = 0, PC = 0, L = 0, IT = 0, CELL = -1;
+    int next = 0, live = 0, refill = (1 << 16) - 1;
+    for (;;) {
+        while (refill) {                               /* new rays into the lanes that ended */
+            const int k = popcount((refill & -refill) - 1);
+            refill &= refill - 1;
+            const int c = next_cell(&next, n, h, W, Wp, row_in, !east, i, j0, res);
+            const int16 lane = lane_id == k;
+            CELL = select(CELL, (int16)(c), lane);
+            if (c < 0) continue;                       /* the lane stays idle */
+            live += 1;
+            const int j = j0 + c;
+            const float z0 = h[i * W + j];
+            X0 = select(X0, (float16)((float)j), lane);
+            Z0 = select(Z0, (float16)(z0), lane);
+            T = select(T, (float16)(0.0f), lane);
+#ifdef OCLS_CERT
+            TL = select(TL, (float16)(tk[cert_index(cert, W, i, j, z0)]), lane);
+#endif
+            PR = select(PR, (int16)(pr0), lane);
+            PC = select(PC, (int16)(east ? j : j - 1), lane);
+            L = select(L, (int16)(0), lane);
+            IT = select(IT, (int16)(0), lane);
+        }
+        if (live == 0) return;
+        const int16 act = CELL >= 0;
+        /* tile_exit of the level-L tile */
+        const int16 size = (int16)(1) << L, r0 = (PR >> L) << L, c0 = (PC >> L) << L;
+        const float16 tx = (convert_float16(east ? c0 + size : c0) - X0) * ix;
+        const float16 ty = (convert_float16(south ? r0 + size : r0) - y0) * iy;
+        const int16 corner = fabs(tx - ty) <= OCLS_CORNER_EPS * fmax(tx, ty);
+        const int16 via_x = corner | (tx < ty), via_y = corner | (ty < tx);
+        const float16 t_out = fmin(tx, ty);
+        /* lit: above the global max, past the certificate's limit, or out of iterations */
+        int16 lit = (Z0 + w * T >= z_top) | (IT >= OCLS_MAX_ITERATIONS);
+#ifdef OCLS_CERT
+        lit |= T >= TL;
+#endif
+        /* levels >= 1: the extrema test (gathered at level max(L, 1), so level-0 lanes read a valid texel) */
+        const int16 lq = max(L, 1);
+        const int16 eidx = 2 * (OCLS_GATHER16(int16, lvl_off, lq) + (PR >> lq) * (((int16)(Wp - 1) >> lq) + 1) + (PC >> lq));
+        const float16 emax = OCLS_GATHER16(float16, ext1, eidx), emin = OCLS_GATHER16(float16, ext1 + 1, eidx);
+        const int16 reach = (L > 0) & (Z0 + w * T < emax);
+#if OCLS_METHOD == OCLS_EXACT
+        const int16 min_hit = reach & (Z0 + w * t_out < emin);
+#else
+        const int16 min_hit = (int16)(0);
+#endif
+        /* level 0: patch_hits (the bilinear case) */
+        const int16 pidx = PR * W + PC;
+        const float16 h00 = OCLS_GATHER16(float16, h, pidx), h01 = OCLS_GATHER16(float16, h + 1, pidx);
+        const float16 h10 = OCLS_GATHER16(float16, h + W, pidx), h11 = OCLS_GATHER16(float16, h + W + 1, pidx);
+        const int16 valid = ~(isnan(h00) | isnan(h01) | isnan(h10) | isnan(h11));
+        const float16 fx = (X0 + ux * T) - convert_float16(PC), fy = (y0 + uy * T) - convert_float16(PR);
+        const float16 len = t_out - T;
+        const float16 ex = h01 - h00, ey = h10 - h00, kk = (h00 - h01) - (h10 - h11);
+        const float16 s_a = h00 + ex * fx + ey * fy + kk * (fx * fy);
+        const float16 s1 = (ex + kk * fy) * ux + (ey + kk * fx) * uy;
+        const float16 s2 = kk * (ux * uy);
+        const float16 a = s1 - w, slope_b = a + s2 * len;
+        const float16 f_a = s_a - (Z0 + w * T);
+        const float16 f_b = f_a + slope_b * len;
+        const float16 tau = -a / (2.0f * s2);
+        const int16 inner = (s2 < 0.0f) & (tau > 0.0f) & (tau < len) & (f_a - (a * a) / (4.0f * s2) > 0.0f);
+        const int16 hit = valid & select((f_a > 0.0f) | (f_b > 0.0f) | inner, (a > 0.0f) | (slope_b > 0.0f), T == 0.0f);
+        int16 shadow = act & ~lit & (min_hit | ((L == 0) & hit));
+        const int16 hole_corner = act & ~lit & (L == 0) & ~valid & via_x & via_y;
+        if (any(hole_corner)) {                        /* rare: corner_hits per lane */
+            int hc[16], sh[16], pr[16], pc[16];
+            float zo[16];
+            vstore16(hole_corner, 0, hc); vstore16(shadow, 0, sh); vstore16(Z0 + w * t_out, 0, zo);
+            vstore16(PR, 0, pr); vstore16(PC, 0, pc);
+            for (int k = 0; k < 16; ++k)
+                if (hc[k]) sh[k] = -corner_hits(h, H, W, pr[k], pc[k], ux, uy, zo[k]);
+            shadow = vload16(0, sh);
+        }
+        /* step_out, then climb; a reaching tile is descended instead */
+        const float16 px = X0 + ux * t_out, py = y0 + uy * t_out;
+        const int16 ipx = convert_int16(px), ipy = convert_int16(py);
+        const int16 along_c = clamp(east ? OCLS_FLOOR16(px, ipx) : OCLS_CEIL16(px, ipx) - 1, c0, c0 + size - 1);
+        const int16 along_r = clamp(south ? OCLS_FLOOR16(py, ipy) : OCLS_CEIL16(py, ipy) - 1, r0, r0 + size - 1);
+        const int16 npc = select(along_c, east ? c0 + size : c0 - 1, via_x);
+        const int16 npr = select(along_r, south ? r0 + size : r0 - 1, via_y);
+        const int16 moves = act & ~lit & ~shadow & ~reach;
+        const int16 out = (npr < 0) | (npr >= Hp) | (npc < 0) | (npc >= Wp);
+        const int16 stays = moves & ~out;
+        const int16 climb = min(31 - convert_int16(clz((npr ^ PR) | (npc ^ PC))), top);
+        L = select(select(L, L - 1, reach), climb, stays);
+        PR = select(PR, npr, stays);
+        PC = select(PC, npc, stays);
+        T = select(T, t_out, stays);
+        IT += 1;
+        refill = lane_bits(act & (lit | shadow | (moves & out)));
+        if (refill) {                                  /* record the ended rays */
+            int cells[16], sh[16];
+            vstore16(CELL, 0, cells); vstore16(shadow, 0, sh);
+            for (int b = refill; b; b &= b - 1) {
+                const int k = popcount((b & -b) - 1);
+                res[cells[k]] = sh[k] != 0;
+                live -= 1;
+            }
+        }
+    }
+}
+
+__kernel void shadow_cells_packet(__global const float *h, const int H, const int W,
+                                  __global const float2 *ext, __global const int *lvl_off, const int nlev,
+                                  const float4 ray, const float4 sunvec, const float2 cell,
+                                  const float2 kcoef, const int mode,
+                                  __global uchar *mask, __global uchar *self, __global float *coef
+#ifdef OCLS_CERT
+                                  , __global const float *cert
+#endif
+                                  )
+{
+    const int i = get_global_id(1), j0 = get_global_id(0) * OCLS_RUN;
+    if (i >= H || j0 >= W) return;
+    const int n = min(OCLS_RUN, W - j0);
+    uchar res[OCLS_RUN];
+#if defined(OCLS_OUT_MASK) || defined(OCLS_OUT_COEF)
+    if (mode == 0 && ray.x != 0.0f && ray.y != 0.0f && H > 1 && W > 1) {
+        trace_run(h, H, W, ext, lvl_off, nlev, ray, OCLS_CERT_BUF, i, j0, n, res);
+    } else {
+        for (int c = 0; c < n; ++c) {
+            const float z0 = h[i * W + j0 + c];
+            uint steps[1];
+            res[c] = !isnan(z0) && cell_shadow(h, H, W, ext, lvl_off, nlev, ray, mode, OCLS_CERT_BUF,
+                                                i, j0 + c, z0, steps);
+        }
+    }
+#else
+    for (int c = 0; c < n; ++c) res[c] = 0;
+#endif
+    for (int c = 0; c < n; ++c)
+        write_cell(h, H, W, i, j0 + c, res[c], mode, sunvec, cell, kcoef, mask, self, coef);
+}
+#endif
 
 /* ---------------------------------------------------------------- per pixel */
 

@@ -36,6 +36,8 @@ _METHOD_CODE = {"exact": 1, "paper": 2, "maxmip": 3, "dda": 4}
 CERTIFIED_METHODS = ("exact", "maxmip")   # methods that use far-field tile certificates
 CERT_TILE = 16                            # cells per side of a certificate tile (kernels/shadow.cl)
 CERT_K = 6                                # thresholds per tile (OCLS_CERT_K)
+PACKET_METHODS = ("exact", "maxmip")      # methods with a ray-packet kernel (shadow_cells_packet)
+PACKET_RUN = 1024                         # cells per work-item of shadow_cells_packet (OCLS_PACKET)
 
 
 def check_method(method: str) -> str:
@@ -70,13 +72,24 @@ class ShadowFeatures:
     outputs: tuple[str, ...] = ("mask",)
     stats: bool = False
     certificate: bool = True   # far-field tile certificates (exact and maxmip only)
+    packets: bool = False      # 16-ray packets per work-item (CPU devices; exact and maxmip, no stats)
 
     @property
     def certified(self) -> bool:
         return self.certificate and self.method in CERTIFIED_METHODS
 
+    @property
+    def packeted(self) -> bool:
+        return self.packets and self.method in PACKET_METHODS and not self.stats
+
+    @property
+    def cells_kernel(self) -> str:
+        """The heightmap-space kernel these features launch."""
+        return "shadow_cells_packet" if self.packeted else "shadow_cells"
+
     def defines(self) -> dict[str, object]:
         return {
+            "OCLS_PACKET": PACKET_RUN if self.packeted else None,
             "OCLS_CERT": CERT_TILE if self.certified else None,
             "OCLS_CERT_K": CERT_K if self.certified else None,
             "OCLS_STATS": self.stats,
@@ -109,15 +122,20 @@ class ShadowCaster:
     certificates per sun (``shadow_certify`` in kernels/shadow.cl) that end
     provably lit rays early; False traces every ray in full (same results,
     for comparisons).
+    packets: ``exact`` and ``maxmip`` trace 16 rays per work-item on vector
+    lanes (``shadow_cells_packet``; same results as one ray per work-item);
+    None uses them on CPU devices, where they are faster, and not on others.
     """
 
     def __init__(self, heightmap: Heightmap, device: str | int | Runtime | None = None, *,
-                 cache: bool | None = None, analyse: bool = True, certificates: bool = True):
+                 cache: bool | None = None, analyse: bool = True, certificates: bool = True,
+                 packets: bool | None = None):
         self.heightmap = heightmap
         self.runtime = get_runtime(device)
         self.cache = cache
         self.analyse = analyse
         self.certificates = certificates
+        self.packets = bool(self.runtime.device.type & cl.device_type.CPU) if packets is None else bool(packets)
         self._pyramid: ExtremaPyramid | None = None
         self._analysis: SceneAnalysis | None = None
         self._dummy_u8 = self.runtime.empty(1, "dummy")
@@ -160,8 +178,7 @@ class ShadowCaster:
         if self.analyse:
             self.analysis
         self.runtime.queue.finish()
-        self.runtime.program("shadow.cl", ShadowFeatures(method, check_outputs(outputs),
-                                                         certificate=self.certificates).defines())
+        self.runtime.program("shadow.cl", self._features(method, check_outputs(outputs)).defines())
 
     def cast(self, sun: SunLike, method: str = "exact", outputs: str | Sequence[str] = ("mask",),
              k_dark: float = DEFAULT_K_DARK, k_bright: float = DEFAULT_K_BRIGHT) -> ShadowResult:
@@ -212,15 +229,15 @@ class ShadowCaster:
         self.pyramid  # built (once) before the launches
         rows, cols = hm.shape
         n = rows * cols
-        features = ShadowFeatures(method, outs, certificate=self.certificates)
-        kernel = rt.kernel("shadow.cl", "shadow_cells", features.defines())
+        features = self._features(method, outs)
+        kernel = rt.kernel("shadow.cl", features.cells_kernel, features.defines())
         certify = self._certifier(features)
         bufs = {
             "mask": rt.empty(n, "shadow mask") if "mask" in outs else self._dummy_u8,
             "self": rt.empty(n, "self-shadow flags") if "self" in outs else self._dummy_u8,
             "coefficient": rt.empty(4 * n, "shadow coefficients") if "coefficient" in outs else self._dummy_f32,
         }
-        gsize, lsize = self._work_size(kernel)
+        gsize, lsize = self.runtime.grid_2d(kernel, -(-cols // PACKET_RUN) if features.packeted else cols, rows)
 
         def launch(sun: Sun, k_dark: float, k_bright: float) -> ShadowResult:
             kernel.set_args(*self._args(sun, k_dark, k_bright), bufs["mask"], bufs["self"], bufs["coefficient"],
@@ -240,6 +257,9 @@ class ShadowCaster:
             return res
 
         return launch
+
+    def _features(self, method: str, outs: tuple[str, ...]) -> ShadowFeatures:
+        return ShadowFeatures(method, outs, certificate=self.certificates, packets=self.packets)
 
     def step_counts(self, sun: SunLike, method: str = "exact", band_cells: int = 1 << 19) -> np.ndarray:
         """Traversal iterations per pyramid level, summed over all cells (a profiling build).
@@ -264,7 +284,7 @@ class ShadowCaster:
         sun = as_sun(sun)
         if sun.below_horizon or sun.at_zenith:
             raise ValueError(f"sun must be above the horizon and below the zenith to trace, got {sun}")
-        (buf,) = self._certifier(ShadowFeatures("exact"))(sun)
+        (buf,) = self._certifier(self._features("exact", ("mask",)))(sun)
         rows, cols = self.heightmap.shape
         out = np.empty((-(-rows // CERT_TILE), -(-cols // CERT_TILE), CERT_K), np.float32)
         cl.enqueue_copy(self.runtime.queue, out, buf)
@@ -293,10 +313,6 @@ class ShadowCaster:
             return (buf,)
 
         return certify
-
-    def _work_size(self, kernel: cl.Kernel) -> tuple[tuple[int, int], tuple[int, int]]:
-        rows, cols = self.heightmap.shape
-        return self.runtime.grid_2d(kernel, cols, rows)
 
     def _args(self, sun: Sun, k_dark: float, k_bright: float) -> tuple:
         """Kernel arguments up to (not including) the output buffers."""
