@@ -623,21 +623,22 @@ OCLS_INLINE void write_cell(__global const float *h, int H, int W, int i, int j,
 #endif
 }
 
-/* the certificate argument of the kernels below (a null pointer without -D OCLS_CERT) */
+/* the certificate argument of the kernels below (a null pointer without -D
+ * OCLS_CERT), and their common parameters (see ABI) */
 #ifdef OCLS_CERT
 #define OCLS_CERT_BUF cert
+#define OCLS_CERT_PARAM , __global const float *cert
 #else
 #define OCLS_CERT_BUF 0
+#define OCLS_CERT_PARAM
 #endif
+#define OCLS_CELLS_PARAMS \
+    __global const float *h, const int H, const int W, __global const float2 *ext, \
+    __global const int *lvl_off, const int nlev, const float4 ray, const float4 sunvec, const float2 cell, \
+    const float2 kcoef, const int mode, __global uchar *mask, __global uchar *self, __global float *coef \
+    OCLS_CERT_PARAM
 
-__kernel void shadow_cells(__global const float *h, const int H, const int W,
-                           __global const float2 *ext, __global const int *lvl_off, const int nlev,
-                           const float4 ray, const float4 sunvec, const float2 cell,
-                           const float2 kcoef, const int mode,
-                           __global uchar *mask, __global uchar *self, __global float *coef
-#ifdef OCLS_CERT
-                           , __global const float *cert
-#endif
+__kernel void shadow_cells(OCLS_CELLS_PARAMS
 #ifdef OCLS_STATS
                            , __global uint *stats
 #endif
@@ -845,15 +846,7 @@ OCLS_INLINE void trace_run(__global const float *h, int H, int W, __global const
     }
 }
 
-__kernel void shadow_cells_packet(__global const float *h, const int H, const int W,
-                                  __global const float2 *ext, __global const int *lvl_off, const int nlev,
-                                  const float4 ray, const float4 sunvec, const float2 cell,
-                                  const float2 kcoef, const int mode,
-                                  __global uchar *mask, __global uchar *self, __global float *coef
-#ifdef OCLS_CERT
-                                  , __global const float *cert
-#endif
-                                  )
+__kernel void shadow_cells_packet(OCLS_CELLS_PARAMS)
 {
     const int i = get_global_id(1), j0 = get_global_id(0) * OCLS_RUN;
     if (i >= H || j0 >= W) return;
