@@ -65,11 +65,10 @@ def extrema_shapes(patch_rows: int, patch_cols: int) -> list[tuple[int, int]]:
     return shapes[1:] if len(shapes) > 1 else [(1, 1)]
 
 
-def build_extrema_pyramid(hm: Heightmap, device=None, heights_buffer: cl.Buffer | None = None) -> ExtremaPyramid:
+def build_extrema_pyramid(hm: Heightmap, device=None) -> ExtremaPyramid:
     rt = get_runtime(device)
     rows, cols = hm.shape
-    if heights_buffer is None:
-        heights_buffer = rt.to_device(hm.relative32, "heightmap")
+    heights_buffer = rt.share(hm.relative32, "heightmap")   # read in place on CPU devices
     hp, wp = hm.patch_shape
     shapes = extrema_shapes(hp, wp)
     offs = level_offsets(shapes)

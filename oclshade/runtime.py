@@ -235,6 +235,16 @@ class Runtime:
         mf = cl.mem_flags
         return cl.Buffer(self.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=array)
 
+    def share(self, array: np.ndarray, what: str) -> cl.Buffer:
+        """A read-only buffer of a read-only array: on a CPU device sharing the host's memory the
+        kernels read the array in place (no copy; the buffer keeps it alive), elsewhere, or for
+        a writable array, a copy (:meth:`to_device`)."""
+        shared = bool(self.device.type & cl.device_type.CPU) and bool(self.device.host_unified_memory)
+        if not shared or array.flags.writeable or not array.flags.c_contiguous:
+            return self.to_device(array, what)
+        self.check_alloc(array.nbytes, what)
+        return cl.Buffer(self.context, cl.mem_flags.READ_ONLY | cl.mem_flags.USE_HOST_PTR, hostbuf=array)
+
     def empty(self, nbytes: int, what: str) -> cl.Buffer:
         self.check_alloc(nbytes, what)
         return cl.Buffer(self.context, cl.mem_flags.READ_WRITE, size=max(int(nbytes), 1))
