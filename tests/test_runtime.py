@@ -72,3 +72,21 @@ def test_work_group_size_respects_device_limits():
     ls = rt.local_size(k, 1 << 20)
     assert 1 <= ls <= rt.device.max_work_group_size and ls & (ls - 1) == 0
     np.testing.assert_equal(ls, min(ls, rt.device.max_work_item_sizes[0]))
+
+
+def test_share_reads_read_only_arrays_in_place_on_cpu_and_copies_otherwise():
+    import pyopencl as cl
+
+    rt = get_runtime()
+    cpu = bool(rt.device.type & cl.device_type.CPU) and bool(rt.device.host_unified_memory)
+    frozen = np.arange(64, dtype=np.float32)
+    frozen.setflags(write=False)
+    writable = np.arange(64, dtype=np.float32)
+    shared, copied = rt.share(frozen, "frozen"), rt.share(writable, "writable")
+    assert (shared.hostbuf is not None) == cpu      # USE_HOST_PTR keeps the array
+    assert copied.hostbuf is None                    # a writable array is copied
+    writable[:] = -1.0                               # the copy does not see later changes
+    for buf, expected in ((shared, frozen), (copied, np.arange(64, dtype=np.float32))):
+        out = np.empty(64, np.float32)
+        cl.enqueue_copy(rt.queue, out, buf)
+        np.testing.assert_array_equal(out, expected)
