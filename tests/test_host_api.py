@@ -169,13 +169,18 @@ def test_c_error_paths_and_build_options(host: dict) -> None:
     """host_errors checks status codes and messages itself; its build options must be Python's."""
     proc = _run([str(host["build"] / "host_errors"), str(_kernel_root())], env=host["env"])
     assert proc.returncode == 0, proc.stdout[-4000:] + proc.stderr[-2000:]
-    options = [line.split(" ", 3) for line in proc.stdout.splitlines() if line.startswith("options ")]
-    assert len(options) == 4 * 7
-    for _, method_code, bits, text in options:
-        method = METHODS[int(method_code) - 1]
-        outputs = tuple(o for bit, (o,) in OUTPUT_BITS.items() if int(bits) & bit)
-        python = define_options(ShadowFeatures(method, outputs).defines()) + ("-cl-std=CL1.2",)
-        assert text == " ".join(python), (method, outputs)
+    lines = proc.stdout.splitlines()
+    cpu = {line for line in lines if line.startswith("device_cpu ")}
+    assert cpu in ({"device_cpu 0"}, {"device_cpu 1"})
+    # the handle on a CPU device uses ray packets for exact and maxmip, as the Python host does
+    for prefix, packets in (("options ", False), ("handle_options ", cpu == {"device_cpu 1"})):
+        options = [line.split(" ", 3) for line in lines if line.startswith(prefix)]
+        assert len(options) == 4 * 7
+        for _, method_code, bits, text in options:
+            method = METHODS[int(method_code) - 1]
+            outputs = tuple(o for bit, (o,) in OUTPUT_BITS.items() if int(bits) & bit)
+            python = define_options(ShadowFeatures(method, outputs, packets=packets).defines()) + ("-cl-std=CL1.2",)
+            assert text == " ".join(python), (prefix, method, outputs)
 
 
 def test_c_example_shadow_mask(host: dict, tmp_path: Path) -> None:

@@ -187,6 +187,15 @@ oclshade_status oclshade_prepare(oclshade *lib, oclshade_method method, unsigned
  * outputs.  For logs and for users building kernels/shadow.cl themselves. */
 size_t oclshade_shadow_build_options(oclshade_method method, unsigned outputs, char *buf, size_t size);
 
+/* The options this handle builds for (method, outputs): on a CPU device
+ * EXACT and MAXMIP add -DOCLS_PACKET=1024 (before -cl-std) and launch
+ * shadow_cells_packet, 16 rays per work-item on vector lanes, with the same
+ * results bit for bit (the Python host's choice, ShadowCaster(packets=None));
+ * elsewhere oclshade_shadow_build_options.  Returns as that one, and 0 for
+ * a failed handle. */
+size_t oclshade_shadow_build_options_for(const oclshade *lib, oclshade_method method, unsigned outputs,
+                                         char *buf, size_t size);
+
 /* ----------------------------------------------------------- heights (host) */
 
 /* float32(heights[i] - offset) into out, subtracting in float64, with

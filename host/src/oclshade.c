@@ -40,11 +40,15 @@ extern const size_t oclshade_embedded_source_count;
 #define CERT_TILE 16
 #define CERT_K 6
 #define CERTIFIED(method) ((method) == OCLSHADE_EXACT || (method) == OCLSHADE_MAXMIP)
+/* ray packets (kernels/shadow.cl shadow_cells_packet, -D OCLS_PACKET) for EXACT and MAXMIP on
+ * CPU devices: the value of oclshade/shadows.py PACKET_RUN, cells per work-item */
+#define PACKET_RUN 1024
 
 typedef struct variant {
     cl_program program;
-    cl_kernel kernel;     /* shadow_cells */
+    cl_kernel kernel;     /* shadow_cells, or shadow_cells_packet where packets */
     size_t local[2];
+    int packets;          /* the kernel traces PACKET_RUN cells of a row per work-item */
     cl_kernel certify;    /* shadow_certify, NULL for methods without certificates */
     size_t cert_local[2];
 } variant;
@@ -55,6 +59,7 @@ struct oclshade {
     oclshade_status failed;   /* != OK: creation failed, the handle only reports it */
     char *pyramid_src, *shadow_src;   /* expanded sources */
     size_t dev_max_wg, dev_max_item0;
+    int cpu;                          /* a CPU device: EXACT and MAXMIP use ray packets */
     ocls_mutex lock;
     cl_program pyramid_prog;
     cl_kernel base_kernel, reduce_kernel;
@@ -315,6 +320,10 @@ static oclshade_status init_handle(oclshade *lib, cl_context context, cl_device_
     if (err == CL_SUCCESS) err = clGetDeviceInfo(device, CL_DEVICE_MAX_WORK_ITEM_SIZES, sizeof items, items, NULL);
     if (err != CL_SUCCESS) return fail_cl(lib, err, "clGetDeviceInfo(device, work sizes)");
     lib->dev_max_item0 = items[0];
+    cl_device_type type = 0;
+    err = clGetDeviceInfo(device, CL_DEVICE_TYPE, sizeof type, &type, NULL);
+    if (err != CL_SUCCESS) return fail_cl(lib, err, "clGetDeviceInfo(device, CL_DEVICE_TYPE)");
+    lib->cpu = (type & CL_DEVICE_TYPE_CPU) != 0;
     clRetainContext(context);
     clRetainDevice(device);
     lib->context = context;
@@ -470,17 +479,30 @@ static oclshade_status pyramid_program(oclshade *lib)
     return OCLSHADE_OK;
 }
 
-size_t oclshade_shadow_build_options(oclshade_method method, unsigned outputs, char *buf, size_t size)
+/* The options of (method, outputs), with ray packets or without (packets only for the certified methods). */
+static size_t build_options(oclshade_method method, unsigned outputs, int packets, char *buf, size_t size)
 {
     if (method < OCLSHADE_EXACT || method > OCLSHADE_DDA || outputs == 0 || outputs >= N_OUTPUT_SETS) return 0;
     /* ShadowFeatures.defines through runtime.define_options: sorted by name, then the standard */
-    int n = snprintf(buf, size, "%s-DOCLS_METHOD=%d%s%s%s " CL_STD_OPTION,
+    int n = snprintf(buf, size, "%s-DOCLS_METHOD=%d%s%s%s%s " CL_STD_OPTION,
                      CERTIFIED(method) ? "-DOCLS_CERT=" OCLS_STR(CERT_TILE) " -DOCLS_CERT_K=" OCLS_STR(CERT_K) " " : "",
                      (int)method,
                      (outputs & OCLSHADE_OUT_COEFFICIENT) ? " -DOCLS_OUT_COEF" : "",
                      (outputs & OCLSHADE_OUT_MASK) ? " -DOCLS_OUT_MASK" : "",
-                     (outputs & OCLSHADE_OUT_SELF) ? " -DOCLS_OUT_SELF" : "");
+                     (outputs & OCLSHADE_OUT_SELF) ? " -DOCLS_OUT_SELF" : "",
+                     packets && CERTIFIED(method) ? " -DOCLS_PACKET=" OCLS_STR(PACKET_RUN) : "");
     return n < 0 ? 0 : (size_t)n + 1;
+}
+
+size_t oclshade_shadow_build_options(oclshade_method method, unsigned outputs, char *buf, size_t size)
+{
+    return build_options(method, outputs, 0, buf, size);
+}
+
+size_t oclshade_shadow_build_options_for(const oclshade *lib, oclshade_method method, unsigned outputs,
+                                         char *buf, size_t size)
+{
+    return lib == NULL || lib->failed != OCLSHADE_OK ? 0 : build_options(method, outputs, lib->cpu, buf, size);
 }
 
 /* Called with the lock held. */
@@ -489,12 +511,14 @@ static oclshade_status shadow_variant(oclshade *lib, oclshade_method method, uns
     variant *v = &lib->shadow[method - 1][outputs];
     if (v->program == NULL) {
         char options[192];
-        oclshade_shadow_build_options(method, outputs, options, sizeof options);
+        const int packets = lib->cpu && CERTIFIED(method);
+        build_options(method, outputs, packets, options, sizeof options);
         cl_program prog = NULL;
         oclshade_status st = build(lib, SHADOW_FILE, lib->shadow_src, options, &prog);
         if (st != OCLSHADE_OK) return st;
         /* oclshade/shadows.py launches with grid_2d(wanted=64, max_x=16) */
-        st = make_kernel(lib, prog, "shadow_cells", 64, 16, &v->kernel, v->local);
+        st = make_kernel(lib, prog, packets ? "shadow_cells_packet" : "shadow_cells", 64, 16, &v->kernel, v->local);
+        v->packets = packets;
         if (st == OCLSHADE_OK && CERTIFIED(method)) {
             st = make_kernel(lib, prog, "shadow_certify", 64, 16, &v->certify, v->cert_local);
             if (st != OCLSHADE_OK) { clReleaseKernel(v->kernel); v->kernel = NULL; }
@@ -881,7 +905,8 @@ oclshade_status oclshade_enqueue_shadows(oclshade *lib, cl_command_queue queue, 
         SET_ARG(k, 11, p->mask); SET_ARG(k, 12, p->self_shadow); SET_ARG(k, 13, p->coefficient);
         if (st == OCLSHADE_OK)
             st = err != CL_SUCCESS ? fail_cl(lib, err, "clSetKernelArg(shadow_cells)")
-                 : launch(lib, &ch, queue, k, v->local, W, H, "clEnqueueNDRangeKernel(shadow_cells)");
+                 : launch(lib, &ch, queue, k, v->local, v->packets ? (W + PACKET_RUN - 1) / PACKET_RUN : W, H,
+                          "clEnqueueNDRangeKernel(shadow_cells)");
         if (cert) clReleaseMemObject(cert);
     }
     mutex_unlock(&lib->lock);

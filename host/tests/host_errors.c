@@ -3,8 +3,9 @@
  * usage: host_errors KERNEL_DIR
  * Each check prints "ok <what>" or "FAIL <what>: <details>"; the exit status
  * is the number of failures.  Also prints one line per shadow program variant,
- * "options <method> <outputs> <build options>", which the Python test compares
- * with the Python host's options. */
+ * "options <method> <outputs> <build options>", the same for a handle on the
+ * first device ("handle_options ..."), and "device_cpu 0|1", which the Python
+ * test compares with the Python host's options. */
 #include "oclshade.h"
 
 #include <math.h>
@@ -142,6 +143,15 @@ int main(int argc, char **argv)
     /* ---- argument checks on a working handle */
     st = oclshade_create(ctx, device, dir, &lib);
     expect_status(lib, st, OCLSHADE_OK, "", "create from the kernel dir");
+    cl_device_type type = 0;
+    clGetDeviceInfo(device, CL_DEVICE_TYPE, sizeof type, &type, NULL);
+    printf("device_cpu %d\n", (type & CL_DEVICE_TYPE_CPU) != 0);
+    for (int m = OCLSHADE_EXACT; m <= OCLSHADE_DDA; ++m) {
+        for (unsigned o = 1; o < 8; ++o) {
+            size_t need = oclshade_shadow_build_options_for(lib, (oclshade_method)m, o, opts, sizeof opts);
+            printf("handle_options %d %u %s\n", m, o, need ? opts : "(none)");
+        }
+    }
     const int rows = 5, cols = 7, n = rows * cols;
     oclshade_pyramid_layout_for(rows, cols, &lay);
     cl_mem heights = buffer(ctx, 4 * n), pyr = buffer(ctx, lay.pyramid_bytes), offs = buffer(ctx, lay.offsets_bytes);
