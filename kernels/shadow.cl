@@ -883,13 +883,13 @@ OCLS_INLINE void trace_run(__global const float *h, int H, int W, __global const
     p.pr = p.pc = p.l = p.it = 0;
     int16 CELL = -1;
     int next = 0, pending = 0, live = 0, refill = (1 << 16) - 1;
-    float cx0[16], cz0[16], ct[16], ctl[16];
+    float cz0[16], ct[16], ctl[16];
     int cpr[16], cpc[16], cl[16];
     for (;;) {
         while (refill) {                               /* new rays into the lanes that ended */
             while (!pending && next < n) {             /* the next chunk's first iterations */
                 pending = first_steps(h, H, W, ray, z_top, top, cert, tk, i, j0, next, n, res, &chunk);
-                vstore16(chunk.x0, 0, cx0); vstore16(chunk.z0, 0, cz0); vstore16(chunk.t, 0, ct);
+                vstore16(chunk.z0, 0, cz0); vstore16(chunk.t, 0, ct);
                 vstore16(chunk.t_lim, 0, ctl); vstore16(chunk.pr, 0, cpr); vstore16(chunk.pc, 0, cpc);
                 vstore16(chunk.l, 0, cl);
                 next += 16;
@@ -904,15 +904,16 @@ OCLS_INLINE void trace_run(__global const float *h, int H, int W, __global const
             const int b = popcount((pending & -pending) - 1);
             pending &= pending - 1;
             live += 1;
-            CELL = select(CELL, (int16)(next - 16 + b), lane);
-            p.x0 = select(p.x0, (float16)(cx0[b]), lane);
+            const int c = next - 16 + b;
+            CELL = select(CELL, (int16)(c), lane);
+            p.x0 = select(p.x0, (float16)((float)(j0 + c)), lane);
             p.z0 = select(p.z0, (float16)(cz0[b]), lane);
             p.t = select(p.t, (float16)(ct[b]), lane);
             p.t_lim = select(p.t_lim, (float16)(ctl[b]), lane);
             p.pr = select(p.pr, (int16)(cpr[b]), lane);
             p.pc = select(p.pc, (int16)(cpc[b]), lane);
             p.l = select(p.l, (int16)(cl[b]), lane);
-            p.it = select(p.it, (int16)(1), lane);
+            p.it = select(p.it, (int16)(1), lane);       /* first_steps took its first iteration */
         }
         if (live == 0) return;
         const int16 act = CELL >= 0;
