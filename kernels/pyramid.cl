@@ -42,17 +42,19 @@
  *   unused (the hosts store -1).
  *   mip_reduce(in, Rin, Cin, out, R, C)      global (C, R)
  *       in: level l-1 (Rin x Cin float), out: level l (R x C float)
- *   No -D options; the hosts build with -cl-std=CL1.2 and paste common.h in
- *   place of its include (a build of your own may instead pass -I <this
- *   folder>).
+ *   -D OCLS_BASE16 (the Python host's choice on CPU devices): extrema_base
+ *   computes 16 texels of a row per work-item, global (ceil(C/16), R), on
+ *   float16 lanes from contiguous loads (PoCL runs the one-texel kernel on
+ *   scalar code: 36 of the 72 ms of a 4096^2 pyramid); the same texels bit
+ *   for bit (min / max of the same samples).  No other -D options; the hosts
+ *   build with -cl-std=CL1.2 and paste common.h in place of its include (a
+ *   build of your own may instead pass -I <this folder>).
  */
 #include "common.h"
 
-__kernel void extrema_base(__global const float *h, const int H, const int W,
-                           __global float2 *out, const int Hp, const int Wp, const int R, const int C)
+/* Level-1 texel (r, c): max / min over the samples of its (up to 2 x 2) patches. */
+OCLS_INLINE float2 base_texel(__global const float *h, int H, int W, int Hp, int Wp, int r, int c)
 {
-    const int c = get_global_id(0), r = get_global_id(1);
-    if (c >= C || r >= R) return;
     /* samples of patches 2r..min(2r+1, Hp-1) x 2c..min(2c+1, Wp-1) */
     const int r_end = min(2 * r + 1, Hp - 1) + 1, c_end = min(2 * c + 1, Wp - 1) + 1;
     float hi = -INFINITY, lo = INFINITY;
@@ -64,8 +66,7 @@ __kernel void extrema_base(__global const float *h, const int H, const int W,
         OCLS_TAKE(W) OCLS_TAKE(W + 1) OCLS_TAKE(W + 2)
         OCLS_TAKE(2 * W) OCLS_TAKE(2 * W + 1) OCLS_TAKE(2 * W + 2)
 #undef OCLS_TAKE
-        out[r * C + c] = (float2)(hi, hole ? -INFINITY : lo);
-        return;
+        return (float2)(hi, hole ? -INFINITY : lo);
     }
     for (int i = 2 * r; i <= r_end; ++i) {
         for (int j = 2 * c; j <= c_end; ++j) {
@@ -75,7 +76,40 @@ __kernel void extrema_base(__global const float *h, const int H, const int W,
             lo = fmin(lo, v);
         }
     }
-    out[r * C + c] = (float2)(hi, hole ? -INFINITY : lo);
+    return (float2)(hi, hole ? -INFINITY : lo);
+}
+
+__kernel void extrema_base(__global const float *h, const int H, const int W,
+                           __global float2 *out, const int Hp, const int Wp, const int R, const int C)
+{
+#ifdef OCLS_BASE16
+    const int c0 = get_global_id(0) * 16, r = get_global_id(1);
+    if (c0 >= C || r >= R) return;
+    if (c0 + 16 <= C && 2 * c0 + 32 <= Wp && 2 * r + 2 <= Hp) {
+        /* 16 full 3 x 3 blocks: per sample row, e / o / n = columns 2k, 2k + 1, 2k + 2 */
+        float16 hi = -INFINITY, lo = INFINITY;
+        int16 hole = 0;
+        for (int i = 0; i < 3; ++i) {
+            __global const float *p = h + (2 * r + i) * W + 2 * c0;
+            const float16 a = vload16(0, p), b = vload16(0, p + 16);
+            const float16 e = (float16)(a.even, b.even), o = (float16)(a.odd, b.odd);
+            const float16 n = (float16)(e.s1234, e.s5678, e.s9abc, e.sdef, p[32]);
+            hole |= isnan(e) | isnan(o) | isnan(n);
+            hi = fmax(hi, fmax(fmax(e, o), n));
+            lo = fmin(lo, fmin(fmin(e, o), n));
+        }
+        float hv[16], lv[16];
+        vstore16(hi, 0, hv);
+        vstore16(select(lo, (float16)(-INFINITY), hole), 0, lv);
+        for (int k = 0; k < 16; ++k) out[r * C + c0 + k] = (float2)(hv[k], lv[k]);
+        return;
+    }
+    for (int c = c0; c < min(c0 + 16, C); ++c) out[r * C + c] = base_texel(h, H, W, Hp, Wp, r, c);
+#else
+    const int c = get_global_id(0), r = get_global_id(1);
+    if (c >= C || r >= R) return;
+    out[r * C + c] = base_texel(h, H, W, Hp, Wp, r, c);
+#endif
 }
 
 __kernel void extrema_reduce(__global float2 *ext, const int in_off, const int Rin, const int Cin,

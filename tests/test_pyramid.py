@@ -1,4 +1,5 @@
-"""Pyramids on the device against their numpy twins: bit-identical."""
+"""Pyramids on the device against their numpy twins: bit-identical (maps up to 100 columns wide, so
+the 16-texel extrema_base of CPU devices meets several full blocks and a partial one per row)."""
 from __future__ import annotations
 
 import numpy as np
@@ -12,7 +13,7 @@ from oclshade.pyramid import build_extrema_pyramid, build_mip_pyramid
 
 
 @settings(max_examples=60, deadline=None)
-@given(rows=st.integers(1, 70), cols=st.integers(1, 70), holes=st.sampled_from([0.0, 0.05, 0.5]),
+@given(rows=st.integers(1, 70), cols=st.integers(1, 100), holes=st.sampled_from([0.0, 0.05, 0.5]),
        seed=st.integers(0, 2**31))
 def test_extrema_pyramid_bit_identical(rows, cols, holes, seed):
     rng = np.random.default_rng(seed)
