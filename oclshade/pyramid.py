@@ -75,8 +75,8 @@ def build_extrema_pyramid(hm: Heightmap, device=None) -> ExtremaPyramid:
     total = int(offs[-1]) + 1  # the last level is 1 x 1
     buf = rt.empty(total * 8, "extrema pyramid")
     r1, c1 = shapes[0]
-    lanes = 16 if rt.device.type & cl.device_type.CPU else 1     # -D OCLS_BASE16 (kernels/pyramid.cl)
-    _run_2d(rt, rt.kernel("pyramid.cl", "extrema_base", {"OCLS_BASE16": lanes == 16}), -(-c1 // lanes), r1,
+    lanes = 16 if rt.is_cpu else 1                              # -D OCLS_BASE16 (kernels/pyramid.cl)
+    _run_2d(rt, rt.kernel("pyramid.cl", "extrema_base", {"OCLS_BASE16": rt.is_cpu}), -(-c1 // lanes), r1,
             (heights_buffer, np.int32(rows), np.int32(cols), buf, np.int32(hp), np.int32(wp),
              np.int32(r1), np.int32(c1)))
     reduce_k = rt.kernel("pyramid.cl", "extrema_reduce")

@@ -193,6 +193,11 @@ class Runtime:
     def label(self) -> str:
         return f"{self.device.platform.name.strip()} / {self.device.name.strip()}"
 
+    @property
+    def is_cpu(self) -> bool:
+        """A CPU device: the kernels' CPU variants (ray packets, 16-texel pyramid base) apply."""
+        return bool(self.device.type & cl.device_type.CPU)
+
     def program(self, filename: str, defines: Mapping[str, object] | None = None) -> cl.Program:
         """Build (or fetch from the cache) ``kernels/<filename>`` with the given defines."""
         source = kernel_source(filename)
@@ -242,7 +247,7 @@ class Runtime:
         """A read-only buffer of a read-only array: on a CPU device sharing the host's memory the
         kernels read the array in place (no copy; the buffer keeps it alive), elsewhere, or for
         a writable array, a copy (:meth:`to_device`)."""
-        shared = bool(self.device.type & cl.device_type.CPU) and bool(self.device.host_unified_memory)
+        shared = self.is_cpu and bool(self.device.host_unified_memory)
         if not shared or array.flags.writeable or not array.flags.c_contiguous:
             return self.to_device(array, what)
         self.check_alloc(array.nbytes, what)

@@ -135,7 +135,7 @@ class ShadowCaster:
         self.cache = cache
         self.analyse = analyse
         self.certificates = certificates
-        self.packets = bool(self.runtime.device.type & cl.device_type.CPU) if packets is None else bool(packets)
+        self.packets = self.runtime.is_cpu if packets is None else bool(packets)
         self._pyramid: ExtremaPyramid | None = None
         self._analysis: SceneAnalysis | None = None
         self._dummy_u8 = self.runtime.empty(1, "dummy")

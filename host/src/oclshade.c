@@ -479,7 +479,10 @@ static oclshade_status pyramid_program(oclshade *lib)
     return OCLSHADE_OK;
 }
 
-/* The options of (method, outputs), with ray packets or without (packets only for the certified methods). */
+/* A handle traces (method) with ray packets: EXACT and MAXMIP on a CPU device. */
+static int uses_packets(const oclshade *lib, oclshade_method method) { return lib->cpu && CERTIFIED(method); }
+
+/* The options of (method, outputs), with -DOCLS_PACKET or without. */
 static size_t build_options(oclshade_method method, unsigned outputs, int packets, char *buf, size_t size)
 {
     if (method < OCLSHADE_EXACT || method > OCLSHADE_DDA || outputs == 0 || outputs >= N_OUTPUT_SETS) return 0;
@@ -490,7 +493,7 @@ static size_t build_options(oclshade_method method, unsigned outputs, int packet
                      (outputs & OCLSHADE_OUT_COEFFICIENT) ? " -DOCLS_OUT_COEF" : "",
                      (outputs & OCLSHADE_OUT_MASK) ? " -DOCLS_OUT_MASK" : "",
                      (outputs & OCLSHADE_OUT_SELF) ? " -DOCLS_OUT_SELF" : "",
-                     packets && CERTIFIED(method) ? " -DOCLS_PACKET=" OCLS_STR(PACKET_RUN) : "");
+                     packets ? " -DOCLS_PACKET=" OCLS_STR(PACKET_RUN) : "");
     return n < 0 ? 0 : (size_t)n + 1;
 }
 
@@ -502,7 +505,8 @@ size_t oclshade_shadow_build_options(oclshade_method method, unsigned outputs, c
 size_t oclshade_shadow_build_options_for(const oclshade *lib, oclshade_method method, unsigned outputs,
                                          char *buf, size_t size)
 {
-    return lib == NULL || lib->failed != OCLSHADE_OK ? 0 : build_options(method, outputs, lib->cpu, buf, size);
+    return lib == NULL || lib->failed != OCLSHADE_OK ? 0
+           : build_options(method, outputs, uses_packets(lib, method), buf, size);
 }
 
 /* Called with the lock held. */
@@ -511,7 +515,7 @@ static oclshade_status shadow_variant(oclshade *lib, oclshade_method method, uns
     variant *v = &lib->shadow[method - 1][outputs];
     if (v->program == NULL) {
         char options[192];
-        const int packets = lib->cpu && CERTIFIED(method);
+        const int packets = uses_packets(lib, method);
         build_options(method, outputs, packets, options, sizeof options);
         cl_program prog = NULL;
         oclshade_status st = build(lib, SHADOW_FILE, lib->shadow_src, options, &prog);
