@@ -42,10 +42,11 @@
  *   unused (the hosts store -1).
  *   mip_reduce(in, Rin, Cin, out, R, C)      global (C, R)
  *       in: level l-1 (Rin x Cin float), out: level l (R x C float)
- *   -D OCLS_BASE16 (the Python host's choice on CPU devices): extrema_base
- *   computes 16 texels of a row per work-item, global (ceil(C/16), R), on
- *   float16 lanes from contiguous loads (PoCL runs the one-texel kernel on
- *   scalar code: 36 of the 72 ms of a 4096^2 pyramid); the same texels bit
+ *   -D OCLS_BASE_LANES=N (N = 4, 8 or 16; chosen per device by the tuning
+ *   lookup, usually on CPU devices): extrema_base computes N texels of a row
+ *   per work-item, global (ceil(C/N), R), on floatN lanes from contiguous
+ *   loads (PoCL runs the one-texel kernel on scalar code: 36 of the 72 ms of
+ *   a 4096^2 pyramid on an AVX-512 Xeon); the same texels bit
  *   for bit (min / max of the same samples).  No other -D options; the hosts
  *   build with -cl-std=CL1.2 and paste common.h in place of its include (a
  *   build of your own may instead pass -I <this folder>).
@@ -82,29 +83,45 @@ OCLS_INLINE float2 base_texel(__global const float *h, int H, int W, int Hp, int
 __kernel void extrema_base(__global const float *h, const int H, const int W,
                            __global float2 *out, const int Hp, const int Wp, const int R, const int C)
 {
-#ifdef OCLS_BASE16
-    const int c0 = get_global_id(0) * 16, r = get_global_id(1);
+#ifdef OCLS_BASE_LANES
+#define OCLS_CAT_(a, b) a##b
+#define OCLS_CAT(a, b) OCLS_CAT_(a, b)
+#define ocls_floatv OCLS_CAT(float, OCLS_BASE_LANES)
+#define ocls_intv OCLS_CAT(int, OCLS_BASE_LANES)
+#define OCLS_VLOAD OCLS_CAT(vload, OCLS_BASE_LANES)
+#define OCLS_VSTORE OCLS_CAT(vstore, OCLS_BASE_LANES)
+/* columns 2k + 2 of the lanes: e shifted by one lane, the last from p[2N] */
+#if OCLS_BASE_LANES == 4
+#define OCLS_NEXT_EVEN(e, p) ((float4)((e).s123, (p)[8]))
+#elif OCLS_BASE_LANES == 8
+#define OCLS_NEXT_EVEN(e, p) ((float8)((e).s1234, (e).s567, (p)[16]))
+#elif OCLS_BASE_LANES == 16
+#define OCLS_NEXT_EVEN(e, p) ((float16)((e).s1234, (e).s5678, (e).s9abc, (e).sdef, (p)[32]))
+#else
+#error "OCLS_BASE_LANES must be 4, 8 or 16"
+#endif
+    const int N = OCLS_BASE_LANES, c0 = get_global_id(0) * N, r = get_global_id(1);
     if (c0 >= C || r >= R) return;
-    if (c0 + 16 <= C && 2 * c0 + 32 <= Wp && 2 * r + 2 <= Hp) {
-        /* 16 full 3 x 3 blocks: per sample row, e / o / n = columns 2k, 2k + 1, 2k + 2 */
-        float16 hi = -INFINITY, lo = INFINITY;
-        int16 hole = 0;
+    if (c0 + N <= C && 2 * c0 + 2 * N <= Wp && 2 * r + 2 <= Hp) {
+        /* N full 3 x 3 blocks: per sample row, e / o / n = columns 2k, 2k + 1, 2k + 2 */
+        ocls_floatv hi = -INFINITY, lo = INFINITY;
+        ocls_intv hole = 0;
         for (int i = 0; i < 3; ++i) {
             __global const float *p = h + (2 * r + i) * W + 2 * c0;
-            const float16 a = vload16(0, p), b = vload16(0, p + 16);
-            const float16 e = (float16)(a.even, b.even), o = (float16)(a.odd, b.odd);
-            const float16 n = (float16)(e.s1234, e.s5678, e.s9abc, e.sdef, p[32]);
+            const ocls_floatv a = OCLS_VLOAD(0, p), b = OCLS_VLOAD(0, p + N);
+            const ocls_floatv e = (ocls_floatv)(a.even, b.even), o = (ocls_floatv)(a.odd, b.odd);
+            const ocls_floatv n = OCLS_NEXT_EVEN(e, p);
             hole |= isnan(e) | isnan(o) | isnan(n);
             hi = fmax(hi, fmax(fmax(e, o), n));
             lo = fmin(lo, fmin(fmin(e, o), n));
         }
-        float hv[16], lv[16];
-        vstore16(hi, 0, hv);
-        vstore16(select(lo, (float16)(-INFINITY), hole), 0, lv);
-        for (int k = 0; k < 16; ++k) out[r * C + c0 + k] = (float2)(hv[k], lv[k]);
+        float hv[OCLS_BASE_LANES], lv[OCLS_BASE_LANES];
+        OCLS_VSTORE(hi, 0, hv);
+        OCLS_VSTORE(select(lo, (ocls_floatv)(-INFINITY), hole), 0, lv);
+        for (int k = 0; k < N; ++k) out[r * C + c0 + k] = (float2)(hv[k], lv[k]);
         return;
     }
-    for (int c = c0; c < min(c0 + 16, C); ++c) out[r * C + c] = base_texel(h, H, W, Hp, Wp, r, c);
+    for (int c = c0; c < min(c0 + N, C); ++c) out[r * C + c] = base_texel(h, H, W, Hp, Wp, r, c);
 #else
     const int c = get_global_id(0), r = get_global_id(1);
     if (c >= C || r >= R) return;

@@ -18,8 +18,9 @@
  *                  shadow_cells; far-field certificates that let provably
  *                  lit rays stop early ("far-field certificates" below);
  *                  shadow_cells then takes the certificate buffer after coef.
- *   shadow_cells_packet with -D OCLS_PACKET=run (EXACT / MAXMIP; the Python
- *                  host's choice on CPU devices): shadow_cells' results, 16
+ *   shadow_cells_packet with -D OCLS_PACKET=run and -D OCLS_LANES=4/8/16
+ *                  (EXACT / MAXMIP; chosen per device by the tuning lookup,
+ *                  usually on CPU devices): shadow_cells' results, OCLS_LANES
  *                  rays per work-item on vector lanes ("ray packets" below);
  *                  global size (ceil(W / run), H).
  *   -D options OCLS_METHOD, OCLS_OUT_MASK, OCLS_OUT_SELF (cells only),
@@ -664,8 +665,9 @@ __kernel void shadow_cells(OCLS_CELLS_PARAMS
  * for bit, faster on CPU devices.  PoCL vectorises the work-item loop only
  * around straight-line code, so shadow_cells runs one ray at a time on
  * scalar code.  Here one work-item traces a run of OCLS_RUN cells of a row
- * with 16 rays in flight, one per lane of float16 / int16 vectors (one
- * AVX-512 register each): a lane holds one ray in trace()'s state (t, level,
+ * with OCLS_LANES rays in flight, one per lane of float / int vectors
+ * (ocls_floatv / ocls_intv; 8 lanes fill an AVX2 register, 16 an AVX-512
+ * one): a lane holds one ray in trace()'s state (t, level,
  * patch); one lockstep iteration takes one traversal step on every lane (the
  * extrema test of its tile and the patch test are both computed, from
  * gathered loads, and blended by lane masks into the descent, the step out
@@ -674,7 +676,7 @@ __kernel void shadow_cells(OCLS_CELLS_PARAMS
  * (96 % of lane-steps did work on Puget Sound 4096^2, measured with 8 lanes
  * and runs of 256).  Each ray's first iteration (level 0, its start patch,
  * t = 0) is straight-line code over contiguous heights: first_steps runs it
- * for 16 cells at a time before their rays enter the packet, where only the
+ * for OCLS_LANES cells at a time before their rays enter the packet, where only the
  * rays it does not end go (on Puget Sound, sun 37/20, 3.5 M of the 4.0 M
  * shadowed cells end there; 13 % fewer packet iterations).  Per lane the
  * operations are trace()'s (EXACT / MAXMIP branch) in the same order, in
@@ -685,57 +687,84 @@ __kernel void shadow_cells(OCLS_CELLS_PARAMS
  * kernel to use (there the hardware runs work-items in lockstep already).
  *
  *   __kernel shadow_cells_packet(...)  built with -D OCLS_PACKET=run (cells
- *     per work-item, a multiple of 16; the Python host passes 1024), EXACT or
- *     MAXMIP, without -D OCLS_STATS, and -D OCLS_CERT a multiple of 16 if
- *     given; the arguments of shadow_cells (with -D OCLS_CERT the
- *     certificate buffer)
- *   global size (ceil(W / run), H) rounded up to any local size. */
+ *     per work-item, a multiple of the lane count), -D OCLS_LANES=4, 8 or 16
+ *     (rays in flight; 16 when not given), EXACT or MAXMIP, without
+ *     -D OCLS_STATS, and -D OCLS_CERT a multiple of the lane count if given;
+ *     the arguments of shadow_cells (with -D OCLS_CERT the certificate buffer)
+ *   global size (ceil(W / run), H) rounded up to any local size.
+ *   The hosts take run and lanes from the device's tuning entry
+ *   (oclshade.tuning); the results never depend on them. */
 #if defined(OCLS_PACKET) && (OCLS_METHOD == OCLS_EXACT || OCLS_METHOD == OCLS_MAXMIP) && !defined(OCLS_STATS)
 #define OCLS_RUN OCLS_PACKET
-#if OCLS_RUN % 16 != 0 || (defined(OCLS_CERT) && OCLS_CERT % 16 != 0)
-#error "OCLS_PACKET and OCLS_CERT must be multiples of 16 (a chunk of 16 cells lies in one certificate tile)"
+#ifndef OCLS_LANES
+#define OCLS_LANES 16
 #endif
+#if OCLS_LANES != 4 && OCLS_LANES != 8 && OCLS_LANES != 16
+#error "OCLS_LANES must be 4, 8 or 16"
+#endif
+#if OCLS_RUN % OCLS_LANES != 0 || (defined(OCLS_CERT) && OCLS_CERT % OCLS_LANES != 0)
+#error "OCLS_PACKET and OCLS_CERT must be multiples of OCLS_LANES (a chunk of lanes lies in one certificate tile)"
+#endif
+
+/* the lane vector types and their built-ins, OCLS_LANES wide */
+#define OCLS_CAT_(a, b) a##b
+#define OCLS_CAT(a, b) OCLS_CAT_(a, b)
+#define ocls_floatv OCLS_CAT(float, OCLS_LANES)
+#define ocls_intv OCLS_CAT(int, OCLS_LANES)
+#define OCLS_CONVERT_FLOAT OCLS_CAT(convert_float, OCLS_LANES)
+#define OCLS_CONVERT_INT OCLS_CAT(convert_int, OCLS_LANES)
+#define OCLS_VLOAD OCLS_CAT(vload, OCLS_LANES)
+#define OCLS_VSTORE OCLS_CAT(vstore, OCLS_LANES)
 
 /* start_patch's column for the ray of cell column j (an integer start) */
 OCLS_INLINE int start_col(int j, int east) { return east ? j : j - 1; }
 
-/* base[idx] on 16 lanes (compilers for AVX2 / AVX-512 emit gather instructions) */
-#define OCLS_GATHER16(T, base, idx) \
-    (T)((base)[(idx).s0], (base)[(idx).s1], (base)[(idx).s2], (base)[(idx).s3], \
-        (base)[(idx).s4], (base)[(idx).s5], (base)[(idx).s6], (base)[(idx).s7], \
-        (base)[(idx).s8], (base)[(idx).s9], (base)[(idx).sa], (base)[(idx).sb], \
-        (base)[(idx).sc], (base)[(idx).sd], (base)[(idx).se], (base)[(idx).sf])
+/* base[idx] on the lanes (compilers for AVX2 / AVX-512 emit gather instructions),
+ * and the lane numbers 0 .. OCLS_LANES - 1 */
+#define OCLS_G4(base, idx, a, b, c, d) (base)[(idx).a], (base)[(idx).b], (base)[(idx).c], (base)[(idx).d]
+#if OCLS_LANES == 4
+#define OCLS_GATHER(T, base, idx) (T)(OCLS_G4(base, idx, s0, s1, s2, s3))
+#define OCLS_LANE_IDS ((ocls_intv)(0, 1, 2, 3))
+#elif OCLS_LANES == 8
+#define OCLS_GATHER(T, base, idx) (T)(OCLS_G4(base, idx, s0, s1, s2, s3), OCLS_G4(base, idx, s4, s5, s6, s7))
+#define OCLS_LANE_IDS ((ocls_intv)(0, 1, 2, 3, 4, 5, 6, 7))
+#else
+#define OCLS_GATHER(T, base, idx) \
+    (T)(OCLS_G4(base, idx, s0, s1, s2, s3), OCLS_G4(base, idx, s4, s5, s6, s7), \
+        OCLS_G4(base, idx, s8, s9, sa, sb), OCLS_G4(base, idx, sc, sd, se, sf))
+#define OCLS_LANE_IDS ((ocls_intv)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15))
+#endif
 
 /* floor / ceil of float lanes as ints (ocls_floor_int / ocls_ceil_int; a true
  * comparison is -1) */
-#define OCLS_FLOOR16(p, i) ((i) + (convert_float16(i) > (p)))
-#define OCLS_CEIL16(p, i) ((i) - (convert_float16(i) < (p)))
+#define OCLS_FLOORV(p, i) ((i) + (OCLS_CONVERT_FLOAT(i) > (p)))
+#define OCLS_CEILV(p, i) ((i) - (OCLS_CONVERT_FLOAT(i) < (p)))
 
 /* Bit k set iff lane k of the mask m is true. */
-OCLS_INLINE int lane_bits(int16 m)
+OCLS_INLINE int lane_bits(ocls_intv m)
 {
     int bits = 0;
-    int v[16];
-    vstore16(m, 0, v);
-    for (int k = 0; k < 16; ++k) bits |= (v[k] & 1) << k;
+    int v[OCLS_LANES];
+    OCLS_VSTORE(m, 0, v);
+    for (int k = 0; k < OCLS_LANES; ++k) bits |= (v[k] & 1) << k;
     return bits;
 }
 
-/* row[col0 + k], k = 0..15, NaN where the column is outside [0, W) */
-OCLS_INLINE float16 row_lanes(__global const float *row, int col0, int W)
+/* row[col0 + k], k = 0..OCLS_LANES-1, NaN where the column is outside [0, W) */
+OCLS_INLINE ocls_floatv row_lanes(__global const float *row, int col0, int W)
 {
-    if (col0 >= 0 && col0 + 16 <= W) return vload16(0, row + col0);
-    float v[16];
-    for (int k = 0; k < 16; ++k) v[k] = col0 + k >= 0 && col0 + k < W ? row[col0 + k] : NAN;
-    return vload16(0, v);
+    if (col0 >= 0 && col0 + OCLS_LANES <= W) return OCLS_VLOAD(0, row + col0);
+    float v[OCLS_LANES];
+    for (int k = 0; k < OCLS_LANES; ++k) v[k] = col0 + k >= 0 && col0 + k < W ? row[col0 + k] : NAN;
+    return OCLS_VLOAD(0, v);
 }
 
-/* The rays of a packet: 16 lanes of trace()'s state (EXACT / MAXMIP), all in
+/* The rays of a packet: OCLS_LANES lanes of trace()'s state (EXACT / MAXMIP), all in
  * the cell units of the heightmap (q = 0), in row y0 = i (mode 0, ux != 0,
  * uy != 0, H, W > 1). */
 typedef struct {
-    float16 x0, z0, t, t_lim;     /* start column and height, ray parameter, certificate limit */
-    int16 pr, pc, l, it;          /* patch, level, iterations done */
+    ocls_floatv x0, z0, t, t_lim;     /* start column and height, ray parameter, certificate limit */
+    ocls_intv pr, pc, l, it;          /* patch, level, iterations done */
 } Packet;
 
 /* One iteration of trace()'s loop on the lanes in act, from the extrema
@@ -743,70 +772,70 @@ typedef struct {
  * h00 .. h11 of its patch (level 0): returns the lanes whose ray ends, with
  * *shadow their result (-1 = cast shadow); the others descend, or step out
  * and climb (their state updated in *p). */
-OCLS_INLINE int16 packet_step(__global const float *h, int H, int W, float4 ray, float y0, float z_top,
-                              int top, int16 act, Packet *p, float16 emax, float16 emin, float16 h00,
-                              float16 h01, float16 h10, float16 h11, int16 *shadow_out)
+OCLS_INLINE ocls_intv packet_step(__global const float *h, int H, int W, float4 ray, float y0, float z_top,
+                              int top, ocls_intv act, Packet *p, ocls_floatv emax, ocls_floatv emin, ocls_floatv h00,
+                              ocls_floatv h01, ocls_floatv h10, ocls_floatv h11, ocls_intv *shadow_out)
 {
     const int Hp = H - 1, Wp = W - 1;
     const float ux = ray.x, uy = ray.y, w = ray.z, ix = 1.0f / ux, iy = 1.0f / uy;
     const int east = ux > 0.0f, south = uy > 0.0f;
-    const float16 X0 = p->x0, Z0 = p->z0, T = p->t;
-    const int16 PR = p->pr, PC = p->pc, L = p->l;
+    const ocls_floatv X0 = p->x0, Z0 = p->z0, T = p->t;
+    const ocls_intv PR = p->pr, PC = p->pc, L = p->l;
     /* tile_exit of the level-L tile */
-    const int16 size = (int16)(1) << L, r0 = (PR >> L) << L, c0 = (PC >> L) << L;
-    const float16 tx = (convert_float16(east ? c0 + size : c0) - X0) * ix;
-    const float16 ty = (convert_float16(south ? r0 + size : r0) - y0) * iy;
-    const int16 corner = fabs(tx - ty) <= OCLS_CORNER_EPS * fmax(tx, ty);
-    const int16 via_x = corner | (tx < ty), via_y = corner | (ty < tx);
-    const float16 t_out = fmin(tx, ty);
+    const ocls_intv size = (ocls_intv)(1) << L, r0 = (PR >> L) << L, c0 = (PC >> L) << L;
+    const ocls_floatv tx = (OCLS_CONVERT_FLOAT(east ? c0 + size : c0) - X0) * ix;
+    const ocls_floatv ty = (OCLS_CONVERT_FLOAT(south ? r0 + size : r0) - y0) * iy;
+    const ocls_intv corner = fabs(tx - ty) <= OCLS_CORNER_EPS * fmax(tx, ty);
+    const ocls_intv via_x = corner | (tx < ty), via_y = corner | (ty < tx);
+    const ocls_floatv t_out = fmin(tx, ty);
     /* lit: above the global max, past the certificate's limit, or out of iterations */
-    int16 lit = (Z0 + w * T >= z_top) | (p->it >= OCLS_MAX_ITERATIONS);
+    ocls_intv lit = (Z0 + w * T >= z_top) | (p->it >= OCLS_MAX_ITERATIONS);
 #ifdef OCLS_CERT
     lit |= T >= p->t_lim;
 #endif
     /* levels >= 1: the extrema test */
-    const int16 reach = (L > 0) & (Z0 + w * T < emax);
+    const ocls_intv reach = (L > 0) & (Z0 + w * T < emax);
 #if OCLS_METHOD == OCLS_EXACT
-    const int16 min_hit = reach & (Z0 + w * t_out < emin);
+    const ocls_intv min_hit = reach & (Z0 + w * t_out < emin);
 #else
-    const int16 min_hit = (int16)(0);
+    const ocls_intv min_hit = (ocls_intv)(0);
 #endif
     /* level 0: patch_hits (the bilinear case) */
-    const int16 valid = ~(isnan(h00) | isnan(h01) | isnan(h10) | isnan(h11));
-    const float16 fx = (X0 + ux * T) - convert_float16(PC), fy = (y0 + uy * T) - convert_float16(PR);
-    const float16 len = t_out - T;
-    const float16 ex = h01 - h00, ey = h10 - h00, kk = (h00 - h01) - (h10 - h11);
-    const float16 s_a = h00 + ex * fx + ey * fy + kk * (fx * fy);
-    const float16 s1 = (ex + kk * fy) * ux + (ey + kk * fx) * uy;
-    const float16 s2 = kk * (ux * uy);
-    const float16 a = s1 - w, slope_b = a + s2 * len;
-    const float16 f_a = s_a - (Z0 + w * T);
-    const float16 f_b = f_a + slope_b * len;
-    const float16 tau = -a / (2.0f * s2);
-    const int16 inner = (s2 < 0.0f) & (tau > 0.0f) & (tau < len) & (f_a - (a * a) / (4.0f * s2) > 0.0f);
-    const int16 hit = valid & select((f_a > 0.0f) | (f_b > 0.0f) | inner, (a > 0.0f) | (slope_b > 0.0f), T == 0.0f);
-    int16 shadow = act & ~lit & (min_hit | ((L == 0) & hit));
-    const int16 hole_corner = act & ~lit & (L == 0) & ~valid & via_x & via_y;
+    const ocls_intv valid = ~(isnan(h00) | isnan(h01) | isnan(h10) | isnan(h11));
+    const ocls_floatv fx = (X0 + ux * T) - OCLS_CONVERT_FLOAT(PC), fy = (y0 + uy * T) - OCLS_CONVERT_FLOAT(PR);
+    const ocls_floatv len = t_out - T;
+    const ocls_floatv ex = h01 - h00, ey = h10 - h00, kk = (h00 - h01) - (h10 - h11);
+    const ocls_floatv s_a = h00 + ex * fx + ey * fy + kk * (fx * fy);
+    const ocls_floatv s1 = (ex + kk * fy) * ux + (ey + kk * fx) * uy;
+    const ocls_floatv s2 = kk * (ux * uy);
+    const ocls_floatv a = s1 - w, slope_b = a + s2 * len;
+    const ocls_floatv f_a = s_a - (Z0 + w * T);
+    const ocls_floatv f_b = f_a + slope_b * len;
+    const ocls_floatv tau = -a / (2.0f * s2);
+    const ocls_intv inner = (s2 < 0.0f) & (tau > 0.0f) & (tau < len) & (f_a - (a * a) / (4.0f * s2) > 0.0f);
+    const ocls_intv hit = valid & select((f_a > 0.0f) | (f_b > 0.0f) | inner, (a > 0.0f) | (slope_b > 0.0f), T == 0.0f);
+    ocls_intv shadow = act & ~lit & (min_hit | ((L == 0) & hit));
+    const ocls_intv hole_corner = act & ~lit & (L == 0) & ~valid & via_x & via_y;
     if (any(hole_corner)) {                            /* rare: corner_hits per lane */
-        int hc[16], sh[16], pr[16], pc[16];
-        float zo[16];
-        vstore16(hole_corner, 0, hc); vstore16(shadow, 0, sh); vstore16(Z0 + w * t_out, 0, zo);
-        vstore16(PR, 0, pr); vstore16(PC, 0, pc);
-        for (int k = 0; k < 16; ++k)
+        int hc[OCLS_LANES], sh[OCLS_LANES], pr[OCLS_LANES], pc[OCLS_LANES];
+        float zo[OCLS_LANES];
+        OCLS_VSTORE(hole_corner, 0, hc); OCLS_VSTORE(shadow, 0, sh); OCLS_VSTORE(Z0 + w * t_out, 0, zo);
+        OCLS_VSTORE(PR, 0, pr); OCLS_VSTORE(PC, 0, pc);
+        for (int k = 0; k < OCLS_LANES; ++k)
             if (hc[k]) sh[k] = -corner_hits(h, H, W, pr[k], pc[k], ux, uy, zo[k]);
-        shadow = vload16(0, sh);
+        shadow = OCLS_VLOAD(0, sh);
     }
     /* step_out, then climb; a reaching tile is descended instead */
-    const float16 px = X0 + ux * t_out, py = y0 + uy * t_out;
-    const int16 ipx = convert_int16(px), ipy = convert_int16(py);
-    const int16 along_c = clamp(east ? OCLS_FLOOR16(px, ipx) : OCLS_CEIL16(px, ipx) - 1, c0, c0 + size - 1);
-    const int16 along_r = clamp(south ? OCLS_FLOOR16(py, ipy) : OCLS_CEIL16(py, ipy) - 1, r0, r0 + size - 1);
-    const int16 npc = select(along_c, east ? c0 + size : c0 - 1, via_x);
-    const int16 npr = select(along_r, south ? r0 + size : r0 - 1, via_y);
-    const int16 moves = act & ~lit & ~shadow & ~reach;
-    const int16 out = (npr < 0) | (npr >= Hp) | (npc < 0) | (npc >= Wp);
-    const int16 stays = moves & ~out;
-    const int16 climb = min(min(31 - convert_int16(clz((npr ^ PR) | (npc ^ PC))), top), L + 1);
+    const ocls_floatv px = X0 + ux * t_out, py = y0 + uy * t_out;
+    const ocls_intv ipx = OCLS_CONVERT_INT(px), ipy = OCLS_CONVERT_INT(py);
+    const ocls_intv along_c = clamp(east ? OCLS_FLOORV(px, ipx) : OCLS_CEILV(px, ipx) - 1, c0, c0 + size - 1);
+    const ocls_intv along_r = clamp(south ? OCLS_FLOORV(py, ipy) : OCLS_CEILV(py, ipy) - 1, r0, r0 + size - 1);
+    const ocls_intv npc = select(along_c, east ? c0 + size : c0 - 1, via_x);
+    const ocls_intv npr = select(along_r, south ? r0 + size : r0 - 1, via_y);
+    const ocls_intv moves = act & ~lit & ~shadow & ~reach;
+    const ocls_intv out = (npr < 0) | (npr >= Hp) | (npc < 0) | (npc >= Wp);
+    const ocls_intv stays = moves & ~out;
+    const ocls_intv climb = min(min(31 - OCLS_CONVERT_INT(clz((npr ^ PR) | (npc ^ PC))), top), L + 1);
     p->l = select(select(L, L - 1, reach), climb, stays);
     p->pr = select(PR, npr, stays);
     p->pc = select(PC, npc, stays);
@@ -816,9 +845,9 @@ OCLS_INLINE int16 packet_step(__global const float *h, int H, int W, float4 ray,
     return act & (lit | shadow | (moves & out));
 }
 
-/* The rays of cells j0 + c .. j0 + c + 15 of row i (those with c < n) after
+/* The rays of cells j0 + c .. j0 + c + OCLS_LANES - 1 of row i (those with c < n) after
  * their first iteration, which is straight-line code (level 0, the start
- * patch, t = 0) and reads contiguous heights: 16 at a time here, outside the
+ * patch, t = 0) and reads contiguous heights: OCLS_LANES at a time here, outside the
  * packet loop.  The rays that end in it (and cells that are nodata or whose
  * ray leaves the map at once) get res[] now; the others get their state in
  * *s and their bit in the returned mask. */
@@ -827,9 +856,8 @@ OCLS_INLINE int first_steps(__global const float *h, int H, int W, float4 ray, f
                             uchar *res, Packet *s)
 {
     const int Wp = W - 1, east = ray.x > 0.0f, pr0 = ray.y > 0.0f ? i : i - 1;
-    const int16 lane = (int16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
-    const int16 cells = c + lane, j = j0 + cells, pc = east ? j : j - 1;
-    s->x0 = convert_float16(j);
+    const ocls_intv cells = c + OCLS_LANE_IDS, j = j0 + cells, pc = east ? j : j - 1;
+    s->x0 = OCLS_CONVERT_FLOAT(j);
     s->z0 = row_lanes(h + i * W, j0 + c, W);
     s->t = 0.0f;
     s->t_lim = INFINITY;
@@ -838,24 +866,24 @@ OCLS_INLINE int first_steps(__global const float *h, int H, int W, float4 ray, f
     s->l = 0;
     s->it = 0;
     /* start_patch's test (the start patch inside the map), and the cell not nodata */
-    const int16 start = (pr0 >= 0 && pr0 < H - 1) ? (cells < n) & (pc >= 0) & (pc < Wp) & ~isnan(s->z0) : (int16)(0);
-    int16 ended = (int16)(0), shadow = (int16)(0);
+    const ocls_intv start = (pr0 >= 0 && pr0 < H - 1) ? (cells < n) & (pc >= 0) & (pc < Wp) & ~isnan(s->z0) : (ocls_intv)(0);
+    ocls_intv ended = (ocls_intv)(0), shadow = (ocls_intv)(0);
     if (any(start)) {
 #ifdef OCLS_CERT
-        /* cert_index for the chunk's one certificate tile (OCLS_CERT % 16 == 0) */
+        /* cert_index for the chunk's one certificate tile (OCLS_CERT % OCLS_LANES == 0) */
         __global const float *ck = cert + ((i / OCLS_CERT) * ((W + OCLS_CERT - 1) / OCLS_CERT) +
                                            (j0 + c) / OCLS_CERT) * OCLS_CERT_K;
-        for (int k = OCLS_CERT_K - 1; k >= 0; --k) s->t_lim = select(s->t_lim, (float16)(tk[k]), s->z0 > ck[k]);
+        for (int k = OCLS_CERT_K - 1; k >= 0; --k) s->t_lim = select(s->t_lim, (ocls_floatv)(tk[k]), s->z0 > ck[k]);
 #endif
         const int col = start_col(j0 + c, east);
         __global const float *r0 = h + pr0 * W, *r1 = r0 + W;
-        ended = packet_step(h, H, W, ray, (float)i, z_top, top, start, s, (float16)(0.0f), (float16)(0.0f),
+        ended = packet_step(h, H, W, ray, (float)i, z_top, top, start, s, (ocls_floatv)(0.0f), (ocls_floatv)(0.0f),
                             row_lanes(r0, col, W), row_lanes(r0, col + 1, W),
                             row_lanes(r1, col, W), row_lanes(r1, col + 1, W), &shadow);
     }
-    int e[16], sh[16];
-    vstore16(ended | ~start, 0, e); vstore16(shadow, 0, sh);
-    for (int k = 0; k < 16 && c + k < n; ++k)
+    int e[OCLS_LANES], sh[OCLS_LANES];
+    OCLS_VSTORE(ended | ~start, 0, e); OCLS_VSTORE(shadow, 0, sh);
+    for (int k = 0; k < OCLS_LANES && c + k < n; ++k)
         if (e[k]) res[c + k] = sh[k] != 0;
     return lane_bits(start & ~ended);
 }
@@ -877,62 +905,62 @@ OCLS_INLINE void trace_run(__global const float *h, int H, int W, __global const
 #else
     float tk[1];                                       /* unused */
 #endif
-    const int16 lane_id = (int16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+    const ocls_intv lane_id = OCLS_LANE_IDS;
     Packet p, chunk;
     p.x0 = p.z0 = p.t = p.t_lim = 0.0f;
     p.pr = p.pc = p.l = p.it = 0;
-    int16 CELL = -1;
-    int next = 0, pending = 0, live = 0, refill = (1 << 16) - 1;
-    float cz0[16], ct[16], ctl[16];
-    int cpr[16], cpc[16], cl[16];
+    ocls_intv CELL = -1;
+    int next = 0, pending = 0, live = 0, refill = (1 << OCLS_LANES) - 1;
+    float cz0[OCLS_LANES], ct[OCLS_LANES], ctl[OCLS_LANES];
+    int cpr[OCLS_LANES], cpc[OCLS_LANES], cl[OCLS_LANES];
     for (;;) {
         while (refill) {                               /* new rays into the lanes that ended */
             while (!pending && next < n) {             /* the next chunk's first iterations */
                 pending = first_steps(h, H, W, ray, z_top, top, cert, tk, i, j0, next, n, res, &chunk);
-                vstore16(chunk.z0, 0, cz0); vstore16(chunk.t, 0, ct);
-                vstore16(chunk.t_lim, 0, ctl); vstore16(chunk.pr, 0, cpr); vstore16(chunk.pc, 0, cpc);
-                vstore16(chunk.l, 0, cl);
-                next += 16;
+                OCLS_VSTORE(chunk.z0, 0, cz0); OCLS_VSTORE(chunk.t, 0, ct);
+                OCLS_VSTORE(chunk.t_lim, 0, ctl); OCLS_VSTORE(chunk.pr, 0, cpr); OCLS_VSTORE(chunk.pc, 0, cpc);
+                OCLS_VSTORE(chunk.l, 0, cl);
+                next += OCLS_LANES;
             }
             const int k = popcount((refill & -refill) - 1);
             refill &= refill - 1;
-            const int16 lane = lane_id == k;
+            const ocls_intv lane = lane_id == k;
             if (!pending) {                            /* the lane stays idle */
-                CELL = select(CELL, (int16)(-1), lane);
+                CELL = select(CELL, (ocls_intv)(-1), lane);
                 continue;
             }
             const int b = popcount((pending & -pending) - 1);
             pending &= pending - 1;
             live += 1;
-            const int c = next - 16 + b;
-            CELL = select(CELL, (int16)(c), lane);
-            p.x0 = select(p.x0, (float16)((float)(j0 + c)), lane);
-            p.z0 = select(p.z0, (float16)(cz0[b]), lane);
-            p.t = select(p.t, (float16)(ct[b]), lane);
-            p.t_lim = select(p.t_lim, (float16)(ctl[b]), lane);
-            p.pr = select(p.pr, (int16)(cpr[b]), lane);
-            p.pc = select(p.pc, (int16)(cpc[b]), lane);
-            p.l = select(p.l, (int16)(cl[b]), lane);
-            p.it = select(p.it, (int16)(1), lane);       /* first_steps took its first iteration */
+            const int c = next - OCLS_LANES + b;
+            CELL = select(CELL, (ocls_intv)(c), lane);
+            p.x0 = select(p.x0, (ocls_floatv)((float)(j0 + c)), lane);
+            p.z0 = select(p.z0, (ocls_floatv)(cz0[b]), lane);
+            p.t = select(p.t, (ocls_floatv)(ct[b]), lane);
+            p.t_lim = select(p.t_lim, (ocls_floatv)(ctl[b]), lane);
+            p.pr = select(p.pr, (ocls_intv)(cpr[b]), lane);
+            p.pc = select(p.pc, (ocls_intv)(cpc[b]), lane);
+            p.l = select(p.l, (ocls_intv)(cl[b]), lane);
+            p.it = select(p.it, (ocls_intv)(1), lane);       /* first_steps took its first iteration */
         }
         if (live == 0) return;
-        const int16 act = CELL >= 0;
+        const ocls_intv act = CELL >= 0;
         /* the extrema texel of each lane's tile (at level max(L, 1), so level-0 lanes read a valid
          * one) and its patch corners */
-        const int16 lq = max(p.l, 1);
-        const int16 eidx = 2 * (OCLS_GATHER16(int16, lvl_off, lq) + (p.pr >> lq) * (((int16)(Wp - 1) >> lq) + 1) +
+        const ocls_intv lq = max(p.l, 1);
+        const ocls_intv eidx = 2 * (OCLS_GATHER(ocls_intv, lvl_off, lq) + (p.pr >> lq) * (((ocls_intv)(Wp - 1) >> lq) + 1) +
                                 (p.pc >> lq));
-        const int16 pidx = p.pr * W + p.pc;
-        int16 shadow;
-        const int16 ended = packet_step(h, H, W, ray, (float)i, z_top, top, act, &p,
-                                        OCLS_GATHER16(float16, ext1, eidx), OCLS_GATHER16(float16, ext1 + 1, eidx),
-                                        OCLS_GATHER16(float16, h, pidx), OCLS_GATHER16(float16, h + 1, pidx),
-                                        OCLS_GATHER16(float16, h + W, pidx), OCLS_GATHER16(float16, h + W + 1, pidx),
+        const ocls_intv pidx = p.pr * W + p.pc;
+        ocls_intv shadow;
+        const ocls_intv ended = packet_step(h, H, W, ray, (float)i, z_top, top, act, &p,
+                                        OCLS_GATHER(ocls_floatv, ext1, eidx), OCLS_GATHER(ocls_floatv, ext1 + 1, eidx),
+                                        OCLS_GATHER(ocls_floatv, h, pidx), OCLS_GATHER(ocls_floatv, h + 1, pidx),
+                                        OCLS_GATHER(ocls_floatv, h + W, pidx), OCLS_GATHER(ocls_floatv, h + W + 1, pidx),
                                         &shadow);
         refill = lane_bits(ended);
         if (refill) {                                  /* record the ended rays */
-            int cells[16], sh[16];
-            vstore16(CELL, 0, cells); vstore16(shadow, 0, sh);
+            int cells[OCLS_LANES], sh[OCLS_LANES];
+            OCLS_VSTORE(CELL, 0, cells); OCLS_VSTORE(shadow, 0, sh);
             for (int b = refill; b; b &= b - 1) {
                 const int k = popcount((b & -b) - 1);
                 res[cells[k]] = sh[k] != 0;

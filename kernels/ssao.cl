@@ -2,9 +2,10 @@
  * preparation, the AO estimator (the paper's point samples, or line samples),
  * the N x N box blur and an edge-aware blur.
  *
- * ABI summary: four kernels, one work-item per pixel (ssao_ao: per 8 pixels of a
- * row), global size (W, H) (ssao_ao: (ceil(W / 8), H)) rounded up to any local size (surplus items store nothing; no early
- * return, see ssao_ao).  Buffers are row-major, one row of W pixels after
+ * ABI summary: five kernels, one work-item per pixel (ssao_ao, ssao_box_h, ssao_box_v: per
+ * `lanes` = OCLS_SSAO_LANES adjacent pixels of a row), global size (W, H) (those three:
+ * (ceil(W / lanes), H)) rounded up to any local size (surplus items store nothing; ssao_prepare
+ * and ssao_edge have no early return).  Buffers are row-major, one row of W pixels after
  * another, read as plain floats; the 4-float fields are the G-buffer's (oclshade/gbuffer.py): pos = view-space x, y, z and
  * w = 1 hit / 0 empty; nrm = view-space unit normal (w unused).
  *
@@ -22,7 +23,7 @@
  *           (the paper's N_vcs = (M_mv^-1)^T M_ts^-1 N_ts per pixel).
  *           Degenerate T (parallel to N, zero) keeps N unmapped.
  *   ssao_ao(pos, nout, zbuf, W, H, prj, kern, m, mpad, radius, delta, seed, ao)
- *     global size (ceil(W / 8), H): one work-item per 8 adjacent pixels of a row
+ *     global size (ceil(W / lanes), H): one work-item per `lanes` adjacent pixels of a row
  *     pos, nout as float * (4 floats per pixel; scalar loads, see below)
  *     prj   __constant float[16]: three rows (host float64, rounded once):
  *           with M the projection matrix, pru = W/2 (M[0] + M[3]),
@@ -36,13 +37,14 @@
  *           never counted); generated once by the host.  Point samples: the
  *           tangent-space kernel (unit radius, z along the normal); line
  *           samples: disk points (x, y) and chord half-lengths z = sqrt(1 - x^2 - y^2)
- *     m     int, 1..256; mpad = m rounded up to a multiple of 8; radius,
+ *     m     int, 1..256; mpad >= m (the host: m rounded up to a multiple of 8, a table
+ *           layout, not `lanes`); radius,
  *           delta float (radius > 0); seed uint
  *     ao    float, W*H (out): unoccluded fraction 1 - k, 1 on empty pixels
  *           (line samples: 1 - occupied length / length)
  *   ssao_box_h(ao, zbuf, W, H, rad, tmp)      -D OCLS_BLUR_BOX
  *   ssao_box_v(tmp, zbuf, W, H, rad, out)     -D OCLS_BLUR_BOX
- *     global size (ceil(W / 8), H): one work-item per 8 adjacent pixels of a row;
+ *     global size (ceil(W / lanes), H): one work-item per `lanes` adjacent pixels of a row;
  *     tmp 2 W H floats, two planes: sums of AO over the hit pixels of the
  *     horizontal window, then their counts; out = mean over the hit pixels of the clipped
  *     (2 rad + 1)^2 window.  Separable exactly: the 2-D sums are products
@@ -57,6 +59,9 @@
  *   ssao_ao (in)), OCLS_LINES (line samples, see below; not in the paper),
  *   OCLS_BLUR_BOX, OCLS_BLUR_EDGE (which blur
  *   kernels the program holds).  A feature not defined is not compiled.
+ *   OCLS_SSAO_LANES=lanes, lanes in {4, 8, 16} (default 8): the pixels per work-item of
+ *   ssao_ao, ssao_box_h and ssao_box_v (their vector width); a speed setting only, every
+ *   value gives the same result bits.
  *
  * AO estimator (paper 001, "AO map"), for a hit pixel with P, N:
  *   1. per-pixel rotation vector V_r = (2 f1 - 1, 2 f2 - 1, 0) from the
@@ -127,7 +132,7 @@
 /* x is finite (no isfinite(): PoCL's builtin call keeps the work-item loop scalar) */
 #define OCLS_FINITE(x) ((x) - (x) == 0.0f)
 
-/* A 32-bit integer mix (xorshift-multiply rounds), on uint or uint8 lanes alike;
+/* A 32-bit integer mix (xorshift-multiply rounds), on uint or uint vector lanes alike;
  * CPU twin: reference/ao.py. */
 #define OCLS_MIX_ROUNDS(x) \
     x ^= x >> 16; x *= 0x7feb352du; x ^= x >> 15; x *= 0x846ca68bu; x ^= x >> 16
@@ -219,39 +224,117 @@ __kernel void ssao_prepare(__global const float *restrict pos, __global const fl
     }
 }
 
-/* ssao_ao: one work-item per 8 horizontally adjacent pixels, every step on
- * float8 lanes (explicit SIMD: PoCL does not vectorise this kernel's
- * work-item loop by itself); lanes past the row end compute on a copy of the
- * first pixel and store nothing.  Per lane the operations are those of the
- * scalar definition above, in the same order. */
-#define OCLS_DOT3(ax, ay, az, bx, by, bz) ((ax) * (bx) + (ay) * (by) + (az) * (bz))
-#define OCLS_GATHER8(buf, idx, stride, off) \
-    (float8)((buf)[(stride) * (idx).s0 + (off)], (buf)[(stride) * (idx).s1 + (off)], \
-             (buf)[(stride) * (idx).s2 + (off)], (buf)[(stride) * (idx).s3 + (off)], \
-             (buf)[(stride) * (idx).s4 + (off)], (buf)[(stride) * (idx).s5 + (off)], \
-             (buf)[(stride) * (idx).s6 + (off)], (buf)[(stride) * (idx).s7 + (off)])
+/* ssao_ao, ssao_box_h, ssao_box_v: one work-item per OCLS_SSAO_LANES horizontally adjacent
+ * pixels, every step on vector lanes of that width (explicit SIMD: PoCL does not vectorise
+ * these kernels' work-item loops by itself); lanes past the row end compute on a copy of the
+ * item's first pixel and store nothing.  Per lane the operations are those of the scalar
+ * definition above, in the same order, so the width changes the speed, never a result bit. */
+#ifndef OCLS_SSAO_LANES
+#define OCLS_SSAO_LANES 8
+#endif
+#if OCLS_SSAO_LANES != 4 && OCLS_SSAO_LANES != 8 && OCLS_SSAO_LANES != 16
+#error "OCLS_SSAO_LANES must be 4, 8 or 16"
+#endif
+#define OCLS_CAT_(a, b) a##b
+#define OCLS_CAT(a, b) OCLS_CAT_(a, b)
+/* the OCLS_SSAO_LANES-wide spelling of a type or builtin: float -> float8, vload -> vload8, ... */
+#define OCLS_LANES_OF(name) OCLS_CAT(name, OCLS_SSAO_LANES)
+#define ocls_vfloat OCLS_LANES_OF(float)
+#define ocls_vint OCLS_LANES_OF(int)
+#define ocls_vuint OCLS_LANES_OF(uint)
+#define ocls_convert_vfloat OCLS_LANES_OF(convert_float)
+#define ocls_convert_vint OCLS_LANES_OF(convert_int)
+#define ocls_convert_vuint OCLS_LANES_OF(convert_uint)
+#define ocls_vload OCLS_LANES_OF(vload)
+#define ocls_vstore OCLS_LANES_OF(vstore)
 
-/* The occluder planes (x, y, z, d) of the 8 pixels j: one 16-byte load per lane, transposed
- * into lx, ly, lz, ld. */
-#define OCLS_PLANES8(plane, j, lx, ly, lz, ld) { \
-    const float4 l0 = vload4((j).s0, plane), l1 = vload4((j).s1, plane), l2 = vload4((j).s2, plane); \
-    const float4 l3 = vload4((j).s3, plane), l4 = vload4((j).s4, plane), l5 = vload4((j).s5, plane); \
+#define OCLS_DOT3(ax, ay, az, bx, by, bz) ((ax) * (bx) + (ay) * (by) + (az) * (bz))
+#define OCLS_AT(buf, i, stride, off) (buf)[(stride) * (i) + (off)]
+/* One variant per lane count of: OCLS_LANE_IDS, the int vector (0, 1, ..., lanes - 1);
+ * OCLS_GATHER(buf, idx, stride, off), the float vector of buf[stride idx + off] per lane of the
+ * int vector idx; OCLS_PLANES(plane, j, lx, ly, lz, ld), the occluder planes (x, y, z, d) of the
+ * pixels j: one 16-byte load per lane, transposed into lx, ly, lz, ld. */
+#if OCLS_SSAO_LANES == 4
+#define OCLS_LANE_IDS (int4)(0, 1, 2, 3)
+#define OCLS_GATHER(buf, idx, stride, off) \
+    (float4)(OCLS_AT(buf, (idx).s0, stride, off), OCLS_AT(buf, (idx).s1, stride, off), \
+             OCLS_AT(buf, (idx).s2, stride, off), OCLS_AT(buf, (idx).s3, stride, off))
+#define OCLS_PLANES(plane, j, lx, ly, lz, ld) { \
+    const float4 l0 = vload4((j).s0, plane), l1 = vload4((j).s1, plane); \
+    const float4 l2 = vload4((j).s2, plane), l3 = vload4((j).s3, plane); \
+    lx = (float4)(l0.x, l1.x, l2.x, l3.x); \
+    ly = (float4)(l0.y, l1.y, l2.y, l3.y); \
+    lz = (float4)(l0.z, l1.z, l2.z, l3.z); \
+    ld = (float4)(l0.w, l1.w, l2.w, l3.w); }
+#elif OCLS_SSAO_LANES == 8
+#define OCLS_LANE_IDS (int8)(0, 1, 2, 3, 4, 5, 6, 7)
+#define OCLS_GATHER(buf, idx, stride, off) \
+    (float8)(OCLS_AT(buf, (idx).s0, stride, off), OCLS_AT(buf, (idx).s1, stride, off), \
+             OCLS_AT(buf, (idx).s2, stride, off), OCLS_AT(buf, (idx).s3, stride, off), \
+             OCLS_AT(buf, (idx).s4, stride, off), OCLS_AT(buf, (idx).s5, stride, off), \
+             OCLS_AT(buf, (idx).s6, stride, off), OCLS_AT(buf, (idx).s7, stride, off))
+#define OCLS_PLANES(plane, j, lx, ly, lz, ld) { \
+    const float4 l0 = vload4((j).s0, plane), l1 = vload4((j).s1, plane); \
+    const float4 l2 = vload4((j).s2, plane), l3 = vload4((j).s3, plane); \
+    const float4 l4 = vload4((j).s4, plane), l5 = vload4((j).s5, plane); \
     const float4 l6 = vload4((j).s6, plane), l7 = vload4((j).s7, plane); \
     lx = (float8)(l0.x, l1.x, l2.x, l3.x, l4.x, l5.x, l6.x, l7.x); \
     ly = (float8)(l0.y, l1.y, l2.y, l3.y, l4.y, l5.y, l6.y, l7.y); \
     lz = (float8)(l0.z, l1.z, l2.z, l3.z, l4.z, l5.z, l6.z, l7.z); \
     ld = (float8)(l0.w, l1.w, l2.w, l3.w, l4.w, l5.w, l6.w, l7.w); }
+#else
+#define OCLS_LANE_IDS (int16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15)
+#define OCLS_GATHER(buf, idx, stride, off) \
+    (float16)(OCLS_AT(buf, (idx).s0, stride, off), OCLS_AT(buf, (idx).s1, stride, off), \
+              OCLS_AT(buf, (idx).s2, stride, off), OCLS_AT(buf, (idx).s3, stride, off), \
+              OCLS_AT(buf, (idx).s4, stride, off), OCLS_AT(buf, (idx).s5, stride, off), \
+              OCLS_AT(buf, (idx).s6, stride, off), OCLS_AT(buf, (idx).s7, stride, off), \
+              OCLS_AT(buf, (idx).s8, stride, off), OCLS_AT(buf, (idx).s9, stride, off), \
+              OCLS_AT(buf, (idx).sa, stride, off), OCLS_AT(buf, (idx).sb, stride, off), \
+              OCLS_AT(buf, (idx).sc, stride, off), OCLS_AT(buf, (idx).sd, stride, off), \
+              OCLS_AT(buf, (idx).se, stride, off), OCLS_AT(buf, (idx).sf, stride, off))
+#define OCLS_PLANES(plane, j, lx, ly, lz, ld) { \
+    const float4 l0 = vload4((j).s0, plane), l1 = vload4((j).s1, plane); \
+    const float4 l2 = vload4((j).s2, plane), l3 = vload4((j).s3, plane); \
+    const float4 l4 = vload4((j).s4, plane), l5 = vload4((j).s5, plane); \
+    const float4 l6 = vload4((j).s6, plane), l7 = vload4((j).s7, plane); \
+    const float4 l8 = vload4((j).s8, plane), l9 = vload4((j).s9, plane); \
+    const float4 l10 = vload4((j).sa, plane), l11 = vload4((j).sb, plane); \
+    const float4 l12 = vload4((j).sc, plane), l13 = vload4((j).sd, plane); \
+    const float4 l14 = vload4((j).se, plane), l15 = vload4((j).sf, plane); \
+    lx = (float16)(l0.x, l1.x, l2.x, l3.x, l4.x, l5.x, l6.x, l7.x, \
+                   l8.x, l9.x, l10.x, l11.x, l12.x, l13.x, l14.x, l15.x); \
+    ly = (float16)(l0.y, l1.y, l2.y, l3.y, l4.y, l5.y, l6.y, l7.y, \
+                   l8.y, l9.y, l10.y, l11.y, l12.y, l13.y, l14.y, l15.y); \
+    lz = (float16)(l0.z, l1.z, l2.z, l3.z, l4.z, l5.z, l6.z, l7.z, \
+                   l8.z, l9.z, l10.z, l11.z, l12.z, l13.z, l14.z, l15.z); \
+    ld = (float16)(l0.w, l1.w, l2.w, l3.w, l4.w, l5.w, l6.w, l7.w, \
+                   l8.w, l9.w, l10.w, l11.w, l12.w, l13.w, l14.w, l15.w); }
+#endif
 
-OCLS_INLINE uint8 ocls_mix8(uint8 x)
+/* Stores the lanes of v at p[0], p[1], ... (p: pixel c0 of a row of W pixels), those before the row end. */
+OCLS_INLINE void ocls_store_lanes(ocls_vfloat v, int c0, int W, __global float *p)
+{
+    if (c0 + OCLS_SSAO_LANES <= W) {
+        ocls_vstore(v, 0, p);
+    } else {
+        float a[OCLS_SSAO_LANES];
+        ocls_vstore(v, 0, a);
+        for (int k = 0; c0 + k < W; ++k)
+            p[k] = a[k];
+    }
+}
+
+OCLS_INLINE ocls_vuint ocls_mixv(ocls_vuint x)
 {
     OCLS_MIX_ROUNDS(x);
     return x;
 }
 
-OCLS_INLINE float8 ocls_signed_unit8(uint8 h)
+OCLS_INLINE ocls_vfloat ocls_signed_unitv(ocls_vuint h)
 {
-    const int8 k = convert_int8(h >> 8);
-    return convert_float8(2 * k + 1 - (1 << 24)) * 0x1p-24f;
+    const ocls_vint k = ocls_convert_vint(h >> 8);
+    return ocls_convert_vfloat(2 * k + 1 - (1 << 24)) * 0x1p-24f;
 }
 
 __kernel void ssao_ao(__global const float *restrict pos, __global const float *restrict nrm,
@@ -263,236 +346,215 @@ __kernel void ssao_ao(__global const float *restrict pos, __global const float *
 #endif
                       )
 {
-    const int c0 = 8 * (int)get_global_id(0), r = get_global_id(1);
+    const int c0 = OCLS_SSAO_LANES * (int)get_global_id(0), r = get_global_id(1);
     if (c0 >= W || r >= H) return;
-    const int8 cc = c0 + (int8)(0, 1, 2, 3, 4, 5, 6, 7);
-    const int8 inside = cc < W;
-    const int8 ii = select((int8)(r * W + c0), r * W + cc, inside);
-    const float8 zc = OCLS_GATHER8(zbuf, ii, 1, 0);
-    const float8 n0x = OCLS_GATHER8(nrm, ii, 4, 0), n0y = OCLS_GATHER8(nrm, ii, 4, 1), n0z = OCLS_GATHER8(nrm, ii, 4, 2);
-    const float8 Px = OCLS_GATHER8(pos, ii, 4, 0), Py = OCLS_GATHER8(pos, ii, 4, 1), Pz = OCLS_GATHER8(pos, ii, 4, 2);
-    const float8 nn = OCLS_DOT3(n0x, n0y, n0z, n0x, n0y, n0z);
-    const int8 live0 = inside & (zc != -INFINITY) & (nn > 1e-12f) & (nn < INFINITY);
-    const float8 one = (float8)(1.0f), zero = (float8)(0.0f);
+    const ocls_vint cc = c0 + OCLS_LANE_IDS;
+    const ocls_vint inside = cc < W;
+    const ocls_vint ii = select((ocls_vint)(r * W + c0), r * W + cc, inside);
+    const ocls_vfloat zc = OCLS_GATHER(zbuf, ii, 1, 0);
+    const ocls_vfloat n0x = OCLS_GATHER(nrm, ii, 4, 0), n0y = OCLS_GATHER(nrm, ii, 4, 1), n0z = OCLS_GATHER(nrm, ii, 4, 2);
+    const ocls_vfloat Px = OCLS_GATHER(pos, ii, 4, 0), Py = OCLS_GATHER(pos, ii, 4, 1), Pz = OCLS_GATHER(pos, ii, 4, 2);
+    const ocls_vfloat nn = OCLS_DOT3(n0x, n0y, n0z, n0x, n0y, n0z);
+    const ocls_vint live0 = inside & (zc != -INFINITY) & (nn > 1e-12f) & (nn < INFINITY);
+    const ocls_vfloat one = (ocls_vfloat)(1.0f), zero = (ocls_vfloat)(0.0f);
 #ifdef OCLS_LINES
     /* P's line of sight U = (E.xyz - E.w P) / |.| towards the camera, E = prj[12..15] */
-    const float8 gux = prj[12] - prj[15] * Px, guy = prj[13] - prj[15] * Py, guz = prj[14] - prj[15] * Pz;
-    const float8 gu = OCLS_DOT3(gux, guy, guz, gux, guy, guz);
-    const int8 live = live0 & (gu < INFINITY) & (guz > 0.0f);
-    const float8 ul = select(one, sqrt(gu), live);
-    const float8 Fx = select(zero, gux / ul, live), Fy = select(zero, guy / ul, live), Fz = select(one, guz / ul, live);
+    const ocls_vfloat gux = prj[12] - prj[15] * Px, guy = prj[13] - prj[15] * Py, guz = prj[14] - prj[15] * Pz;
+    const ocls_vfloat gu = OCLS_DOT3(gux, guy, guz, gux, guy, guz);
+    const ocls_vint live = live0 & (gu < INFINITY) & (guz > 0.0f);
+    const ocls_vfloat ul = select(one, sqrt(gu), live);
+    const ocls_vfloat Fx = select(zero, gux / ul, live), Fy = select(zero, guy / ul, live), Fz = select(one, guz / ul, live);
 #else
-    const int8 live = live0;
+    const ocls_vint live = live0;
 #endif
-    const float8 nl = select(one, sqrt(nn), live);
-    const float8 Nx = select(zero, n0x / nl, live), Ny = select(zero, n0y / nl, live), Nz = select(one, n0z / nl, live);
+    const ocls_vfloat nl = select(one, sqrt(nn), live);
+    const ocls_vfloat Nx = select(zero, n0x / nl, live), Ny = select(zero, n0y / nl, live), Nz = select(one, n0z / nl, live);
 #ifndef OCLS_LINES
-    const float8 Fx = Nx, Fy = Ny, Fz = Nz;     /* the frame's axis: N (lines: U) */
+    const ocls_vfloat Fx = Nx, Fy = Ny, Fz = Nz;     /* the frame's axis: N (lines: U) */
 #endif
 
     /* steps 1-2: rotation vector and Gram-Schmidt against the frame's axis F */
-    const uint8 h = ocls_mix8(convert_uint8(cc) ^ (uint8)(ocls_mix((uint)r ^ ocls_mix(seed))));
-    const float8 vx = ocls_signed_unit8(h), vy = ocls_signed_unit8(ocls_mix8(h ^ OCLS_HASH_SALT));
-    const float8 vn = vx * Fx + vy * Fy;
-    const float8 gx = vx - Fx * vn, gy = vy - Fy * vn, gz = 0.0f - Fz * vn;
-    const float8 ax = fabs(Fx), ay = fabs(Fy), az = fabs(Fz);
-    const int8 ex = (ax <= ay) & (ax <= az), ey = ~ex & (ay <= az), ez = ~ex & ~ey;
-    const float8 en = select(select(Fz, Fy, ey), Fx, ex);     /* e . F for the axis e */
-    const int8 fallback = ~(OCLS_DOT3(gx, gy, gz, gx, gy, gz) >= 1e-8f);
-    const float8 tx = select(gx, select(zero, one, ex) - Fx * en, fallback);
-    const float8 ty = select(gy, select(zero, one, ey) - Fy * en, fallback);
-    const float8 tz = select(gz, select(zero, one, ez) - Fz * en, fallback);
-    const float8 tl = sqrt(OCLS_DOT3(tx, ty, tz, tx, ty, tz));
-    const float8 Tx = tx / tl, Ty = ty / tl, Tz = tz / tl;
-    const float8 Bx = Fy * Tz - Fz * Ty, By = Fz * Tx - Fx * Tz, Bz = Fx * Ty - Fy * Tx;
-    const float8 RTx = Tx * radius, RTy = Ty * radius, RTz = Tz * radius;
-    const float8 RBx = Bx * radius, RBy = By * radius, RBz = Bz * radius;
+    const ocls_vuint h = ocls_mixv(ocls_convert_vuint(cc) ^ (ocls_vuint)(ocls_mix((uint)r ^ ocls_mix(seed))));
+    const ocls_vfloat vx = ocls_signed_unitv(h), vy = ocls_signed_unitv(ocls_mixv(h ^ OCLS_HASH_SALT));
+    const ocls_vfloat vn = vx * Fx + vy * Fy;
+    const ocls_vfloat gx = vx - Fx * vn, gy = vy - Fy * vn, gz = 0.0f - Fz * vn;
+    const ocls_vfloat ax = fabs(Fx), ay = fabs(Fy), az = fabs(Fz);
+    const ocls_vint ex = (ax <= ay) & (ax <= az), ey = ~ex & (ay <= az), ez = ~ex & ~ey;
+    const ocls_vfloat en = select(select(Fz, Fy, ey), Fx, ex);     /* e . F for the axis e */
+    const ocls_vint fallback = ~(OCLS_DOT3(gx, gy, gz, gx, gy, gz) >= 1e-8f);
+    const ocls_vfloat tx = select(gx, select(zero, one, ex) - Fx * en, fallback);
+    const ocls_vfloat ty = select(gy, select(zero, one, ey) - Fy * en, fallback);
+    const ocls_vfloat tz = select(gz, select(zero, one, ez) - Fz * en, fallback);
+    const ocls_vfloat tl = sqrt(OCLS_DOT3(tx, ty, tz, tx, ty, tz));
+    const ocls_vfloat Tx = tx / tl, Ty = ty / tl, Tz = tz / tl;
+    const ocls_vfloat Bx = Fy * Tz - Fz * Ty, By = Fz * Tx - Fx * Tz, Bz = Fx * Ty - Fy * Tx;
+    const ocls_vfloat RTx = Tx * radius, RTy = Ty * radius, RTz = Tz * radius;
+    const ocls_vfloat RBx = Bx * radius, RBy = By * radius, RBz = Bz * radius;
 
     /* step 3, projected: clip coordinates are linear in A_t, so the pixel's
      * P, R T, R B and R N are projected once (rows prj, see the ABI). */
-    const float8 cpu = OCLS_DOT3(prj[0], prj[1], prj[2], Px, Py, Pz) + prj[3];
-    const float8 cpv = OCLS_DOT3(prj[4], prj[5], prj[6], Px, Py, Pz) + prj[7];
-    const float8 cpw = OCLS_DOT3(prj[8], prj[9], prj[10], Px, Py, Pz) + prj[11];
-    const float8 ctu = OCLS_DOT3(prj[0], prj[1], prj[2], RTx, RTy, RTz);
-    const float8 ctv = OCLS_DOT3(prj[4], prj[5], prj[6], RTx, RTy, RTz);
-    const float8 ctw = OCLS_DOT3(prj[8], prj[9], prj[10], RTx, RTy, RTz);
-    const float8 cbu = OCLS_DOT3(prj[0], prj[1], prj[2], RBx, RBy, RBz);
-    const float8 cbv = OCLS_DOT3(prj[4], prj[5], prj[6], RBx, RBy, RBz);
-    const float8 cbw = OCLS_DOT3(prj[8], prj[9], prj[10], RBx, RBy, RBz);
+    const ocls_vfloat cpu = OCLS_DOT3(prj[0], prj[1], prj[2], Px, Py, Pz) + prj[3];
+    const ocls_vfloat cpv = OCLS_DOT3(prj[4], prj[5], prj[6], Px, Py, Pz) + prj[7];
+    const ocls_vfloat cpw = OCLS_DOT3(prj[8], prj[9], prj[10], Px, Py, Pz) + prj[11];
+    const ocls_vfloat ctu = OCLS_DOT3(prj[0], prj[1], prj[2], RTx, RTy, RTz);
+    const ocls_vfloat ctv = OCLS_DOT3(prj[4], prj[5], prj[6], RTx, RTy, RTz);
+    const ocls_vfloat ctw = OCLS_DOT3(prj[8], prj[9], prj[10], RTx, RTy, RTz);
+    const ocls_vfloat cbu = OCLS_DOT3(prj[0], prj[1], prj[2], RBx, RBy, RBz);
+    const ocls_vfloat cbv = OCLS_DOT3(prj[4], prj[5], prj[6], RBx, RBy, RBz);
+    const ocls_vfloat cbw = OCLS_DOT3(prj[8], prj[9], prj[10], RBx, RBy, RBz);
     const float fW = (float)W, fH = (float)H;
 
 #ifdef OCLS_LINES
     /* line samples (see "Line samples"): the chord |t| <= R hs of the line A + t U, cut by the
      * base plane a + t c >= 0 at t_c = -a / c (c = 0: a >= 0 keeps the chord, a < 0 empties it) */
-    const float8 RnT = radius * OCLS_DOT3(Nx, Ny, Nz, Tx, Ty, Tz), RnB = radius * OCLS_DOT3(Nx, Ny, Nz, Bx, By, Bz);
-    const float8 cN = OCLS_DOT3(Nx, Ny, Nz, Fx, Fy, Fz);
-    const int8 cpos = cN >= 0.0f;
-    const float8 ninv_c = select(-1.0f / cN, (float8)(-INFINITY), cN == 0.0f);
+    const ocls_vfloat RnT = radius * OCLS_DOT3(Nx, Ny, Nz, Tx, Ty, Tz), RnB = radius * OCLS_DOT3(Nx, Ny, Nz, Bx, By, Bz);
+    const ocls_vfloat cN = OCLS_DOT3(Nx, Ny, Nz, Fx, Fy, Fz);
+    const ocls_vint cpos = cN >= 0.0f;
+    const ocls_vfloat ninv_c = select(-1.0f / cN, (ocls_vfloat)(-INFINITY), cN == 0.0f);
 #ifndef OCLS_PLANE_TEST
-    const float8 inv_uz = 1.0f / Fz;
+    const ocls_vfloat inv_uz = 1.0f / Fz;
 #endif
-    float8 len8 = zero, occ8 = zero;
+    ocls_vfloat len_sum = zero, occ_sum = zero;
     for (int t = 0; t < m; ++t) {
         const float sx = kern[t], sy = kern[mpad + t], hc = radius * kern[2 * mpad + t];
-        const float8 qu = cpu + (ctu * sx + cbu * sy);
-        const float8 qv = cpv + (ctv * sx + cbv * sy);
-        const float8 qw = cpw + (ctw * sx + cbw * sy);
-        const float8 az_t = Pz + (RTz * sx + RBz * sy);
-        const float8 inv = 1.0f / qw;
-        const float8 u = qu * inv, y = qv * inv;
-        const int8 on = (qw > 0.0f) & (u >= 0.0f) & (u < fW) & (y >= 0.0f) & (y < fH);
-        const int8 j = select(ii, convert_int8(y) * W + convert_int8(u), on);
-        const float8 tc = (RnT * sx + RnB * sy) * ninv_c;
-        const float8 lo = select((float8)(-hc), fmax(-hc, tc), cpos);
-        const float8 hi = select(fmin(hc, tc), (float8)(hc), cpos);
+        const ocls_vfloat qu = cpu + (ctu * sx + cbu * sy);
+        const ocls_vfloat qv = cpv + (ctv * sx + cbv * sy);
+        const ocls_vfloat qw = cpw + (ctw * sx + cbw * sy);
+        const ocls_vfloat az_t = Pz + (RTz * sx + RBz * sy);
+        const ocls_vfloat inv = 1.0f / qw;
+        const ocls_vfloat u = qu * inv, y = qv * inv;
+        const ocls_vint on = (qw > 0.0f) & (u >= 0.0f) & (u < fW) & (y >= 0.0f) & (y < fH);
+        const ocls_vint j = select(ii, ocls_convert_vint(y) * W + ocls_convert_vint(u), on);
+        const ocls_vfloat tc = (RnT * sx + RnB * sy) * ninv_c;
+        const ocls_vfloat lo = select((ocls_vfloat)(-hc), fmax(-hc, tc), cpos);
+        const ocls_vfloat hi = select(fmin(hc, tc), (ocls_vfloat)(hc), cpos);
 #ifdef OCLS_PLANE_TEST
         /* solid: t <= t_s, the line below the occluder's plane by delta; a plane not facing
          * along U (L . U <= 0): the point test at A decides the whole line */
-        const float8 ax_t = Px + (RTx * sx + RBx * sy);
-        const float8 ay_t = Py + (RTy * sx + RBy * sy);
-        float8 lx, ly, lz, ld;
-        OCLS_PLANES8(plane, j, lx, ly, lz, ld);
-        const float8 lu = OCLS_DOT3(lx, ly, lz, Fx, Fy, Fz);
-        const float8 la = OCLS_DOT3(lx, ly, lz, ax_t, ay_t, az_t) - ld;
-        const float8 ts = select(select((float8)(-INFINITY), (float8)(INFINITY), la <= -delta), (-delta - la) / lu,
+        const ocls_vfloat ax_t = Px + (RTx * sx + RBx * sy);
+        const ocls_vfloat ay_t = Py + (RTy * sx + RBy * sy);
+        ocls_vfloat lx, ly, lz, ld;
+        OCLS_PLANES(plane, j, lx, ly, lz, ld);
+        const ocls_vfloat lu = OCLS_DOT3(lx, ly, lz, Fx, Fy, Fz);
+        const ocls_vfloat la = OCLS_DOT3(lx, ly, lz, ax_t, ay_t, az_t) - ld;
+        const ocls_vfloat ts = select(select((ocls_vfloat)(-INFINITY), (ocls_vfloat)(INFINITY), la <= -delta), (-delta - la) / lu,
                                  lu > 0.0f);
 #else
         /* solid: t <= t_s, the line at least delta behind the stored depth (depth test along U) */
-        const float8 zt = OCLS_GATHER8(zbuf, j, 1, 0);
-        const float8 ts = (zt - delta - az_t) * inv_uz;
+        const ocls_vfloat zt = OCLS_GATHER(zbuf, j, 1, 0);
+        const ocls_vfloat ts = (zt - delta - az_t) * inv_uz;
 #endif
-        float8 occl = fmax(fmin(hi, ts) - lo, 0.0f);
+        ocls_vfloat occl = fmax(fmin(hi, ts) - lo, 0.0f);
 #ifdef OCLS_RANGE_CHECK
 #ifdef OCLS_PLANE_TEST
-        const float8 zt = OCLS_GATHER8(zbuf, j, 1, 0);
+        const ocls_vfloat zt = OCLS_GATHER(zbuf, j, 1, 0);
 #endif
         occl = select(zero, occl, zt - Pz <= radius);
 #endif
-        len8 += select(zero, fmax(hi - lo, 0.0f), on);
-        occ8 += select(zero, occl, on);
+        len_sum += select(zero, fmax(hi - lo, 0.0f), on);
+        occ_sum += select(zero, occl, on);
     }
-    const float8 res = select(one, 1.0f - occ8 / len8, live & (len8 > 0.0f));
+    const ocls_vfloat res = select(one, 1.0f - occ_sum / len_sum, live & (len_sum > 0.0f));
 #else
-    const float8 RNx = Nx * radius, RNy = Ny * radius, RNz = Nz * radius;
-    const float8 cnu = OCLS_DOT3(prj[0], prj[1], prj[2], RNx, RNy, RNz);
-    const float8 cnv = OCLS_DOT3(prj[4], prj[5], prj[6], RNx, RNy, RNz);
-    const float8 cnw = OCLS_DOT3(prj[8], prj[9], prj[10], RNx, RNy, RNz);
+    const ocls_vfloat RNx = Nx * radius, RNy = Ny * radius, RNz = Nz * radius;
+    const ocls_vfloat cnu = OCLS_DOT3(prj[0], prj[1], prj[2], RNx, RNy, RNz);
+    const ocls_vfloat cnv = OCLS_DOT3(prj[4], prj[5], prj[6], RNx, RNy, RNz);
+    const ocls_vfloat cnw = OCLS_DOT3(prj[8], prj[9], prj[10], RNx, RNy, RNz);
 
     /* steps 3-5 */
-    int8 cnt8 = (int8)(0), occ8 = (int8)(0);
+    ocls_vint cnt_sum = (ocls_vint)(0), occ_sum = (ocls_vint)(0);
     for (int t = 0; t < m; ++t) {
         const float sx = kern[t], sy = kern[mpad + t], sz = kern[2 * mpad + t];
-        const float8 qu = cpu + (ctu * sx + cbu * sy + cnu * sz);
-        const float8 qv = cpv + (ctv * sx + cbv * sy + cnv * sz);
-        const float8 qw = cpw + (ctw * sx + cbw * sy + cnw * sz);
-        const float8 az_t = Pz + (RTz * sx + RBz * sy + RNz * sz);
-        const float8 inv = 1.0f / qw;
-        const float8 u = qu * inv, y = qv * inv;
-        const int8 on = (qw > 0.0f) & (u >= 0.0f) & (u < fW) & (y >= 0.0f) & (y < fH);
-        const int8 j = select(ii, convert_int8(y) * W + convert_int8(u), on);
+        const ocls_vfloat qu = cpu + (ctu * sx + cbu * sy + cnu * sz);
+        const ocls_vfloat qv = cpv + (ctv * sx + cbv * sy + cnv * sz);
+        const ocls_vfloat qw = cpw + (ctw * sx + cbw * sy + cnw * sz);
+        const ocls_vfloat az_t = Pz + (RTz * sx + RBz * sy + RNz * sz);
+        const ocls_vfloat inv = 1.0f / qw;
+        const ocls_vfloat u = qu * inv, y = qv * inv;
+        const ocls_vint on = (qw > 0.0f) & (u >= 0.0f) & (u < fW) & (y >= 0.0f) & (y < fH);
+        const ocls_vint j = select(ii, ocls_convert_vint(y) * W + ocls_convert_vint(u), on);
 #ifdef OCLS_PLANE_TEST
-        const float8 ax_t = Px + (RTx * sx + RBx * sy + RNx * sz);
-        const float8 ay_t = Py + (RTy * sx + RBy * sy + RNy * sz);
-        float8 lx, ly, lz, ld;
-        OCLS_PLANES8(plane, j, lx, ly, lz, ld);
-        int8 occ = OCLS_DOT3(lx, ly, lz, ax_t, ay_t, az_t) - ld <= -delta;
+        const ocls_vfloat ax_t = Px + (RTx * sx + RBx * sy + RNx * sz);
+        const ocls_vfloat ay_t = Py + (RTy * sx + RBy * sy + RNy * sz);
+        ocls_vfloat lx, ly, lz, ld;
+        OCLS_PLANES(plane, j, lx, ly, lz, ld);
+        ocls_vint occ = OCLS_DOT3(lx, ly, lz, ax_t, ay_t, az_t) - ld <= -delta;
 #else
-        const float8 zt = OCLS_GATHER8(zbuf, j, 1, 0);
-        int8 occ = zt >= az_t + delta;
+        const ocls_vfloat zt = OCLS_GATHER(zbuf, j, 1, 0);
+        ocls_vint occ = zt >= az_t + delta;
 #endif
 #ifdef OCLS_RANGE_CHECK
 #ifdef OCLS_PLANE_TEST
-        const float8 zt = OCLS_GATHER8(zbuf, j, 1, 0);
+        const ocls_vfloat zt = OCLS_GATHER(zbuf, j, 1, 0);
 #endif
         occ = occ & (zt - Pz <= radius);
 #endif
-        cnt8 -= on;             /* vector comparisons give -1 for true */
-        occ8 -= on & occ;
+        cnt_sum -= on;             /* vector comparisons give -1 for true */
+        occ_sum -= on & occ;
     }
-    const float8 res = select(one, 1.0f - convert_float8(occ8) / convert_float8(cnt8), live & (cnt8 > 0));
+    const ocls_vfloat res = select(one, 1.0f - ocls_convert_vfloat(occ_sum) / ocls_convert_vfloat(cnt_sum), live & (cnt_sum > 0));
 #endif
-    if (c0 + 8 <= W) {
-        vstore8(res, 0, ao + r * W + c0);
-    } else {
-        const float rs[8] = {res.s0, res.s1, res.s2, res.s3, res.s4, res.s5, res.s6, res.s7};
-        for (int k = 0; c0 + k < W; ++k)
-            ao[r * W + c0 + k] = rs[k];
-    }
+    ocls_store_lanes(res, c0, W, ao + r * W + c0);
 }
 
 #ifdef OCLS_BLUR_BOX
-/* One work-item per 8 adjacent pixels of a row (global size (ceil(W / 8), H)); window loops
+/* One work-item per OCLS_SSAO_LANES adjacent pixels of a row (see ssao_ao); window loops
  * run -rad..rad in that order for every lane (the sums are those of the scalar definition,
- * bitwise), clipped taps masked.  Interior items read whole float8 rows (vload8); items whose
- * window crosses a border take the masked path.  tmp holds two planes: the sums tmp[0, W H)
+ * bitwise), clipped taps masked.  Interior items read whole rows of lanes (ocls_vload); items
+ * whose window crosses a border take the masked path.  tmp holds two planes: the sums tmp[0, W H)
  * and the counts tmp[W H, 2 W H). */
 __kernel void ssao_box_h(__global const float *restrict ao, __global const float *restrict zbuf,
                          int W, int H, int rad, __global float *restrict tmp)
 {
-    const int c0 = 8 * (int)get_global_id(0), r = get_global_id(1);
+    const int c0 = OCLS_SSAO_LANES * (int)get_global_id(0), r = get_global_id(1);
     if (c0 >= W || r >= H) return;
     const int row = r * W, n = W * H;
-    float8 sum = (float8)(0.0f), count = (float8)(0.0f);
-    if (c0 - rad >= 0 && c0 + 7 + rad < W) {
+    ocls_vfloat sum = (ocls_vfloat)(0.0f), count = (ocls_vfloat)(0.0f);
+    if (c0 - rad >= 0 && c0 + OCLS_SSAO_LANES - 1 + rad < W) {
         for (int k = -rad; k <= rad; ++k) {
-            const int8 hit = vload8(0, zbuf + row + c0 + k) != -INFINITY;
-            sum += select((float8)(0.0f), vload8(0, ao + row + c0 + k), hit);
-            count += select((float8)(0.0f), (float8)(1.0f), hit);
+            const ocls_vint hit = ocls_vload(0, zbuf + row + c0 + k) != -INFINITY;
+            sum += select((ocls_vfloat)(0.0f), ocls_vload(0, ao + row + c0 + k), hit);
+            count += select((ocls_vfloat)(0.0f), (ocls_vfloat)(1.0f), hit);
         }
     } else {
-        const int8 cc = c0 + (int8)(0, 1, 2, 3, 4, 5, 6, 7);
+        const ocls_vint cc = c0 + OCLS_LANE_IDS;
         for (int k = -rad; k <= rad; ++k) {
-            const int8 x = cc + k;
-            const int8 ok = (x >= 0) & (x < W);
-            const int8 j = row + select((int8)(0), x, ok);
-            const int8 hit = ok & (OCLS_GATHER8(zbuf, j, 1, 0) != -INFINITY);
-            sum += select((float8)(0.0f), OCLS_GATHER8(ao, j, 1, 0), hit);
-            count += select((float8)(0.0f), (float8)(1.0f), hit);
+            const ocls_vint x = cc + k;
+            const ocls_vint ok = (x >= 0) & (x < W);
+            const ocls_vint j = row + select((ocls_vint)(0), x, ok);
+            const ocls_vint hit = ok & (OCLS_GATHER(zbuf, j, 1, 0) != -INFINITY);
+            sum += select((ocls_vfloat)(0.0f), OCLS_GATHER(ao, j, 1, 0), hit);
+            count += select((ocls_vfloat)(0.0f), (ocls_vfloat)(1.0f), hit);
         }
     }
-    if (c0 + 8 <= W) {
-        vstore8(sum, 0, tmp + row + c0);
-        vstore8(count, 0, tmp + n + row + c0);
-    } else {
-        const float ss[8] = {sum.s0, sum.s1, sum.s2, sum.s3, sum.s4, sum.s5, sum.s6, sum.s7};
-        const float cs[8] = {count.s0, count.s1, count.s2, count.s3, count.s4, count.s5, count.s6, count.s7};
-        for (int k = 0; c0 + k < W; ++k) {
-            tmp[row + c0 + k] = ss[k];
-            tmp[n + row + c0 + k] = cs[k];
-        }
-    }
+    ocls_store_lanes(sum, c0, W, tmp + row + c0);
+    ocls_store_lanes(count, c0, W, tmp + n + row + c0);
 }
 
 __kernel void ssao_box_v(__global const float *restrict tmp, __global const float *restrict zbuf,
                          int W, int H, int rad, __global float *restrict out)
 {
-    const int c0 = 8 * (int)get_global_id(0), r = get_global_id(1);
+    const int c0 = OCLS_SSAO_LANES * (int)get_global_id(0), r = get_global_id(1);
     if (c0 >= W || r >= H) return;
-    const int n = W * H, full = c0 + 8 <= W;
-    const int8 cc = c0 + (int8)(0, 1, 2, 3, 4, 5, 6, 7);
-    const int8 col = select((int8)(c0), cc, cc < W);
-    float8 sum = (float8)(0.0f), count = (float8)(0.0f);
+    const int n = W * H, full = c0 + OCLS_SSAO_LANES <= W;
+    const ocls_vint cc = c0 + OCLS_LANE_IDS;
+    const ocls_vint col = select((ocls_vint)(c0), cc, cc < W);
+    ocls_vfloat sum = (ocls_vfloat)(0.0f), count = (ocls_vfloat)(0.0f);
     for (int k = -rad; k <= rad; ++k) {
         const int y = r + k;
         if (y < 0 || y >= H) continue;          /* uniform across the lanes */
         if (full) {
-            sum += vload8(0, tmp + y * W + c0);
-            count += vload8(0, tmp + n + y * W + c0);
+            sum += ocls_vload(0, tmp + y * W + c0);
+            count += ocls_vload(0, tmp + n + y * W + c0);
         } else {
-            const int8 j = y * W + col;
-            sum += OCLS_GATHER8(tmp, j, 1, 0);
-            count += OCLS_GATHER8(tmp, j, 1, n);
+            const ocls_vint j = y * W + col;
+            sum += OCLS_GATHER(tmp, j, 1, 0);
+            count += OCLS_GATHER(tmp, j, 1, n);
         }
     }
-    const int8 i = r * W + col;
-    const float8 res = select(sum / count, (float8)(1.0f), OCLS_GATHER8(zbuf, i, 1, 0) == -INFINITY);
-    if (full) {
-        vstore8(res, 0, out + r * W + c0);
-    } else {
-        const float rs[8] = {res.s0, res.s1, res.s2, res.s3, res.s4, res.s5, res.s6, res.s7};
-        for (int k = 0; c0 + k < W; ++k)
-            out[r * W + c0 + k] = rs[k];
-    }
+    const ocls_vint i = r * W + col;
+    const ocls_vfloat res = select(sum / count, (ocls_vfloat)(1.0f), OCLS_GATHER(zbuf, i, 1, 0) == -INFINITY);
+    ocls_store_lanes(res, c0, W, out + r * W + c0);
 }
 #endif
 

@@ -194,7 +194,12 @@ OCLS_INLINE float ray_low(const Ray *ray, float ta, float tb)
 }
 
 /* Exact test of patch (r, c) over [ta, tb]: the first downward crossing, or INFINITY.
- * f(ta + tau) = a + b tau + cq tau^2 (expanded about ta to keep float32 precision).
+ * f(t0 + tau) = a + b tau + cq tau^2, expanded about t0, the ray's entry into the patch (the
+ * later of its two near-boundary crossings; ta if rounding puts that after ta), to keep float32
+ * precision.  Expanding about the entry rather than about ta makes the hit the same bits
+ * however the traversal reached the patch: a bisection leaf or a DDA descent may start the
+ * walk part-way into a patch (after a part proven above the max), so with an expansion about
+ * ta the hit depended on OCLS_DESCEND / OCLS_LEAF (tuning knobs) in the last bits.
  * *above: in, whether the ray was above the surface at the end of the previous piece of the
  * walk (patch exit, or a voxel rejected above its max); out, the same at this patch's exit (0
  * over a hole).  Above before and not above at the entry is a crossing on the shared edge:
@@ -211,7 +216,10 @@ OCLS_INLINE float patch_hit(__global const float *h, const Ray *ray, int r, int 
     if (isnan(h00) || isnan(h01) || isnan(h10) || isnan(h11)) { *above = 0; return INFINITY; }
     if (ray_low(ray, ta, tb) > max_nn(max_nn(h00, h01), max_nn(h10, h11))) { *above = 1; return INFINITY; }
     const float3 o = ray->o, d = ray->d;
-    const float px = o.x + ta * d.x, py = o.y + ta * d.y, pz = o.z + ta * d.z;
+    const float eu = d.x != 0.0f ? ((float)(c - ray->cu + (d.x < 0.0f)) - o.x) * ray->iu : -INFINITY;
+    const float ev = d.y != 0.0f ? ((float)(r - ray->cv + (d.y < 0.0f)) - o.y) * ray->iv : -INFINITY;
+    const float t0 = fmin(fmax(eu, ev), ta);
+    const float px = o.x + t0 * d.x, py = o.y + t0 * d.y, pz = o.z + t0 * d.z;
     const float s = px - (float)(c - ray->cu), w = py - (float)(r - ray->cv);
     const float e = (h00 - h01) - (h10 - h11);
     const float hu = (h01 - h00) + e * w, hv = (h10 - h00) + e * s;
@@ -223,8 +231,8 @@ OCLS_INLINE float patch_hit(__global const float *h, const Ray *ray, int r, int 
     b = b + 2.0f * (ray->kx * px * d.x + ray->ky * py * d.y);
     cq = cq + (ray->kx * d.x * d.x + ray->ky * d.y * d.y);
 #endif
-    if (*above && a <= 0.0f) return ta;
-    const float len = tb - ta;
+    const float lo = ta - t0, len = tb - t0;             /* the interval, relative to t0 */
+    if (*above && a + (b + cq * lo) * lo <= 0.0f) return ta;
     const float fe = a + (b + cq * len) * len;          /* f at the patch exit */
     /* above at both ends and no dip in between (concave or linear f, or a convex one whose
      * vertex is outside the interval or not descending into it): no crossing; skips the roots */
@@ -236,7 +244,7 @@ OCLS_INLINE float patch_hit(__global const float *h, const Ray *ray, int r, int 
     if (cq == 0.0f) {
         if (b < 0.0f) {
             const float r1 = -a / b;
-            if (r1 >= 0.0f && r1 <= len) best = r1;
+            if (r1 >= lo && r1 <= len) best = r1;
         }
     } else {
         const float disc = b * b - 4.0f * a * cq;
@@ -245,12 +253,12 @@ OCLS_INLINE float patch_hit(__global const float *h, const Ray *ray, int r, int 
             const float q = -0.5f * (b + (b >= 0.0f ? sq : -sq));
             const float r1 = q / cq;
             const float r2 = q != 0.0f ? a / q : INFINITY;
-            if (r1 >= 0.0f && r1 <= len && b + 2.0f * cq * r1 < 0.0f) best = r1;
-            if (r2 >= 0.0f && r2 <= len && b + 2.0f * cq * r2 < 0.0f) best = min_nn(best, r2);
+            if (r1 >= lo && r1 <= len && b + 2.0f * cq * r1 < 0.0f) best = r1;
+            if (r2 >= lo && r2 <= len && b + 2.0f * cq * r2 < 0.0f) best = min_nn(best, r2);
         }
     }
     *above = fe > 0.0f;
-    return best < INFINITY ? ta + best : INFINITY;
+    return best < INFINITY ? t0 + best : INFINITY;
 }
 
 /* Walk the patches crossed over [ta, tb] (Amanatides-Woo, at most max_steps), exact test in each.

@@ -13,7 +13,8 @@ from .ssao import SSAO
 from .sun import Sun
 from .terrain import Heightfield, TerrainRenderer
 
-__version__ = "0.2.0"
+from ._version import __version__
+
 __all__ = [
     "AOSettings", "AllocationError", "Camera", "DeviceNotFoundError", "FrameSettings", "GBuffer", "Heightfield",
     "Heightmap", "METHODS", "OUTPUTS", "OclshadeError", "ProgramBuildError", "SSAO", "ScreenShadowCaster",

@@ -21,7 +21,9 @@ import numpy as np
 from .heightmap import Heightmap
 from .io import read_dem, write_raster
 from .preview import write_preview
-from .runtime import list_devices
+from . import runtime
+from .tuning import cli as tuning_cli
+from .bench import cli as bench_cli
 from .shadows import DEFAULT_K_BRIGHT, DEFAULT_K_DARK, METHODS, ShadowCaster
 from .ssao import DEFAULT_M
 from .sun import DEFAULT_AZIMUTH, DEFAULT_ELEVATION, Sun
@@ -166,9 +168,7 @@ examples:
 def build_parser() -> CliParser:
     parser = CliParser(prog=PROG, description="Exact terrain cast shadows and terrain rendering on OpenCL devices.")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
-    sub.add_parser("devices", help="list OpenCL devices (index, platform, versions)",
-                   description="List the OpenCL devices; use an index or a name substring "
-                               "with --device or OCLSHADE_DEVICE.")
+    tuning_cli.add_parsers(sub)
     sh = sub.add_parser("shadow", help="cast-shadow mask / coefficient of a DEM",
                         description="Cast shadows of a DEM for one or several sun positions.",
                         epilog=SHADOW_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -205,6 +205,7 @@ def build_parser() -> CliParser:
                     help="OpenCL device: index or name substring (default: $OCLSHADE_DEVICE, else PoCL CPU)")
     sh.add_argument("--quiet", "-q", action="store_true", help="no progress bar and no summary")
     add_render_parser(sub)
+    bench_cli.add_parser(sub)
     return parser
 
 
@@ -530,24 +531,6 @@ def run_render(args: argparse.Namespace) -> int:
     return 0
 
 
-# --- devices command --------------------------------------------------------------------
-
-def run_devices(_: argparse.Namespace) -> int:
-    devices = list_devices()
-    if not devices:
-        sys.stderr.write(f"{PROG}: error: no OpenCL device found; install 'pocl-binary-distribution' "
-                         "(pip) or a GPU driver's ICD\n")
-        return 1
-    head = ("index", "platform", "device", "type", "driver", "OpenCL", "CUs", "max alloc MiB")
-    rows = [(str(d.index), d.platform.strip(), d.name.strip(), d.device_type, d.driver_version.strip(),
-             d.opencl_version.strip(), str(d.compute_units), str(d.max_alloc_bytes // 2**20))
-            for d in devices]
-    widths = [max(len(r[k]) for r in (head, *rows)) for k in range(len(head))]
-    for r in (head, *rows):
-        print("  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip())
-    return 0
-
-
 # --- entry point -------------------------------------------------------------------------
 
 def _fail(message: str, status: int) -> int:
@@ -564,8 +547,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         args = parser.parse_args(argv)
     except SystemExit as exc:  # --help, or an argparse error already printed
         return int(exc.code or 0)
-    command = {"devices": run_devices, "shadow": run_shadow, "render": run_render}[args.command]
+    command = {"devices": tuning_cli.run_devices, "tune": tuning_cli.run_tune, "shadow": run_shadow,
+               "render": run_render, "bench": bench_cli.run}[args.command]
     debug = os.environ.get(DEBUG_ENV, "") not in ("", "0")
+    runtime.NOTICES = not getattr(args, "quiet", False)
     try:
         return command(args)
     except CliError as exc:

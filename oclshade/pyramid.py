@@ -7,10 +7,12 @@ the same heightmap.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Callable, Mapping
 
 import numpy as np
 import pyopencl as cl
 
+from . import tuning
 from .heightmap import Heightmap
 from .runtime import Runtime, get_runtime
 
@@ -65,18 +67,22 @@ def extrema_shapes(patch_rows: int, patch_cols: int) -> list[tuple[int, int]]:
     return shapes[1:] if len(shapes) > 1 else [(1, 1)]
 
 
-def build_extrema_pyramid(hm: Heightmap, device=None) -> ExtremaPyramid:
+def build_extrema_pyramid(hm: Heightmap, device=None, knobs: Mapping[str, int] | None = None) -> ExtremaPyramid:
+    """The extrema pyramid of a heightmap on the device.  ``knobs``: tuning values of the
+    ``pyramid`` family (:data:`TUNING`) to use instead of the device's (same texels)."""
     rt = get_runtime(device)
+    knob = TUNING.check(knobs) if knobs is not None else tuning.settings(rt, "pyramid").values
     rows, cols = hm.shape
-    heights_buffer = rt.share(hm.relative32, "heightmap")   # read in place on CPU devices
+    heights_buffer = rt.share(hm.relative32, "heightmap", bool(knob["in_place"]))
     hp, wp = hm.patch_shape
     shapes = extrema_shapes(hp, wp)
     offs = level_offsets(shapes)
     total = int(offs[-1]) + 1  # the last level is 1 x 1
     buf = rt.empty(total * 8, "extrema pyramid")
     r1, c1 = shapes[0]
-    lanes = 16 if rt.is_cpu else 1                              # -D OCLS_BASE16 (kernels/pyramid.cl)
-    _run_2d(rt, rt.kernel("pyramid.cl", "extrema_base", {"OCLS_BASE16": rt.is_cpu}), -(-c1 // lanes), r1,
+    lanes = knob["base_lanes"]                                   # -D OCLS_BASE_LANES (kernels/pyramid.cl)
+    base = rt.kernel("pyramid.cl", "extrema_base", {"OCLS_BASE_LANES": lanes if lanes > 1 else None})
+    _run_2d(rt, base, -(-c1 // lanes), r1,
             (heights_buffer, np.int32(rows), np.int32(cols), buf, np.int32(hp), np.int32(wp),
              np.int32(r1), np.int32(c1)))
     reduce_k = rt.kernel("pyramid.cl", "extrema_reduce")
@@ -113,3 +119,28 @@ def build_mip_levels(values: np.ndarray, device=None) -> list[np.ndarray]:
         cl.enqueue_copy(rt.queue, a, buf)
         levels.append(a)
     return levels
+
+
+def _smoke(rt: Runtime, knobs: tuning.Values) -> None:
+    from .synthetic import canyon_crater
+    heights = canyon_crater(67)[:, :61]
+    build_extrema_pyramid(Heightmap.from_array(heights, cellsize=30.0), rt, knobs).to_numpy()
+
+
+def _workload(rt: Runtime, knobs: tuning.Values, quick: bool) -> Callable[[], None]:
+    from .synthetic import canyon_crater
+    hm = Heightmap.from_array(canyon_crater(1024 if quick else 4096), cellsize=30.0)
+
+    def run() -> None:
+        build_extrema_pyramid(hm, rt, knobs)
+        rt.queue.finish()
+    return run
+
+
+#: the pyramid's knobs (kernels/pyramid.cl): texels per work-item of the base level, and
+#: whether the kernels read the heights in place (host memory) or from a device copy
+TUNING = tuning.register(tuning.Family(
+    "pyramid",
+    (tuning.Param("base_lanes", (1, 4, 8, 16), 1, "level-1 texels per work-item (-D OCLS_BASE_LANES)", vector=True),
+     tuning.Param("in_place", (0, 1), 0, "read the heights in place from host memory (CL_MEM_USE_HOST_PTR)")),
+    ("pyramid.cl",), _smoke, _workload, "extrema pyramid build (paper 000)"))

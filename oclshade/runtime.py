@@ -10,29 +10,52 @@ substring matched against ``"<platform> <device>"`` (``"pocl"``, ``"nvidia"``,
 Programs are built from ``kernels/`` (package data ``oclshade.kernels``),
 with ``#include`` resolved by the host so that the cache key covers the full
 source text.  The in-process cache is keyed on (sha256 of the expanded
-source, build options, device); pyopencl's on-disk binary cache keeps builds
-across processes.
+source, build options, device); on disk, PoCL's and pyopencl's binary caches
+keep builds across processes, in a folder oclshade owns and versions
+(:mod:`oclshade.cachedir`; ``POCL_CACHE_DIR`` is set there unless the user
+set it).  A cached program that lacks a kernel it must have (left by a
+build that crashed) is detected, the caches are purged and the program
+rebuilt from source.
+
+Builds are quiet: the compilers' output (warnings on stderr, pyopencl's
+``CompilerWarning``) is captured and shown only with ``OCLSHADE_DEBUG=1``
+or in the error of a failed build.  The first build of a program on a
+device says so in one line on stderr (:data:`NOTICES` turns that off).
 """
 from __future__ import annotations
 
+import contextlib
 import functools
 import hashlib
 import importlib.resources
 import os
 import pathlib
 import re
+import sys
+import tempfile
 import threading
+import warnings
 from dataclasses import dataclass
-from typing import Mapping
+from typing import Iterator, Mapping
 
-# PoCL writes its kernel cache under $HOME by default; make sure a read-only or
-# missing HOME never breaks a run, and keep PoCL quiet unless asked.
+from . import cachedir
+
+# PoCL reads its cache location when the platform loads: point it at ours (versioned, purgeable)
+# before pyopencl loads it, unless the user chose one.
 os.environ.setdefault("POCL_KERNEL_CACHE", "1")
+if "POCL_CACHE_DIR" not in os.environ:
+    try:
+        os.environ["POCL_CACHE_DIR"] = str(cachedir.kernel_cache("pocl"))
+    except OSError:
+        pass  # no writable cache anywhere: PoCL's own default
 
 import numpy as np  # noqa: E402
 import pyopencl as cl  # noqa: E402
 
 DEVICE_ENV = "OCLSHADE_DEVICE"
+DEBUG_ENV = "OCLSHADE_DEBUG"
+#: print the one-line notice before a program's first build on a device (the CLI's --quiet clears it)
+NOTICES = True
 _INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"\s*$', re.MULTILINE)
 
 
@@ -139,6 +162,59 @@ def select_device(spec: str | int | None = None) -> cl.Device:
     raise DeviceNotFoundError(f"device={spec!r}: no platform or device name contains it; available: {names}")
 
 
+def device_index(device: cl.Device) -> int:
+    """The index of a device in :func:`list_devices` (what ``OCLSHADE_DEVICE`` takes)."""
+    for i, (_, d) in enumerate(_all_devices()):
+        if d.int_ptr == device.int_ptr:
+            return i
+    raise DeviceNotFoundError(f"device {device.name!r} is not among this process's OpenCL devices")
+
+
+def debug() -> bool:
+    return os.environ.get(DEBUG_ENV, "") not in ("", "0")
+
+
+@contextlib.contextmanager
+def quiet_compiler() -> Iterator[list[str]]:
+    """Capture what the compiler writes to the process's stderr (fd 2: PoCL's clang prints
+    "N warnings generated" there) and pyopencl's CompilerWarning; yields a list that holds the
+    captured text afterwards.  With OCLSHADE_DEBUG=1 nothing is captured."""
+    captured: list[str] = []
+    if debug():
+        yield captured
+        return
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", cl.CompilerWarning)
+        try:
+            sys.stderr.flush()
+            saved = os.dup(2)
+        except (OSError, ValueError):
+            yield captured
+            return
+        with tempfile.TemporaryFile() as sink:
+            os.dup2(sink.fileno(), 2)
+            try:
+                yield captured
+            finally:
+                os.dup2(saved, 2)
+                os.close(saved)
+                sink.seek(0)
+                captured.append(sink.read().decode(errors="replace"))
+
+
+def _built_marker(digest: str, options: tuple[str, ...], device: cl.Device) -> pathlib.Path | None:
+    """A file whose presence says this program was built on this device before (for the notice)."""
+    try:
+        key = hashlib.sha256(f"{digest} {options} {device.platform.name} {device.name} "
+                             f"{device.driver_version} {device.version}".encode()).hexdigest()[:24]
+        return cachedir.kernel_cache("built") / key
+    except OSError:
+        return None
+
+
+_noticed: set[int] = set()
+
+
 def _kernel_root():
     """From a source checkout, ../kernels (so that a checkout on PYTHONPATH uses its own kernels
     even when another copy is installed in editable mode); else the package data ``oclshade.kernels``."""
@@ -193,11 +269,6 @@ class Runtime:
     def label(self) -> str:
         return f"{self.device.platform.name.strip()} / {self.device.name.strip()}"
 
-    @property
-    def is_cpu(self) -> bool:
-        """A CPU device: the kernels' CPU variants (ray packets, 16-texel pyramid base) apply."""
-        return bool(self.device.type & cl.device_type.CPU)
-
     def program(self, filename: str, defines: Mapping[str, object] | None = None) -> cl.Program:
         """Build (or fetch from the cache) ``kernels/<filename>`` with the given defines."""
         source = kernel_source(filename)
@@ -210,15 +281,39 @@ class Runtime:
                 self.build_hits += 1
                 return prog
             self.build_misses += 1
+            marker = _built_marker(digest, options, self.device)
+            if marker is not None and not marker.exists():
+                self.first_build_notice()
+            prog = self._build(filename, source, options)
+            if marker is not None:
+                with contextlib.suppress(OSError):
+                    marker.parent.mkdir(parents=True, exist_ok=True)
+                    marker.touch()
+            self._programs[key] = prog
+            return prog
+
+    def first_build_notice(self) -> None:
+        """Say once per process and device, on stderr, that kernels are being compiled (the
+        wait of a first run); quiet with ``NOTICES = False`` and in probe child processes."""
+        if NOTICES and self.device.int_ptr not in _noticed and not os.environ.get("OCLSHADE_PROBE_CHILD"):
+            _noticed.add(self.device.int_ptr)
+            print(f"oclshade: compiling OpenCL kernels for {self.label} (first run on this device; "
+                  f"later runs use the cache)", file=sys.stderr)
+
+    def _build(self, filename: str, source: str, options: tuple[str, ...], use_cache: bool = True) -> cl.Program:
+        cache = None
+        if use_cache:
+            with contextlib.suppress(OSError):
+                cache = str(cachedir.kernel_cache("pyopencl"))
+        with quiet_compiler():
             try:
-                prog = cl.Program(self.context, source).build(options=list(options))
+                return cl.Program(self.context, source).build(options=list(options), cache_dir=cache)
             except cl.RuntimeError as exc:  # compile error: pyopencl raises RuntimeError subclasses
                 log = getattr(exc, "build_log", None) or str(exc)
                 if isinstance(log, list):
                     log = "\n".join(str(entry[1]) for entry in log)
-                raise ProgramBuildError(filename, options, log) from None
-            self._programs[key] = prog
-            return prog
+                failure = ProgramBuildError(filename, options, log)
+        raise failure from None
 
     def kernel(self, filename: str, name: str, defines: Mapping[str, object] | None = None) -> cl.Kernel:
         """A kernel object of a cached program (one kernel object per program and name)."""
@@ -226,7 +321,22 @@ class Runtime:
         key = (id(prog), name)
         k = self._kernels.get(key)
         if k is None:
-            k = self._kernels[key] = cl.Kernel(prog, name)
+            try:
+                k = cl.Kernel(prog, name)
+            except cl.LogicError as exc:
+                if exc.code != cl.status_code.INVALID_KERNEL_NAME:
+                    raise
+                # a cached binary that lacks the kernel (left by a build that crashed half-way):
+                # purge the caches and rebuild this program from source, once
+                cachedir.purge_kernel_caches()
+                options = define_options(defines or {}) + ("-cl-std=CL1.2",)
+                source = kernel_source(filename)
+                with self._lock:
+                    prog = self._build(filename, source, options, use_cache=False)
+                    self._programs[(hashlib.sha256(source.encode()).hexdigest(), options)] = prog
+                k = cl.Kernel(prog, name)   # still missing: a real error, raised
+                key = (id(prog), name)
+            self._kernels[key] = k
         return k
 
     # --- resources -----------------------------------------------------------------
@@ -243,12 +353,11 @@ class Runtime:
         mf = cl.mem_flags
         return cl.Buffer(self.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=array)
 
-    def share(self, array: np.ndarray, what: str) -> cl.Buffer:
-        """A read-only buffer of a read-only array: on a CPU device sharing the host's memory the
-        kernels read the array in place (no copy; the buffer keeps it alive), elsewhere, or for
-        a writable array, a copy (:meth:`to_device`)."""
-        shared = self.is_cpu and bool(self.device.host_unified_memory)
-        if not shared or array.flags.writeable or not array.flags.c_contiguous:
+    def share(self, array: np.ndarray, what: str, in_place: bool) -> cl.Buffer:
+        """A read-only buffer of a read-only array: with ``in_place`` (a tuning knob, for devices
+        that share the host's memory) the kernels read the array in place (no copy; the buffer
+        keeps it alive), else, or for a writable array, a copy (:meth:`to_device`)."""
+        if not in_place or array.flags.writeable or not array.flags.c_contiguous:
             return self.to_device(array, what)
         self.check_alloc(array.nbytes, what)
         return cl.Buffer(self.context, cl.mem_flags.READ_ONLY | cl.mem_flags.USE_HOST_PTR, hostbuf=array)

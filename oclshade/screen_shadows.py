@@ -35,7 +35,7 @@ The heightmap is flat: a :class:`~oclshade.terrain.Heightfield` on a sphere
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Sequence, Union
+from typing import Callable, Sequence, Union
 
 import numpy as np
 import pyopencl as cl
@@ -43,6 +43,7 @@ import pyopencl as cl
 from .gbuffer import GBuffer
 from .heightmap import Heightmap
 from .pyramid import ExtremaPyramid, build_extrema_pyramid, build_mip_pyramid, level_offsets
+from . import tuning
 from .runtime import Runtime, get_runtime
 from .shadows import DEFAULT_K_BRIGHT, DEFAULT_K_DARK, ShadowFeatures, check_coefficients, check_method
 from .shadows import check_outputs as check_shadow_outputs
@@ -169,9 +170,13 @@ class ScreenShadowCaster:
     """Per-pixel cast shadows of one heightmap for any number of G-buffers and suns."""
 
     def __init__(self, heightmap: Heightmap, pyramid: ExtremaPyramid | None = None,
-                 device: str | int | Runtime | None = None):
+                 device: str | int | Runtime | None = None, group: int | None = None):
+        """``group``: the work-group size, the ``screen_shadows`` family's tuning knob
+        (:data:`TUNING`; None: the device's tuning entry; same results for every value)."""
         self.heightmap = heightmap
         self.runtime = pyramid.runtime if pyramid is not None else get_runtime(device)
+        self.group = (tuning.settings(self.runtime, "screen_shadows").values["group"] if group is None
+                      else TUNING.param("group").check(group, TUNING.name))
         if pyramid is not None and pyramid.map_shape != heightmap.shape:
             raise ValueError(f"pyramid was built for a {pyramid.map_shape} map, the heightmap is {heightmap.shape}")
         self._pyramid = pyramid
@@ -247,7 +252,7 @@ class ScreenShadowCaster:
         kernel = self.runtime.kernel("shadow.cl", "shadow_pixels", PixelShadowFeatures(check_method(method), outs).defines())
         kernel.set_args(*self._args(gb, as_sun(sun), lod, k_dark, k_bright),
                         *(bufs.get(name, self._dummy) for name in OUTPUTS))
-        cl.enqueue_nd_range_kernel(self.runtime.queue, kernel, *self.runtime.grid_2d(kernel, width, height))
+        cl.enqueue_nd_range_kernel(self.runtime.queue, kernel, *self.runtime.grid_2d(kernel, width, height, self.group))
         return {name: bufs[name] for name in outs}
 
     def step_counts(self, gbuffer: GBufferLike, sun: SunLike, method: str = "exact",
@@ -297,3 +302,29 @@ class ScreenShadowCaster:
                 np.array([ux, uy, w, 0.0], np.float32), np.array([s[0], s[1], s[2], 0.0], np.float32),
                 np.array([k_dark, k_bright], np.float32), np.int32(mode),
                 np.array([force, lod.bias, lod.n_a_max, 0], np.int32))
+
+
+def _case(rt: Runtime, size: int, width: int, height: int, group: int):
+    from .camera import frame_heightmap
+    from .synthetic import canyon_crater
+    from .terrain import Heightfield, TerrainRenderer
+    field = Heightfield.from_array(canyon_crater(size), 30.0)
+    gbuffer = TerrainRenderer(field, rt).render(frame_heightmap(field.heightmap, width, height, 200.0, 25.0))
+    return ScreenShadowCaster(field.heightmap, device=rt, group=group), gbuffer
+
+
+def _smoke(rt: Runtime, knobs: tuning.Values) -> None:
+    caster, gbuffer = _case(rt, 48, 40, 30, knobs["group"])
+    caster.shade(gbuffer, (300.0, 15.0))
+
+
+def _workload(rt: Runtime, knobs: tuning.Values, quick: bool) -> Callable[[], None]:
+    caster, gbuffer = _case(rt, 512 if quick else 2048, *((640, 360) if quick else (1920, 1080)), knobs["group"])
+    device_gbuffer = caster._device_gbuffer(gbuffer)
+    return lambda: caster.shade_to_device(device_gbuffer, (300.0, 10.0)) and rt.queue.finish()
+
+
+#: per-pixel shadows' knobs (kernels/shadow.cl shadow_pixels)
+TUNING = tuning.register(tuning.Family(
+    "screen_shadows", (tuning.Param("group", (16, 64, 256), 64, "work-group size (work-items)"),),
+    ("shadow.cl",), _smoke, _workload, "per-pixel shadows over a G-buffer (paper 000)"))

@@ -14,13 +14,14 @@ Definitions are in ``kernels/shadow.cl``; the float64 twin is
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable, Iterable, Sequence
+from typing import Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 import pyopencl as cl
 
 from .heightmap import Heightmap
 from . import cache as _cache
+from . import tuning
 from .analysis import SceneAnalysis, slope_fronts
 from .pyramid import ExtremaPyramid, build_extrema_pyramid
 from .runtime import Runtime, get_runtime
@@ -37,7 +38,6 @@ CERTIFIED_METHODS = ("exact", "maxmip")   # methods that use far-field tile cert
 CERT_TILE = 16                            # cells per side of a certificate tile (kernels/shadow.cl)
 CERT_K = 6                                # thresholds per tile (OCLS_CERT_K)
 PACKET_METHODS = ("exact", "maxmip")      # methods with a ray-packet kernel (shadow_cells_packet)
-PACKET_RUN = 1024                         # cells per work-item of shadow_cells_packet (OCLS_PACKET)
 
 
 def check_method(method: str) -> str:
@@ -72,7 +72,8 @@ class ShadowFeatures:
     outputs: tuple[str, ...] = ("mask",)
     stats: bool = False
     certificate: bool = True   # far-field tile certificates (exact and maxmip only)
-    packets: bool = False      # 16-ray packets per work-item (CPU devices; exact and maxmip, no stats)
+    lanes: int = 0             # rays per work-item on vector lanes (0: one ray per work-item; tuning knob)
+    run: int = 1024            # cells per work-item of the packet kernel (tuning knob)
 
     @property
     def certified(self) -> bool:
@@ -80,7 +81,8 @@ class ShadowFeatures:
 
     @property
     def packeted(self) -> bool:
-        return self.packets and self.method in PACKET_METHODS and not self.stats
+        """Ray packets (exact and maxmip without stats, when the lanes knob asks for them)."""
+        return self.lanes > 0 and self.method in PACKET_METHODS and not self.stats
 
     @property
     def cells_kernel(self) -> str:
@@ -89,7 +91,8 @@ class ShadowFeatures:
 
     def defines(self) -> dict[str, object]:
         return {
-            "OCLS_PACKET": PACKET_RUN if self.packeted else None,
+            "OCLS_PACKET": self.run if self.packeted else None,
+            "OCLS_LANES": self.lanes if self.packeted else None,
             "OCLS_CERT": CERT_TILE if self.certified else None,
             "OCLS_CERT_K": CERT_K if self.certified else None,
             "OCLS_STATS": self.stats,
@@ -122,20 +125,22 @@ class ShadowCaster:
     certificates per sun (``shadow_certify`` in kernels/shadow.cl) that end
     provably lit rays early; False traces every ray in full (same results,
     for comparisons).
-    packets: ``exact`` and ``maxmip`` trace 16 rays per work-item on vector
-    lanes (``shadow_cells_packet``; same results as one ray per work-item);
-    None uses them on CPU devices, where they are faster, and not on others.
+    knobs: the ``shadow`` family's tuning values (:data:`TUNING`: ``lanes``, rays
+    per work-item on vector lanes for ``exact`` and ``maxmip``, 0 for one ray per
+    work-item; ``run``, cells per packet work-item; ``group``, work-group
+    size), any subset; the rest, or all when None, from the device's tuning
+    entry (:func:`oclshade.tuning.settings`).  Results never depend on them.
     """
 
     def __init__(self, heightmap: Heightmap, device: str | int | Runtime | None = None, *,
                  cache: bool | None = None, analyse: bool = True, certificates: bool = True,
-                 packets: bool | None = None):
+                 knobs: Mapping[str, int] | None = None):
         self.heightmap = heightmap
         self.runtime = get_runtime(device)
         self.cache = cache
         self.analyse = analyse
         self.certificates = certificates
-        self.packets = self.runtime.is_cpu if packets is None else bool(packets)
+        self.knobs = {**tuning.settings(self.runtime, "shadow").values, **TUNING.check(knobs or {}, partial=True)}
         self._pyramid: ExtremaPyramid | None = None
         self._analysis: SceneAnalysis | None = None
         self._dummy_u8 = self.runtime.empty(1, "dummy")
@@ -237,7 +242,8 @@ class ShadowCaster:
             "self": rt.empty(n, "self-shadow flags") if "self" in outs else self._dummy_u8,
             "coefficient": rt.empty(4 * n, "shadow coefficients") if "coefficient" in outs else self._dummy_f32,
         }
-        gsize, lsize = self.runtime.grid_2d(kernel, -(-cols // PACKET_RUN) if features.packeted else cols, rows)
+        gsize, lsize = self.runtime.grid_2d(kernel, -(-cols // features.run) if features.packeted else cols, rows,
+                                            wanted=self.knobs["group"])
 
         def launch(sun: Sun, k_dark: float, k_bright: float) -> ShadowResult:
             kernel.set_args(*self._args(sun, k_dark, k_bright), bufs["mask"], bufs["self"], bufs["coefficient"],
@@ -259,7 +265,8 @@ class ShadowCaster:
         return launch
 
     def _features(self, method: str, outs: tuple[str, ...]) -> ShadowFeatures:
-        return ShadowFeatures(method, outs, certificate=self.certificates, packets=self.packets)
+        return ShadowFeatures(method, outs, certificate=self.certificates, lanes=self.knobs["lanes"],
+                              run=self.knobs["run"])
 
     def step_counts(self, sun: SunLike, method: str = "exact", band_cells: int = 1 << 19) -> np.ndarray:
         """Traversal iterations per pyramid level, summed over all cells (a profiling build).
@@ -371,3 +378,28 @@ def cast_shadows(heights: object, cellsize: float | tuple[float, float] = 1.0,
     reused from the process-wide caches when the same heights come again)."""
     hm = Heightmap.from_array(heights, cellsize, z_factor=z_factor, nodata=nodata)
     return ShadowCaster(hm, device, cache=cache).cast(sun, method, outputs, k_dark, k_bright)
+
+
+def _smoke(rt: Runtime, knobs: tuning.Values) -> None:
+    from .synthetic import canyon_crater
+    hm = Heightmap.from_array(canyon_crater(64)[:, :45], cellsize=30.0)
+    # exact masks: the program users build most, so the parent's build is then a cache hit
+    ShadowCaster(hm, rt, cache=False, analyse=False, knobs=knobs).cast((37.0, 20.0))
+
+
+def _workload(rt: Runtime, knobs: tuning.Values, quick: bool) -> Callable[[], None]:
+    from .synthetic import canyon_crater
+    hm = Heightmap.from_array(canyon_crater(1024 if quick else 2048), cellsize=30.0)
+    caster = ShadowCaster(hm, rt, cache=False, analyse=False, knobs=knobs)
+    caster.pyramid
+    return lambda: [caster.cast(sun) for sun in ((37.0, 20.0), (135.0, 20.0))]
+
+
+#: the heightmap-space shadow kernels' knobs (kernels/shadow.cl)
+TUNING = tuning.register(tuning.Family(
+    "shadow",
+    (tuning.Param("lanes", (0, 4, 8, 16), 0, "rays per work-item on vector lanes, exact / maxmip "
+                  "(-D OCLS_LANES; 0 = one ray per work-item, shadow_cells)", vector=True),
+     tuning.Param("run", (16, 64, 256, 1024), 1024, "cells per packet work-item (-D OCLS_PACKET)"),
+     tuning.Param("group", (16, 64, 256), 64, "work-group size (work-items)")),
+    ("shadow.cl",), _smoke, _workload, "heightmap shadow masks (paper 000)"))

@@ -61,11 +61,13 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 import pyopencl as cl
 
 from .gbuffer import GBuffer
+from . import tuning
 from .runtime import Runtime, get_runtime
 
 POINT_DISTRIBUTIONS = ("paper", "uniform", "centre")
@@ -238,9 +240,17 @@ def _projection(projection: object) -> np.ndarray:
 
 
 class SSAO:
-    """The AO pass on one device: sample tables and work buffers are kept between calls."""
+    """The AO pass on one device: sample tables and work buffers are kept between calls.
+    ``lanes`` (pixels per work-item of the AO and box-blur kernels, -D OCLS_SSAO_LANES) and
+    ``group`` (work-group size) are the ``ssao`` family's tuning knobs (:data:`TUNING`; None:
+    the device's tuning entry): they change the speed, never the result."""
 
-    def __init__(self, device: str | int | Runtime | None = None):
+    def __init__(self, device: str | int | Runtime | None = None, *, lanes: int | None = None,
+                 group: int | None = None):
+        rt = get_runtime(device)
+        given = {k: v for k, v in (("lanes", lanes), ("group", group)) if v is not None}
+        knobs = {**tuning.settings(rt, "ssao").values, **TUNING.check(given, partial=True)}
+        self.lanes, self.group = knobs["lanes"], knobs["group"]
         self.runtime = get_runtime(device)
         self._tables: dict[tuple[int, str], cl.Buffer] = {}
         self._work: dict[str, cl.Buffer] = {}
@@ -287,7 +297,7 @@ class SSAO:
         rt = self.runtime
         height, width = inputs.shape
         work = self._buffers(inputs.shape)
-        defines = features.defines()
+        defines = {**features.defines(), "OCLS_SSAO_LANES": self.lanes}
         dims = (np.int32(width), np.int32(height))
 
         prep = rt.kernel("ssao.cl", "ssao_prepare", defines)
@@ -306,17 +316,18 @@ class SSAO:
         prj = rt.to_device(rows.astype(np.float32), "projection rows")   # referenced until enqueued
         ao.set_args(inputs.position, work["normal"], work["zbuf"], *dims, prj, self._table(m, features.distribution),
                     np.int32(m), np.int32(-(-m // 8) * 8), np.float32(radius), np.float32(delta), np.uint32(seed), work["ao"], *plane)
-        self._launch(ao, -(-width // 8), height)   # 8 pixels per work-item
+        items = -(-width // self.lanes)   # `lanes` pixels per work-item
+        self._launch(ao, items, height)
         if features.blur == "none":
             return work["ao"]
         half = np.int32(features.blur_size // 2)
         if features.blur == "box":
             bh = rt.kernel("ssao.cl", "ssao_box_h", defines)
             bh.set_args(work["ao"], work["zbuf"], *dims, half, work["tmp"])
-            self._launch(bh, -(-width // 8), height)   # 8 pixels per work-item
+            self._launch(bh, items, height)
             bv = rt.kernel("ssao.cl", "ssao_box_v", defines)
             bv.set_args(work["tmp"], work["zbuf"], *dims, half, work["out"])
-            self._launch(bv, -(-width // 8), height)
+            self._launch(bv, items, height)
         else:
             tol = float(radius) / 4.0 if plane_tol is None else float(plane_tol)
             if not (math.isfinite(tol) and tol > 0):
@@ -343,7 +354,7 @@ class SSAO:
 
     # --- internals -----------------------------------------------------------------
     def _launch(self, kernel: cl.Kernel, width: int, height: int) -> None:
-        gsize, lsize = self.runtime.grid_2d(kernel, width, height)
+        gsize, lsize = self.runtime.grid_2d(kernel, width, height, self.group)
         cl.enqueue_nd_range_kernel(self.runtime.queue, kernel, gsize, lsize)
 
     def _table(self, m: int, distribution: str) -> cl.Buffer:
@@ -375,3 +386,32 @@ def write_ao_exr(path: str | Path, ao: np.ndarray) -> None:
     if Path(path).suffix.lower() != ".exr":
         raise ValueError(f"path must end in .exr, got {str(path)!r}")
     write_raster(path, a.astype(np.float32), band_names=["AO"])
+
+
+def _case(rt: Runtime, size: int, width: int, height: int):
+    from .camera import frame_heightmap
+    from .synthetic import canyon_crater
+    from .terrain import Heightfield, TerrainRenderer
+    field = Heightfield.from_array(canyon_crater(size), 30.0)
+    camera = frame_heightmap(field.heightmap, width, height, 200.0, 25.0)
+    return TerrainRenderer(field, rt).render(camera), camera.projection_matrix
+
+
+def _smoke(rt: Runtime, knobs: tuning.Values) -> None:
+    gbuffer, projection = _case(rt, 48, 40, 30)
+    SSAO(rt, **knobs).compute(gbuffer, projection, radius=90.0)
+
+
+def _workload(rt: Runtime, knobs: tuning.Values, quick: bool) -> Callable[[], None]:
+    gbuffer, projection = _case(rt, 512 if quick else 1024, *((640, 360) if quick else (1920, 1080)))
+    ssao = SSAO(rt, **knobs)
+    inputs = ssao.upload(gbuffer)
+    return lambda: ssao.run(inputs, projection, radius=90.0) and rt.queue.finish()
+
+
+#: the SSAO pass's knobs (kernels/ssao.cl)
+TUNING = tuning.register(tuning.Family(
+    "ssao",
+    (tuning.Param("lanes", (4, 8, 16), 8, "pixels per work-item on vector lanes (-D OCLS_SSAO_LANES)", vector=True),
+     tuning.Param("group", (16, 64, 256), 64, "work-group size (work-items)")),
+    ("ssao.cl",), _smoke, _workload, "screen-space ambient occlusion (paper 001)"))

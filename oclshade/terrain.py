@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field as dc_field
 from functools import cached_property
+from typing import Callable
 
 import numpy as np
 import pyopencl as cl
@@ -24,6 +25,7 @@ from .gbuffer import CHANNELS, GBuffer
 from .heightmap import Heightmap, positive_finite
 from .pyramid import ExtremaPyramid, build_extrema_pyramid, build_mip_levels, level_offsets
 from .runtime import Runtime, get_runtime
+from . import tuning
 
 METHODS = ("bisect", "march", "dda")
 _METHOD_CODE = {"bisect": 1, "march": 2, "dda": 3}
@@ -142,12 +144,6 @@ class TerrainFeatures:
         }
 
 
-def _small_int(name: str, value: object, lo: int, hi: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not lo <= value <= hi:
-        raise ValueError(f"{name} must be an int in {lo}..{hi}, got {value!r}")
-    return int(value)
-
-
 @dataclass
 class DeviceGBuffer:
     """A G-buffer left on the device: one cl.Buffer per field (layout of :mod:`oclshade.gbuffer`)."""
@@ -170,18 +166,25 @@ class DeviceGBuffer:
 class TerrainRenderer:
     """Ray-casts one heightfield for any number of cameras; pyramids stay on the device."""
 
-    def __init__(self, heightfield: Heightfield, device: str | int | Runtime | None = None, descend: int = 3,
-                 leaf: int = 2):
-        """Bisection options (kernels/terrain.cl): ``descend``, the levels a split voxel descends
-        at once (1 halves its footprint, like the paper's halving; OCLS_DESCEND); ``leaf``, the
+    def __init__(self, heightfield: Heightfield, device: str | int | Runtime | None = None,
+                 descend: int | None = None, leaf: int | None = None, group: int | None = None):
+        """Bisection options (kernels/terrain.cl), tuning knobs of the ``terrain`` family
+        (:data:`TUNING`; None: the device's tuning entry, :func:`oclshade.tuning.settings`; the
+        frames are the same for every value): ``descend``, the levels a split voxel descends at
+        once (1 halves its footprint, like the paper's halving; OCLS_DESCEND); ``leaf``, the
         level at or below which a voxel that is not rejected is walked patch by patch (0 is the
-        paper's finest level; dilated levels below it are not built; OCLS_LEAF)."""
+        paper's finest level; dilated levels below it are not built; OCLS_LEAF); ``group``, the
+        work-group size."""
         if not isinstance(heightfield, Heightfield):
             raise TypeError(f"heightfield must be an oclshade.terrain.Heightfield, got {type(heightfield).__name__}")
         self.field = heightfield
-        self.descend = _small_int("descend", descend, 1, 8)
-        self._leaf = _small_int("leaf", leaf, 0, 4)
         self.runtime = get_runtime(device)
+        tuned = tuning.settings(self.runtime, "terrain").values
+        given = {k: v for k, v in (("descend", descend), ("leaf", leaf), ("group", group)) if v is not None}
+        knobs = {**tuned, **TUNING.check(given, partial=True)}
+        self.descend = knobs["descend"]
+        self._leaf = knobs["leaf"]
+        self.group = knobs["group"]
         self._pyramid: ExtremaPyramid | None = None
         self._dilated: tuple[cl.Buffer, cl.Buffer] | None = None
         self._texture: tuple[cl.Buffer, cl.Buffer, int] | None = None
@@ -297,7 +300,7 @@ class TerrainRenderer:
         kernel = rt.kernel("terrain.cl", "terrain_cast", self.features(camera, method).defines())
         out = self._gbuffer(camera, out)
         kernel.set_args(*args, *(out.buffers[name] for name in CHANNELS))
-        cl.enqueue_nd_range_kernel(rt.queue, kernel, *rt.grid_2d(kernel, camera.width, camera.height))
+        cl.enqueue_nd_range_kernel(rt.queue, kernel, *rt.grid_2d(kernel, camera.width, camera.height, self.group))
         if on_device:
             return out
         return out.to_host()
@@ -326,3 +329,29 @@ def render_terrain(heights: object, camera: Camera, cellsize: float | tuple[floa
     """One-call API: the G-buffer of a 2-D height array seen by ``camera``."""
     field = Heightfield.from_array(heights, cellsize, z_factor, nodata, radius, colour)
     return TerrainRenderer(field, device).render(camera, method)
+
+
+def _smoke(rt: Runtime, knobs: tuning.Values) -> None:
+    from .camera import frame_heightmap
+    from .synthetic import canyon_crater
+    field = Heightfield.from_array(canyon_crater(48), 30.0)
+    renderer = TerrainRenderer(field, rt, **knobs)
+    renderer.render(frame_heightmap(field.heightmap, 40, 30, 200.0, 30.0))
+
+
+def _workload(rt: Runtime, knobs: tuning.Values, quick: bool) -> Callable[[], None]:
+    from .camera import frame_heightmap
+    from .synthetic import canyon_crater
+    field = Heightfield.from_array(canyon_crater(512 if quick else 1024), 30.0)
+    renderer = TerrainRenderer(field, rt, **knobs)
+    camera = frame_heightmap(field.heightmap, *((640, 360) if quick else (1920, 1080)), 200.0, 25.0)
+    return lambda: renderer.render(camera, on_device=True) and rt.queue.finish()
+
+
+#: the terrain caster's knobs (kernels/terrain.cl, bisect)
+TUNING = tuning.register(tuning.Family(
+    "terrain",
+    (tuning.Param("descend", (1, 2, 3, 4, 5), 3, "levels a split voxel descends at once (-D OCLS_DESCEND)"),
+     tuning.Param("leaf", (0, 1, 2, 3, 4), 2, "level at or below which voxels are walked patch by patch (-D OCLS_LEAF)"),
+     tuning.Param("group", (16, 64, 256), 64, "work-group size (work-items)")),
+    ("terrain.cl",), _smoke, _workload, "terrain ray casting (paper 004)"))

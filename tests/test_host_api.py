@@ -22,8 +22,9 @@ from oclshade import ShadowCaster, Sun
 from oclshade import reference as ref
 from oclshade.heightmap import Heightmap
 from oclshade.pyramid import level_offsets
-from oclshade.runtime import _kernel_root, define_options, kernel_source
-from oclshade.shadows import METHODS, ShadowFeatures
+from oclshade.runtime import _kernel_root, define_options, get_runtime, kernel_source
+from oclshade.shadows import METHODS, TUNING, ShadowFeatures
+from oclshade.tuning.rules import rule_values
 
 HOST = Path(__file__).resolve().parents[1] / "host"
 OUTPUT_BITS = {1: ("mask",), 2: ("self",), 4: ("coefficient",)}
@@ -170,16 +171,31 @@ def test_c_error_paths_and_build_options(host: dict) -> None:
     proc = _run([str(host["build"] / "host_errors"), str(_kernel_root())], env=host["env"])
     assert proc.returncode == 0, proc.stdout[-4000:] + proc.stderr[-2000:]
     lines = proc.stdout.splitlines()
-    cpu = {line for line in lines if line.startswith("device_cpu ")}
-    assert cpu in ({"device_cpu 0"}, {"device_cpu 1"})
-    # the handle on a CPU device uses ray packets for exact and maxmip, as the Python host does
-    for prefix, packets in (("options ", False), ("handle_options ", cpu == {"device_cpu 1"})):
+
+    def tuning(prefix: str) -> dict[str, int]:
+        (line,) = [line for line in lines if line.startswith(prefix + " ")]
+        lanes, run, group = map(int, line.split()[1:])
+        return {"lanes": lanes, "run": run, "group": group}
+
+    # a new handle starts with the Python host's rule for a device without a measured entry
+    default, tuned = tuning("tuning"), tuning("tuned_tuning")
+    (name,) = [line.split(" ", 1)[1] for line in lines if line.startswith("device_name ")]
+    device = get_runtime().device
+    if device.name != name:   # the C programs run on the first device PoCL lists
+        device = next(d for p in cl.get_platforms() for d in p.get_devices() if d.name == name)
+    assert default == rule_values(TUNING, device), (default, device)
+    assert tuned == {"lanes": 4, "run": 16, "group": 16}
+    # build options: no packets; the handle's (ray packets for exact and maxmip iff lanes > 0);
+    # after oclshade_set_tuning(lanes 4, run 16): all the Python host's for the same knobs
+    for prefix, knobs in (("options ", {"lanes": 0, "run": 1024}), ("handle_options ", default),
+                          ("tuned_options ", tuned)):
         options = [line.split(" ", 3) for line in lines if line.startswith(prefix)]
         assert len(options) == 4 * 7
         for _, method_code, bits, text in options:
             method = METHODS[int(method_code) - 1]
             outputs = tuple(o for bit, (o,) in OUTPUT_BITS.items() if int(bits) & bit)
-            python = define_options(ShadowFeatures(method, outputs, packets=packets).defines()) + ("-cl-std=CL1.2",)
+            features = ShadowFeatures(method, outputs, lanes=knobs["lanes"], run=knobs["run"])
+            python = define_options(features.defines()) + ("-cl-std=CL1.2",)
             assert text == " ".join(python), (prefix, method, outputs)
 
 

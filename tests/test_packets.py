@@ -13,32 +13,32 @@ from oclshade.heightmap import Heightmap
 from test_shadows import azimuths, cell_sizes, elevations, terrains
 
 
-@pytest.fixture
-def short_runs(monkeypatch):
-    """Runs of 16 cells, so small maps have several runs per row and a partial last one
-    (the kernel is built with the host's run length, OCLS_PACKET)."""
-    monkeypatch.setattr(shadows, "PACKET_RUN", 16)
+#: runs of 16 cells, so small maps have several runs per row and a partial last one
+SHORT_RUN = 16
+LANES = (4, 8, 16)
 
 
-def assert_same_outputs(hm: Heightmap, sun: Sun, certificates: bool = True) -> None:
-    packed = ShadowCaster(hm, cache=False, analyse=False, certificates=certificates, packets=True)
-    single = ShadowCaster(hm, cache=False, analyse=False, certificates=certificates, packets=False)
+def assert_same_outputs(hm: Heightmap, sun: Sun, lanes: int, certificates: bool = True) -> None:
+    packed = ShadowCaster(hm, cache=False, analyse=False, certificates=certificates,
+                          knobs={"lanes": lanes, "run": SHORT_RUN})
+    single = ShadowCaster(hm, cache=False, analyse=False, certificates=certificates, knobs={"lanes": 0})
     for method in shadows.PACKET_METHODS:
         a = packed.cast(sun, method, "all")
         b = single.cast(sun, method, "all")
-        assert np.array_equal(a.mask, b.mask), (method, sun, hm.shape, int((a.mask != b.mask).sum()))
+        assert np.array_equal(a.mask, b.mask), (method, sun, lanes, hm.shape, int((a.mask != b.mask).sum()))
         assert np.array_equal(a.self_shadow, b.self_shadow)
         assert np.array_equal(a.coefficient, b.coefficient, equal_nan=True)
 
 
-@settings(max_examples=120, deadline=None, suppress_health_check=[HealthCheck.too_slow,
-                                                                  HealthCheck.function_scoped_fixture])
-@given(h=terrains(), az=azimuths, alt=elevations, cell=cell_sizes, certificates=st.booleans())
-def test_packets_equal_single_rays_on_random_maps(short_runs, h, az, alt, cell, certificates):
-    assert_same_outputs(Heightmap.from_array(h, cell), Sun(az, alt), certificates)
+@settings(max_examples=120, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(h=terrains(), az=azimuths, alt=elevations, cell=cell_sizes, certificates=st.booleans(),
+       lanes=st.sampled_from(LANES))
+def test_packets_equal_single_rays_on_random_maps(h, az, alt, cell, certificates, lanes):
+    assert_same_outputs(Heightmap.from_array(h, cell), Sun(az, alt), lanes, certificates)
 
 
-def test_packets_equal_single_rays_on_a_real_dem_with_holes(short_runs):
+@pytest.mark.parametrize("lanes", LANES)
+def test_packets_equal_single_rays_on_a_real_dem_with_holes(lanes):
     from matplotlib import cbook
 
     data = cbook.get_sample_data("jacksboro_fault_dem.npz")
@@ -47,16 +47,31 @@ def test_packets_equal_single_rays_on_a_real_dem_with_holes(short_runs):
     elev[np.random.default_rng(7).random(elev.shape) < 0.01] = np.nan   # scattered holes too
     hm = Heightmap.from_array(elev, (90.0, 90.0))
     for az, alt in [(37.0, 20.0), (135.0, 5.0), (45.0, 10.0), (90.0, 3.0), (250.0, 1.0), (315.0, 60.0)]:
-        assert_same_outputs(hm, Sun(az, alt))
+        assert_same_outputs(hm, Sun(az, alt), lanes)
 
 
-def test_packets_are_the_default_on_cpu_devices_only():
-    hm = Heightmap.from_array(np.zeros((3, 3)), 1.0)
-    caster = ShadowCaster(hm, cache=False)
-    is_cpu = bool(caster.runtime.device.type & shadows.cl.device_type.CPU)
-    assert caster.packets == is_cpu
-    kernel = shadows.ShadowFeatures("exact", packets=caster.packets).cells_kernel
-    assert kernel == ("shadow_cells_packet" if is_cpu else "shadow_cells")
+def test_the_lanes_knob_picks_the_kernel():
+    assert shadows.ShadowFeatures("exact", lanes=8).cells_kernel == "shadow_cells_packet"
+    assert shadows.ShadowFeatures("exact", lanes=0).cells_kernel == "shadow_cells"
     # methods without a packet kernel, and profiling builds, trace one ray per work-item
-    assert shadows.ShadowFeatures("dda", packets=True).cells_kernel == "shadow_cells"
-    assert shadows.ShadowFeatures("exact", stats=True, packets=True).cells_kernel == "shadow_cells"
+    assert shadows.ShadowFeatures("dda", lanes=8).cells_kernel == "shadow_cells"
+    assert shadows.ShadowFeatures("exact", stats=True, lanes=8).cells_kernel == "shadow_cells"
+
+
+@pytest.mark.parametrize("group", shadows.TUNING.param("group").values)
+@pytest.mark.parametrize("run", shadows.TUNING.param("run").values)
+def test_run_and_group_knobs_do_not_change_masks(run, group):
+    h = np.random.default_rng(run + group).normal(0.0, 3.0, (37, 1100)).cumsum(axis=1)
+    hm = Heightmap.from_array(h, 1.0)
+    ref = ShadowCaster(hm, cache=False, knobs={"lanes": 0}).cast((100.0, 8.0)).mask
+    got = ShadowCaster(hm, cache=False, knobs={"lanes": 8, "run": run, "group": group}).cast((100.0, 8.0)).mask
+    assert np.array_equal(got, ref)
+    assert 0.05 < ref.mean() < 0.95     # a map with shadows and lit cells both
+
+
+def test_illegal_knobs_name_the_knob():
+    hm = Heightmap.from_array(np.zeros((3, 3)), 1.0)
+    with pytest.raises(ValueError, match="shadow.lanes"):
+        ShadowCaster(hm, knobs={"lanes": 5})
+    with pytest.raises(ValueError, match="no parameter 'width'"):
+        ShadowCaster(hm, knobs={"width": 8})

@@ -1,0 +1,125 @@
+"""Tuning parameters: the performance knobs of each kernel family, declared once.
+
+A knob changes how a kernel is built or launched (a ``-D`` option, a work
+size), never what it computes: the tests compare every legal value bit for
+bit.  Each family module (shadows, pyramid, terrain, ssao, ...) declares its
+knobs with :func:`register` next to the code that launches them, with
+
+* ``smoke``: builds and runs a tiny case with given values (what a probe runs
+  in a child process, :mod:`oclshade.tuning.probe`), and
+* ``workload``: a representative case for the tuner (:mod:`oclshade.tuning.tuner`).
+
+Which values a device gets is :func:`oclshade.tuning.settings`'s answer (user
+entry -> shipped database -> rule -> safe default); nothing else in the code
+asks what kind of device it is.
+"""
+from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass, field
+from typing import Any, Callable, Mapping
+
+Values = dict[str, int]
+
+#: the modules that register a family, imported on demand by :func:`families`
+FAMILY_MODULES = ("oclshade.pyramid", "oclshade.shadows", "oclshade.terrain", "oclshade.screen_shadows",
+                  "oclshade.ssao")
+
+
+@dataclass(frozen=True)
+class Param:
+    """One knob: its legal values, the value that works on every device, and what it becomes."""
+
+    name: str
+    values: tuple[int, ...]
+    safe: int
+    doc: str
+    #: True for a knob whose non-safe values drive the compiler's vector code generation (lane
+    #: counts): a value that fails a probe falls back to the next smaller legal value
+    vector: bool = False
+
+    def __post_init__(self) -> None:
+        if self.safe not in self.values:
+            raise ValueError(f"Param {self.name}: safe value {self.safe} is not among {self.values}")
+
+    def check(self, value: object, family: str) -> int:
+        if isinstance(value, bool) or not isinstance(value, int) or value not in self.values:
+            raise ValueError(f"tuning {family}.{self.name} must be one of {self.values}; got {value!r}")
+        return int(value)
+
+    def narrower(self, value: int) -> list[int]:
+        """The legal values to try after ``value`` failed: smaller ones, largest first."""
+        return sorted((v for v in self.values if v < value), reverse=True)
+
+
+@dataclass(frozen=True)
+class Family:
+    """A kernel family's knobs, with its probe case and its tuning workload."""
+
+    name: str
+    params: tuple[Param, ...]
+    kernel_files: tuple[str, ...]
+    #: smoke(runtime, values): build and run a tiny case with these values (raises on failure)
+    smoke: Callable[[Any, Values], None]
+    #: workload(runtime, values, quick) -> a callable that runs one representative case to
+    #: completion (timed by the tuner; the first call includes the build)
+    workload: Callable[[Any, Values, bool], Callable[[], None]]
+    doc: str = ""
+    _by_name: dict[str, Param] = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "_by_name", {p.name: p for p in self.params})
+
+    def param(self, name: str) -> Param:
+        try:
+            return self._by_name[name]
+        except KeyError:
+            raise ValueError(f"tuning family {self.name!r} has no parameter {name!r}; "
+                             f"it has {', '.join(self._by_name)}") from None
+
+    def safe(self) -> Values:
+        return {p.name: p.safe for p in self.params}
+
+    def check(self, values: Mapping[str, object], *, partial: bool = False) -> Values:
+        """Validated values (every knob present unless ``partial``)."""
+        out = {name: self.param(name).check(v, self.name) for name, v in values.items()}
+        missing = [p.name for p in self.params if p.name not in out]
+        if missing and not partial:
+            raise ValueError(f"tuning {self.name}: missing {', '.join(missing)}")
+        return out
+
+    def fallbacks(self, values: Values) -> list[Values]:
+        """``values``, then the same with each vector knob narrowed step by step, then the safe
+        values: the order in which a failing choice is replaced."""
+        out = [dict(values)]
+        for p in self.params:
+            if p.vector:
+                for v in p.narrower(values[p.name]):
+                    out.append({**out[-1], p.name: v})
+        safe = self.safe()
+        if safe not in out:
+            out.append(safe)
+        return out
+
+
+_REGISTRY: dict[str, Family] = {}
+
+
+def register(family: Family) -> Family:
+    """Declare a family's knobs (once, at the import of the module that launches its kernels)."""
+    _REGISTRY[family.name] = family
+    return family
+
+
+def families() -> dict[str, Family]:
+    """Every registered family, by name (imports the family modules)."""
+    for module in FAMILY_MODULES:
+        importlib.import_module(module)
+    return dict(_REGISTRY)
+
+
+def family(name: str) -> Family:
+    fams = families()
+    if name not in fams:
+        raise ValueError(f"unknown kernel family {name!r}; expected one of {', '.join(fams)}")
+    return fams[name]

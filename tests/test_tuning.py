@@ -1,0 +1,192 @@
+"""Per-device tuning: the lookup order, probes that survive crashing and hanging compilers,
+kernel caches that recover, and quiet builds."""
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pyopencl as cl
+import pytest
+
+from oclshade import cachedir, tuning
+from oclshade.runtime import get_runtime
+from oclshade.tuning import probe, store
+from oclshade.tuning.device import DeviceKey
+from oclshade.tuning.rules import rule_values
+
+CANYON = Path(__file__).resolve().parent.parent / "data" / "canyon_512.tif"
+
+
+@pytest.fixture
+def cache(tmp_path, monkeypatch):
+    """A fresh user cache (tuning entries, probe records) for one test."""
+    monkeypatch.setenv(cachedir.CACHE_ENV, str(tmp_path / "cache"))
+    cachedir.cache_root.cache_clear()
+    tuning.clear()
+    yield tmp_path / "cache"
+    cachedir.cache_root.cache_clear()
+    tuning.clear()
+
+
+def shadow_family() -> tuning.Family:
+    return tuning.family("shadow")
+
+
+def rule_lanes() -> int:
+    return rule_values(shadow_family(), get_runtime().device)["lanes"]
+
+
+def test_rule_follows_the_native_vector_width():
+    dev = get_runtime().device
+    width = dev.native_vector_width_float
+    lanes = rule_lanes()
+    if dev.type & cl.device_type.CPU:
+        assert lanes == max([v for v in (4, 8, 16) if v <= width], default=0)
+    else:
+        assert lanes == 0
+
+
+def test_lookup_order_user_then_shipped_then_rule(cache, monkeypatch):
+    rt = get_runtime()
+    fam, key = shadow_family(), DeviceKey.of(rt.device)
+    monkeypatch.setenv(tuning.NO_PROBE_ENV, "1")
+    assert tuning.decide(rt, fam).source == "rule"
+    shipped = {"lanes": 4, "run": 256, "group": 16}
+    entry = {"device": key.as_dict(), "families": {"shadow": {"values": shipped, "kernel_digest": "old"}}}
+    monkeypatch.setattr(store, "shipped_entries", lambda: (entry,))
+    d = tuning.decide(rt, fam)
+    assert (d.values, d.source) == (shipped, "shipped") and "measured with kernels old" in d.notes
+    mine = {"lanes": 0, "run": 64, "group": 256}
+    store.save_user_values(key, fam, mine, {"best_ms": 1.0})
+    assert (tuning.decide(rt, fam).values, tuning.decide(rt, fam).source) == (mine, "user")
+    # an entry measured with other kernels no longer counts, and says so
+    data = json.loads(store.user_path(key).read_text())
+    data["families"]["shadow"]["kernel_digest"] = "0" * 16
+    store.user_path(key).write_text(json.dumps(data))
+    d = tuning.decide(rt, fam)
+    assert d.source == "shipped" and any("re-run 'oclshade tune'" in n for n in d.notes)
+
+
+def test_a_shipped_entry_of_another_cpu_does_not_match(cache, monkeypatch):
+    rt = get_runtime()
+    key = DeviceKey.of(rt.device).as_dict()
+    other = dict(key, host_cpu="Some Other CPU (family 1 model 1; avx512f)")
+    entry = {"device": other, "families": {"shadow": {"values": {"lanes": 4, "run": 256, "group": 16}}}}
+    monkeypatch.setattr(store, "shipped_entries", lambda: (entry,))
+    monkeypatch.setenv(tuning.NO_PROBE_ENV, "1")
+    assert tuning.decide(rt, shadow_family()).source == "rule"
+
+
+@pytest.mark.parametrize("fault", ["abort", "hang", "fail"])
+def test_a_variant_that_crashes_or_hangs_falls_back_and_is_remembered(cache, monkeypatch, fault):
+    lanes = rule_lanes()
+    if lanes == 0:
+        pytest.skip("the rule picks no packets on this device: nothing to fall back from")
+    rt = get_runtime()
+    fam = shadow_family()
+    monkeypatch.setenv(probe.FAULT_ENV, f"{fault}:lanes={lanes}")
+    monkeypatch.setenv(probe.TIMEOUT_ENV, "20")
+    t0 = time.perf_counter()
+    d = tuning.decide(rt, fam)
+    assert d.values["lanes"] == max(v for v in (0, 4, 8, 16) if v < lanes)
+    assert d.source in ("rule, narrowed", "safe")
+    assert any("failed" in n for n in d.notes)
+    if fault == "hang":
+        assert time.perf_counter() - t0 < 120
+    # remembered: the next lookup runs no child process
+    with monkeypatch.context() as m:
+        m.setattr(tuning, "run_probe", lambda *a: pytest.fail("probed again"))
+        assert tuning.decide(rt, fam).values == d.values
+    # and the fallback gives the same masks as the scalar kernel
+    from oclshade import ShadowCaster
+    from oclshade.heightmap import Heightmap
+    from oclshade.synthetic import canyon_crater
+    hm = Heightmap.from_array(canyon_crater(96), 30.0)
+    got = ShadowCaster(hm, cache=False, knobs=d.values).cast((37.0, 20.0)).mask
+    want = ShadowCaster(hm, cache=False, knobs={"lanes": 0}).cast((37.0, 20.0)).mask
+    assert np.array_equal(got, want)
+
+
+def _child_env(cache_dir: Path, **extra: str) -> dict[str, str]:
+    env = {k: v for k, v in os.environ.items() if k not in ("POCL_CACHE_DIR", "OCLSHADE_DEBUG")}
+    env.update({cachedir.CACHE_ENV: str(cache_dir), "PYTHONDONTWRITEBYTECODE": "1"}, **extra)
+    return env
+
+
+MASK_SCRIPT = """
+import sys
+from oclshade import cast_shadows
+from oclshade.synthetic import canyon_crater
+m = cast_shadows(canyon_crater(80), 30.0, (37.0, 20.0), cache=False).mask
+print("shadowed", int(m.sum()))
+"""
+
+
+def test_a_build_killed_half_way_does_not_break_later_runs(tmp_path):
+    cache_dir = tmp_path / "cache"
+    reference = subprocess.run([sys.executable, "-c", MASK_SCRIPT], env=_child_env(tmp_path / "ref"),
+                               capture_output=True, text=True, timeout=600)
+    assert reference.returncode == 0, reference.stderr
+    for delay in (1.0, 2.5):   # mid-probe / mid-build on this machine
+        proc = subprocess.Popen([sys.executable, "-c", MASK_SCRIPT], env=_child_env(cache_dir),
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+        time.sleep(delay)
+        os.killpg(proc.pid, signal.SIGKILL)   # the process and its probe children
+        proc.wait()
+        again = subprocess.run([sys.executable, "-c", MASK_SCRIPT], env=_child_env(cache_dir),
+                               capture_output=True, text=True, timeout=600)
+        assert again.returncode == 0, again.stderr
+        assert again.stdout == reference.stdout
+
+
+def test_a_cached_program_without_kernels_is_rebuilt(tmp_path):
+    """PoCL's cache entry of the shadow program replaced by one of a program with no kernel of
+    that name (what a build that crashed half-way left behind): the run purges and rebuilds."""
+    cache_dir = tmp_path / "cache"
+    first = subprocess.run([sys.executable, "-c", MASK_SCRIPT], env=_child_env(cache_dir, OCLSHADE_NO_PROBE="1"),
+                           capture_output=True, text=True, timeout=600)
+    assert first.returncode == 0, first.stderr
+    pocl = next(cache_dir.glob("kernels-*/pocl"), None)
+    entries = [p.parent for p in pocl.rglob("program.bc")] if pocl else []
+    if not entries:
+        pytest.skip("the OpenCL driver keeps no PoCL-style kernel cache here")
+    empty = subprocess.run([sys.executable, "-c", """
+import pyopencl as cl
+from oclshade.runtime import get_runtime
+rt = get_runtime()
+cl.Program(rt.context, "__kernel void unrelated(__global float *x) { x[0] = 1.0f; }").build()
+"""], env=_child_env(cache_dir), capture_output=True, text=True, timeout=600)
+    assert empty.returncode == 0, empty.stderr
+    bogus = next(p.parent for p in pocl.rglob("program.bc") if p.parent not in entries)
+    for entry in entries:
+        (entry / "program.bc").write_bytes((bogus / "program.bc").read_bytes())
+        for sub in entry.iterdir():
+            if sub.is_dir():
+                for f in sub.rglob("*.so"):
+                    f.unlink()
+    for p in cache_dir.glob("kernels-*/pyopencl"):
+        import shutil
+        shutil.rmtree(p)
+    again = subprocess.run([sys.executable, "-c", MASK_SCRIPT], env=_child_env(cache_dir, OCLSHADE_NO_PROBE="1"),
+                           capture_output=True, text=True, timeout=600)
+    assert again.returncode == 0, again.stderr
+    assert again.stdout == first.stdout
+
+
+def test_first_run_is_quiet_but_for_one_line_and_later_runs_silent(tmp_path):
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "oclshade", "shadow", str(CANYON), str(out / "m.tif"), "-az", "315", "-alt", "20"]
+    env = _child_env(tmp_path / "cache")
+    cold = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=600)
+    assert cold.returncode == 0, cold.stderr
+    lines = cold.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("oclshade: compiling OpenCL kernels for"), cold.stderr
+    assert "warning" not in (cold.stdout + cold.stderr).lower()
+    warm = subprocess.run(cmd + ["--quiet"], env=env, capture_output=True, text=True, timeout=600)
+    assert warm.returncode == 0 and warm.stderr == "" and warm.stdout == "", warm.stderr
