@@ -20,6 +20,7 @@
  *
  *     oclshade *lib;
  *     oclshade_create(context, device, NULL, &lib);     // NULL: built-in kernel copy
+ *     oclshade_set_tuning(lib, &measured);              // optional: values `oclshade tune` measured
  *     oclshade_relative_heights(dem, rows * cols, rel, &offset);  // float64 -> relative float32
  *     // heights: rows*cols floats holding rel; layout from oclshade_pyramid_layout_for
  *     oclshade_enqueue_extrema_pyramid(lib, queue, heights, rows, cols, pyr, offs, 0, NULL, NULL);
@@ -60,6 +61,22 @@
  * are chained with events, the first waits on the caller's wait list and the
  * returned event completes when all of them have.  The caller orders separate
  * calls (an in-order queue, or the events).
+ *
+ * Tuning.  How the shadow pass is built and launched (never what it
+ * computes: every legal value gives the same results bit for bit) is set by
+ * three knobs, oclshade_tuning, the Python host's "shadow" tuning family
+ * (oclshade/shadows.py TUNING): packet_lanes (rays per work-item on vector
+ * lanes for EXACT and MAXMIP, 0 = one ray per work-item), packet_run (cells
+ * per ray-packet work-item) and group (work-group size).  A new handle starts
+ * with oclshade_default_tuning(device), the Python host's rule for a device
+ * without a measured entry (oclshade/tuning/rules.py: on a CPU device the
+ * widest of 4 / 8 / 16 lanes within CL_DEVICE_NATIVE_VECTOR_WIDTH_FLOAT;
+ * elsewhere no packets; runs of 1024, groups of 64).  The values Python's
+ * tuner measured for a device are printed by `oclshade devices` (`--json`:
+ * tuning.shadow.values) and written by `oclshade tune` into the user entry
+ * (JSON under ~/.cache/oclshade/tuning/, families.shadow.values); pass them
+ * to oclshade_set_tuning (lanes -> packet_lanes, run -> packet_run, group).
+ * Version 0.2 added the tuning (OCLSHADE_VERSION_MINOR 2).
  */
 #ifndef OCLSHADE_H
 #define OCLSHADE_H
@@ -79,13 +96,14 @@ extern "C" {
 #endif
 
 #define OCLSHADE_VERSION_MAJOR 0
-#define OCLSHADE_VERSION_MINOR 1
+#define OCLSHADE_VERSION_MINOR 2
 #define OCLSHADE_VERSION_PATCH 0
 
 /* Status codes.  OCLSHADE_OK is 0.  A failure of a call on a handle leaves
  * its message in oclshade_last_error(); the pure host functions (no handle:
  * layouts, sun parameters, relative heights, build options) only return
- * OCLSHADE_INVALID_ARGUMENT, their arguments being few and documented. */
+ * OCLSHADE_INVALID_ARGUMENT, their arguments being few and documented
+ * (oclshade_default_tuning, which queries the device, also OPENCL_ERROR). */
 typedef enum oclshade_status {
     OCLSHADE_OK = 0,
     OCLSHADE_INVALID_ARGUMENT = 1,  /* the message names the argument and the expected value */
@@ -177,24 +195,64 @@ const char *oclshade_program_source(const oclshade *lib, const char *file);
 
 /* Build the programs a later enqueue with this method and output set will
  * use (outputs: OCLSHADE_OUT_* bits, at least one), and the pyramid program,
- * so that no build happens inside a frame.  Optional. */
+ * so that no build happens inside a frame.  Optional.  Built with the
+ * handle's current tuning: call it after oclshade_set_tuning. */
 oclshade_status oclshade_prepare(oclshade *lib, oclshade_method method, unsigned outputs);
 
-/* The -D options and the program file an enqueue with (method, outputs) builds,
+/* The -D options and the program file an enqueue with (method, outputs) builds
+ * without ray packets (packet_lanes 0),
  * e.g. "-DOCLS_CERT=16 -DOCLS_CERT_K=6 -DOCLS_METHOD=1 -DOCLS_OUT_MASK -cl-std=CL1.2"
  * (the Python host's, sorted by name; OCLS_CERT only for EXACT and MAXMIP).  Writes at most size bytes including the NUL; returns the
  * length the full string needs (snprintf-style), or 0 for a bad method or
  * outputs.  For logs and for users building kernels/shadow.cl themselves. */
 size_t oclshade_shadow_build_options(oclshade_method method, unsigned outputs, char *buf, size_t size);
 
-/* The options this handle builds for (method, outputs): on a CPU device
- * EXACT and MAXMIP add -DOCLS_PACKET=1024 (before -cl-std) and launch
- * shadow_cells_packet, 16 rays per work-item on vector lanes, with the same
- * results bit for bit (the Python host's choice, ShadowCaster(packets=None));
- * elsewhere oclshade_shadow_build_options.  Returns as that one, and 0 for
- * a failed handle. */
+/* The options this handle builds for (method, outputs) with its current
+ * tuning: where its packet_lanes > 0, EXACT and MAXMIP add
+ * -DOCLS_LANES=<packet_lanes> (after -DOCLS_CERT_K) and
+ * -DOCLS_PACKET=<packet_run> (before -cl-std) and launch shadow_cells_packet,
+ * packet_lanes rays per work-item on vector lanes, with the same results bit
+ * for bit (the Python host's ShadowFeatures(method, outputs, lanes=, run=));
+ * otherwise oclshade_shadow_build_options.  Returns as that one, and 0 for a
+ * failed handle. */
 size_t oclshade_shadow_build_options_for(const oclshade *lib, oclshade_method method, unsigned outputs,
                                          char *buf, size_t size);
+
+/* ------------------------------------------------------------------ tuning */
+
+/* The shadow pass's performance knobs (see "Tuning" above); the Python
+ * host's ShadowCaster(knobs={"lanes":, "run":, "group":}).  Legal values: */
+typedef struct oclshade_tuning {
+    int packet_lanes;  /* 0, 4, 8 or 16: rays per work-item on vector lanes for EXACT and MAXMIP
+                          (-D OCLS_LANES, kernel shadow_cells_packet); 0: one ray per work-item
+                          (shadow_cells).  Best at the CPU's native float vector width. */
+    int packet_run;    /* 16, 64, 256 or 1024: cells of a row per ray-packet work-item
+                          (-D OCLS_PACKET); read only where packet_lanes > 0 */
+    int group;         /* 16, 64 or 256: the shadow pass's work-group size in work-items (the
+                          largest power of two <= group that the device and kernel accept, at
+                          most 16 wide, as the Python host's Runtime.grid_2d) */
+} oclshade_tuning;
+
+/* The values a new handle on `device` starts with: the Python host's rule
+ * for a device without a measured entry (oclshade/tuning/rules.py) from
+ * CL_DEVICE_TYPE and CL_DEVICE_NATIVE_VECTOR_WIDTH_FLOAT: on a CPU device
+ * packet_lanes is the widest of 4, 8, 16 within the native width (below 4:
+ * 0), on other devices 0; packet_run 1024; group 64.  Reentrant (no handle).
+ * INVALID_ARGUMENT for a NULL device or out, OPENCL_ERROR if the device
+ * query fails; *out (if not NULL) then holds the safe values (0, 1024, 64). */
+oclshade_status oclshade_default_tuning(cl_device_id device, oclshade_tuning *out);
+
+/* Set the handle's tuning, e.g. the values `oclshade tune` measured.  Every
+ * field is checked (INVALID_ARGUMENT naming the field and its legal values;
+ * nothing is changed then).  Applies to the shadow passes built afterwards:
+ * built shadow variants whose knobs change are dropped (under the handle's
+ * lock; commands already enqueued are unaffected) and rebuilt on next use
+ * or oclshade_prepare.  Setting the current values is a no-op. */
+oclshade_status oclshade_set_tuning(oclshade *lib, const oclshade_tuning *tuning);
+
+/* The handle's current tuning into *out (INVALID_ARGUMENT for NULL
+ * arguments; a failed handle returns its creation status). */
+oclshade_status oclshade_get_tuning(const oclshade *lib, oclshade_tuning *out);
 
 /* ----------------------------------------------------------- heights (host) */
 
@@ -274,7 +332,9 @@ typedef struct oclshade_shadow_params {
 void oclshade_shadow_params_init(oclshade_shadow_params *params);
 
 /* Enqueue one shadow pass (one launch of shadow_cells, global size (cols,
- * rows) rounded up to the local size; for EXACT and MAXMIP with the sun above
+ * rows) rounded up to the local size, or with ray packets (the tuning's
+ * packet_lanes > 0, EXACT and MAXMIP) of shadow_cells_packet, global size
+ * (ceil(cols / packet_run), rows) rounded up; for EXACT and MAXMIP with the sun above
  * the horizon and below the zenith, preceded by one launch of shadow_certify
  * into a temporary buffer of far-field tile certificates, see
  * kernels/shadow.cl; the returned event is the last command's).  At least one output buffer must be

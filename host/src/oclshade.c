@@ -40,15 +40,26 @@ extern const size_t oclshade_embedded_source_count;
 #define CERT_TILE 16
 #define CERT_K 6
 #define CERTIFIED(method) ((method) == OCLSHADE_EXACT || (method) == OCLSHADE_MAXMIP)
-/* ray packets (kernels/shadow.cl shadow_cells_packet, -D OCLS_PACKET) for EXACT and MAXMIP on
- * CPU devices: the value of oclshade/shadows.py PACKET_RUN, cells per work-item */
-#define PACKET_RUN 1024
+/* ray packets (kernels/shadow.cl shadow_cells_packet, -D OCLS_PACKET=run -D OCLS_LANES=lanes):
+ * EXACT and MAXMIP when the tuning's packet_lanes > 0 (oclshade/shadows.py PACKET_METHODS) */
+#define PACKETED(lib, method) ((lib)->tuning.packet_lanes > 0 && CERTIFIED(method))
+/* the legal knob values: oclshade/shadows.py TUNING (lanes, run, group) */
+static const int LEGAL_LANES[] = {0, 4, 8, 16};
+static const int LEGAL_RUN[] = {16, 64, 256, 1024};
+static const int LEGAL_GROUP[] = {16, 64, 256};
+#define N_LEGAL(a) (sizeof(a) / sizeof((a)[0]))
+/* the safe values (every device): one ray per work-item, runs of 1024, groups of 64 */
+#define SAFE_LANES 0
+#define SAFE_RUN 1024
+#define SAFE_GROUP 64
+/* the certificate kernel's work-group size (oclshade/shadows.py _certifier: grid_2d's default) */
+#define CERT_GROUP 64
 
 typedef struct variant {
     cl_program program;
-    cl_kernel kernel;     /* shadow_cells, or shadow_cells_packet where packets */
+    cl_kernel kernel;     /* shadow_cells, or shadow_cells_packet where run > 0 */
     size_t local[2];
-    int packets;          /* the kernel traces PACKET_RUN cells of a row per work-item */
+    int run;              /* 0, or the kernel traces `run` cells of a row per work-item (ray packets) */
     cl_kernel certify;    /* shadow_certify, NULL for methods without certificates */
     size_t cert_local[2];
 } variant;
@@ -59,7 +70,7 @@ struct oclshade {
     oclshade_status failed;   /* != OK: creation failed, the handle only reports it */
     char *pyramid_src, *shadow_src;   /* expanded sources */
     size_t dev_max_wg, dev_max_item0;
-    int cpu;                          /* a CPU device: EXACT and MAXMIP use ray packets */
+    oclshade_tuning tuning;           /* for shadow variants built from now on (under the lock) */
     ocls_mutex lock;
     cl_program pyramid_prog;
     cl_kernel base_kernel, reduce_kernel;
@@ -298,6 +309,48 @@ static oclshade_status expanded_source(oclshade *lib, const source_set *set, con
     return OCLSHADE_OK;
 }
 
+/* ------------------------------------------------------------------ tuning */
+
+/* oclshade/tuning/rules.py rule_values for the shadow family: on a CPU device
+ * the widest of 4 / 8 / 16 lanes within CL_DEVICE_NATIVE_VECTOR_WIDTH_FLOAT
+ * (below 4: 0, no packets); elsewhere 0; run and group their safe values.
+ * *out holds the safe values when a query fails. */
+static cl_int default_tuning(cl_device_id device, oclshade_tuning *out)
+{
+    out->packet_lanes = SAFE_LANES;
+    out->packet_run = SAFE_RUN;
+    out->group = SAFE_GROUP;
+    cl_device_type type = 0;
+    cl_uint width = 0;
+    cl_int err = clGetDeviceInfo(device, CL_DEVICE_TYPE, sizeof type, &type, NULL);
+    if (err == CL_SUCCESS)
+        err = clGetDeviceInfo(device, CL_DEVICE_NATIVE_VECTOR_WIDTH_FLOAT, sizeof width, &width, NULL);
+    if (err != CL_SUCCESS) return err;
+    if (type & CL_DEVICE_TYPE_CPU) {
+        if (width < 1) width = 1;   /* rules.py: native_vector_width_float or 1 */
+        for (size_t i = 0; i < N_LEGAL(LEGAL_LANES); ++i)
+            if (LEGAL_LANES[i] >= 4 && (cl_uint)LEGAL_LANES[i] <= width && LEGAL_LANES[i] > out->packet_lanes)
+                out->packet_lanes = LEGAL_LANES[i];
+    }
+    return CL_SUCCESS;
+}
+
+oclshade_status oclshade_default_tuning(cl_device_id device, oclshade_tuning *out)
+{
+    if (device == NULL || out == NULL) {
+        if (out != NULL) { out->packet_lanes = SAFE_LANES; out->packet_run = SAFE_RUN; out->group = SAFE_GROUP; }
+        return OCLSHADE_INVALID_ARGUMENT;
+    }
+    return default_tuning(device, out) == CL_SUCCESS ? OCLSHADE_OK : OCLSHADE_OPENCL_ERROR;
+}
+
+static int legal(int value, const int *values, size_t n)
+{
+    for (size_t i = 0; i < n; ++i)
+        if (values[i] == value) return 1;
+    return 0;
+}
+
 /* ------------------------------------------------------------------ handle */
 
 static oclshade_status init_handle(oclshade *lib, cl_context context, cl_device_id device, const source_set *set)
@@ -320,10 +373,8 @@ static oclshade_status init_handle(oclshade *lib, cl_context context, cl_device_
     if (err == CL_SUCCESS) err = clGetDeviceInfo(device, CL_DEVICE_MAX_WORK_ITEM_SIZES, sizeof items, items, NULL);
     if (err != CL_SUCCESS) return fail_cl(lib, err, "clGetDeviceInfo(device, work sizes)");
     lib->dev_max_item0 = items[0];
-    cl_device_type type = 0;
-    err = clGetDeviceInfo(device, CL_DEVICE_TYPE, sizeof type, &type, NULL);
-    if (err != CL_SUCCESS) return fail_cl(lib, err, "clGetDeviceInfo(device, CL_DEVICE_TYPE)");
-    lib->cpu = (type & CL_DEVICE_TYPE_CPU) != 0;
+    err = default_tuning(device, &lib->tuning);
+    if (err != CL_SUCCESS) return fail_cl(lib, err, "clGetDeviceInfo(device, CL_DEVICE_TYPE / CL_DEVICE_NATIVE_VECTOR_WIDTH_FLOAT)");
     clRetainContext(context);
     clRetainDevice(device);
     lib->context = context;
@@ -358,16 +409,25 @@ oclshade_status oclshade_create_from_sources(cl_context context, cl_device_id de
     return create(context, device, &set, out);
 }
 
+/* Release the built shadow variants (they are rebuilt on next use).  Enqueued
+ * commands keep their kernels alive (OpenCL reference counting). */
+static void drop_shadow_variants(oclshade *lib)
+{
+    for (int m = 0; m < N_METHODS; ++m) {
+        for (int o = 0; o < N_OUTPUT_SETS; ++o) {
+            variant *v = &lib->shadow[m][o];
+            if (v->kernel) clReleaseKernel(v->kernel);
+            if (v->certify) clReleaseKernel(v->certify);
+            if (v->program) clReleaseProgram(v->program);
+            memset(v, 0, sizeof *v);
+        }
+    }
+}
+
 void oclshade_destroy(oclshade *lib)
 {
     if (lib == NULL) return;
-    for (int m = 0; m < N_METHODS; ++m) {
-        for (int o = 0; o < N_OUTPUT_SETS; ++o) {
-            if (lib->shadow[m][o].kernel) clReleaseKernel(lib->shadow[m][o].kernel);
-            if (lib->shadow[m][o].certify) clReleaseKernel(lib->shadow[m][o].certify);
-            if (lib->shadow[m][o].program) clReleaseProgram(lib->shadow[m][o].program);
-        }
-    }
+    drop_shadow_variants(lib);
     if (lib->base_kernel) clReleaseKernel(lib->base_kernel);
     if (lib->reduce_kernel) clReleaseKernel(lib->reduce_kernel);
     if (lib->pyramid_prog) clReleaseProgram(lib->pyramid_prog);
@@ -479,34 +539,78 @@ static oclshade_status pyramid_program(oclshade *lib)
     return OCLSHADE_OK;
 }
 
-/* A handle traces (method) with ray packets: EXACT and MAXMIP on a CPU device. */
-static int uses_packets(const oclshade *lib, oclshade_method method) { return lib->cpu && CERTIFIED(method); }
-
-/* The options of (method, outputs), with -DOCLS_PACKET or without. */
-static size_t build_options(oclshade_method method, unsigned outputs, int packets, char *buf, size_t size)
+/* The options of (method, outputs) with ray packets of `lanes` rays and `run`
+ * cells per work-item, or without (lanes 0: shadow_cells). */
+static size_t build_options(oclshade_method method, unsigned outputs, int lanes, int run, char *buf, size_t size)
 {
     if (method < OCLSHADE_EXACT || method > OCLSHADE_DDA || outputs == 0 || outputs >= N_OUTPUT_SETS) return 0;
+    const int packets = lanes > 0 && CERTIFIED(method);
+    char lanes_opt[32] = "", run_opt[32] = "";
+    if (packets) {
+        snprintf(lanes_opt, sizeof lanes_opt, "-DOCLS_LANES=%d ", lanes);
+        snprintf(run_opt, sizeof run_opt, " -DOCLS_PACKET=%d", run);
+    }
     /* ShadowFeatures.defines through runtime.define_options: sorted by name, then the standard */
-    int n = snprintf(buf, size, "%s-DOCLS_METHOD=%d%s%s%s%s " CL_STD_OPTION,
+    int n = snprintf(buf, size, "%s%s-DOCLS_METHOD=%d%s%s%s%s " CL_STD_OPTION,
                      CERTIFIED(method) ? "-DOCLS_CERT=" OCLS_STR(CERT_TILE) " -DOCLS_CERT_K=" OCLS_STR(CERT_K) " " : "",
-                     (int)method,
+                     lanes_opt, (int)method,
                      (outputs & OCLSHADE_OUT_COEFFICIENT) ? " -DOCLS_OUT_COEF" : "",
                      (outputs & OCLSHADE_OUT_MASK) ? " -DOCLS_OUT_MASK" : "",
                      (outputs & OCLSHADE_OUT_SELF) ? " -DOCLS_OUT_SELF" : "",
-                     packets ? " -DOCLS_PACKET=" OCLS_STR(PACKET_RUN) : "");
+                     run_opt);
     return n < 0 ? 0 : (size_t)n + 1;
 }
 
 size_t oclshade_shadow_build_options(oclshade_method method, unsigned outputs, char *buf, size_t size)
 {
-    return build_options(method, outputs, 0, buf, size);
+    return build_options(method, outputs, 0, SAFE_RUN, buf, size);
 }
 
 size_t oclshade_shadow_build_options_for(const oclshade *lib, oclshade_method method, unsigned outputs,
                                          char *buf, size_t size)
 {
-    return lib == NULL || lib->failed != OCLSHADE_OK ? 0
-           : build_options(method, outputs, uses_packets(lib, method), buf, size);
+    if (lib == NULL || lib->failed != OCLSHADE_OK) return 0;
+    /* the lock guards the tuning; the handle is the caller's (non-const) allocation */
+    ocls_mutex *lock = (ocls_mutex *)&lib->lock;
+    mutex_lock(lock);
+    const oclshade_tuning t = lib->tuning;
+    mutex_unlock(lock);
+    return build_options(method, outputs, t.packet_lanes, t.packet_run, buf, size);
+}
+
+oclshade_status oclshade_get_tuning(const oclshade *lib, oclshade_tuning *out)
+{
+    if (lib == NULL || out == NULL) return OCLSHADE_INVALID_ARGUMENT;
+    if (lib->failed != OCLSHADE_OK) return lib->failed;
+    ocls_mutex *lock = (ocls_mutex *)&lib->lock;
+    mutex_lock(lock);
+    *out = lib->tuning;
+    mutex_unlock(lock);
+    return OCLSHADE_OK;
+}
+
+oclshade_status oclshade_set_tuning(oclshade *lib, const oclshade_tuning *t)
+{
+    oclshade_status st = enter(lib);
+    if (st != OCLSHADE_OK) return st;
+    if (t == NULL) return fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "tuning must point to an oclshade_tuning, got NULL");
+    if (!legal(t->packet_lanes, LEGAL_LANES, N_LEGAL(LEGAL_LANES)))
+        return fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "tuning packet_lanes must be 0, 4, 8 or 16 (rays per work-item "
+                    "on vector lanes for EXACT and MAXMIP; 0: one ray per work-item), got %d", t->packet_lanes);
+    if (!legal(t->packet_run, LEGAL_RUN, N_LEGAL(LEGAL_RUN)))
+        return fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "tuning packet_run must be 16, 64, 256 or 1024 (cells per "
+                    "ray-packet work-item), got %d", t->packet_run);
+    if (!legal(t->group, LEGAL_GROUP, N_LEGAL(LEGAL_GROUP)))
+        return fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "tuning group must be 16, 64 or 256 (work-group size of the "
+                    "shadow pass, work-items), got %d", t->group);
+    mutex_lock(&lib->lock);
+    if (t->packet_lanes != lib->tuning.packet_lanes || t->packet_run != lib->tuning.packet_run ||
+        t->group != lib->tuning.group) {
+        lib->tuning = *t;
+        drop_shadow_variants(lib);   /* rebuilt with the new knobs on next use */
+    }
+    mutex_unlock(&lib->lock);
+    return OCLSHADE_OK;
 }
 
 /* Called with the lock held. */
@@ -514,20 +618,23 @@ static oclshade_status shadow_variant(oclshade *lib, oclshade_method method, uns
 {
     variant *v = &lib->shadow[method - 1][outputs];
     if (v->program == NULL) {
-        char options[192];
-        const int packets = uses_packets(lib, method);
-        build_options(method, outputs, packets, options, sizeof options);
+        char options[256];
+        const oclshade_tuning t = lib->tuning;
+        const int packets = PACKETED(lib, method);
+        build_options(method, outputs, t.packet_lanes, t.packet_run, options, sizeof options);
         cl_program prog = NULL;
         oclshade_status st = build(lib, SHADOW_FILE, lib->shadow_src, options, &prog);
         if (st != OCLSHADE_OK) return st;
-        /* oclshade/shadows.py launches with grid_2d(wanted=64, max_x=16) */
-        st = make_kernel(lib, prog, packets ? "shadow_cells_packet" : "shadow_cells", 64, 16, &v->kernel, v->local);
-        v->packets = packets;
+        /* oclshade/shadows.py launches shadow_cells(_packet) with grid_2d(wanted=group, max_x=16)
+         * and shadow_certify with grid_2d(wanted=64, max_x=16) */
+        st = make_kernel(lib, prog, packets ? "shadow_cells_packet" : "shadow_cells", (size_t)t.group, 16,
+                         &v->kernel, v->local);
+        v->run = packets ? t.packet_run : 0;
         if (st == OCLSHADE_OK && CERTIFIED(method)) {
-            st = make_kernel(lib, prog, "shadow_certify", 64, 16, &v->certify, v->cert_local);
+            st = make_kernel(lib, prog, "shadow_certify", CERT_GROUP, 16, &v->certify, v->cert_local);
             if (st != OCLSHADE_OK) { clReleaseKernel(v->kernel); v->kernel = NULL; }
         }
-        if (st != OCLSHADE_OK) { clReleaseProgram(prog); return st; }
+        if (st != OCLSHADE_OK) { clReleaseProgram(prog); memset(v, 0, sizeof *v); return st; }
         v->program = prog;
     }
     *out = v;
@@ -909,7 +1016,7 @@ oclshade_status oclshade_enqueue_shadows(oclshade *lib, cl_command_queue queue, 
         SET_ARG(k, 11, p->mask); SET_ARG(k, 12, p->self_shadow); SET_ARG(k, 13, p->coefficient);
         if (st == OCLSHADE_OK)
             st = err != CL_SUCCESS ? fail_cl(lib, err, "clSetKernelArg(shadow_cells)")
-                 : launch(lib, &ch, queue, k, v->local, v->packets ? (W + PACKET_RUN - 1) / PACKET_RUN : W, H,
+                 : launch(lib, &ch, queue, k, v->local, v->run ? (W + v->run - 1) / v->run : W, H,
                           "clEnqueueNDRangeKernel(shadow_cells)");
         if (cert) clReleaseMemObject(cert);
     }

@@ -4,8 +4,12 @@
  * Each check prints "ok <what>" or "FAIL <what>: <details>"; the exit status
  * is the number of failures.  Also prints one line per shadow program variant,
  * "options <method> <outputs> <build options>", the same for a handle on the
- * first device ("handle_options ..."), and "device_cpu 0|1", which the Python
- * test compares with the Python host's options. */
+ * first device ("handle_options ..."), the handle's initial tuning
+ * ("tuning <packet_lanes> <packet_run> <group>", oclshade_default_tuning of
+ * the device) and the device's name ("device_name <CL_DEVICE_NAME>"), and
+ * after oclshade_set_tuning with other values "tuned_tuning ..." and
+ * "tuned_options ...", which the Python test compares with the Python host's
+ * options and tuning rule. */
 #include "oclshade.h"
 
 #include <math.h>
@@ -49,6 +53,18 @@ static char *read_text(const char *dir, const char *name)
     text[n] = '\0';
     fclose(f);
     return text;
+}
+
+/* "<prefix> <method> <outputs> <options>" for every shadow variant of the handle */
+static void print_handle_options(const oclshade *lib, const char *prefix)
+{
+    char opts[256];
+    for (int m = OCLSHADE_EXACT; m <= OCLSHADE_DDA; ++m) {
+        for (unsigned o = 1; o < 8; ++o) {
+            size_t need = oclshade_shadow_build_options_for(lib, (oclshade_method)m, o, opts, sizeof opts);
+            printf("%s %d %u %s\n", prefix, m, o, need ? opts : "(none)");
+        }
+    }
 }
 
 static cl_mem buffer(cl_context ctx, size_t n)
@@ -114,6 +130,9 @@ int main(int argc, char **argv)
     expect(lib != NULL, "create: a failed handle is returned", "");
     st = oclshade_prepare(lib, OCLSHADE_EXACT, OCLSHADE_OUT_MASK);
     expect_status(lib, st, OCLSHADE_SOURCE_ERROR, "nonexistent", "failed handle: calls report the creation failure");
+    oclshade_tuning safe = {0, 1024, 64};
+    expect(oclshade_set_tuning(lib, &safe) == OCLSHADE_SOURCE_ERROR && oclshade_get_tuning(lib, &safe) == OCLSHADE_SOURCE_ERROR,
+           "failed handle: tuning calls report the creation failure", "");
     oclshade_destroy(lib);
 
     st = oclshade_create(NULL, device, dir, &lib);
@@ -143,15 +162,17 @@ int main(int argc, char **argv)
     /* ---- argument checks on a working handle */
     st = oclshade_create(ctx, device, dir, &lib);
     expect_status(lib, st, OCLSHADE_OK, "", "create from the kernel dir");
-    cl_device_type type = 0;
-    clGetDeviceInfo(device, CL_DEVICE_TYPE, sizeof type, &type, NULL);
-    printf("device_cpu %d\n", (type & CL_DEVICE_TYPE_CPU) != 0);
-    for (int m = OCLSHADE_EXACT; m <= OCLSHADE_DDA; ++m) {
-        for (unsigned o = 1; o < 8; ++o) {
-            size_t need = oclshade_shadow_build_options_for(lib, (oclshade_method)m, o, opts, sizeof opts);
-            printf("handle_options %d %u %s\n", m, o, need ? opts : "(none)");
-        }
-    }
+    oclshade_tuning tuning, def;
+    st = oclshade_get_tuning(lib, &tuning);
+    expect(st == OCLSHADE_OK, "get_tuning", oclshade_status_name(st));
+    expect(oclshade_default_tuning(device, &def) == OCLSHADE_OK && def.packet_lanes == tuning.packet_lanes &&
+           def.packet_run == tuning.packet_run && def.group == tuning.group,
+           "a new handle starts with oclshade_default_tuning(device)", "");
+    printf("tuning %d %d %d\n", tuning.packet_lanes, tuning.packet_run, tuning.group);
+    char device_name[256] = "";
+    clGetDeviceInfo(device, CL_DEVICE_NAME, sizeof device_name - 1, device_name, NULL);
+    printf("device_name %s\n", device_name);
+    print_handle_options(lib, "handle_options");
     const int rows = 5, cols = 7, n = rows * cols;
     oclshade_pyramid_layout_for(rows, cols, &lay);
     cl_mem heights = buffer(ctx, 4 * n), pyr = buffer(ctx, lay.pyramid_bytes), offs = buffer(ctx, lay.offsets_bytes);
@@ -201,6 +222,59 @@ int main(int argc, char **argv)
     expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "queue", "shadows: NULL queue");
     st = oclshade_prepare(lib, OCLSHADE_DDA, 0);
     expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "outputs must be", "prepare: no outputs");
+
+    /* ---- tuning */
+    expect(oclshade_default_tuning(NULL, &def) == OCLSHADE_INVALID_ARGUMENT && def.packet_lanes == 0 &&
+           def.packet_run == 1024 && def.group == 64, "default_tuning: NULL device gives the safe values", "");
+    expect(oclshade_default_tuning(device, NULL) == OCLSHADE_INVALID_ARGUMENT, "default_tuning: NULL out", "");
+    expect(oclshade_get_tuning(NULL, &tuning) == OCLSHADE_INVALID_ARGUMENT &&
+           oclshade_get_tuning(lib, NULL) == OCLSHADE_INVALID_ARGUMENT, "get_tuning: NULL arguments", "");
+    st = oclshade_set_tuning(lib, NULL);
+    expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "tuning must point", "set_tuning: NULL");
+    struct { const char *what, *needle; oclshade_tuning t; } bad_tuning[6] = {
+        {"set_tuning: lanes 5", "packet_lanes must be 0, 4, 8 or 16", {5, 1024, 64}},
+        {"set_tuning: lanes 32", "got 32", {32, 1024, 64}},
+        {"set_tuning: run 100", "packet_run must be 16, 64, 256 or 1024", {0, 100, 64}},
+        {"set_tuning: run 0", "got 0", {4, 0, 64}},
+        {"set_tuning: group 0", "group must be 16, 64 or 256", {0, 1024, 0}},
+        {"set_tuning: group 128", "group must be 16, 64 or 256", {8, 1024, 128}},
+    };
+    for (int i = 0; i < 6; ++i) {
+        st = oclshade_set_tuning(lib, &bad_tuning[i].t);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, bad_tuning[i].needle, bad_tuning[i].what);
+    }
+    oclshade_tuning now;
+    expect(oclshade_get_tuning(lib, &now) == OCLSHADE_OK && now.packet_lanes == tuning.packet_lanes &&
+           now.packet_run == tuning.packet_run && now.group == tuning.group,
+           "set_tuning: rejected values leave the tuning unchanged", "");
+    const oclshade_tuning lanes4 = {4, 16, 16};
+    st = oclshade_set_tuning(lib, &lanes4);
+    expect_status(lib, st, OCLSHADE_OK, "", "set_tuning: lanes 4, run 16, group 16");
+    expect(oclshade_get_tuning(lib, &now) == OCLSHADE_OK && now.packet_lanes == 4 && now.packet_run == 16 &&
+           now.group == 16, "get_tuning returns the values set", "");
+    oclshade_shadow_build_options_for(lib, OCLSHADE_EXACT, OCLSHADE_OUT_MASK, opts, sizeof opts);
+    expect(strstr(opts, "-DOCLS_LANES=4 ") != NULL && strstr(opts, "-DOCLS_PACKET=16 ") != NULL,
+           "set_tuning: the handle's exact options have -DOCLS_LANES=4 -DOCLS_PACKET=16", opts);
+    printf("tuned_tuning %d %d %d\n", now.packet_lanes, now.packet_run, now.group);
+    print_handle_options(lib, "tuned_options");
+    /* the variant built before is rebuilt with the new knobs, and still works */
+    st = oclshade_enqueue_shadows(lib, queue, &p, 0, NULL, NULL);
+    expect_status(lib, st, OCLSHADE_OK, "", "shadows: after set_tuning");
+    unsigned char got[35];
+    memset(got, 7, sizeof got);
+    clEnqueueReadBuffer(queue, mask, CL_TRUE, 0, sizeof got, got, 0, NULL, NULL);
+    int lit = 1;
+    for (int i = 0; i < n; ++i) lit &= got[i] == 0;
+    expect(lit, "shadows: a flat map is lit after set_tuning", "");
+    const oclshade_tuning scalar = {0, 1024, 256};
+    st = oclshade_set_tuning(lib, &scalar);
+    expect_status(lib, st, OCLSHADE_OK, "", "set_tuning: lanes 0");
+    char plain[256];
+    oclshade_shadow_build_options_for(lib, OCLSHADE_MAXMIP, 7, opts, sizeof opts);
+    oclshade_shadow_build_options(OCLSHADE_MAXMIP, 7, plain, sizeof plain);
+    expect(strcmp(opts, plain) == 0, "set_tuning: lanes 0 gives oclshade_shadow_build_options", opts);
+    expect(strcmp(oclshade_version(), "0.2.0") == 0 && OCLSHADE_VERSION_MINOR == 2, "version 0.2.0 (tuning API)",
+           oclshade_version());
     expect(strcmp(oclshade_status_name(OCLSHADE_BUILD_FAILED), "OCLSHADE_BUILD_FAILED") == 0, "status names", "");
     expect(oclshade_last_error(NULL)[0] != '\0', "last_error(NULL) explains", "");
 

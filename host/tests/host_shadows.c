@@ -9,10 +9,13 @@
  *   pyramid.f32, offsets.i32        the pyramid buffer and offset table read back
  *   sun<k>.bin                      oclshade_sun_for: ray[4], vector[4] float32, mode int32
  *   <method>_<k>.{mask,self,coef}   all three outputs of each method for sun k
+ * with the handle's initial tuning (oclshade_default_tuning of the device),
  * and checks itself that a mask-only build gives the same exact mask, that
- * an out-of-order queue chained by events gives the same pyramid and mask, and
+ * an out-of-order queue chained by events gives the same pyramid and mask,
  * (POSIX) that two threads sharing the handle, each on its own queue, give the
- * same masks while building a new variant concurrently.
+ * same masks while building a new variant concurrently and while one of them
+ * switches the handle's work-group size, and that every method gives the same three
+ * outputs, bit for bit, under the other tunings of ALT_TUNINGS.
  * Prints "ok" and exits 0 on success. */
 #include "oclshade.h"
 
@@ -24,6 +27,12 @@
 #endif
 
 static oclshade *lib;
+
+/* Tunings other than a CPU's or a GPU's default, each output compared with the
+ * default's: 4 lanes in runs of 16 cells and groups of 16; one ray per
+ * work-item in groups of 256 (packet_run unused). */
+static const oclshade_tuning ALT_TUNINGS[] = {{4, 16, 16}, {0, 1024, 256}};
+#define N_ALT_TUNINGS (sizeof ALT_TUNINGS / sizeof ALT_TUNINGS[0])
 
 #define CHECK(call)                                                                                   \
     do {                                                                                              \
@@ -85,15 +94,27 @@ typedef struct shared {
     double *az, *el;
     unsigned char *exact, *maxmip; /* nsuns * n serial masks */
     size_t n;
+    oclshade_tuning initial;       /* the handle's tuning before the threads */
+    oclshade_tuning regrouped;     /* the same with another work-group size */
 } shared;
+
+typedef struct thread_arg {
+    const shared *sh;
+    int index;
+} thread_arg;
 
 #if !defined(_WIN32)
 /* Each thread: its own queue and output buffers, the shared handle; every sun
  * with exact (mask only, built) and maxmip (mask + coefficient, a variant
- * first built here, by both threads at once). Returns "" or what differed. */
+ * first built here, by both threads at once).  Thread 1 sets the handle's
+ * tuning before each round (another work-group size, then the initial one),
+ * dropping the variants the other thread uses (rebuilt with the same options:
+ * the driver's binary cache, if any, keeps this quick).  Returns "" or what
+ * differed. */
 static void *thread_main(void *arg)
 {
-    const shared *sh = (const shared *)arg;
+    const shared *sh = ((const thread_arg *)arg)->sh;
+    const int index = ((const thread_arg *)arg)->index;
     cl_int err;
     cl_command_queue q = clCreateCommandQueue(sh->ctx, sh->device, 0, &err);
     if (err != CL_SUCCESS) return "thread: clCreateCommandQueue failed";
@@ -102,6 +123,8 @@ static void *thread_main(void *arg)
     unsigned char *got = (unsigned char *)xmalloc(sh->n);
     const char *result = "";
     for (int rep = 0; rep < 3 && *result == '\0'; ++rep) {
+        if (index == 1 && oclshade_set_tuning(lib, rep % 2 ? &sh->initial : &sh->regrouped) != OCLSHADE_OK)
+            result = "thread: set_tuning failed";
         for (int k = 0; k < sh->nsuns && *result == '\0'; ++k) {
             oclshade_shadow_params p = sh->base;
             p.azimuth = sh->az[k]; p.elevation = sh->el[k];
@@ -183,6 +206,11 @@ int main(int argc, char **argv)
     CHECK(oclshade_prepare(lib, OCLSHADE_EXACT, OCLSHADE_OUT_MASK));
     shared sh;
     sh.ctx = ctx; sh.device = device; sh.n = n; sh.nsuns = argc - 8;
+    CHECK(oclshade_get_tuning(lib, &sh.initial));
+    sh.regrouped = sh.initial;
+    sh.regrouped.group = sh.initial.group == 16 ? 64 : 16;
+    /* every output of every method and sun under the initial tuning: 6 bytes a cell */
+    unsigned char *outputs = (unsigned char *)xmalloc((size_t)sh.nsuns * 4 * 6 * n);
     sh.az = (double *)xmalloc(sh.nsuns * sizeof(double));
     sh.el = (double *)xmalloc(sh.nsuns * sizeof(double));
     sh.exact = (unsigned char *)xmalloc(sh.nsuns * n);
@@ -221,6 +249,10 @@ int main(int argc, char **argv)
             write_file(name, self, n);
             snprintf(name, sizeof name, "%s_%d.coef", method_names[m], sun_index);
             write_file(name, coef, 4 * n);
+            unsigned char *kept = outputs + ((size_t)sun_index * 4 + (size_t)m) * 6 * n;
+            memcpy(kept, mask, n);
+            memcpy(kept + n, self, n);
+            memcpy(kept + 2 * n, coef, 4 * n);
             if (methods[m] == OCLSHADE_EXACT) memcpy(exact_mask, mask, n);
             if (methods[m] == OCLSHADE_EXACT) memcpy(sh.exact + (size_t)sun_index * n, mask, n);
             if (methods[m] == OCLSHADE_MAXMIP) memcpy(sh.maxmip + (size_t)sun_index * n, mask, n);
@@ -274,15 +306,45 @@ int main(int argc, char **argv)
 #if !defined(_WIN32)
     {
         pthread_t threads[2];
+        thread_arg args[2];
         void *results[2];
-        for (int t = 0; t < 2; ++t)
-            if (pthread_create(&threads[t], NULL, thread_main, &sh) != 0) { fprintf(stderr, "pthread_create\n"); return 1; }
+        for (int t = 0; t < 2; ++t) {
+            args[t].sh = &sh;
+            args[t].index = t;
+            if (pthread_create(&threads[t], NULL, thread_main, &args[t]) != 0) { fprintf(stderr, "pthread_create\n"); return 1; }
+        }
         for (int t = 0; t < 2; ++t) pthread_join(threads[t], &results[t]);
         for (int t = 0; t < 2; ++t)
             if (*(const char *)results[t]) { fprintf(stderr, "%s: %s\n", (const char *)results[t], oclshade_last_error(lib)); return 1; }
-        printf("two threads sharing the handle: same masks\n");
+        printf("two threads sharing the handle, one switching its work-group size: same masks\n");
     }
 #endif
+
+    /* The knobs change how the shadow pass is built and launched, never what it computes. */
+    for (size_t a = 0; a < N_ALT_TUNINGS; ++a) {
+        const oclshade_tuning *t = &ALT_TUNINGS[a];
+        CHECK(oclshade_set_tuning(lib, t));
+        for (int k = 0; k < sh.nsuns; ++k) {
+            oclshade_shadow_params p = sh.base;
+            p.azimuth = sh.az[k]; p.elevation = sh.el[k];
+            p.mask = d_mask; p.self_shadow = d_self; p.coefficient = d_coef;
+            for (int m = 0; m < 4; ++m) {
+                p.method = methods[m];
+                CHECK(oclshade_enqueue_shadows(lib, queue, &p, 0, NULL, NULL));
+                read_buffer(queue, d_mask, n, mask, 0, NULL);
+                read_buffer(queue, d_self, n, self, 0, NULL);
+                read_buffer(queue, d_coef, 4 * n, coef, 0, NULL);
+                const unsigned char *kept = outputs + ((size_t)k * 4 + (size_t)m) * 6 * n;
+                if (memcmp(mask, kept, n) != 0 || memcmp(self, kept + n, n) != 0 || memcmp(coef, kept + 2 * n, 4 * n) != 0) {
+                    fprintf(stderr, "tuning lanes %d run %d group %d: %s outputs differ at sun %d (%g, %g)\n",
+                            t->packet_lanes, t->packet_run, t->group, method_names[m], k, sh.az[k], sh.el[k]);
+                    return 1;
+                }
+            }
+        }
+        printf("tuning lanes %d run %d group %d: same outputs\n", t->packet_lanes, t->packet_run, t->group);
+    }
+    free(outputs);
     free(sh.az); free(sh.el); free(sh.exact); free(sh.maxmip);
 
     oclshade_destroy(lib);
