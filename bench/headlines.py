@@ -6,7 +6,12 @@ builds excluded), on the same data and views as the full benchmarks:
 * issue 2: 4096^2 ``exact`` heightmap mask at 20 degrees (azimuths 37 and 135),
   pyramid included (a fresh caster per run, caches off), canyon (generated) and
   Puget Sound (``../shared/data``); with the device's default kernel (ray
-  packets on CPUs) and, as the baseline, one ray per work-item;
+  ray packets where the tuning chose them) and, as the baseline, one ray per work-item; beside them the
+  outside peer, SAGA's ``ta_lighting 0`` shadows-only mask on the same data and
+  sun (bench/saga_peer.py: the tool's own time, grid writing, saga_cmd start-up,
+  loading and saving excluded; minimum of ``--reps`` runs), its ratio to the
+  default kernel and how much its mask agrees with oclshade's ('not installed'
+  when ``saga_cmd`` is absent);
 * issue 3: 1920x1080 frame of the 1024^2 terrain (bench/terrain_cast.py's
   Puget flyover), bisect against dda and march;
 * issue 4: 1920x1080 per-pixel shadows on the 2048^2 canyon, sun 10 degrees,
@@ -26,6 +31,7 @@ from pathlib import Path
 from typing import Callable
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from saga_peer import SagaPeer, agreement, saga_cmd, saga_version  # noqa: E402
 from shadow_masks import DEFAULT_DATA, REPO, Skip, load_dataset, log, metadata  # noqa: E402
 from terrain_cast import flyover, resample, terrain  # noqa: E402
 
@@ -42,10 +48,36 @@ def best_ms(fn: Callable[[], object], finish: Callable[[], None], reps: int) -> 
     return 1e3 * best
 
 
-def shadow_masks(data: Path, size: int, reps: int) -> list[dict]:
+def saga_status(enabled: bool) -> str | None:
+    """None when the SAGA peer runs, else why not ('not installed', 'skipped (--no-saga)')."""
+    if not enabled:
+        return "skipped (--no-saga)"
+    return None if saga_cmd() is not None else "not installed"
+
+
+def saga_peer(peer: SagaPeer | None, status: str | None, az: float, reps: int, ms: float,
+              ocl_mask, valid) -> dict:
+    """SAGA's module time (min of reps) for one sun, its ratio to oclshade's and the agreement."""
+    if peer is None:
+        return {"saga_ms": None, "saga": status or "not installed"}
+    try:
+        runs = [peer.run((az, 20.0)) for _ in range(reps)]
+    except Exception as exc:  # a peer that fails is recorded, never fatal
+        return {"saga_ms": None, "saga": f"failed: {str(exc).splitlines()[0]}"}
+    best = min(runs, key=lambda r: r.module_seconds)
+    saga_ms = 1e3 * best.module_seconds
+    return {"saga_ms": saga_ms, "saga": "ok", "saga_over_oclshade": saga_ms / ms,
+            "saga_timing": best.timing, "saga_reported_ms": best.reported_ms,
+            "saga_wall_s": min(r.wall_seconds for r in runs), "saga_processors": best.processors,
+            "saga_agreement": agreement(best.mask, ocl_mask, valid)}
+
+
+def shadow_masks(data: Path, size: int, reps: int, saga: bool = True) -> list[dict]:
+    import numpy as np
     from oclshade.heightmap import Heightmap
     from oclshade.shadows import ShadowCaster
 
+    status = saga_status(saga)
     rows = []
     for name in ("canyon", "puget"):
         try:
@@ -54,13 +86,28 @@ def shadow_masks(data: Path, size: int, reps: int) -> list[dict]:
             log(f"shadows: {name} skipped ({why})")
             continue
         hm = Heightmap.from_array(d["heights"], (d["dx"], d["dy"]))
+        peer = None
+        if status is None:
+            try:   # the grid is written here, outside every timing
+                peer = SagaPeer(d["heights"], (d["dx"], d["dy"]))
+            except Exception as exc:
+                status = f"failed: {exc}"
         for az in (37.0, 135.0):
-            def run(packets: bool | None = None) -> None:
-                ShadowCaster(hm, cache=False, packets=packets).cast((az, 20.0))
+            def run(single_ray: bool = False) -> None:
+                knobs = {"lanes": 0} if single_ray else None   # the device's tuning, or one ray per work-item
+                ShadowCaster(hm, cache=False, knobs=knobs).cast((az, 20.0))
             ms = best_ms(run, lambda: None, reps)
-            single = best_ms(lambda: run(False), lambda: None, reps)   # one ray per work-item
-            rows.append({"map": f"{name} {size}^2", "sun": [az, 20.0], "ms": ms, "single_ray_ms": single})
-            log(f"shadows {name} az {az:g}: {ms:.0f} ms (one ray per work-item: {single:.0f} ms)")
+            single = best_ms(lambda: run(True), lambda: None, reps)   # one ray per work-item
+            row = {"map": f"{name} {size}^2", "sun": [az, 20.0], "ms": ms, "single_ray_ms": single}
+            mask = ShadowCaster(hm, cache=False).cast((az, 20.0)).mask if peer is not None else None
+            row.update(saga_peer(peer, status, az, reps, ms, mask, np.isfinite(d["heights"])))
+            rows.append(row)
+            peer_txt = (f"SAGA {row['saga_ms']:.0f} ms ({row['saga_over_oclshade']:.1f}x), agreement "
+                        f"{row['saga_agreement']['agree_pct']:.2f} %" if row["saga_ms"] is not None
+                        else f"SAGA {row['saga']}")
+            log(f"shadows {name} az {az:g}: {ms:.0f} ms (one ray per work-item: {single:.0f} ms); {peer_txt}")
+        if peer is not None:
+            peer.close()
     return rows
 
 
@@ -122,22 +169,36 @@ def write_markdown(path: Path, r: dict) -> None:
              f"- {meta['date']}; `{meta['command']}`",
              f"- CPU: {meta['cpu']}, {meta['cores']} cores; device: {meta['device']}; PoCL {meta['pocl_version']}",
              f"- minimum wall time of {r['reps']} runs after a warm-up", "",
-             "| issue | what | ms | target |", "|---|---|---:|---|"]
+             "| issue | what | ms | target | peer: SAGA ms | SAGA / oclshade |",
+             "|---|---|---:|---|---:|---:|"]
     for row in r["shadow_masks"]:
-        lines.append(f"| 2 | exact mask + pyramid, {row['map']}, sun {row['sun'][0]:g}/20 | {row['ms']:.0f} | <= 1000 |")
-        lines.append(f"| 2 | same, one ray per work-item (packets off) | {row['single_ray_ms']:.0f} | baseline |")
+        if row.get("saga_ms") is not None:
+            peer = f"{row['saga_ms']:.0f} | {row['saga_over_oclshade']:.2f}x"
+        else:
+            peer = f"{row.get('saga', 'not installed')} | -"
+        lines.append(f"| 2 | exact mask + pyramid, {row['map']}, sun {row['sun'][0]:g}/20 | {row['ms']:.0f} | "
+                     f"<= 1000 | {peer} |")
+        lines.append(f"| 2 | same, one ray per work-item (packets off) | {row['single_ray_ms']:.0f} | baseline | | |")
     rd = r["render"]
     for method, ms in rd["ms"].items():
         lines.append(f"| 3 | 1920x1080 {method}, {rd['map']} | {ms:.0f} | "
-                     f"{'<= 400' if method == 'bisect' else 'baseline'} |")
+                     f"{'<= 400' if method == 'bisect' else 'baseline'} | | |")
     sp = r["screen"]
     lines += [f"| 4 | 1920x1080 per-pixel shadows exact, auto q, sun 37/10, {sp['map']} | "
-              f"{sp['shadows_exact_ms']:.0f} | <= 250 |",
-              f"| 4 | same, maxmip (no min early exit) | {sp['shadows_maxmip_ms']:.0f} | exact 1.3x faster expected |",
-              f"| 5 | 1920x1080 SSAO, paper recipe: {sp['ao_setting']} | {sp['ao_ms']:.0f} | <= 150 |",
+              f"{sp['shadows_exact_ms']:.0f} | <= 250 | | |",
+              f"| 4 | same, maxmip (no min early exit) | {sp['shadows_maxmip_ms']:.0f} | "
+              "exact 1.3x faster expected | | |",
+              f"| 5 | 1920x1080 SSAO, paper recipe: {sp['ao_setting']} | {sp['ao_ms']:.0f} | <= 150 | | |",
               f"| 5 | 1920x1080 SSAO, default: {sp['ao_default_setting']} | {sp['ao_default_ms']:.0f} | "
-              "<= paper recipe |",
+              "<= paper recipe | | |",
               "", f"Screen-space view: {sp['view']}, {sp['hit_pixels']} pixels see terrain."]
+    pr = r.get("peer", {})
+    agree = [f"{row['map'].split()[0]} {row['sun'][0]:g}/20: {row['saga_agreement']['agree_pct']:.2f} %"
+             for row in r["shadow_masks"] if row.get("saga_ms") is not None]
+    lines += ["", f"Peer: {pr.get('saga', 'SAGA not installed')}. {pr.get('note', '')}".rstrip()]
+    if agree:
+        lines.append("Cells where SAGA's mask equals oclshade's (valid cells; a different definition, "
+                     "not an error): " + "; ".join(agree) + ".")
     path.write_text("\n".join(lines) + "\n")
 
 
@@ -148,10 +209,19 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--reps", type=int, default=5)
     p.add_argument("--quick", action="store_true", help="smoke run on small maps")
     p.add_argument("--out", type=Path, default=REPO / "bench" / "results")
+    p.add_argument("--no-saga", action="store_true", help="leave out the SAGA peer column")
     args = p.parse_args(argv_list)
     big, mid, small = (256, 128, 64) if args.quick else (4096, 2048, 1024)
-    result = {"meta": metadata(["bench/headlines.py", *argv_list]), "reps": args.reps,
-              "shadow_masks": shadow_masks(args.data, big, args.reps),
+    status = saga_status(not args.no_saga)
+    peer = {"saga": f"SAGA {status}" if status else
+            f"SAGA {saga_version()} `saga_cmd -f=q ta_lighting 0 -METHOD=3 -POSITION=0 "
+            "-AZIMUTH=az -DECLINATION=20 -SHADOW=0` (shadows only, slim)",
+            "note": "" if status else
+            "SAGA ms = the tool alone, timed from saga_cmd's 'Execution started' to 'total execution time' "
+            "lines (SAGA's own figure has 1 s resolution), without saga_cmd start-up, grid loading and "
+            "saving; oclshade ms include the pyramid and the mask's copy to the host."}
+    result = {"meta": metadata(["bench/headlines.py", *argv_list]), "reps": args.reps, "peer": peer,
+              "shadow_masks": shadow_masks(args.data, big, args.reps, saga=not args.no_saga),
               "render": render(args.data, small, args.reps),
               "screen": screen_passes(mid, args.reps)}
     args.out.mkdir(parents=True, exist_ok=True)

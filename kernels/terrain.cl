@@ -151,6 +151,7 @@ typedef struct {
     float3 o, d;        /* ray in centred heightmap coordinates, t = depth */
     float iu, iv;       /* 1 / d.x, 1 / d.y (INFINITY where 0: such boundaries are never met) */
     float kx, ky;       /* paraboloid (OCLS_SPHERE) */
+    float ts;           /* the segment's start (patch_hit's expansion point is never before it) */
 #ifdef OCLS_STATS
     uint *steps;        /* this work-item's counters (OCLS_STATS_N), added to stats at the end */
 #endif
@@ -195,8 +196,8 @@ OCLS_INLINE float ray_low(const Ray *ray, float ta, float tb)
 
 /* Exact test of patch (r, c) over [ta, tb]: the first downward crossing, or INFINITY.
  * f(t0 + tau) = a + b tau + cq tau^2, expanded about t0, the ray's entry into the patch (the
- * later of its two near-boundary crossings; ta if rounding puts that after ta), to keep float32
- * precision.  Expanding about the entry rather than about ta makes the hit the same bits
+ * later of its two near-boundary crossings, not before the segment's start ts; ta if rounding
+ * puts that after ta), to keep float32 precision.  Expanding about the entry rather than about ta makes the hit the same bits
  * however the traversal reached the patch: a bisection leaf or a DDA descent may start the
  * walk part-way into a patch (after a part proven above the max), so with an expansion about
  * ta the hit depended on OCLS_DESCEND / OCLS_LEAF (tuning knobs) in the last bits.
@@ -218,7 +219,7 @@ OCLS_INLINE float patch_hit(__global const float *h, const Ray *ray, int r, int 
     const float3 o = ray->o, d = ray->d;
     const float eu = d.x != 0.0f ? ((float)(c - ray->cu + (d.x < 0.0f)) - o.x) * ray->iu : -INFINITY;
     const float ev = d.y != 0.0f ? ((float)(r - ray->cv + (d.y < 0.0f)) - o.y) * ray->iv : -INFINITY;
-    const float t0 = fmin(fmax(eu, ev), ta);
+    const float t0 = fmin(fmax(fmax(eu, ev), ray->ts), ta);
     const float px = o.x + t0 * d.x, py = o.y + t0 * d.y, pz = o.z + t0 * d.z;
     const float s = px - (float)(c - ray->cu), w = py - (float)(r - ray->cv);
     const float e = (h00 - h01) - (h10 - h11);
@@ -565,6 +566,7 @@ __kernel void terrain_cast(__global const float *h, const int H, const int W,
 #endif
     int2 cell = (int2)(0, 0);
     float th = INFINITY;
+    ray.ts = ts;
     if (H >= 2 && W >= 2 && ts <= te) {
         OCLS_COUNT(&ray, OCLS_ST_RAYS);
         th = cast(h, ext, ext_off, dil, dil_lev, levels, &ray, ts, te, &cell);

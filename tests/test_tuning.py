@@ -42,14 +42,28 @@ def rule_lanes() -> int:
     return rule_values(shadow_family(), get_runtime().device)["lanes"]
 
 
-def test_rule_follows_the_native_vector_width():
+def test_rule_follows_the_target_vector_width():
+    from oclshade.tuning.rules import float_lanes
     dev = get_runtime().device
-    width = dev.native_vector_width_float
+    width = float_lanes(dev)
     lanes = rule_lanes()
     if dev.type & cl.device_type.CPU:
         assert lanes == max([v for v in (4, 8, 16) if v <= width], default=0)
     else:
         assert lanes == 0
+
+
+class FakeDevice:
+    def __init__(self, version: str, native: int = 8):
+        self.version, self.native_vector_width_float = version, native
+
+
+@pytest.mark.parametrize("target,lanes", [("znver3", 8), ("haswell", 8), ("penryn", 4), ("skylake-avx512", 16),
+                                          ("znver4", 16), ("x86-64-v3", 8), ("x86-64", 4), ("sandybridge", 8)])
+def test_target_lanes_come_from_the_compiler_target_not_the_host(target, lanes):
+    from oclshade.tuning.rules import float_lanes
+    assert float_lanes(FakeDevice(f"OpenCL 3.0 PoCL HSTR: pthread-x86_64-pc-linux-gnu-{target}", 16)) == lanes
+    assert float_lanes(FakeDevice("OpenCL 3.0 CUDA", 1)) == 1
 
 
 def test_lookup_order_user_then_shipped_then_rule(cache, monkeypatch):
@@ -186,7 +200,9 @@ def test_first_run_is_quiet_but_for_one_line_and_later_runs_silent(tmp_path):
     cold = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=600)
     assert cold.returncode == 0, cold.stderr
     lines = cold.stderr.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("oclshade: compiling OpenCL kernels for"), cold.stderr
+    assert len(lines) == 2, cold.stderr   # the first-run line, then the run's summary
+    assert lines[0].startswith("oclshade: compiling OpenCL kernels for"), cold.stderr
+    assert lines[1].startswith("oclshade: 512x512 cells, 1 sun(s)"), cold.stderr
     assert "warning" not in (cold.stdout + cold.stderr).lower()
     warm = subprocess.run(cmd + ["--quiet"], env=env, capture_output=True, text=True, timeout=600)
     assert warm.returncode == 0 and warm.stderr == "" and warm.stdout == "", warm.stderr

@@ -312,9 +312,43 @@ static oclshade_status expanded_source(oclshade *lib, const source_set *set, con
 /* ------------------------------------------------------------------ tuning */
 
 /* oclshade/tuning/rules.py rule_values for the shadow family: on a CPU device
- * the widest of 4 / 8 / 16 lanes within CL_DEVICE_NATIVE_VECTOR_WIDTH_FLOAT
- * (below 4: 0, no packets); elsewhere 0; run and group their safe values.
+ * the widest of 4 / 8 / 16 lanes within the float lanes of the compiler's target
+ * (target_float_lanes, else CL_DEVICE_NATIVE_VECTOR_WIDTH_FLOAT; below 4: 0, no
+ * packets); elsewhere 0; run and group their safe values.
  * *out holds the safe values when a query fails. */
+/* oclshade/tuning/rules.py TARGET_FLOAT_LANES: float lanes of the LLVM CPU target PoCL names in
+ * CL_DEVICE_VERSION ("HSTR: pthread-x86_64-...-haswell"); the first row that matches wins. */
+static const struct { cl_uint lanes; const char *names; } TARGET_FLOAT_LANES[] = {
+    {16, "avx512 cascadelake cooperlake cannonlake icelake tigerlake sapphirerapids graniterapids "
+         "emeraldrapids znver4 znver5 x86-64-v4"},
+    {8, "haswell broadwell skylake alderlake raptorlake meteorlake arrowlake lunarlake sandybridge ivybridge "
+        "znver1 znver2 znver3 bdver btver2 x86-64-v3"},
+    {4, "penryn nehalem westmere core2 bonnell silvermont goldmont tremont athlon amdfam10 btver1 x86-64"},
+};
+
+/* The target's float lanes from the device version, 0 if it names no known target. */
+static cl_uint target_float_lanes(cl_device_id device)
+{
+    char version[512] = {0};
+    if (clGetDeviceInfo(device, CL_DEVICE_VERSION, sizeof version - 1, version, NULL) != CL_SUCCESS) return 0;
+    const char *target = strstr(version, "HSTR:");
+    if (target == NULL) return 0;
+    for (size_t row = 0; row < sizeof TARGET_FLOAT_LANES / sizeof TARGET_FLOAT_LANES[0]; ++row) {
+        const char *p = TARGET_FLOAT_LANES[row].names;
+        while (*p) {
+            char name[32];
+            size_t n = strcspn(p, " ");
+            if (n >= sizeof name) n = sizeof name - 1;
+            memcpy(name, p, n);
+            name[n] = '\0';
+            if (strstr(target, name) != NULL) return TARGET_FLOAT_LANES[row].lanes;
+            p += n;
+            while (*p == ' ') ++p;
+        }
+    }
+    return 0;
+}
+
 static cl_int default_tuning(cl_device_id device, oclshade_tuning *out)
 {
     out->packet_lanes = SAFE_LANES;
@@ -326,6 +360,8 @@ static cl_int default_tuning(cl_device_id device, oclshade_tuning *out)
     if (err == CL_SUCCESS)
         err = clGetDeviceInfo(device, CL_DEVICE_NATIVE_VECTOR_WIDTH_FLOAT, sizeof width, &width, NULL);
     if (err != CL_SUCCESS) return err;
+    const cl_uint target = target_float_lanes(device);
+    if (target) width = target;
     if (type & CL_DEVICE_TYPE_CPU) {
         if (width < 1) width = 1;   /* rules.py: native_vector_width_float or 1 */
         for (size_t i = 0; i < N_LEGAL(LEGAL_LANES); ++i)

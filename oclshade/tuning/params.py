@@ -91,15 +91,15 @@ class Family:
     def fallbacks(self, values: Values) -> list[Values]:
         """``values``, then the same with each vector knob narrowed step by step, then the safe
         values: the order in which a failing choice is replaced."""
+        safe = self.safe()
         out = [dict(values)]
         for p in self.params:
             if p.vector:
                 for v in p.narrower(values[p.name]):
                     out.append({**out[-1], p.name: v})
-        safe = self.safe()
-        if safe not in out:
-            out.append(safe)
-        return out
+        if safe in out:
+            return out[:out.index(safe) + 1]   # the safe values end the chain
+        return out + [safe]
 
 
 _REGISTRY: dict[str, Family] = {}

@@ -1,11 +1,12 @@
 """The rule: knob values from a device's properties, for a device with no measured entry.
 
 Measured on three CPUs and two PoCL drivers (docs/tuning.md): ray packets and
-the multi-texel pyramid base pay when their lane count is the device's
-native float vector width (AVX2: 8, AVX-512: 16); wider lanes than the
-hardware's are split in two by the compiler and ran 2.6-3.2x slower than one
-ray per work-item on an AVX2 Zen 2.  So on a CPU the lane knobs follow
-CL_DEVICE_NATIVE_VECTOR_WIDTH_FLOAT (below 4: no packets).  On other
+the multi-texel pyramid base pay when their lane count is the float vector
+width of the code the compiler generates (AVX2: 8, AVX-512: 16); wider lanes
+than the target's are split by the compiler and ran 2.6-3.2x slower than
+one ray per work-item on an AVX2 Zen 2 (16 lanes on znver2), 5-7x slower on
+a Zen 3 (16 lanes on znver3).  So on a CPU the lane knobs follow
+:func:`float_lanes` (below 4: no packets).  On other
 devices (GPUs) the hardware runs work-items in lockstep already: the scalar
 kernels.  A probe (oclshade.tuning.probe) still checks the rule's choice
 builds and runs before it is used.
@@ -15,6 +16,33 @@ from __future__ import annotations
 import pyopencl as cl
 
 from .params import Family, Values
+
+#: float lanes of the widest vector registers an LLVM CPU target has (AVX-512 16, AVX/AVX2 8,
+#: SSE 4), for PoCL devices whose device version names the target they compile for
+#: ("HSTR: pthread-x86_64-...-haswell").  PoCL reports the host's vector width even when it
+#: compiles for an older target (Debian's 3.1 with POCL_KERNELLIB_NAME=sse41 targets penryn
+#: on an AVX2 host and still says 8), and the PyPI wheel targets znver3 on an AVX-512 Zen 4.
+TARGET_FLOAT_LANES = (
+    (16, ("avx512", "cascadelake", "cooperlake", "cannonlake", "icelake", "tigerlake", "sapphirerapids",
+          "graniterapids", "emeraldrapids", "znver4", "znver5", "x86-64-v4")),
+    (8, ("haswell", "broadwell", "skylake", "alderlake", "raptorlake", "meteorlake", "arrowlake", "lunarlake",
+         "sandybridge", "ivybridge", "znver1", "znver2", "znver3", "bdver", "btver2", "x86-64-v3")),
+    (4, ("penryn", "nehalem", "westmere", "core2", "bonnell", "silvermont", "goldmont", "tremont", "athlon",
+         "amdfam10", "btver1", "x86-64")),
+)   # host/src/oclshade.c has the same table (target_float_lanes); the first row that matches wins
+
+
+def float_lanes(device: cl.Device) -> int:
+    """The float vector width the device's compiler targets: from PoCL's target name when the
+    device version carries one (``HSTR: ...``; a substring of the table above), else
+    CL_DEVICE_NATIVE_VECTOR_WIDTH_FLOAT."""
+    version = device.version
+    if "HSTR:" in version:
+        target = version.split("HSTR:", 1)[1]
+        for lanes, names in TARGET_FLOAT_LANES:
+            if any(name in target for name in names):
+                return lanes
+    return int(device.native_vector_width_float or 1)
 
 
 def _lanes(width: int, legal: tuple[int, ...]) -> int:
@@ -28,7 +56,7 @@ def rule_values(family: Family, device: cl.Device) -> Values:
     """The rule's values for every knob of ``family`` (the safe value where it says nothing)."""
     values = family.safe()
     is_cpu = bool(device.type & cl.device_type.CPU)
-    width = int(device.native_vector_width_float or 1)
+    width = float_lanes(device)
     for p in family.params:
         if p.vector and is_cpu:
             values[p.name] = _lanes(width, p.values)
