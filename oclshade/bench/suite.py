@@ -1,0 +1,375 @@
+"""The benchmark's cases: every kernel family through the public Python API, on standard inputs.
+
+Inputs are generated, never read: the heightmap is
+``oclshade.synthetic.canyon_crater(n, seed=0, relief=1500)`` with 30 m cells
+(the terrain of ``data/canyon_512.tif`` at n = 512, deterministic per seed),
+and the frames are :func:`oclshade.camera.frame_heightmap` views of it
+(azimuth 200, elevation 35).  Suns: 37 / 20 degrees for the masks (the
+headline case), 37 / 10 for the per-pixel shadows and the composed frame.
+
+Cases (``family/variant``) and what one timed run is:
+
+* ``pyramid``: :func:`~oclshade.pyramid.build_extrema_pyramid` of the map,
+  new buffers each run, until the device is done;
+* ``masks/<method>`` for every method of :data:`oclshade.shadows.METHODS`:
+  ``ShadowCaster(..., cache=False, analyse=False).cast(sun, method)`` over the
+  resident pyramid, the mask copied to the host (no result is reused and no
+  host-side scene analysis runs: the device's traversal is what is timed);
+* ``render/<method>`` for every method of :data:`oclshade.terrain.METHODS`:
+  ``TerrainRenderer.render(camera, method, on_device=True, out=...)``;
+* ``pixel_shadows/<method>`` (exact, maxmip): ``ScreenShadowCaster.shade_to_device``
+  on the bisect G-buffer, automatic level of detail;
+* ``ssao/default`` (:data:`~oclshade.ssao.DEFAULT_FEATURES`, m = DEFAULT_M) and
+  ``ssao/paper`` (:data:`~oclshade.ssao.PAPER_RECIPE`, m = PAPER_M), radius 4 cells;
+* ``compose``: :func:`oclshade.compose.compose` of the G-buffer with the exact
+  per-pixel shadow coefficients and the default AO, the frame copied to the host.
+
+Work model, per case (``nbytes`` and ``flops`` of :class:`Case`): the traffic
+and arithmetic the case cannot avoid, so the roofline time derived from them
+is a lower bound and the roofline fraction an upper bound on the share of the
+device a case uses.  Bytes: every input array the kernels need read once,
+every output written once, and outputs the API copies to the host counted
+twice more (a read on the device side and a write to host memory); pyramid
+texels, sample tables and re-reads of neighbours (caches) are not counted.
+Flops: float operations of the minimum work per item, with min / max
+counting as one; the data-dependent traversal steps beyond it are not
+counted (those kernels are bound by latency and branching, which is what
+their small roofline fractions say).  With N cells and P pixels:
+
+========================  ===============================  ====================================
+case                      bytes                            flops
+========================  ===============================  ====================================
+pyramid                   4 N + 8 T (T: stored texels)     16 T1 + 6 (T - T1) (T1: level-1 texels;
+                                                           3x3 samples per level-1 texel, 2x2 above)
+masks/*                   4 N heights + N mask + 2 N copy  20 N (the start patch test of each ray)
+render/*                  16 P (one patch per ray) +       60 P (ray set-up, clip, one exact patch hit)
+                          76 P G-buffer written
+pixel_shadows/*           40 P (position, uv, uv_grad) +   30 P (level-of-detail choice, start patch test)
+                          5 P (flag, coefficient)
+ssao/default              92 P (prepare: 32 read, 20       m (25 P) + 20 P (per sample: rotation,
+                          written; AO: 36 read, 4 written)  offset, projection, depth test)
+ssao/paper                124 P (as above + two blur       m (25 P) + 20 P + 4 b P (b x b box blur,
+                          passes of 16 P each)             two separable passes)
+compose                   56 P read + 4 P written +        40 P (Lambert, sky, three sRGB encodes)
+                          8 P copy
+========================  ===============================  ====================================
+
+``exact`` cases must give the same bits on every device (their results equal
+the float64 reference by construction): the pyramid (min / max only) and the
+``exact`` masks.  The other cases are compared too, for information.
+"""
+from __future__ import annotations
+
+import functools
+import hashlib
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+import pyopencl as cl
+
+from ..camera import Camera, frame_heightmap
+from ..compose import Lighting, compose
+from ..gbuffer import CHANNELS
+from ..heightmap import Heightmap
+from ..pyramid import build_extrema_pyramid, extrema_shapes
+from ..runtime import Runtime
+from ..screen_shadows import ScreenShadowCaster
+from ..shadows import METHODS as SHADOW_METHODS, ShadowCaster
+from ..ssao import DEFAULT_FEATURES, DEFAULT_M, PAPER_M, PAPER_RECIPE, SSAO, AOFeatures, AOInputs
+from ..sun import Sun
+from ..synthetic import canyon_crater
+from ..terrain import METHODS as TERRAIN_METHODS, DeviceGBuffer, Heightfield, TerrainRenderer
+
+FAMILIES = ("pyramid", "masks", "render", "pixel_shadows", "ssao", "compose")
+PIXEL_SHADOW_METHODS = ("exact", "maxmip")
+CELL_M = 30.0
+RELIEF_M = 1500.0
+MASK_SUN = Sun(37.0, 20.0)
+LOW_SUN = Sun(37.0, 10.0)
+VIEW = (200.0, 35.0)      # frame_heightmap azimuth, elevation
+AO_RADIUS_CELLS = 4.0
+
+
+@dataclass(frozen=True)
+class Sizes:
+    """Input sizes and repetitions of one benchmark run."""
+
+    name: str
+    map_side: int                 # heightmap side for the pyramid and the masks
+    frame_map_side: int           # heightmap side the frames look at
+    frame: tuple[int, int]        # frame width, height (pixels)
+    reps: int                     # timed repetitions per case (after the warm-up)
+    max_case_s: float             # a case stops repeating once its timed runs add up to this
+    copy_bytes: int               # size of each roofline copy buffer
+    probe_s: float                # time per roofline probe variant
+
+
+SIZES = {
+    # the headline sizes of README "Benchmarks": 4096^2 masks, 1920x1080 frames of a 2048^2 map
+    "full": Sizes("full", 4096, 2048, (1920, 1080), 5, 30.0, 256 << 20, 0.3),
+    # about a minute for both PoCL devices of a 2-core machine, first-time compiles included (35-70 s measured)
+    "quick": Sizes("quick", 1024, 1024, (960, 540), 3, 3.0, 64 << 20, 0.25),
+    # a smoke test (the test suite): seconds per device once the kernels are cached
+    "tiny": Sizes("tiny", 48, 48, (64, 36), 2, 1.0, 1 << 20, 0.01),
+}
+
+
+@dataclass
+class Case:
+    """One prepared case: ``run`` does the timed work and waits for the device; ``outputs``
+    returns the arrays of the last run (their bytes make the digest)."""
+
+    what: str
+    unit: str                 # what ``items`` counts: cells, rays or pixels
+    items: int
+    nbytes: float
+    flops: float
+    input_digest: str
+    run: Callable[[], None]
+    outputs: Callable[[], list[np.ndarray]]
+
+
+@dataclass(frozen=True)
+class CaseSpec:
+    """A case before its inputs exist: ``prepare`` builds it on one device's :class:`Workload`."""
+
+    id: str
+    family: str
+    exact: bool
+    prepare: Callable[["Workload"], Case]
+
+
+def digest(arrays: list[np.ndarray]) -> str:
+    """sha256 (hex) of the arrays' dtypes, shapes and bytes, in order."""
+    h = hashlib.sha256()
+    for a in arrays:
+        a = np.ascontiguousarray(a)
+        h.update(f"{a.dtype.str}{a.shape}".encode())
+        h.update(a.tobytes())
+    return h.hexdigest()
+
+
+@functools.lru_cache(maxsize=4)
+def terrain(side: int) -> Heightmap:
+    """The standard generated heightmap of one size (shared by every device)."""
+    return Heightmap.from_array(canyon_crater(side, side, seed=0, relief=RELIEF_M), CELL_M)
+
+
+@functools.lru_cache(maxsize=4)
+def terrain_digest(side: int) -> str:
+    hm = terrain(side)
+    return digest([hm.heights, np.array([hm.dx, hm.dy])])
+
+
+def _map_label(side: int) -> str:
+    return f"{side}^2 canyon_crater"
+
+
+def _read(rt: Runtime, buf: cl.Buffer, shape: tuple[int, ...], dtype: type) -> np.ndarray:
+    out = np.empty(shape, dtype)
+    cl.enqueue_copy(rt.queue, out, buf)
+    rt.queue.finish()
+    return out
+
+
+class Workload:
+    """The inputs the cases share on one device, each built on first use."""
+
+    def __init__(self, rt: Runtime, sizes: Sizes):
+        self.rt = rt
+        self.sizes = sizes
+
+    @functools.cached_property
+    def heightmap(self) -> Heightmap:
+        return terrain(self.sizes.map_side)
+
+    @functools.cached_property
+    def caster(self) -> ShadowCaster:
+        caster = ShadowCaster(self.heightmap, self.rt, cache=False, analyse=False)
+        caster.pyramid
+        self.rt.queue.finish()
+        return caster
+
+    @functools.cached_property
+    def frame_map(self) -> Heightmap:
+        return terrain(self.sizes.frame_map_side)
+
+    @functools.cached_property
+    def renderer(self) -> TerrainRenderer:
+        return TerrainRenderer(Heightfield(self.frame_map), self.rt)
+
+    @functools.cached_property
+    def camera(self) -> Camera:
+        width, height = self.sizes.frame
+        return frame_heightmap(self.frame_map, width, height, azimuth=VIEW[0], elevation=VIEW[1])
+
+    @functools.cached_property
+    def gbuffer(self) -> DeviceGBuffer:
+        """The bisect G-buffer the screen-space passes read."""
+        gbuf = self.renderer.render(self.camera, "bisect", on_device=True)
+        self.rt.queue.finish()
+        return gbuf
+
+    @functools.cached_property
+    def screen_caster(self) -> ScreenShadowCaster:
+        return ScreenShadowCaster(self.frame_map, pyramid=self.renderer.pyramid)
+
+    @functools.cached_property
+    def shadow_coefficient(self) -> cl.Buffer:
+        """Exact per-pixel shadow coefficients of the frame (compose's input)."""
+        buf = self.screen_caster.shade_to_device(self.gbuffer, LOW_SUN, "exact", outputs="coefficient")
+        self.rt.queue.finish()
+        return buf["coefficient"]
+
+    @functools.cached_property
+    def ao_inputs(self) -> AOInputs:
+        gb = self.gbuffer
+        return AOInputs(gb.shape, gb.buffers["position"], gb.buffers["normal"])
+
+    @functools.cached_property
+    def ao_factor(self) -> cl.Buffer:
+        """The default AO of the frame (compose's input; its own SSAO object, so its buffer stays)."""
+        buf = SSAO(self.rt).run(self.ao_inputs, self.camera.projection_matrix, radius=self.ao_radius,
+                                m=DEFAULT_M, features=DEFAULT_FEATURES)
+        self.rt.queue.finish()
+        return buf
+
+    @property
+    def ao_radius(self) -> float:
+        return AO_RADIUS_CELLS * self.frame_map.dx
+
+    @property
+    def cells(self) -> int:
+        rows, cols = self.heightmap.shape
+        return rows * cols
+
+    @property
+    def pixels(self) -> int:
+        return self.camera.width * self.camera.height
+
+    def frame_label(self) -> str:
+        width, height = self.sizes.frame
+        return f"{width}x{height} frame of the {_map_label(self.sizes.frame_map_side)}"
+
+    def frame_digest(self) -> str:
+        cam = self.camera
+        return digest([np.frombuffer(terrain_digest(self.sizes.frame_map_side).encode(), np.uint8),
+                       cam.view, cam.projection_matrix])
+
+
+# --- the cases ------------------------------------------------------------------------------
+
+def _pyramid(w: Workload) -> Case:
+    rt, hm = w.rt, w.heightmap
+    shapes = extrema_shapes(*hm.patch_shape)
+    texels = sum(r * c for r, c in shapes)
+    level1 = shapes[0][0] * shapes[0][1]
+    state: dict = {}
+
+    def run() -> None:
+        state["pyramid"] = build_extrema_pyramid(hm, rt)
+        rt.queue.finish()
+
+    return Case(f"extrema pyramid, {_map_label(w.sizes.map_side)}", "cells", w.cells,
+                4.0 * w.cells + 8.0 * texels, 16.0 * level1 + 6.0 * (texels - level1),
+                terrain_digest(w.sizes.map_side), run, lambda: state["pyramid"].to_numpy())
+
+
+def _mask(method: str) -> Callable[[Workload], Case]:
+    def prepare(w: Workload) -> Case:
+        caster = w.caster
+        state: dict = {}
+
+        def run() -> None:
+            state["result"] = caster.cast(MASK_SUN, method)
+
+        n = w.cells
+        sun = f"{MASK_SUN.azimuth:g}/{MASK_SUN.elevation:g}"
+        return Case(f"{method} mask, {_map_label(w.sizes.map_side)}, sun {sun}", "cells", n, 7.0 * n, 20.0 * n,
+                    terrain_digest(w.sizes.map_side), run, lambda: [state["result"].mask])
+    return prepare
+
+
+def _render(method: str) -> Callable[[Workload], Case]:
+    def prepare(w: Workload) -> Case:
+        renderer, camera, rt = w.renderer, w.camera, w.rt
+        state: dict = {"out": None}
+
+        def run() -> None:
+            state["out"] = renderer.render(camera, method, on_device=True, out=state["out"])
+            rt.queue.finish()
+
+        def outputs() -> list[np.ndarray]:
+            gbuf = state["out"].to_host()
+            return [getattr(gbuf, name) for name in CHANNELS]
+
+        p = w.pixels
+        return Case(f"{method} G-buffer, {w.frame_label()}", "rays", p, 92.0 * p, 60.0 * p, w.frame_digest(), run,
+                    outputs)
+    return prepare
+
+
+def _pixel_shadows(method: str) -> Callable[[Workload], Case]:
+    def prepare(w: Workload) -> Case:
+        caster, gbuf, rt = w.screen_caster, w.gbuffer, w.rt
+        state: dict = {"bufs": None}
+
+        def run() -> None:
+            state["bufs"] = caster.shade_to_device(gbuf, LOW_SUN, method, out=state["bufs"])
+            rt.queue.finish()
+
+        def outputs() -> list[np.ndarray]:
+            return [_read(rt, state["bufs"]["flag"], gbuf.shape, np.uint8),
+                    _read(rt, state["bufs"]["coefficient"], gbuf.shape, np.float32)]
+
+        p = w.pixels
+        return Case(f"{method} per-pixel shadows, automatic LOD, {w.frame_label()}, "
+                    f"sun {LOW_SUN.azimuth:g}/{LOW_SUN.elevation:g}",
+                    "pixels", p, 45.0 * p, 30.0 * p, w.frame_digest(), run, outputs)
+    return prepare
+
+
+def _ssao(variant: str, features: AOFeatures, m: int) -> Callable[[Workload], Case]:
+    def prepare(w: Workload) -> Case:
+        rt, inputs, projection, radius = w.rt, w.ao_inputs, w.camera.projection_matrix, w.ao_radius
+        ssao = SSAO(rt)
+        state: dict = {}
+
+        def run() -> None:
+            state["ao"] = ssao.run(inputs, projection, radius=radius, m=m, features=features)
+            rt.queue.finish()
+
+        p = w.pixels
+        blur = features.blur != "none"
+        nbytes = (124.0 if blur else 92.0) * p
+        flops = (25.0 * m + 20.0 + (4.0 * features.blur_size if blur else 0.0)) * p
+        return Case(f"SSAO {variant}: m = {m}, {features.distribution} samples, blur {features.blur}, "
+                    f"radius {AO_RADIUS_CELLS:g} cells, {w.frame_label()}",
+                    "pixels", p, nbytes, flops, w.frame_digest(), run,
+                    lambda: [_read(rt, state["ao"], inputs.shape, np.float32)])
+    return prepare
+
+
+def _compose(w: Workload) -> Case:
+    gbuf, camera, shadow, ao = w.gbuffer, w.camera, w.shadow_coefficient, w.ao_factor
+    lighting = Lighting(sun=LOW_SUN)
+    state: dict = {}
+
+    def run() -> None:
+        state["frame"] = compose(gbuf, camera, lighting, shadow=shadow, ao=ao)
+
+    p = w.pixels
+    return Case(f"compose with shadows and AO, {w.frame_label()}", "pixels", p, 68.0 * p, 40.0 * p,
+                w.frame_digest(), run, lambda: [state["frame"]])
+
+
+SPECS: tuple[CaseSpec, ...] = (
+    CaseSpec("pyramid", "pyramid", True, _pyramid),
+    *(CaseSpec(f"masks/{m}", "masks", m == "exact", _mask(m)) for m in SHADOW_METHODS),
+    *(CaseSpec(f"render/{m}", "render", False, _render(m)) for m in TERRAIN_METHODS),
+    *(CaseSpec(f"pixel_shadows/{m}", "pixel_shadows", False, _pixel_shadows(m)) for m in PIXEL_SHADOW_METHODS),
+    CaseSpec("ssao/default", "ssao", False, _ssao("default", DEFAULT_FEATURES, DEFAULT_M)),
+    CaseSpec("ssao/paper", "ssao", False, _ssao("paper", PAPER_RECIPE, PAPER_M)),
+    CaseSpec("compose", "compose", False, _compose),
+)
