@@ -48,4 +48,125 @@ OCLS_INLINE float ocls_sample(__global const float *h, int H, int W, int r, int 
     return (r >= 0 && r < H && c >= 0 && c < W) ? h[r * W + c] : NAN;
 }
 
+/* Inline definitions of the OpenCL built-ins the hot loops call
+ * (-D OCLS_OWN_BUILTINS: every family's own_builtins tuning knob, oclshade/tuning).
+ *
+ * Why: PoCL 3.0 from PyPI compiles kernels for the host CPU (znver3 on an
+ * AMD EPYC) but links a built-in library compiled for another CPU (haswell),
+ * and LLVM does not inline across the two targets: every isnan, select,
+ * min, max, fmax, fabs, clamp, vloadN and vstoreN in the ray-packet loop was
+ * a function call (about 450 call sites in shadow_cells_packet on a Zen 3;
+ * objdump of the cached kernel).  Where the library does inline (the
+ * targets match, or on GPUs) these definitions change nothing.
+ *
+ * Same results: each definition computes what the specification says for
+ * every input the kernels give it: isnan is x != x; select(a, b, c) is
+ * c ? b : a on scalars and per lane on the sign bit of c (the conditions
+ * here are comparisons, -1 or 0, where both readings agree); fmax / fmin
+ * return the non-NaN argument when one is NaN; fabs clears the sign bit;
+ * integer min / max / clamp are comparisons.  The tests run every kernel
+ * with the knob on and off and compare the outputs bit for bit.
+ *
+ * Only for compilers with clang's overloadable functions; elsewhere the knob
+ * is ignored.  Each built-in is renamed by an object-like macro (so nested
+ * calls do not repeat their arguments) to an overloaded inline function. */
+#if defined(OCLS_OWN_BUILTINS) && defined(__clang__)
+
+#define OCLS_OVL static inline __attribute__((overloadable, always_inline))
+
+/* float types: isnan, fabs, fmin, fmax, clamp (vector and vector-scalar forms), select */
+#define OCLS_FLOAT_BUILTINS(F, I)                                                               \
+    OCLS_OVL I ocls_isnan(F x) { return x != x; }                                               \
+    OCLS_OVL F ocls_fabs(F x) { return as_##F(as_##I(x) & (I)0x7fffffff); }                   \
+    OCLS_OVL F ocls_fmax(F x, F y) { return ((x >= y) | (y != y)) ? x : y; }                  \
+    OCLS_OVL F ocls_fmin(F x, F y) { return ((x <= y) | (y != y)) ? x : y; }                  \
+    OCLS_OVL F ocls_select(F a, F b, I c) { return c ? b : a; }                               \
+    OCLS_OVL F ocls_clamp(F x, F lo, F hi) { return ocls_fmin(ocls_fmax(x, lo), hi); }
+
+#define OCLS_FLOAT_VECTOR_BUILTINS(F, I)                                                        \
+    OCLS_FLOAT_BUILTINS(F, I)                                                                   \
+    OCLS_OVL F ocls_fmax(F x, float y) { return ocls_fmax(x, (F)(y)); }                        \
+    OCLS_OVL F ocls_fmin(F x, float y) { return ocls_fmin(x, (F)(y)); }                        \
+    OCLS_OVL F ocls_clamp(F x, float lo, float hi) { return ocls_clamp(x, (F)(lo), (F)(hi)); }
+
+/* integer types: min, max, clamp (vector and vector-scalar forms), select */
+#define OCLS_INT_BUILTINS(T, S, C)                                                              \
+    OCLS_OVL T ocls_min(T x, T y) { return y < x ? y : x; }                                    \
+    OCLS_OVL T ocls_max(T x, T y) { return x < y ? y : x; }                                    \
+    OCLS_OVL T ocls_clamp(T x, T lo, T hi) { return ocls_min(ocls_max(x, lo), hi); }           \
+    OCLS_OVL T ocls_select(T a, T b, C c) { return c ? b : a; }
+
+#define OCLS_INT_VECTOR_BUILTINS(T, S, C)                                                       \
+    OCLS_INT_BUILTINS(T, S, C)                                                                  \
+    OCLS_OVL T ocls_min(T x, S y) { return ocls_min(x, (T)(y)); }                              \
+    OCLS_OVL T ocls_max(T x, S y) { return ocls_max(x, (T)(y)); }                              \
+    OCLS_OVL T ocls_clamp(T x, S lo, S hi) { return ocls_clamp(x, (T)(lo), (T)(hi)); }
+
+OCLS_FLOAT_BUILTINS(float, int)
+OCLS_FLOAT_VECTOR_BUILTINS(float2, int2)
+OCLS_FLOAT_VECTOR_BUILTINS(float4, int4)
+OCLS_FLOAT_VECTOR_BUILTINS(float8, int8)
+OCLS_FLOAT_VECTOR_BUILTINS(float16, int16)
+OCLS_INT_BUILTINS(int, int, int)
+OCLS_INT_VECTOR_BUILTINS(int2, int, int2)
+OCLS_INT_VECTOR_BUILTINS(int4, int, int4)
+OCLS_INT_VECTOR_BUILTINS(int8, int, int8)
+OCLS_INT_VECTOR_BUILTINS(int16, int, int16)
+OCLS_INT_BUILTINS(uint, uint, uint)
+OCLS_INT_VECTOR_BUILTINS(uint4, uint, int4)
+OCLS_INT_VECTOR_BUILTINS(uint8, uint, int8)
+OCLS_INT_VECTOR_BUILTINS(uint16, uint, int16)
+
+/* loads and stores of N lanes (unaligned); conversions: OCLS_CONVERT_TO below.  any, clz and
+ * popcount stay the library's: per-lane loops for them measured slower. */
+#define OCLS_LANE_BUILTINS(N)                                                                   \
+    OCLS_OVL float##N ocls_own_vload##N(size_t i, const float *p)                                  \
+    { float##N v; for (int k = 0; k < N; ++k) v[k] = p[i * N + k]; return v; }                 \
+    OCLS_OVL float##N ocls_own_vload##N(size_t i, __global const float *p)                         \
+    { float##N v; for (int k = 0; k < N; ++k) v[k] = p[i * N + k]; return v; }                 \
+    OCLS_OVL int##N ocls_own_vload##N(size_t i, const int *p)                                      \
+    { int##N v; for (int k = 0; k < N; ++k) v[k] = p[i * N + k]; return v; }                   \
+    OCLS_OVL void ocls_own_vstore##N(float##N v, size_t i, float *p)                               \
+    { for (int k = 0; k < N; ++k) p[i * N + k] = v[k]; }                                         \
+    OCLS_OVL void ocls_own_vstore##N(int##N v, size_t i, int *p)                                   \
+    { for (int k = 0; k < N; ++k) p[i * N + k] = v[k]; }                                         \
+    OCLS_OVL void ocls_own_vstore##N(float##N v, size_t i, __global float *p)                      \
+    { for (int k = 0; k < N; ++k) p[i * N + k] = v[k]; }                                         \
+
+
+OCLS_LANE_BUILTINS(4)
+OCLS_LANE_BUILTINS(8)
+OCLS_LANE_BUILTINS(16)
+
+#undef isnan
+#define isnan ocls_isnan
+#undef fabs
+#define fabs ocls_fabs
+#undef fmax
+#define fmax ocls_fmax
+#undef fmin
+#define fmin ocls_fmin
+#undef min
+#define min ocls_min
+#undef max
+#define max ocls_max
+#undef clamp
+#define clamp ocls_clamp
+#undef select
+#define select ocls_select
+
+#endif
+
+/* The N-lane load, store and vector conversion of a kernel's lane macros: ours with the knob, else the
+ * built-ins (by name, built with ## from the lane count). */
+#define OCLS_CAT_(a, b) a##b
+#define OCLS_CAT(a, b) OCLS_CAT_(a, b)
+#if defined(OCLS_OWN_BUILTINS) && defined(__clang__)
+#define OCLS_LANE_FN(name, n) OCLS_CAT(ocls_own_##name, n)
+#define OCLS_CONVERT_TO(T, x) __builtin_convertvector((x), T)   /* the default roundings: rte, rtz */
+#else
+#define OCLS_LANE_FN(name, n) OCLS_CAT(name, n)
+#define OCLS_CONVERT_TO(T, x) OCLS_CAT(convert_, T)(x)
+#endif
+
 #endif

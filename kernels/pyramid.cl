@@ -84,12 +84,10 @@ __kernel void extrema_base(__global const float *h, const int H, const int W,
                            __global float2 *out, const int Hp, const int Wp, const int R, const int C)
 {
 #ifdef OCLS_BASE_LANES
-#define OCLS_CAT_(a, b) a##b
-#define OCLS_CAT(a, b) OCLS_CAT_(a, b)
 #define ocls_floatv OCLS_CAT(float, OCLS_BASE_LANES)
 #define ocls_intv OCLS_CAT(int, OCLS_BASE_LANES)
-#define OCLS_VLOAD OCLS_CAT(vload, OCLS_BASE_LANES)
-#define OCLS_VSTORE OCLS_CAT(vstore, OCLS_BASE_LANES)
+#define OCLS_VLOAD OCLS_LANE_FN(vload, OCLS_BASE_LANES)
+#define OCLS_VSTORE OCLS_LANE_FN(vstore, OCLS_BASE_LANES)
 /* columns 2k + 2 of the lanes: e shifted by one lane, the last from p[2N] */
 #if OCLS_BASE_LANES == 4
 #define OCLS_NEXT_EVEN(e, p) ((float4)((e).s123, (p)[8]))

@@ -706,15 +706,13 @@ __kernel void shadow_cells(OCLS_CELLS_PARAMS
 #error "OCLS_PACKET and OCLS_CERT must be multiples of OCLS_LANES (a chunk of lanes lies in one certificate tile)"
 #endif
 
-/* the lane vector types and their built-ins, OCLS_LANES wide */
-#define OCLS_CAT_(a, b) a##b
-#define OCLS_CAT(a, b) OCLS_CAT_(a, b)
+/* the lane vector types and their built-ins, OCLS_LANES wide (common.h) */
 #define ocls_floatv OCLS_CAT(float, OCLS_LANES)
 #define ocls_intv OCLS_CAT(int, OCLS_LANES)
-#define OCLS_CONVERT_FLOAT OCLS_CAT(convert_float, OCLS_LANES)
-#define OCLS_CONVERT_INT OCLS_CAT(convert_int, OCLS_LANES)
-#define OCLS_VLOAD OCLS_CAT(vload, OCLS_LANES)
-#define OCLS_VSTORE OCLS_CAT(vstore, OCLS_LANES)
+#define OCLS_CONVERT_FLOAT(x) OCLS_CONVERT_TO(ocls_floatv, x)
+#define OCLS_CONVERT_INT(x) OCLS_CONVERT_TO(ocls_intv, x)
+#define OCLS_VLOAD OCLS_LANE_FN(vload, OCLS_LANES)
+#define OCLS_VSTORE OCLS_LANE_FN(vstore, OCLS_LANES)
 
 /* start_patch's column for the ray of cell column j (an integer start) */
 OCLS_INLINE int start_col(int j, int east) { return east ? j : j - 1; }

@@ -235,18 +235,17 @@ __kernel void ssao_prepare(__global const float *restrict pos, __global const fl
 #if OCLS_SSAO_LANES != 4 && OCLS_SSAO_LANES != 8 && OCLS_SSAO_LANES != 16
 #error "OCLS_SSAO_LANES must be 4, 8 or 16"
 #endif
-#define OCLS_CAT_(a, b) a##b
-#define OCLS_CAT(a, b) OCLS_CAT_(a, b)
 /* the OCLS_SSAO_LANES-wide spelling of a type or builtin: float -> float8, vload -> vload8, ... */
 #define OCLS_LANES_OF(name) OCLS_CAT(name, OCLS_SSAO_LANES)
 #define ocls_vfloat OCLS_LANES_OF(float)
 #define ocls_vint OCLS_LANES_OF(int)
 #define ocls_vuint OCLS_LANES_OF(uint)
-#define ocls_convert_vfloat OCLS_LANES_OF(convert_float)
-#define ocls_convert_vint OCLS_LANES_OF(convert_int)
-#define ocls_convert_vuint OCLS_LANES_OF(convert_uint)
-#define ocls_vload OCLS_LANES_OF(vload)
-#define ocls_vstore OCLS_LANES_OF(vstore)
+#define ocls_convert_vfloat(x) OCLS_CONVERT_TO(ocls_vfloat, x)
+#define ocls_convert_vint(x) OCLS_CONVERT_TO(ocls_vint, x)
+#define ocls_convert_vuint(x) OCLS_CONVERT_TO(ocls_vuint, x)
+#define ocls_vload OCLS_LANE_FN(vload, OCLS_SSAO_LANES)
+#define ocls_vstore OCLS_LANE_FN(vstore, OCLS_SSAO_LANES)
+#define ocls_vload4 OCLS_LANE_FN(vload, 4)
 
 #define OCLS_DOT3(ax, ay, az, bx, by, bz) ((ax) * (bx) + (ay) * (by) + (az) * (bz))
 #define OCLS_AT(buf, i, stride, off) (buf)[(stride) * (i) + (off)]
@@ -260,8 +259,8 @@ __kernel void ssao_prepare(__global const float *restrict pos, __global const fl
     (float4)(OCLS_AT(buf, (idx).s0, stride, off), OCLS_AT(buf, (idx).s1, stride, off), \
              OCLS_AT(buf, (idx).s2, stride, off), OCLS_AT(buf, (idx).s3, stride, off))
 #define OCLS_PLANES(plane, j, lx, ly, lz, ld) { \
-    const float4 l0 = vload4((j).s0, plane), l1 = vload4((j).s1, plane); \
-    const float4 l2 = vload4((j).s2, plane), l3 = vload4((j).s3, plane); \
+    const float4 l0 = ocls_vload4((j).s0, plane), l1 = ocls_vload4((j).s1, plane); \
+    const float4 l2 = ocls_vload4((j).s2, plane), l3 = ocls_vload4((j).s3, plane); \
     lx = (float4)(l0.x, l1.x, l2.x, l3.x); \
     ly = (float4)(l0.y, l1.y, l2.y, l3.y); \
     lz = (float4)(l0.z, l1.z, l2.z, l3.z); \
@@ -274,10 +273,10 @@ __kernel void ssao_prepare(__global const float *restrict pos, __global const fl
              OCLS_AT(buf, (idx).s4, stride, off), OCLS_AT(buf, (idx).s5, stride, off), \
              OCLS_AT(buf, (idx).s6, stride, off), OCLS_AT(buf, (idx).s7, stride, off))
 #define OCLS_PLANES(plane, j, lx, ly, lz, ld) { \
-    const float4 l0 = vload4((j).s0, plane), l1 = vload4((j).s1, plane); \
-    const float4 l2 = vload4((j).s2, plane), l3 = vload4((j).s3, plane); \
-    const float4 l4 = vload4((j).s4, plane), l5 = vload4((j).s5, plane); \
-    const float4 l6 = vload4((j).s6, plane), l7 = vload4((j).s7, plane); \
+    const float4 l0 = ocls_vload4((j).s0, plane), l1 = ocls_vload4((j).s1, plane); \
+    const float4 l2 = ocls_vload4((j).s2, plane), l3 = ocls_vload4((j).s3, plane); \
+    const float4 l4 = ocls_vload4((j).s4, plane), l5 = ocls_vload4((j).s5, plane); \
+    const float4 l6 = ocls_vload4((j).s6, plane), l7 = ocls_vload4((j).s7, plane); \
     lx = (float8)(l0.x, l1.x, l2.x, l3.x, l4.x, l5.x, l6.x, l7.x); \
     ly = (float8)(l0.y, l1.y, l2.y, l3.y, l4.y, l5.y, l6.y, l7.y); \
     lz = (float8)(l0.z, l1.z, l2.z, l3.z, l4.z, l5.z, l6.z, l7.z); \
@@ -294,14 +293,14 @@ __kernel void ssao_prepare(__global const float *restrict pos, __global const fl
               OCLS_AT(buf, (idx).sc, stride, off), OCLS_AT(buf, (idx).sd, stride, off), \
               OCLS_AT(buf, (idx).se, stride, off), OCLS_AT(buf, (idx).sf, stride, off))
 #define OCLS_PLANES(plane, j, lx, ly, lz, ld) { \
-    const float4 l0 = vload4((j).s0, plane), l1 = vload4((j).s1, plane); \
-    const float4 l2 = vload4((j).s2, plane), l3 = vload4((j).s3, plane); \
-    const float4 l4 = vload4((j).s4, plane), l5 = vload4((j).s5, plane); \
-    const float4 l6 = vload4((j).s6, plane), l7 = vload4((j).s7, plane); \
-    const float4 l8 = vload4((j).s8, plane), l9 = vload4((j).s9, plane); \
-    const float4 l10 = vload4((j).sa, plane), l11 = vload4((j).sb, plane); \
-    const float4 l12 = vload4((j).sc, plane), l13 = vload4((j).sd, plane); \
-    const float4 l14 = vload4((j).se, plane), l15 = vload4((j).sf, plane); \
+    const float4 l0 = ocls_vload4((j).s0, plane), l1 = ocls_vload4((j).s1, plane); \
+    const float4 l2 = ocls_vload4((j).s2, plane), l3 = ocls_vload4((j).s3, plane); \
+    const float4 l4 = ocls_vload4((j).s4, plane), l5 = ocls_vload4((j).s5, plane); \
+    const float4 l6 = ocls_vload4((j).s6, plane), l7 = ocls_vload4((j).s7, plane); \
+    const float4 l8 = ocls_vload4((j).s8, plane), l9 = ocls_vload4((j).s9, plane); \
+    const float4 l10 = ocls_vload4((j).sa, plane), l11 = ocls_vload4((j).sb, plane); \
+    const float4 l12 = ocls_vload4((j).sc, plane), l13 = ocls_vload4((j).sd, plane); \
+    const float4 l14 = ocls_vload4((j).se, plane), l15 = ocls_vload4((j).sf, plane); \
     lx = (float16)(l0.x, l1.x, l2.x, l3.x, l4.x, l5.x, l6.x, l7.x, \
                    l8.x, l9.x, l10.x, l11.x, l12.x, l13.x, l14.x, l15.x); \
     ly = (float16)(l0.y, l1.y, l2.y, l3.y, l4.y, l5.y, l6.y, l7.y, \

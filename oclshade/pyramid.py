@@ -81,11 +81,13 @@ def build_extrema_pyramid(hm: Heightmap, device=None, knobs: Mapping[str, int] |
     buf = rt.empty(total * 8, "extrema pyramid")
     r1, c1 = shapes[0]
     lanes = knob["base_lanes"]                                   # -D OCLS_BASE_LANES (kernels/pyramid.cl)
-    base = rt.kernel("pyramid.cl", "extrema_base", {"OCLS_BASE_LANES": lanes if lanes > 1 else None})
+    own = bool(knob["own_builtins"])
+    base = rt.kernel("pyramid.cl", "extrema_base", {"OCLS_BASE_LANES": lanes if lanes > 1 else None,
+                                                     "OCLS_OWN_BUILTINS": own})
     _run_2d(rt, base, -(-c1 // lanes), r1,
             (heights_buffer, np.int32(rows), np.int32(cols), buf, np.int32(hp), np.int32(wp),
              np.int32(r1), np.int32(c1)))
-    reduce_k = rt.kernel("pyramid.cl", "extrema_reduce")
+    reduce_k = rt.kernel("pyramid.cl", "extrema_reduce", {"OCLS_OWN_BUILTINS": own})
     for (ri, ci), (ro, co), oi, oo in zip(shapes[:-1], shapes[1:], offs[:-1], offs[1:]):
         _run_2d(rt, reduce_k, co, ro, (buf, np.int32(oi), np.int32(ri), np.int32(ci),
                                        np.int32(oo), np.int32(ro), np.int32(co)))
@@ -142,5 +144,6 @@ def _workload(rt: Runtime, knobs: tuning.Values, quick: bool) -> Callable[[], No
 TUNING = tuning.register(tuning.Family(
     "pyramid",
     (tuning.Param("base_lanes", (1, 4, 8, 16), 1, "level-1 texels per work-item (-D OCLS_BASE_LANES)", vector=True),
+     tuning.OWN_BUILTINS,
      tuning.Param("in_place", (0, 1), 0, "read the heights in place from host memory (CL_MEM_USE_HOST_PTR)")),
     ("pyramid.cl",), _smoke, _workload, "extrema pyramid build (paper 000)"))

@@ -84,11 +84,13 @@ class PixelShadowFeatures:
     method: str = "exact"
     outputs: tuple[str, ...] = ("flag", "coefficient")
     stats: bool = False
+    own_builtins: bool = False   # inline built-ins (kernels/common.h; tuning knob)
 
     def defines(self) -> dict[str, object]:
         # the flag is the heightmap-space mask's define; self-shadow is not a pixel output
         cells = ShadowFeatures(self.method, tuple({"flag": "mask"}.get(o, o) for o in self.outputs
-                                                  if o != "lod"), self.stats).defines()
+                                                  if o != "lod"), self.stats,
+                               own_builtins=self.own_builtins).defines()
         return {**cells, "OCLS_OUT_SELF": False, "OCLS_OUT_LOD": "lod" in self.outputs}
 
 
@@ -170,13 +172,16 @@ class ScreenShadowCaster:
     """Per-pixel cast shadows of one heightmap for any number of G-buffers and suns."""
 
     def __init__(self, heightmap: Heightmap, pyramid: ExtremaPyramid | None = None,
-                 device: str | int | Runtime | None = None, group: int | None = None):
-        """``group``: the work-group size, the ``screen_shadows`` family's tuning knob
-        (:data:`TUNING`; None: the device's tuning entry; same results for every value)."""
+                 device: str | int | Runtime | None = None, group: int | None = None,
+                 own_builtins: int | None = None):
+        """``group`` (work-group size) and ``own_builtins`` (inline built-ins, kernels/common.h):
+        the ``screen_shadows`` family's tuning knobs (:data:`TUNING`; None: the device's tuning
+        entry; same results for every value)."""
         self.heightmap = heightmap
         self.runtime = pyramid.runtime if pyramid is not None else get_runtime(device)
-        self.group = (tuning.settings(self.runtime, "screen_shadows").values["group"] if group is None
-                      else TUNING.param("group").check(group, TUNING.name))
+        given = {k: v for k, v in (("group", group), ("own_builtins", own_builtins)) if v is not None}
+        knobs = {**tuning.settings(self.runtime, "screen_shadows").values, **TUNING.check(given, partial=True)}
+        self.group, self.own_builtins = knobs["group"], bool(knobs["own_builtins"])
         if pyramid is not None and pyramid.map_shape != heightmap.shape:
             raise ValueError(f"pyramid was built for a {pyramid.map_shape} map, the heightmap is {heightmap.shape}")
         self._pyramid = pyramid
@@ -214,7 +219,7 @@ class ScreenShadowCaster:
         """Build the pyramids and the kernel variant ahead of time."""
         self.coarse
         self.runtime.queue.finish()
-        self.runtime.program("shadow.cl", PixelShadowFeatures(method, check_outputs(outputs)).defines())
+        self.runtime.program("shadow.cl", self._features(method, check_outputs(outputs)).defines())
 
     def shade(self, gbuffer: GBufferLike, sun: SunLike, method: str = "exact",
               lod: LodOptions = LodOptions(), outputs: str | Sequence[str] = ("flag", "coefficient"),
@@ -249,11 +254,14 @@ class ScreenShadowCaster:
         for name in outs:
             if name not in bufs or bufs[name].size < sizes[name]:
                 bufs[name] = self.runtime.empty(sizes[name], f"pixel shadow {name}")
-        kernel = self.runtime.kernel("shadow.cl", "shadow_pixels", PixelShadowFeatures(check_method(method), outs).defines())
+        kernel = self.runtime.kernel("shadow.cl", "shadow_pixels", self._features(check_method(method), outs).defines())
         kernel.set_args(*self._args(gb, as_sun(sun), lod, k_dark, k_bright),
                         *(bufs.get(name, self._dummy) for name in OUTPUTS))
         cl.enqueue_nd_range_kernel(self.runtime.queue, kernel, *self.runtime.grid_2d(kernel, width, height, self.group))
         return {name: bufs[name] for name in outs}
+
+    def _features(self, method: str, outs: tuple[str, ...], stats: bool = False) -> PixelShadowFeatures:
+        return PixelShadowFeatures(method, outs, stats, own_builtins=self.own_builtins)
 
     def step_counts(self, gbuffer: GBufferLike, sun: SunLike, method: str = "exact",
                     lod: LodOptions = LodOptions(), band_pixels: int = 1 << 19) -> np.ndarray:
@@ -263,7 +271,7 @@ class ScreenShadowCaster:
         gb = self._device_gbuffer(gbuffer)
         height, width = gb.shape
         kernel = rt.kernel("shadow.cl", "shadow_pixels",
-                           PixelShadowFeatures(check_method(method), ("flag",), True).defines())
+                           self._features(check_method(method), ("flag",), True).defines())
         flag = rt.empty(height * width, "pixel shadow flag")
         args = (*self._args(gb, as_sun(sun), lod, 0.0, 1.0), flag, self._dummy, self._dummy)
         return rt.count_in_bands(kernel, args, self.pyramid.levels, width, height, band_pixels)
@@ -304,27 +312,28 @@ class ScreenShadowCaster:
                 np.array([force, lod.bias, lod.n_a_max, 0], np.int32))
 
 
-def _case(rt: Runtime, size: int, width: int, height: int, group: int):
+def _case(rt: Runtime, size: int, width: int, height: int, knobs: tuning.Values):
     from .camera import frame_heightmap
     from .synthetic import canyon_crater
     from .terrain import Heightfield, TerrainRenderer
     field = Heightfield.from_array(canyon_crater(size), 30.0)
     gbuffer = TerrainRenderer(field, rt).render(frame_heightmap(field.heightmap, width, height, 200.0, 25.0))
-    return ScreenShadowCaster(field.heightmap, device=rt, group=group), gbuffer
+    return ScreenShadowCaster(field.heightmap, device=rt, **knobs), gbuffer
 
 
 def _smoke(rt: Runtime, knobs: tuning.Values) -> None:
-    caster, gbuffer = _case(rt, 48, 40, 30, knobs["group"])
+    caster, gbuffer = _case(rt, 48, 40, 30, knobs)
     caster.shade(gbuffer, (300.0, 15.0))
 
 
 def _workload(rt: Runtime, knobs: tuning.Values, quick: bool) -> Callable[[], None]:
-    caster, gbuffer = _case(rt, 512 if quick else 2048, *((640, 360) if quick else (1920, 1080)), knobs["group"])
+    caster, gbuffer = _case(rt, 512 if quick else 2048, *((640, 360) if quick else (1920, 1080)), knobs)
     device_gbuffer = caster._device_gbuffer(gbuffer)
     return lambda: caster.shade_to_device(device_gbuffer, (300.0, 10.0)) and rt.queue.finish()
 
 
 #: per-pixel shadows' knobs (kernels/shadow.cl shadow_pixels)
 TUNING = tuning.register(tuning.Family(
-    "screen_shadows", (tuning.Param("group", (16, 64, 256), 64, "work-group size (work-items)"),),
+    "screen_shadows", (tuning.Param("group", (16, 64, 256), 64, "work-group size (work-items)"),
+                       tuning.OWN_BUILTINS),
     ("shadow.cl",), _smoke, _workload, "per-pixel shadows over a G-buffer (paper 000)"))

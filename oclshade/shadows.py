@@ -74,6 +74,7 @@ class ShadowFeatures:
     certificate: bool = True   # far-field tile certificates (exact and maxmip only)
     lanes: int = 0             # rays per work-item on vector lanes (0: one ray per work-item; tuning knob)
     run: int = 1024            # cells per work-item of the packet kernel (tuning knob)
+    own_builtins: bool = False  # inline built-ins (kernels/common.h; tuning knob)
 
     @property
     def certified(self) -> bool:
@@ -100,6 +101,7 @@ class ShadowFeatures:
             "OCLS_OUT_MASK": "mask" in self.outputs,
             "OCLS_OUT_SELF": "self" in self.outputs,
             "OCLS_OUT_COEF": "coefficient" in self.outputs,
+            "OCLS_OWN_BUILTINS": self.own_builtins,
         }
 
 
@@ -266,7 +268,7 @@ class ShadowCaster:
 
     def _features(self, method: str, outs: tuple[str, ...]) -> ShadowFeatures:
         return ShadowFeatures(method, outs, certificate=self.certificates, lanes=self.knobs["lanes"],
-                              run=self.knobs["run"])
+                              run=self.knobs["run"], own_builtins=bool(self.knobs["own_builtins"]))
 
     def step_counts(self, sun: SunLike, method: str = "exact", band_cells: int = 1 << 19) -> np.ndarray:
         """Traversal iterations per pyramid level, summed over all cells (a profiling build).
@@ -400,6 +402,7 @@ TUNING = tuning.register(tuning.Family(
     "shadow",
     (tuning.Param("lanes", (0, 4, 8, 16), 0, "rays per work-item on vector lanes, exact / maxmip "
                   "(-D OCLS_LANES; 0 = one ray per work-item, shadow_cells)", vector=True),
+     tuning.OWN_BUILTINS,
      tuning.Param("run", (16, 64, 256, 1024), 1024, "cells per packet work-item (-D OCLS_PACKET)"),
      tuning.Param("group", (16, 64, 256), 64, "work-group size (work-items)")),
     ("shadow.cl",), _smoke, _workload, "heightmap shadow masks (paper 000)"))

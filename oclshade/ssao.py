@@ -241,16 +241,18 @@ def _projection(projection: object) -> np.ndarray:
 
 class SSAO:
     """The AO pass on one device: sample tables and work buffers are kept between calls.
-    ``lanes`` (pixels per work-item of the AO and box-blur kernels, -D OCLS_SSAO_LANES) and
-    ``group`` (work-group size) are the ``ssao`` family's tuning knobs (:data:`TUNING`; None:
+    ``lanes`` (pixels per work-item of the AO and box-blur kernels, -D OCLS_SSAO_LANES),
+    ``group`` (work-group size) and ``own_builtins`` (inline built-ins, kernels/common.h) are
+    the ``ssao`` family's tuning knobs (:data:`TUNING`; None:
     the device's tuning entry): they change the speed, never the result."""
 
     def __init__(self, device: str | int | Runtime | None = None, *, lanes: int | None = None,
-                 group: int | None = None):
+                 group: int | None = None, own_builtins: int | None = None):
         rt = get_runtime(device)
-        given = {k: v for k, v in (("lanes", lanes), ("group", group)) if v is not None}
+        given = {k: v for k, v in (("lanes", lanes), ("group", group), ("own_builtins", own_builtins))
+                 if v is not None}
         knobs = {**tuning.settings(rt, "ssao").values, **TUNING.check(given, partial=True)}
-        self.lanes, self.group = knobs["lanes"], knobs["group"]
+        self.lanes, self.group, self.own_builtins = knobs["lanes"], knobs["group"], bool(knobs["own_builtins"])
         self.runtime = get_runtime(device)
         self._tables: dict[tuple[int, str], cl.Buffer] = {}
         self._work: dict[str, cl.Buffer] = {}
@@ -297,7 +299,7 @@ class SSAO:
         rt = self.runtime
         height, width = inputs.shape
         work = self._buffers(inputs.shape)
-        defines = {**features.defines(), "OCLS_SSAO_LANES": self.lanes}
+        defines = {**features.defines(), "OCLS_SSAO_LANES": self.lanes, "OCLS_OWN_BUILTINS": self.own_builtins}
         dims = (np.int32(width), np.int32(height))
 
         prep = rt.kernel("ssao.cl", "ssao_prepare", defines)
@@ -413,5 +415,6 @@ def _workload(rt: Runtime, knobs: tuning.Values, quick: bool) -> Callable[[], No
 TUNING = tuning.register(tuning.Family(
     "ssao",
     (tuning.Param("lanes", (4, 8, 16), 8, "pixels per work-item on vector lanes (-D OCLS_SSAO_LANES)", vector=True),
-     tuning.Param("group", (16, 64, 256), 64, "work-group size (work-items)")),
+     tuning.Param("group", (16, 64, 256), 64, "work-group size (work-items)"),
+     tuning.OWN_BUILTINS),
     ("ssao.cl",), _smoke, _workload, "screen-space ambient occlusion (paper 001)"))

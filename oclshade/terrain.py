@@ -129,6 +129,7 @@ class TerrainFeatures:
     descend: int = 3              # bisect: levels a split voxel descends at once
     leaf: int = 2                 # bisect: voxels of this level or finer are walked patch by patch
     stats: bool = False           # profiling build: traversal counters (TerrainRenderer.step_counts)
+    own_builtins: bool = False    # inline built-ins (kernels/common.h; tuning knob)
 
     def defines(self) -> dict[str, object]:
         return {
@@ -141,6 +142,7 @@ class TerrainFeatures:
             "OCLS_DESCEND": self.descend,
             "OCLS_LEAF": self.leaf,
             "OCLS_STATS": self.stats,
+            "OCLS_OWN_BUILTINS": self.own_builtins,
         }
 
 
@@ -167,24 +169,27 @@ class TerrainRenderer:
     """Ray-casts one heightfield for any number of cameras; pyramids stay on the device."""
 
     def __init__(self, heightfield: Heightfield, device: str | int | Runtime | None = None,
-                 descend: int | None = None, leaf: int | None = None, group: int | None = None):
+                 descend: int | None = None, leaf: int | None = None, group: int | None = None,
+                 own_builtins: int | None = None):
         """Bisection options (kernels/terrain.cl), tuning knobs of the ``terrain`` family
         (:data:`TUNING`; None: the device's tuning entry, :func:`oclshade.tuning.settings`; the
         frames are the same for every value): ``descend``, the levels a split voxel descends at
         once (1 halves its footprint, like the paper's halving; OCLS_DESCEND); ``leaf``, the
         level at or below which a voxel that is not rejected is walked patch by patch (0 is the
         paper's finest level; dilated levels below it are not built; OCLS_LEAF); ``group``, the
-        work-group size."""
+        work-group size; ``own_builtins``, inline built-ins (kernels/common.h)."""
         if not isinstance(heightfield, Heightfield):
             raise TypeError(f"heightfield must be an oclshade.terrain.Heightfield, got {type(heightfield).__name__}")
         self.field = heightfield
         self.runtime = get_runtime(device)
         tuned = tuning.settings(self.runtime, "terrain").values
-        given = {k: v for k, v in (("descend", descend), ("leaf", leaf), ("group", group)) if v is not None}
+        given = {k: v for k, v in (("descend", descend), ("leaf", leaf), ("group", group),
+                                   ("own_builtins", own_builtins)) if v is not None}
         knobs = {**tuned, **TUNING.check(given, partial=True)}
         self.descend = knobs["descend"]
         self._leaf = knobs["leaf"]
         self.group = knobs["group"]
+        self.own_builtins = bool(knobs["own_builtins"])
         self._pyramid: ExtremaPyramid | None = None
         self._dilated: tuple[cl.Buffer, cl.Buffer] | None = None
         self._texture: tuple[cl.Buffer, cl.Buffer, int] | None = None
@@ -251,7 +256,8 @@ class TerrainRenderer:
         return TerrainFeatures(method, camera.projection == "orthographic",
                                self.field.radius is not None, self.field.colour is not None,
                                descend=self.descend if bisect else TerrainFeatures.descend,
-                               leaf=self.leaf if bisect else TerrainFeatures.leaf, stats=stats)
+                               leaf=self.leaf if bisect else TerrainFeatures.leaf, stats=stats,
+                               own_builtins=self.own_builtins)
 
     def warm_up(self, camera: Camera, method: str = "bisect") -> None:
         self.pyramid, self.dilated, self.texture
@@ -353,5 +359,6 @@ TUNING = tuning.register(tuning.Family(
     "terrain",
     (tuning.Param("descend", (1, 2, 3, 4, 5), 3, "levels a split voxel descends at once (-D OCLS_DESCEND)"),
      tuning.Param("leaf", (0, 1, 2, 3, 4), 2, "level at or below which voxels are walked patch by patch (-D OCLS_LEAF)"),
-     tuning.Param("group", (16, 64, 256), 64, "work-group size (work-items)")),
+     tuning.Param("group", (16, 64, 256), 64, "work-group size (work-items)"),
+     tuning.OWN_BUILTINS),
     ("terrain.cl",), _smoke, _workload, "terrain ray casting (paper 004)"))

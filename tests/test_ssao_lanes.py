@@ -24,9 +24,10 @@ SHAPES = [(37, 23, True), (48, 16, False)]
 
 @pytest.fixture(scope="module")
 def passes() -> dict[int, SSAO]:
-    # lanes with a work-group size each, so every legal value of both knobs runs
+    # lanes with a work-group size and a built-ins choice each, so every legal value of every knob runs
     groups = TUNING.param("group").values
-    return {lanes: SSAO(lanes=lanes, group=groups[k % len(groups)]) for k, lanes in enumerate(LANE_CHOICES)}
+    return {lanes: SSAO(lanes=lanes, group=groups[k % len(groups)], own_builtins=k % 2)
+            for k, lanes in enumerate(LANE_CHOICES)}
 
 
 @pytest.mark.parametrize("features", FEATURES, ids=lambda f: f"{f.distribution}-{f.blur}")

@@ -74,9 +74,10 @@ def test_lookup_order_user_then_shipped_then_rule(cache, monkeypatch):
     shipped = {"lanes": 4, "run": 256, "group": 16}
     entry = {"device": key.as_dict(), "families": {"shadow": {"values": shipped, "kernel_digest": "old"}}}
     monkeypatch.setattr(store, "shipped_entries", lambda: (entry,))
-    d = tuning.decide(rt, fam)
-    assert (d.values, d.source) == (shipped, "shipped") and "measured with kernels old" in d.notes
-    mine = {"lanes": 0, "run": 64, "group": 256}
+    d = tuning.decide(rt, fam)   # the knobs the entry lacks take the rule's values
+    assert d.source == "shipped" and "measured with kernels old" in d.notes
+    assert d.values == {**rule_values(fam, rt.device), **shipped}
+    mine = {"lanes": 0, "own_builtins": 1, "run": 64, "group": 256}
     store.save_user_values(key, fam, mine, {"best_ms": 1.0})
     assert (tuning.decide(rt, fam).values, tuning.decide(rt, fam).source) == (mine, "user")
     # an entry measured with other kernels no longer counts, and says so

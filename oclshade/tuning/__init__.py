@@ -25,12 +25,12 @@ from dataclasses import dataclass, field
 
 from ..runtime import Runtime, get_runtime
 from .device import DeviceKey
-from .params import Family, Param, Values, families, family, register
+from .params import OWN_BUILTINS, Family, Param, Values, families, family, register
 from .probe import CHILD_ENV, run_probe
 from .rules import rule_values
 from . import store
 
-__all__ = ["Decision", "DeviceKey", "Family", "Param", "Values", "families", "family", "register",
+__all__ = ["OWN_BUILTINS", "Decision", "DeviceKey", "Family", "Param", "Values", "families", "family", "register",
            "settings", "decide", "clear"]
 
 NO_PROBE_ENV = "OCLSHADE_NO_PROBE"
@@ -55,9 +55,10 @@ _lock = threading.Lock()
 
 def _candidates(fam: Family, runtime: Runtime, key: DeviceKey) -> tuple[Values, str, list[str]]:
     notes: list[str] = []
+    rule = rule_values(fam, runtime.device)   # also for knobs an entry does not have
     user = store.user_values(key, fam)
     if user is not None:
-        return user, "user", notes
+        return {**rule, **user}, "user", notes
     if store.read_user(key).get("families", {}).get(fam.name):
         notes.append("user entry is for older kernels: re-run 'oclshade tune'")
     shipped = store.shipped_values(key, fam)
@@ -65,8 +66,8 @@ def _candidates(fam: Family, runtime: Runtime, key: DeviceKey) -> tuple[Values, 
         values, digest = shipped
         if digest != store.kernel_digest(fam):
             notes.append(f"measured with kernels {digest}")
-        return values, "shipped", notes
-    return rule_values(fam, runtime.device), "rule", notes
+        return {**rule, **values}, "shipped", notes
+    return rule, "rule", notes
 
 
 def _probed(fam: Family, runtime: Runtime, key: DeviceKey, values: Values, notes: list[str]) -> bool:

@@ -52,6 +52,13 @@ class Param:
         return sorted((v for v in self.values if v < value), reverse=True)
 
 
+#: the knob every family has: inline definitions of the built-ins its hot loops call
+#: (-D OCLS_OWN_BUILTINS, kernels/common.h): PoCL 3.0 from PyPI leaves them as library calls
+#: when the kernel's CPU target differs from its library's (AMD CPUs)
+OWN_BUILTINS = Param("own_builtins", (0, 1), 0, "inline built-ins (-D OCLS_OWN_BUILTINS, kernels/common.h)",
+                     vector=True)
+
+
 @dataclass(frozen=True)
 class Family:
     """A kernel family's knobs, with its probe case and its tuning workload."""

@@ -9,7 +9,8 @@ A user entry is one JSON file per device under ``<cache>/tuning/<slug>.json``::
      "probes": {"<kernel_digest>": {"shadow": {"<values json>": "ok" | "failed: ..."}}}}
 
 The shipped database is a list of such entries (without probes) for the
-devices we measured.  A user entry counts only while its kernel digest is
+devices we measured.  Entries may lack knobs added after they were written:
+those take the rule's values.  A user entry counts only while its kernel digest is
 the current one (the kernels changed: re-tune); a shipped entry counts for
 its exact device key whatever the digest (its values stay legal; the
 ``devices`` command says which kernels it was measured with).
@@ -91,7 +92,7 @@ def user_values(key: DeviceKey, family: Family) -> Values | None:
     if not entry or entry.get("kernel_digest") != kernel_digest(family):
         return None
     try:
-        return family.check(entry["values"])
+        return family.check(entry["values"], partial=True)
     except (KeyError, ValueError):
         return None
 
@@ -137,6 +138,6 @@ def shipped_values(key: DeviceKey, family: Family) -> tuple[Values, str] | None:
     if not fam:
         return None
     try:
-        return family.check(fam["values"]), str(fam.get("kernel_digest", "?"))
+        return family.check(fam["values"], partial=True), str(fam.get("kernel_digest", "?"))
     except (KeyError, ValueError):
         return None
