@@ -143,7 +143,8 @@ def _workload(rt: Runtime, knobs: tuning.Values, quick: bool) -> Callable[[], No
 #: whether the kernels read the heights in place (host memory) or from a device copy
 TUNING = tuning.register(tuning.Family(
     "pyramid",
-    (tuning.Param("base_lanes", (1, 4, 8, 16), 1, "level-1 texels per work-item (-D OCLS_BASE_LANES)", vector=True),
+    (tuning.Param("base_lanes", (1, 4, 8, 16), 1, "level-1 texels per work-item (-D OCLS_BASE_LANES)", vector=True,
+                  follows_width=True),
      tuning.OWN_BUILTINS,
      tuning.Param("in_place", (0, 1), 0, "read the heights in place from host memory (CL_MEM_USE_HOST_PTR)")),
     ("pyramid.cl",), _smoke, _workload, "extrema pyramid build (paper 000)"))

@@ -35,7 +35,7 @@ DEFAULT_K_BRIGHT = 0.65
 
 _METHOD_CODE = {"exact": 1, "paper": 2, "maxmip": 3, "dda": 4}
 CERTIFIED_METHODS = ("exact", "maxmip")   # methods that use far-field tile certificates
-CERT_TILE = 16                            # cells per side of a certificate tile (kernels/shadow.cl)
+CERT_TILE = 16                            # cells per side of a certificate tile: the safe value of the knob
 CERT_K = 6                                # thresholds per tile (OCLS_CERT_K)
 PACKET_METHODS = ("exact", "maxmip")      # methods with a ray-packet kernel (shadow_cells_packet)
 
@@ -75,6 +75,7 @@ class ShadowFeatures:
     lanes: int = 0             # rays per work-item on vector lanes (0: one ray per work-item; tuning knob)
     run: int = 1024            # cells per work-item of the packet kernel (tuning knob)
     own_builtins: bool = False  # inline built-ins (kernels/common.h; tuning knob)
+    cert_tile: int = CERT_TILE  # cells per side of a certificate tile (tuning knob)
 
     @property
     def certified(self) -> bool:
@@ -94,7 +95,7 @@ class ShadowFeatures:
         return {
             "OCLS_PACKET": self.run if self.packeted else None,
             "OCLS_LANES": self.lanes if self.packeted else None,
-            "OCLS_CERT": CERT_TILE if self.certified else None,
+            "OCLS_CERT": self.cert_tile if self.certified else None,
             "OCLS_CERT_K": CERT_K if self.certified else None,
             "OCLS_STATS": self.stats,
             "OCLS_METHOD": _METHOD_CODE[check_method(self.method)],
@@ -268,7 +269,8 @@ class ShadowCaster:
 
     def _features(self, method: str, outs: tuple[str, ...]) -> ShadowFeatures:
         return ShadowFeatures(method, outs, certificate=self.certificates, lanes=self.knobs["lanes"],
-                              run=self.knobs["run"], own_builtins=bool(self.knobs["own_builtins"]))
+                              run=self.knobs["run"], own_builtins=bool(self.knobs["own_builtins"]),
+                              cert_tile=self.knobs["cert_tile"])
 
     def step_counts(self, sun: SunLike, method: str = "exact", band_cells: int = 1 << 19) -> np.ndarray:
         """Traversal iterations per pyramid level, summed over all cells (a profiling build).
@@ -279,7 +281,8 @@ class ShadowCaster:
         """
         rt, pyr = self.runtime, self.pyramid
         rows, cols = self.heightmap.shape
-        features = ShadowFeatures(check_method(method), ("mask",), True, self.certificates)
+        features = ShadowFeatures(check_method(method), ("mask",), True, self.certificates,
+                                  cert_tile=self.knobs["cert_tile"])
         kernel = rt.kernel("shadow.cl", "shadow_cells", features.defines())
         mask = rt.empty(rows * cols, "shadow mask")
         cert = self._certifier(features)(as_sun(sun))   # kept referenced while the kernel runs
@@ -288,14 +291,16 @@ class ShadowCaster:
 
     def tile_certificates(self, sun: SunLike) -> np.ndarray:
         """The far-field certificates of a tracing sun as float32 (tile rows, tile cols,
-        CERT_K): [..., k] bounds S - w t over the rays of the tile's cells beyond
-        t_k = 2^(k+1) major-axis cells (kernels/shadow.cl, shadow_certify)."""
+        CERT_K), tiles of ``knobs["cert_tile"]`` cells: [..., k] bounds S - w t over the rays
+        of the tile's cells beyond t_k = 2^(k+1) major-axis cells (kernels/shadow.cl,
+        shadow_certify)."""
         sun = as_sun(sun)
         if sun.below_horizon or sun.at_zenith:
             raise ValueError(f"sun must be above the horizon and below the zenith to trace, got {sun}")
         (buf,) = self._certifier(self._features("exact", ("mask",)))(sun)
         rows, cols = self.heightmap.shape
-        out = np.empty((-(-rows // CERT_TILE), -(-cols // CERT_TILE), CERT_K), np.float32)
+        s = self.knobs["cert_tile"]
+        out = np.empty((-(-rows // s), -(-cols // s), CERT_K), np.float32)
         cl.enqueue_copy(self.runtime.queue, out, buf)
         return out
 
@@ -308,7 +313,7 @@ class ShadowCaster:
             return lambda sun: ()
         rt, pyr = self.runtime, self.pyramid
         rows, cols = self.heightmap.shape
-        tr, tc = -(-rows // CERT_TILE), -(-cols // CERT_TILE)
+        tr, tc = -(-rows // features.cert_tile), -(-cols // features.cert_tile)
         kernel = rt.kernel("shadow.cl", "shadow_certify", features.defines())
         buf = rt.empty(tr * tc * CERT_K * 4, "shadow certificates")
         gsize, lsize = rt.grid_2d(kernel, tc, tr)
@@ -401,8 +406,11 @@ def _workload(rt: Runtime, knobs: tuning.Values, quick: bool) -> Callable[[], No
 TUNING = tuning.register(tuning.Family(
     "shadow",
     (tuning.Param("lanes", (0, 4, 8, 16), 0, "rays per work-item on vector lanes, exact / maxmip "
-                  "(-D OCLS_LANES; 0 = one ray per work-item, shadow_cells)", vector=True),
+                  "(-D OCLS_LANES; 0 = one ray per work-item, shadow_cells)", vector=True,
+                  follows_width=True),
      tuning.OWN_BUILTINS,
+     tuning.Param("cert_tile", (16, 32, 64), CERT_TILE, "cells per side of a far-field certificate tile "
+                  "(-D OCLS_CERT, exact and maxmip)"),
      tuning.Param("run", (16, 64, 256, 1024), 1024, "cells per packet work-item (-D OCLS_PACKET)"),
      tuning.Param("group", (16, 64, 256), 64, "work-group size (work-items)")),
     ("shadow.cl",), _smoke, _workload, "heightmap shadow masks (paper 000)"))

@@ -7,7 +7,7 @@ import pytest
 from oclshade import ShadowCaster, Sun
 from oclshade import reference as ref
 from oclshade.heightmap import Heightmap
-from oclshade.shadows import CERT_K, CERT_TILE
+from oclshade.shadows import CERT_K
 
 D0 = 2  # OCLS_CERT_D0: threshold k is at 2^k * D0 major-axis cells
 
@@ -23,7 +23,7 @@ def bilinear(h: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
     return top * (1 - fy) + bottom * fy
 
 
-def sampled_bounds(hm: Heightmap, sun: Sun, step: float = 0.2) -> np.ndarray:
+def sampled_bounds(hm: Heightmap, sun: Sun, tile_size: int, step: float = 0.2) -> np.ndarray:
     """Lower estimates of what each certificate must bound: max of S - w t sampled every
     ``step`` major-axis cells along the rays of the tile's cells, per threshold."""
     h = hm.relative32.astype(np.float64)
@@ -32,7 +32,7 @@ def sampled_bounds(hm: Heightmap, sun: Sun, step: float = 0.2) -> np.ndarray:
     major = max(abs(ux), abs(uy))
     dist = np.arange(D0, rows + cols + 2, step)              # major-axis cells
     t = dist / major
-    out = np.full((-(-rows // CERT_TILE), -(-cols // CERT_TILE), CERT_K), -np.inf)
+    out = np.full((-(-rows // tile_size), -(-cols // tile_size), CERT_K), -np.inf)
     for i in range(rows):
         for j in range(cols):
             x, y = j + ux * t, i + uy * t
@@ -43,27 +43,27 @@ def sampled_bounds(hm: Heightmap, sun: Sun, step: float = 0.2) -> np.ndarray:
                 sel = v[d >= D0 * 2 ** k]
                 sel = sel[np.isfinite(sel)]
                 if sel.size:
-                    tile = out[i // CERT_TILE, j // CERT_TILE]
+                    tile = out[i // tile_size, j // tile_size]
                     tile[k] = max(tile[k], sel.max())
     return out
 
 
-@pytest.mark.parametrize("az,alt,cell", [(37.0, 20.0, (30.0, 30.0)), (200.0, 8.0, (2.0, 0.5)),
-                                         (90.0, 35.0, (1.0, 1.0)), (315.0, 3.0, (25.0, 40.0))])
-def test_certificates_bound_the_surface(az: float, alt: float, cell: tuple[float, float]) -> None:
+@pytest.mark.parametrize("az,alt,cell,tile_size", [(37.0, 20.0, (30.0, 30.0), 16), (200.0, 8.0, (2.0, 0.5), 32),
+                                                   (90.0, 35.0, (1.0, 1.0), 64), (315.0, 3.0, (25.0, 40.0), 16)])
+def test_certificates_bound_the_surface(az: float, alt: float, cell: tuple[float, float], tile_size: int) -> None:
     rng = np.random.default_rng(int(az))
     y, x = np.mgrid[0:41, 0:53]
     h = 300.0 * np.sin(x / 6.0) * np.cos(y / 9.0) + 40.0 * rng.random(x.shape)
     h[rng.random(h.shape) < 0.02] = np.nan
     hm = Heightmap.from_array(h, cell)
     sun = Sun(az, alt)
-    cert = ShadowCaster(hm, cache=False).tile_certificates(sun)
-    need = sampled_bounds(hm, sun)
+    cert = ShadowCaster(hm, cache=False, knobs={"cert_tile": tile_size}).tile_certificates(sun)
+    need = sampled_bounds(hm, sun, tile_size)
     assert np.all(cert[..., 1:] <= cert[..., :-1]), "suffix maxima must not grow with the threshold"
     assert np.all(cert >= need), f"certificate below the sampled surface by {np.max(need - cert)}"
     # and they certify something: some cells clear the first bound
     hr = hm.relative32
-    tiles = cert[np.arange(h.shape[0])[:, None] // CERT_TILE, np.arange(h.shape[1])[None, :] // CERT_TILE]
+    tiles = cert[np.arange(h.shape[0])[:, None] // tile_size, np.arange(h.shape[1])[None, :] // tile_size]
     assert np.any(hr > tiles[..., -1])
 
 

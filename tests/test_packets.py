@@ -59,13 +59,17 @@ def test_the_lanes_knob_picks_the_kernel():
     assert shadows.ShadowFeatures("exact", stats=True, lanes=8).cells_kernel == "shadow_cells"
 
 
-@pytest.mark.parametrize("group", shadows.TUNING.param("group").values)
-@pytest.mark.parametrize("run", shadows.TUNING.param("run").values)
-def test_run_and_group_knobs_do_not_change_masks(run, group):
-    h = np.random.default_rng(run + group).normal(0.0, 3.0, (37, 1100)).cumsum(axis=1)
+KNOB_SETS = ([{"run": r, "group": g} for r in shadows.TUNING.param("run").values
+              for g in shadows.TUNING.param("group").values]
+             + [{"cert_tile": c, "run": 64} for c in shadows.TUNING.param("cert_tile").values])
+
+
+@pytest.mark.parametrize("knobs", KNOB_SETS, ids=lambda k: "-".join(f"{n}{v}" for n, v in k.items()))
+def test_run_group_and_certificate_tile_knobs_do_not_change_masks(knobs):
+    h = np.random.default_rng(len(str(knobs))).normal(0.0, 3.0, (37, 1100)).cumsum(axis=1)
     hm = Heightmap.from_array(h, 1.0)
-    ref = ShadowCaster(hm, cache=False, knobs={"lanes": 0}).cast((100.0, 8.0)).mask
-    got = ShadowCaster(hm, cache=False, knobs={"lanes": 8, "run": run, "group": group}).cast((100.0, 8.0)).mask
+    ref = ShadowCaster(hm, cache=False, knobs={"lanes": 0, "cert_tile": 16}).cast((100.0, 8.0)).mask
+    got = ShadowCaster(hm, cache=False, knobs={"lanes": 8, **knobs}).cast((100.0, 8.0)).mask
     assert np.array_equal(got, ref)
     assert 0.05 < ref.mean() < 0.95     # a map with shadows and lit cells both
 

@@ -207,3 +207,24 @@ def test_first_run_is_quiet_but_for_one_line_and_later_runs_silent(tmp_path):
     assert "warning" not in (cold.stdout + cold.stderr).lower()
     warm = subprocess.run(cmd + ["--quiet"], env=env, capture_output=True, text=True, timeout=600)
     assert warm.returncode == 0 and warm.stderr == "" and warm.stdout == "", warm.stderr
+
+
+def test_tune_writes_an_entry_that_the_lookup_then_uses(cache, capsys):
+    from oclshade.cli import main
+
+    assert main(["tune", "--quick", "--family", "pyramid"]) == 0
+    out = capsys.readouterr().out
+    assert "pyramid" in out and "written:" in out
+    rt = get_runtime()
+    fam = tuning.family("pyramid")
+    entry = json.loads(store.user_path(DeviceKey.of(rt.device)).read_text())["families"]["pyramid"]
+    assert entry["kernel_digest"] == store.kernel_digest(fam)
+    assert entry["measured"]["best_ms"] > 0 and entry["measured"]["safe_ms"] > 0
+    tuning.clear()
+    d = tuning.settings(rt, "pyramid")
+    assert d.source == "user" and d.values == entry["values"]
+    # and devices says so
+    assert main(["devices", "--json"]) == 0
+    listed = json.loads(capsys.readouterr().out)
+    mine = [r for r in listed if r["key"] == DeviceKey.of(rt.device).as_dict()]
+    assert mine and mine[0]["tuning"]["pyramid"]["source"] == "user"

@@ -35,8 +35,10 @@ class Param:
     safe: int
     doc: str
     #: True for a knob whose non-safe values drive the compiler's vector code generation (lane
-    #: counts): a value that fails a probe falls back to the next smaller legal value
+    #: counts, inline built-ins): a value that fails a probe falls back to the next smaller one
     vector: bool = False
+    #: True for a lane count the rule sets to the compiler target's float vector width (rules.py)
+    follows_width: bool = False
 
     def __post_init__(self) -> None:
         if self.safe not in self.values:

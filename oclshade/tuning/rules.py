@@ -5,8 +5,13 @@ the multi-texel pyramid base pay when their lane count is the float vector
 width of the code the compiler generates (AVX2: 8, AVX-512: 16); wider lanes
 than the target's are split by the compiler and ran 2.6-3.2x slower than
 one ray per work-item on an AVX2 Zen 2 (16 lanes on znver2), 5-7x slower on
-a Zen 3 (16 lanes on znver3).  So on a CPU the lane knobs follow
-:func:`float_lanes` (below 4: no packets).  On other
+a Zen 3 (16 lanes on znver3).  So on a CPU the ray-packet and
+pyramid lane knobs follow :func:`float_lanes` (below 4: no packets).  The
+SSAO kernel keeps its 8 lanes everywhere (its safe value): 4 lanes were 11 %
+slower than 8 on an SSE4.1 target and 16 were 40 % slower on AVX2
+(bench/results/tuning_variants_*.md).  Inline built-ins stay off (measured
+both ways on the PyPI PoCL: faster for the scalar kernels, not for the
+packets); the tuner turns them on where they win.  On other
 devices (GPUs) the hardware runs work-items in lockstep already: the scalar
 kernels.  A probe (oclshade.tuning.probe) still checks the rule's choice
 builds and runs before it is used.
@@ -58,7 +63,7 @@ def rule_values(family: Family, device: cl.Device) -> Values:
     is_cpu = bool(device.type & cl.device_type.CPU)
     width = float_lanes(device)
     for p in family.params:
-        if p.vector and is_cpu:
+        if p.follows_width and is_cpu:
             values[p.name] = _lanes(width, p.values)
         elif p.name == "in_place":
             values[p.name] = int(is_cpu and bool(device.host_unified_memory))

@@ -1,10 +1,11 @@
 """``oclshade tune``: measure each family's knobs on this device and write the user entry.
 
 Per family, a coordinate search from the current decision (rule or entry):
-each knob in turn takes each legal value with the others fixed, and keeps
-the fastest (minimum wall time of ``reps`` runs of the family's workload
-after a warm-up that includes the build); ``--quick`` makes one pass on
-small workloads, the full tuner two passes on headline-sized ones.  Every
+each knob in turn takes each legal value with the others fixed (the safe
+values timed alongside), the candidates timed in rotation (minimum of 3-5
+rounds after a warm-up that includes the builds), and the fastest is kept;
+``--quick`` makes one pass on small workloads, the full tuner up to two
+passes on larger ones.  Every
 variant other than the safe one is probed in a child process before it runs
 here (:mod:`.probe`), so a variant that crashes the compiler is skipped, not
 fatal.  The safe values are measured too: the entry records how much the
@@ -23,18 +24,23 @@ from .params import Family, Values
 Report = Callable[[str], None]
 
 
-def time_values(runtime: Runtime, fam: Family, values: Values, quick: bool, reps: int) -> float:
-    """Minimum wall time (ms) of the family's workload with these values (first run excluded)."""
-    run = fam.workload(runtime, values, quick)
-    run()
-    runtime.queue.finish()
-    best = float("inf")
-    for _ in range(reps):
-        t0 = time.perf_counter()
+def time_in_rotation(runtime: Runtime, fam: Family, candidates: list[Values], quick: bool,
+                     reps: int) -> list[float]:
+    """Minimum wall time (ms) of the family's workload per candidate, the candidates timed in
+    rotation (``reps`` rounds after a warm-up that includes the builds), so that a machine
+    slowing down or speeding up during the search hits them all alike."""
+    runs = [fam.workload(runtime, values, quick) for values in candidates]
+    for run in runs:
         run()
         runtime.queue.finish()
-        best = min(best, time.perf_counter() - t0)
-    return 1e3 * best
+    best = [float("inf")] * len(runs)
+    for _ in range(reps):
+        for i, run in enumerate(runs):
+            t0 = time.perf_counter()
+            run()
+            runtime.queue.finish()
+            best[i] = min(best[i], 1e3 * (time.perf_counter() - t0))
+    return best
 
 
 def tune_family(runtime: Runtime, fam: Family, start: Values, *, quick: bool, report: Report) -> tuple[Values, dict]:
@@ -42,37 +48,35 @@ def tune_family(runtime: Runtime, fam: Family, start: Values, *, quick: bool, re
     from . import _probed   # the package's probe-and-remember step
 
     key = DeviceKey.of(runtime.device)
-    reps = 2 if quick else 3
+    reps = 3 if quick else 5
     trials: dict[str, float | str] = {}
 
-    def measure(values: Values) -> float:
-        vid = store.values_id(values)
-        if vid not in trials:
-            notes: list[str] = []
-            if not _probed(fam, runtime, key, values, notes):
-                trials[vid] = notes[-1] if notes else "failed"
-                report(f"  {fam.name} {vid}: skipped ({trials[vid]})")
-            else:
-                trials[vid] = time_values(runtime, fam, values, quick, reps)
-                report(f"  {fam.name} {vid}: {trials[vid]:.1f} ms")
-        result = trials[vid]
-        return result if isinstance(result, float) else float("inf")
+    def usable(values: Values) -> bool:
+        notes: list[str] = []
+        if _probed(fam, runtime, key, values, notes):
+            return True
+        trials[store.values_id(values)] = notes[-1] if notes else "failed"
+        report(f"  {fam.name} {store.values_id(values)}: skipped ({trials[store.values_id(values)]})")
+        return False
 
-    safe_ms = measure(fam.safe())
-    best, best_ms = dict(start), measure(start)
+    best = dict(start)
     for _ in range(1 if quick else 2):
-        improved = False
+        changed = False
         for p in fam.params:
-            for v in p.values:
-                cand = {**best, p.name: v}
-                ms = measure(cand)
-                if ms < best_ms:
-                    best, best_ms, improved = cand, ms, True
-        if not improved:
+            cands = [c for c in ({**best, p.name: v} for v in p.values) if usable(c)]
+            if fam.safe() not in cands:
+                cands.append(fam.safe())
+            times = time_in_rotation(runtime, fam, cands, quick, reps)
+            for c, ms in zip(cands, times):
+                trials[store.values_id(c)] = min(ms, trials.get(store.values_id(c), float("inf")))
+                report(f"  {fam.name} {store.values_id(c)}: {ms:.1f} ms")
+            winner = cands[times.index(min(times))]
+            changed |= winner != best
+            best = winner
+        if not changed:
             break
-    if best_ms == float("inf"):
-        best, best_ms = fam.safe(), safe_ms
-    measured = {"best_ms": round(best_ms, 3), "safe_ms": round(safe_ms, 3), "quick": quick,
+    best_ms, safe_ms = trials[store.values_id(best)], trials[store.values_id(fam.safe())]
+    measured = {"best_ms": round(best_ms, 3), "safe_ms": round(safe_ms, 3), "quick": quick, "reps": reps,
                 "trials_ms": {k: (round(v, 3) if isinstance(v, float) else v) for k, v in trials.items()}}
     return best, measured
 
