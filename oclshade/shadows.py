@@ -388,15 +388,13 @@ def cast_shadows(heights: object, cellsize: float | tuple[float, float] = 1.0,
 
 
 def _smoke(rt: Runtime, knobs: tuning.Values) -> None:
-    from .synthetic import canyon_crater
-    hm = Heightmap.from_array(canyon_crater(64)[:, :45], cellsize=30.0)
+    hm = Heightmap.from_array(tuning.standard_heightmap(64).heights[:, :45], cellsize=30.0)
     # exact masks: the program users build most, so the parent's build is then a cache hit
     ShadowCaster(hm, rt, cache=False, analyse=False, knobs=knobs).cast((37.0, 20.0))
 
 
 def _workload(rt: Runtime, knobs: tuning.Values, quick: bool) -> Callable[[], None]:
-    from .synthetic import canyon_crater
-    hm = Heightmap.from_array(canyon_crater(1024 if quick else 2048), cellsize=30.0)
+    hm = tuning.standard_heightmap(1024 if quick else 4096)
     caster = ShadowCaster(hm, rt, cache=False, analyse=False, knobs=knobs)
     caster.pyramid
     return lambda: [caster.cast(sun) for sun in ((37.0, 20.0), (135.0, 20.0))]
