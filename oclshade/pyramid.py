@@ -124,14 +124,12 @@ def build_mip_levels(values: np.ndarray, device=None) -> list[np.ndarray]:
 
 
 def _smoke(rt: Runtime, knobs: tuning.Values) -> None:
-    from .synthetic import canyon_crater
-    heights = canyon_crater(67)[:, :61]
+    heights = tuning.standard_heightmap(67).heights[:, :61]
     build_extrema_pyramid(Heightmap.from_array(heights, cellsize=30.0), rt, knobs).to_numpy()
 
 
 def _workload(rt: Runtime, knobs: tuning.Values, quick: bool) -> Callable[[], None]:
-    from .synthetic import canyon_crater
-    hm = Heightmap.from_array(canyon_crater(1024 if quick else 4096), cellsize=30.0)
+    hm = tuning.standard_heightmap(1024 if quick else 4096)
 
     def run() -> None:
         build_extrema_pyramid(hm, rt, knobs)

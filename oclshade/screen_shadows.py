@@ -314,9 +314,8 @@ class ScreenShadowCaster:
 
 def _case(rt: Runtime, size: int, width: int, height: int, knobs: tuning.Values):
     from .camera import frame_heightmap
-    from .synthetic import canyon_crater
     from .terrain import Heightfield, TerrainRenderer
-    field = Heightfield.from_array(canyon_crater(size), 30.0)
+    field = Heightfield(tuning.standard_heightmap(size))
     gbuffer = TerrainRenderer(field, rt).render(frame_heightmap(field.heightmap, width, height, 200.0, 25.0))
     return ScreenShadowCaster(field.heightmap, device=rt, **knobs), gbuffer
 

@@ -392,9 +392,8 @@ def write_ao_exr(path: str | Path, ao: np.ndarray) -> None:
 
 def _case(rt: Runtime, size: int, width: int, height: int):
     from .camera import frame_heightmap
-    from .synthetic import canyon_crater
     from .terrain import Heightfield, TerrainRenderer
-    field = Heightfield.from_array(canyon_crater(size), 30.0)
+    field = Heightfield(tuning.standard_heightmap(size))
     camera = frame_heightmap(field.heightmap, width, height, 200.0, 25.0)
     return TerrainRenderer(field, rt).render(camera), camera.projection_matrix
 

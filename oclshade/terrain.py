@@ -339,16 +339,14 @@ def render_terrain(heights: object, camera: Camera, cellsize: float | tuple[floa
 
 def _smoke(rt: Runtime, knobs: tuning.Values) -> None:
     from .camera import frame_heightmap
-    from .synthetic import canyon_crater
-    field = Heightfield.from_array(canyon_crater(48), 30.0)
+    field = Heightfield(tuning.standard_heightmap(48))
     renderer = TerrainRenderer(field, rt, **knobs)
     renderer.render(frame_heightmap(field.heightmap, 40, 30, 200.0, 30.0))
 
 
 def _workload(rt: Runtime, knobs: tuning.Values, quick: bool) -> Callable[[], None]:
     from .camera import frame_heightmap
-    from .synthetic import canyon_crater
-    field = Heightfield.from_array(canyon_crater(512 if quick else 1024), 30.0)
+    field = Heightfield(tuning.standard_heightmap(512 if quick else 1024))
     renderer = TerrainRenderer(field, rt, **knobs)
     camera = frame_heightmap(field.heightmap, *((640, 360) if quick else (1920, 1080)), 200.0, 25.0)
     return lambda: renderer.render(camera, on_device=True) and rt.queue.finish()

@@ -15,6 +15,7 @@ asks what kind of device it is.
 """
 from __future__ import annotations
 
+import functools
 import importlib
 from dataclasses import dataclass, field
 from typing import Any, Callable, Mapping
@@ -109,6 +110,15 @@ class Family:
         if safe in out:
             return out[:out.index(safe) + 1]   # the safe values end the chain
         return out + [safe]
+
+
+@functools.lru_cache(maxsize=4)
+def standard_heightmap(size: int):
+    """The smoke and tuning input: the generated canyon (``size`` x ``size``, 30 m cells), made
+    once per process (its arrays are read-only, so families and candidates share it)."""
+    from ..heightmap import Heightmap
+    from ..synthetic import canyon_crater
+    return Heightmap.from_array(canyon_crater(size), cellsize=30.0)
 
 
 _REGISTRY: dict[str, Family] = {}
