@@ -25,8 +25,9 @@ CANYON = Path(__file__).resolve().parent.parent / "data" / "canyon_512.tif"
 
 @pytest.fixture
 def cache(tmp_path, monkeypatch):
-    """A fresh user cache (tuning entries, probe records) for one test."""
+    """A fresh user cache (tuning entries, probe records) and no shipped entry, for one test."""
     monkeypatch.setenv(cachedir.CACHE_ENV, str(tmp_path / "cache"))
+    monkeypatch.setattr(store, "shipped_entries", lambda: ())
     cachedir.cache_root.cache_clear()
     tuning.clear()
     yield tmp_path / "cache"
@@ -77,7 +78,7 @@ def test_lookup_order_user_then_shipped_then_rule(cache, monkeypatch):
     d = tuning.decide(rt, fam)   # the knobs the entry lacks take the rule's values
     assert d.source == "shipped" and "measured with kernels old" in d.notes
     assert d.values == {**rule_values(fam, rt.device), **shipped}
-    mine = {"lanes": 0, "own_builtins": 1, "run": 64, "group": 256}
+    mine = {"lanes": 0, "own_builtins": 1, "cert_tile": 32, "run": 64, "group": 256}
     store.save_user_values(key, fam, mine, {"best_ms": 1.0})
     assert (tuning.decide(rt, fam).values, tuning.decide(rt, fam).source) == (mine, "user")
     # an entry measured with other kernels no longer counts, and says so
