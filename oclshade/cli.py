@@ -31,7 +31,6 @@ from .sun import DEFAULT_AZIMUTH, DEFAULT_ELEVATION, Sun
 PROG = "oclshade"
 RASTER_EXTENSIONS = (".tif", ".tiff", ".exr", ".npy", ".png")
 OUTPUT_CHOICES = ("mask", "self", "coefficient", "all")
-DEBUG_ENV = "OCLSHADE_DEBUG"
 CELL_TAGS = {33550, 34264}  # GeoTIFF ModelPixelScale, ModelTransformation: the file knows its cell size
 
 
@@ -535,7 +534,7 @@ def run_render(args: argparse.Namespace) -> int:
 
 def _fail(message: str, status: int) -> int:
     lines = str(message).strip().splitlines() or ["unknown error"]
-    more = f" (set {DEBUG_ENV}=1 for details)" if len(lines) > 1 and not os.environ.get(DEBUG_ENV) else ""
+    more = f" (set {runtime.DEBUG_ENV}=1 for details)" if len(lines) > 1 and not runtime.debug() else ""
     sys.stderr.write(f"{PROG}: error: {lines[0]}{more}\n")
     return status
 
@@ -549,7 +548,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return int(exc.code or 0)
     command = {"devices": tuning_cli.run_devices, "tune": tuning_cli.run_tune, "shadow": run_shadow,
                "render": run_render, "bench": bench_cli.run}[args.command]
-    debug = os.environ.get(DEBUG_ENV, "") not in ("", "0")
+    debug = runtime.debug()
     runtime.NOTICES = not getattr(args, "quiet", False)
     try:
         return command(args)

@@ -32,7 +32,6 @@ import os
 import pathlib
 import re
 import sys
-import tempfile
 import threading
 import warnings
 from dataclasses import dataclass
@@ -175,31 +174,31 @@ def debug() -> bool:
 
 
 @contextlib.contextmanager
-def quiet_compiler() -> Iterator[list[str]]:
-    """Capture what the compiler writes to the process's stderr (fd 2: PoCL's clang prints
-    "N warnings generated" there) and pyopencl's CompilerWarning; yields a list that holds the
-    captured text afterwards.  With OCLSHADE_DEBUG=1 nothing is captured."""
-    captured: list[str] = []
+def quiet_compiler() -> Iterator[None]:
+    """Keep the compiler's output from the user: what it writes to the process's stderr (fd 2:
+    PoCL's clang prints "N warnings generated" there) goes to the null device and pyopencl's
+    CompilerWarning is ignored; a failed build still carries its log (ProgramBuildError).
+    With OCLSHADE_DEBUG=1 both are shown."""
     if debug():
-        yield captured
+        yield
         return
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", cl.CompilerWarning)
-        try:
+        if sys.stderr is not None:
             sys.stderr.flush()
+        try:
             saved = os.dup(2)
-        except (OSError, ValueError):
-            yield captured
+        except OSError:          # no stderr at all: nothing to keep quiet
+            yield
             return
-        with tempfile.TemporaryFile() as sink:
-            os.dup2(sink.fileno(), 2)
-            try:
-                yield captured
-            finally:
-                os.dup2(saved, 2)
-                os.close(saved)
-                sink.seek(0)
-                captured.append(sink.read().decode(errors="replace"))
+        null = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(null, 2)
+        os.close(null)
+        try:
+            yield
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
 
 
 def _built_marker(digest: str, options: tuple[str, ...], device: cl.Device) -> pathlib.Path | None:
@@ -269,13 +268,18 @@ class Runtime:
     def label(self) -> str:
         return f"{self.device.platform.name.strip()} / {self.device.name.strip()}"
 
-    def program(self, filename: str, defines: Mapping[str, object] | None = None) -> cl.Program:
-        """Build (or fetch from the cache) ``kernels/<filename>`` with the given defines."""
+    def program(self, filename: str, defines: Mapping[str, object] | None = None,
+                rebuild: bool = False) -> cl.Program:
+        """Build (or fetch from the cache) ``kernels/<filename>`` with the given defines;
+        ``rebuild``: from source, past every cache (after a bad cached binary)."""
         source = kernel_source(filename)
         options = define_options(defines or {}) + ("-cl-std=CL1.2",)
         digest = hashlib.sha256(source.encode()).hexdigest()
         key = (digest, options)
         with self._lock:
+            if rebuild:
+                self._programs[key] = self._build(filename, source, options, use_cache=False)
+                return self._programs[key]
             prog = self._programs.get(key)
             if prog is not None:
                 self.build_hits += 1
@@ -329,11 +333,7 @@ class Runtime:
                 # a cached binary that lacks the kernel (left by a build that crashed half-way):
                 # purge the caches and rebuild this program from source, once
                 cachedir.purge_kernel_caches()
-                options = define_options(defines or {}) + ("-cl-std=CL1.2",)
-                source = kernel_source(filename)
-                with self._lock:
-                    prog = self._build(filename, source, options, use_cache=False)
-                    self._programs[(hashlib.sha256(source.encode()).hexdigest(), options)] = prog
+                prog = self.program(filename, defines, rebuild=True)
                 k = cl.Kernel(prog, name)   # still missing: a real error, raised
                 key = (id(prog), name)
             self._kernels[key] = k

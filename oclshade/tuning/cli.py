@@ -40,12 +40,13 @@ def run_devices(args: argparse.Namespace) -> int:
                "max_alloc_mib": d.max_alloc_bytes // 2**20}
         if not args.no_tuning:
             rt = get_runtime(d.index)
-            rec["key"] = DeviceKey.of(rt.device).as_dict()
+            key = DeviceKey.of(rt.device)
+            rec["key"] = key.as_dict()
             rec["tuning"] = {}
             for name in sorted(families()):
                 dec = settings(rt, name)
                 rec["tuning"][name] = {"values": dec.values, "source": dec.source, "notes": list(dec.notes)}
-            rec["user_entry"] = str(store.user_path(DeviceKey.of(rt.device)))
+            rec["user_entry"] = str(store.user_path(key))
         records.append(rec)
     if args.json:
         json.dump(records, sys.stdout, indent=1)

@@ -71,8 +71,8 @@ class Family:
     kernel_files: tuple[str, ...]
     #: smoke(runtime, values): build and run a tiny case with these values (raises on failure)
     smoke: Callable[[Any, Values], None]
-    #: workload(runtime, values, quick) -> a callable that runs one representative case to
-    #: completion (timed by the tuner; the first call includes the build)
+    #: workload(runtime, values, quick) -> a callable that enqueues one representative case (the
+    #: tuner times it up to the queue's end; the first call includes the build)
     workload: Callable[[Any, Values, bool], Callable[[], None]]
     doc: str = ""
     _by_name: dict[str, Param] = field(init=False, repr=False, compare=False)

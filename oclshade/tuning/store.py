@@ -26,7 +26,7 @@ import os
 import pathlib
 import tempfile
 import threading
-from typing import Any
+from typing import Any, Callable
 
 from ..cachedir import tuning_dir
 from ..runtime import kernel_source
@@ -75,7 +75,7 @@ def _write_user(key: DeviceKey, data: dict[str, Any]) -> None:
         raise
 
 
-def update_user(key: DeviceKey, change) -> None:
+def update_user(key: DeviceKey, change: Callable[[dict[str, Any]], None]) -> None:
     """Read-modify-write the user entry under a lock (``change(data)`` edits it in place);
     an unwritable cache only loses the record."""
     with _lock:

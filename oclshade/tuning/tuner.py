@@ -17,7 +17,7 @@ import time
 from typing import Callable
 
 from ..runtime import Runtime
-from . import store
+from . import clear, probed, settings, store
 from .device import DeviceKey
 from .params import Family, Values
 
@@ -45,15 +45,13 @@ def time_in_rotation(runtime: Runtime, fam: Family, candidates: list[Values], qu
 
 def tune_family(runtime: Runtime, fam: Family, start: Values, *, quick: bool, report: Report) -> tuple[Values, dict]:
     """The fastest values found from ``start``, and what was measured."""
-    from . import _probed   # the package's probe-and-remember step
-
     key = DeviceKey.of(runtime.device)
     reps = 3 if quick else 5
     trials: dict[str, float | str] = {}
 
     def usable(values: Values) -> bool:
         notes: list[str] = []
-        if _probed(fam, runtime, key, values, notes):
+        if probed(fam, runtime, key, values, notes):
             return True
         trials[store.values_id(values)] = notes[-1] if notes else "failed"
         report(f"  {fam.name} {store.values_id(values)}: skipped ({trials[store.values_id(values)]})")
@@ -83,8 +81,6 @@ def tune_family(runtime: Runtime, fam: Family, start: Values, *, quick: bool, re
 
 def tune(runtime: Runtime, families: list[Family], *, quick: bool, report: Report) -> dict[str, tuple[Values, dict]]:
     """Tune each family and write the user entry; returns {family: (values, measured)}."""
-    from . import clear, settings
-
     key = DeviceKey.of(runtime.device)
     out = {}
     for fam in families:
