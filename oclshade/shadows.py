@@ -405,7 +405,7 @@ TUNING = tuning.register(tuning.Family(
     "shadow",
     (tuning.Param("lanes", (0, 4, 8, 16), 0, "rays per work-item on vector lanes, exact / maxmip "
                   "(-D OCLS_LANES; 0 = one ray per work-item, shadow_cells)", vector=True,
-                  follows_width=True),
+                  rule="width"),
      tuning.OWN_BUILTINS,
      tuning.Param("cert_tile", (16, 32, 64), CERT_TILE, "cells per side of a far-field certificate tile "
                   "(-D OCLS_CERT, exact and maxmip)"),

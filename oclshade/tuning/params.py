@@ -38,12 +38,16 @@ class Param:
     #: True for a knob whose non-safe values drive the compiler's vector code generation (lane
     #: counts, inline built-ins): a value that fails a probe falls back to the next smaller one
     vector: bool = False
-    #: True for a lane count the rule sets to the compiler target's float vector width (rules.py)
-    follows_width: bool = False
+    #: what the rule from device properties sets it to (oclshade/tuning/rules.py): "safe" (its
+    #: safe value), "width" (a lane count: the compiler target's float vector width on CPUs) or
+    #: "host_memory" (1 on CPU devices that share the host's memory)
+    rule: str = "safe"
 
     def __post_init__(self) -> None:
         if self.safe not in self.values:
             raise ValueError(f"Param {self.name}: safe value {self.safe} is not among {self.values}")
+        if self.rule not in ("safe", "width", "host_memory"):
+            raise ValueError(f"Param {self.name}: rule must be 'safe', 'width' or 'host_memory', got {self.rule!r}")
 
     def check(self, value: object, family: str) -> int:
         if isinstance(value, bool) or not isinstance(value, int) or value not in self.values:

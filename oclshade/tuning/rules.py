@@ -63,8 +63,8 @@ def rule_values(family: Family, device: cl.Device) -> Values:
     is_cpu = bool(device.type & cl.device_type.CPU)
     width = float_lanes(device)
     for p in family.params:
-        if p.follows_width and is_cpu:
+        if p.rule == "width" and is_cpu:
             values[p.name] = _lanes(width, p.values)
-        elif p.name == "in_place":
+        elif p.rule == "host_memory":
             values[p.name] = int(is_cpu and bool(device.host_unified_memory))
     return family.check(values)
