@@ -235,11 +235,10 @@ __kernel void ssao_prepare(__global const float *restrict pos, __global const fl
 #if OCLS_SSAO_LANES != 4 && OCLS_SSAO_LANES != 8 && OCLS_SSAO_LANES != 16
 #error "OCLS_SSAO_LANES must be 4, 8 or 16"
 #endif
-/* the OCLS_SSAO_LANES-wide spelling of a type or builtin: float -> float8, vload -> vload8, ... */
-#define OCLS_LANES_OF(name) OCLS_CAT(name, OCLS_SSAO_LANES)
-#define ocls_vfloat OCLS_LANES_OF(float)
-#define ocls_vint OCLS_LANES_OF(int)
-#define ocls_vuint OCLS_LANES_OF(uint)
+/* the OCLS_SSAO_LANES-wide types and built-ins (common.h): float -> float8, vload -> vload8, ... */
+#define ocls_vfloat OCLS_CAT(float, OCLS_SSAO_LANES)
+#define ocls_vint OCLS_CAT(int, OCLS_SSAO_LANES)
+#define ocls_vuint OCLS_CAT(uint, OCLS_SSAO_LANES)
 #define ocls_convert_vfloat(x) OCLS_CONVERT_TO(ocls_vfloat, x)
 #define ocls_convert_vint(x) OCLS_CONVERT_TO(ocls_vint, x)
 #define ocls_convert_vuint(x) OCLS_CONVERT_TO(ocls_vuint, x)
@@ -248,68 +247,40 @@ __kernel void ssao_prepare(__global const float *restrict pos, __global const fl
 #define ocls_vload4 OCLS_LANE_FN(vload, 4)
 
 #define OCLS_DOT3(ax, ay, az, bx, by, bz) ((ax) * (bx) + (ay) * (by) + (az) * (bz))
-#define OCLS_AT(buf, i, stride, off) (buf)[(stride) * (i) + (off)]
-/* One variant per lane count of: OCLS_LANE_IDS, the int vector (0, 1, ..., lanes - 1);
- * OCLS_GATHER(buf, idx, stride, off), the float vector of buf[stride idx + off] per lane of the
- * int vector idx; OCLS_PLANES(plane, j, lx, ly, lz, ld), the occluder planes (x, y, z, d) of the
- * pixels j: one 16-byte load per lane, transposed into lx, ly, lz, ld. */
+/* The lane numbers (0, 1, ..., lanes - 1), and OCLS_QUADS(M, args): the lanes' components
+ * s0 .. sf four at a time, M(args, a, b, c, d) per four lanes, separated by commas. */
 #if OCLS_SSAO_LANES == 4
 #define OCLS_LANE_IDS (int4)(0, 1, 2, 3)
-#define OCLS_GATHER(buf, idx, stride, off) \
-    (float4)(OCLS_AT(buf, (idx).s0, stride, off), OCLS_AT(buf, (idx).s1, stride, off), \
-             OCLS_AT(buf, (idx).s2, stride, off), OCLS_AT(buf, (idx).s3, stride, off))
-#define OCLS_PLANES(plane, j, lx, ly, lz, ld) { \
-    const float4 l0 = ocls_vload4((j).s0, plane), l1 = ocls_vload4((j).s1, plane); \
-    const float4 l2 = ocls_vload4((j).s2, plane), l3 = ocls_vload4((j).s3, plane); \
-    lx = (float4)(l0.x, l1.x, l2.x, l3.x); \
-    ly = (float4)(l0.y, l1.y, l2.y, l3.y); \
-    lz = (float4)(l0.z, l1.z, l2.z, l3.z); \
-    ld = (float4)(l0.w, l1.w, l2.w, l3.w); }
+#define OCLS_QUADS(M, ...) M(__VA_ARGS__, s0, s1, s2, s3)
 #elif OCLS_SSAO_LANES == 8
 #define OCLS_LANE_IDS (int8)(0, 1, 2, 3, 4, 5, 6, 7)
-#define OCLS_GATHER(buf, idx, stride, off) \
-    (float8)(OCLS_AT(buf, (idx).s0, stride, off), OCLS_AT(buf, (idx).s1, stride, off), \
-             OCLS_AT(buf, (idx).s2, stride, off), OCLS_AT(buf, (idx).s3, stride, off), \
-             OCLS_AT(buf, (idx).s4, stride, off), OCLS_AT(buf, (idx).s5, stride, off), \
-             OCLS_AT(buf, (idx).s6, stride, off), OCLS_AT(buf, (idx).s7, stride, off))
-#define OCLS_PLANES(plane, j, lx, ly, lz, ld) { \
-    const float4 l0 = ocls_vload4((j).s0, plane), l1 = ocls_vload4((j).s1, plane); \
-    const float4 l2 = ocls_vload4((j).s2, plane), l3 = ocls_vload4((j).s3, plane); \
-    const float4 l4 = ocls_vload4((j).s4, plane), l5 = ocls_vload4((j).s5, plane); \
-    const float4 l6 = ocls_vload4((j).s6, plane), l7 = ocls_vload4((j).s7, plane); \
-    lx = (float8)(l0.x, l1.x, l2.x, l3.x, l4.x, l5.x, l6.x, l7.x); \
-    ly = (float8)(l0.y, l1.y, l2.y, l3.y, l4.y, l5.y, l6.y, l7.y); \
-    lz = (float8)(l0.z, l1.z, l2.z, l3.z, l4.z, l5.z, l6.z, l7.z); \
-    ld = (float8)(l0.w, l1.w, l2.w, l3.w, l4.w, l5.w, l6.w, l7.w); }
+#define OCLS_QUADS(M, ...) M(__VA_ARGS__, s0, s1, s2, s3), M(__VA_ARGS__, s4, s5, s6, s7)
 #else
 #define OCLS_LANE_IDS (int16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15)
-#define OCLS_GATHER(buf, idx, stride, off) \
-    (float16)(OCLS_AT(buf, (idx).s0, stride, off), OCLS_AT(buf, (idx).s1, stride, off), \
-              OCLS_AT(buf, (idx).s2, stride, off), OCLS_AT(buf, (idx).s3, stride, off), \
-              OCLS_AT(buf, (idx).s4, stride, off), OCLS_AT(buf, (idx).s5, stride, off), \
-              OCLS_AT(buf, (idx).s6, stride, off), OCLS_AT(buf, (idx).s7, stride, off), \
-              OCLS_AT(buf, (idx).s8, stride, off), OCLS_AT(buf, (idx).s9, stride, off), \
-              OCLS_AT(buf, (idx).sa, stride, off), OCLS_AT(buf, (idx).sb, stride, off), \
-              OCLS_AT(buf, (idx).sc, stride, off), OCLS_AT(buf, (idx).sd, stride, off), \
-              OCLS_AT(buf, (idx).se, stride, off), OCLS_AT(buf, (idx).sf, stride, off))
-#define OCLS_PLANES(plane, j, lx, ly, lz, ld) { \
-    const float4 l0 = ocls_vload4((j).s0, plane), l1 = ocls_vload4((j).s1, plane); \
-    const float4 l2 = ocls_vload4((j).s2, plane), l3 = ocls_vload4((j).s3, plane); \
-    const float4 l4 = ocls_vload4((j).s4, plane), l5 = ocls_vload4((j).s5, plane); \
-    const float4 l6 = ocls_vload4((j).s6, plane), l7 = ocls_vload4((j).s7, plane); \
-    const float4 l8 = ocls_vload4((j).s8, plane), l9 = ocls_vload4((j).s9, plane); \
-    const float4 l10 = ocls_vload4((j).sa, plane), l11 = ocls_vload4((j).sb, plane); \
-    const float4 l12 = ocls_vload4((j).sc, plane), l13 = ocls_vload4((j).sd, plane); \
-    const float4 l14 = ocls_vload4((j).se, plane), l15 = ocls_vload4((j).sf, plane); \
-    lx = (float16)(l0.x, l1.x, l2.x, l3.x, l4.x, l5.x, l6.x, l7.x, \
-                   l8.x, l9.x, l10.x, l11.x, l12.x, l13.x, l14.x, l15.x); \
-    ly = (float16)(l0.y, l1.y, l2.y, l3.y, l4.y, l5.y, l6.y, l7.y, \
-                   l8.y, l9.y, l10.y, l11.y, l12.y, l13.y, l14.y, l15.y); \
-    lz = (float16)(l0.z, l1.z, l2.z, l3.z, l4.z, l5.z, l6.z, l7.z, \
-                   l8.z, l9.z, l10.z, l11.z, l12.z, l13.z, l14.z, l15.z); \
-    ld = (float16)(l0.w, l1.w, l2.w, l3.w, l4.w, l5.w, l6.w, l7.w, \
-                   l8.w, l9.w, l10.w, l11.w, l12.w, l13.w, l14.w, l15.w); }
+#define OCLS_QUADS(M, ...) M(__VA_ARGS__, s0, s1, s2, s3), M(__VA_ARGS__, s4, s5, s6, s7), \
+                           M(__VA_ARGS__, s8, s9, sa, sb), M(__VA_ARGS__, sc, sd, se, sf)
 #endif
+/* OCLS_GATHER(buf, idx, stride, off): the float vector of buf[stride idx + off] per lane of the
+ * int vector idx (OCLS_G4: four of its lanes) */
+#define OCLS_AT(buf, i, stride, off) (buf)[(stride) * (i) + (off)]
+#define OCLS_G4(buf, idx, stride, off, a, b, c, d) \
+    OCLS_AT(buf, (idx).a, stride, off), OCLS_AT(buf, (idx).b, stride, off), \
+    OCLS_AT(buf, (idx).c, stride, off), OCLS_AT(buf, (idx).d, stride, off)
+#define OCLS_GATHER(buf, idx, stride, off) ((ocls_vfloat)(OCLS_QUADS(OCLS_G4, buf, idx, stride, off)))
+/* OCLS_PLANES(plane, j, lx, ly, lz, ld): the occluder planes (x, y, z, d) of the pixels j, one
+ * 16-byte load per lane, transposed into lx, ly, lz, ld.  OCLS_P4_LOAD declares q_<a>, the
+ * planes of four lanes a .. d (x, y, z, d of lane a, then of b, ...); OCLS_P4_PART picks one
+ * component of the four (swizzle sw: x s048c, y s159d, z s26ae, d s37bf). */
+#define OCLS_P4_LOAD(plane, j, a, b, c, d) \
+    q_##a = (float16)(ocls_vload4((j).a, plane), ocls_vload4((j).b, plane), \
+                      ocls_vload4((j).c, plane), ocls_vload4((j).d, plane))
+#define OCLS_P4_PART(sw, a, b, c, d) q_##a.sw
+#define OCLS_PLANES(plane, j, lx, ly, lz, ld) { \
+    const float16 OCLS_QUADS(OCLS_P4_LOAD, plane, j); \
+    lx = (ocls_vfloat)(OCLS_QUADS(OCLS_P4_PART, s048c)); \
+    ly = (ocls_vfloat)(OCLS_QUADS(OCLS_P4_PART, s159d)); \
+    lz = (ocls_vfloat)(OCLS_QUADS(OCLS_P4_PART, s26ae)); \
+    ld = (ocls_vfloat)(OCLS_QUADS(OCLS_P4_PART, s37bf)); }
 
 /* Stores the lanes of v at p[0], p[1], ... (p: pixel c0 of a row of W pixels), those before the row end. */
 OCLS_INLINE void ocls_store_lanes(ocls_vfloat v, int c0, int W, __global float *p)

@@ -253,7 +253,7 @@ class SSAO:
                  if v is not None}
         knobs = {**tuning.settings(rt, "ssao").values, **TUNING.check(given, partial=True)}
         self.lanes, self.group, self.own_builtins = knobs["lanes"], knobs["group"], bool(knobs["own_builtins"])
-        self.runtime = get_runtime(device)
+        self.runtime = rt
         self._tables: dict[tuple[int, str], cl.Buffer] = {}
         self._work: dict[str, cl.Buffer] = {}
         self._work_shape: tuple[int, int] | None = None
@@ -407,7 +407,7 @@ def _workload(rt: Runtime, knobs: tuning.Values, quick: bool) -> Callable[[], No
     gbuffer, projection = _case(rt, 512 if quick else 1024, *((640, 360) if quick else (1920, 1080)))
     ssao = SSAO(rt, **knobs)
     inputs = ssao.upload(gbuffer)
-    return lambda: ssao.run(inputs, projection, radius=90.0) and rt.queue.finish()
+    return lambda: ssao.run(inputs, projection, radius=90.0)
 
 
 #: the SSAO pass's knobs (kernels/ssao.cl)
