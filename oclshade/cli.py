@@ -210,8 +210,8 @@ def build_parser() -> CliParser:
 
 RENDER_EPILOG = """\
 outputs (by OUTPUT's extension):
-  .png  the shaded frame: albedo x (Lambert sun + sky ambient), hypsometric tint
-        (or --colour), 8-bit sRGB; empty pixels show the sky colour
+  .png  the shaded frame: albedo x (Lambert sun + sky ambient), albedo a hypsometric
+        tint, 8-bit sRGB; empty pixels show the sky colour
   .exr  the G-buffer (oclshade/gbuffer.py), float32 channels:
         position.x/y/z/w (view space, w = 1 hit), normal.x/y/z, uv.u/v,
         uv_grad.dudc/dvdc/dudr/dvdr, Z (linear depth, +inf where empty), R/G/B/A (albedo)
