@@ -13,13 +13,14 @@ import os
 import sys
 import time
 import traceback
+import warnings
 from dataclasses import dataclass
 from typing import NoReturn, Sequence, TextIO
 
 import numpy as np
 
-from .heightmap import Heightmap
-from .io import read_dem, write_raster
+from .heightmap import Heightmap, InputWarning
+from .io import Raster, read_dem, write_raster
 from .preview import write_preview
 from . import runtime
 from .tuning import cli as tuning_cli
@@ -82,6 +83,31 @@ def _positive(text: str) -> float:
     if value <= 0.0:
         raise argparse.ArgumentTypeError(f"must be a positive number, got {text}")
     return value
+
+
+def _band(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"a band is a number 1, 2, ... (1-based, as GDAL), got {text!r}")
+    return value
+
+
+def _nodata(text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"nodata must be a number (or nan), got {text!r}") from None
+
+
+def add_input_arguments(parser: argparse.ArgumentParser) -> None:
+    """-b and --nodata: which band of INPUT, and its nodata value (shadow and render)."""
+    parser.add_argument("-b", dest="band", type=_band, default=None, metavar="BAND",
+                        help="band of INPUT to read, 1-based as GDAL (default 1; a warning when INPUT has more)")
+    parser.add_argument("--nodata", type=_nodata, default=None, metavar="VALUE",
+                        help="INPUT's nodata value, overriding the file's (as gdalwarp -srcnodata)")
 
 
 def _nonzero(text: str) -> float:
@@ -182,10 +208,12 @@ def build_parser() -> CliParser:
     sh.add_argument("-s", dest="scale", type=_positive, default=1.0, metavar="SCALE",
                     help="ratio of vertical units to horizontal, as gdaldem: horizontal cell sizes "
                          "are multiplied by SCALE (e.g. 111120 for a degree grid with metre heights "
-                         "and no CRS; geographic GeoTIFF/HGT are converted automatically)")
+                         "and no CRS; refused for input with a geographic CRS, which is converted "
+                         "to metres automatically)")
     sh.add_argument("--cellsize", nargs="+", type=_positive, metavar=("DX", "DY"),
                     help="cell size (east-west, north-south); required for .npy/.exr/.png input, "
                          "overrides the file's otherwise")
+    add_input_arguments(sh)
     sh.add_argument("--method", default="exact", choices=METHODS,
                     help="traversal (default exact; see README)")
     sh.add_argument("--output", dest="kind", default="mask", choices=OUTPUT_CHOICES,
@@ -307,6 +335,7 @@ def add_render_parser(sub) -> None:
                     help="horizontal cell sizes are multiplied by SCALE, as in 'oclshade shadow'")
     rd.add_argument("--cellsize", nargs="+", type=_positive, metavar=("DX", "DY"),
                     help="cell size (east-west, north-south); required for .npy/.exr/.png input")
+    add_input_arguments(rd)
     rd.add_argument("--device", metavar="SPEC", help="OpenCL device: index or name substring")
     rd.add_argument("--quiet", "-q", action="store_true", help="no summary line")
 
@@ -361,6 +390,24 @@ def check_shadow_args(args: argparse.Namespace) -> ShadowJob:
     return ShadowJob(suns, outputs, cellsize)
 
 
+def read_input(args: argparse.Namespace, cellsize: float | tuple[float, float] | None) -> tuple[Raster, Heightmap]:
+    """INPUT as a raster and a heightmap (-b, --nodata, --cellsize, -s, -z); the library's
+    warnings become ``oclshade: warning: ...`` lines once the input is accepted."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", InputWarning)
+        raster = read_dem(args.input, cellsize=cellsize, band=args.band, nodata=args.nodata)
+        if cellsize is None and not CELL_TAGS & raster.georef.keys():
+            raise UsageError(f"INPUT {args.input!r} does not record its cell size; give --cellsize DX [DY] (metres)")
+        if cellsize is None and raster.geographic and args.scale != 1.0:
+            raise UsageError(f"-s {args.scale:g}: INPUT {args.input!r} has a geographic CRS, and its cell sizes "
+                             f"are converted to metres automatically; drop -s")
+        heightmap = Heightmap.from_array(raster.heights, cellsize=(raster.dx * args.scale, raster.dy * args.scale),
+                                         z_factor=args.z_factor)
+    for warning in caught:
+        sys.stderr.write(f"{PROG}: warning: {warning.message}\n")
+    return raster, heightmap
+
+
 class ProgressBar:
     """A dependency-free text bar on a stream; redraws in place on a terminal."""
 
@@ -403,11 +450,8 @@ def run_shadow(args: argparse.Namespace) -> int:
     if args.preview is not None and (_same_file(args.preview, args.input) or _same_file(args.preview, args.output)):
         raise CliError(f"--preview {args.preview!r} is the input or the output file; refusing to overwrite it")
     t0 = time.perf_counter()
-    raster = read_dem(args.input, cellsize=job.cellsize)
-    if job.cellsize is None and not CELL_TAGS & raster.georef.keys():
-        raise UsageError(f"INPUT {args.input!r} does not record its cell size; give --cellsize DX [DY] (metres)")
-    dx, dy = raster.dx * args.scale, raster.dy * args.scale
-    heightmap = Heightmap.from_array(raster.heights, cellsize=(dx, dy), z_factor=args.z_factor)
+    raster, heightmap = read_input(args, job.cellsize)
+    dx, dy = heightmap.dx, heightmap.dy
     caster = ShadowCaster(heightmap, device=args.device)
     show_bar = not args.quiet and len(job.suns) > 1
     t1 = time.perf_counter()
@@ -489,11 +533,7 @@ def run_render(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     cellsize = None if args.cellsize is None else (
         args.cellsize[0] if len(args.cellsize) == 1 else (args.cellsize[0], args.cellsize[1]))
-    raster = read_dem(args.input, cellsize=cellsize)
-    if cellsize is None and not CELL_TAGS & raster.georef.keys() and not raster.geographic:
-        raise UsageError(f"INPUT {args.input!r} does not record its cell size; give --cellsize DX [DY] (metres)")
-    heightmap = Heightmap.from_array(raster.heights, cellsize=(raster.dx * args.scale, raster.dy * args.scale),
-                                     z_factor=args.z_factor)
+    _, heightmap = read_input(args, cellsize)
     field = Heightfield(heightmap, args.radius)
     width, height = args.size
     if args.camera is None:

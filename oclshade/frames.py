@@ -35,7 +35,7 @@ from .camera import Camera
 from .compose import Lighting, compose
 from .runtime import Runtime
 from .screen_shadows import LodOptions, ScreenShadowCaster
-from .ssao import DEFAULT_FEATURES, DEFAULT_M, SSAO, AOFeatures, AOInputs
+from .ssao import DEFAULT_FEATURES, DEFAULT_M, SSAO, AOFeatures, AOInputs, check_params
 from .sun import Sun, SunLike, as_sun
 from .terrain import DeviceGBuffer, Heightfield, TerrainRenderer
 
@@ -44,12 +44,16 @@ PASSES = ("gbuffer", "shadows", "ao", "compose")
 
 @dataclass(frozen=True)
 class AOSettings:
-    """Screen-space AO (see :mod:`oclshade.ssao`): radius in metres, m samples."""
+    """Screen-space AO (see :mod:`oclshade.ssao`): radius in metres, m samples; radius 0 or
+    m 0 switch AO off.  Checked as :meth:`SSAO.run <oclshade.ssao.SSAO.run>` checks them."""
 
     radius: float
     m: int = DEFAULT_M
     delta: float = 0.0
     features: AOFeatures = DEFAULT_FEATURES
+
+    def __post_init__(self) -> None:
+        check_params(self.m, self.radius, self.delta)
 
 
 @dataclass(frozen=True)

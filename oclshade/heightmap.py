@@ -1,9 +1,11 @@
 """Validated heightmap input: the one place where user arrays become kernel data.
 
 A :class:`Heightmap` holds the float64 heights (NaN = nodata), the cell sizes
-in metres and a float32 copy relative to ``offset`` (the mean of the finite
+in metres and a float32 copy relative to ``offset`` (the midpoint of the finite
 heights, subtracted in float64), which is what kernels read: a DEM a million
-metres above the datum keeps its millimetres.
+metres above the datum keeps its millimetres.  Heights whose spread float32
+cannot hold to :func:`float32_tolerance` (one stray 1e30 or undeclared
+nodata cell) are refused, naming the extreme value.
 """
 from __future__ import annotations
 
@@ -12,6 +14,14 @@ import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
+
+FLOAT32_MAX = float(np.finfo(np.float32).max)
+# Values data sets use for "no data"; finding one in heights without declared nodata is suspicious.
+NODATA_SENTINELS = (-32768.0, -9999.0, -99999.0, -FLOAT32_MAX, FLOAT32_MAX)
+
+
+class InputWarning(UserWarning):
+    """Input used as given but probably not as meant (an undeclared nodata value, band 1 of several, ...)."""
 
 
 def positive_finite(name: str, value: float) -> float:
@@ -24,35 +34,97 @@ def positive_finite(name: str, value: float) -> float:
     return v
 
 
-def as_heights(heights: object, nodata: float | None = None, name: str = "heights") -> np.ndarray:
-    """A float64 (rows, cols) array of ``heights`` with nodata (and NaN) as NaN.
+def nodata_value(nodata: object) -> float | None:
+    """``nodata`` as a float (None stays None); a TypeError names it when it is not a number."""
+    if nodata is None:
+        return None
+    if isinstance(nodata, bool) or not isinstance(nodata, (int, float, np.integer, np.floating)):
+        raise TypeError(f"nodata must be a number or None, got {nodata!r}")
+    return float(nodata)
 
-    Rejects non-numeric or boolean dtypes, ranks other than 2, empty arrays and
-    infinities, naming the argument.  A float64 input without a nodata value
-    to replace is used as is (read-only view), not copied.
+
+def as_heights(heights: object, nodata: float | None = None, name: str = "heights",
+               copy: bool = False) -> np.ndarray:
+    """A read-only float64 (rows, cols) array of ``heights`` with nodata, NaN and masked cells as NaN.
+
+    ``heights`` may be a ``numpy.ma`` masked array (masked cells are nodata).
+    Rejects non-numeric or boolean dtypes, ranks other than 2, empty arrays,
+    infinities and a non-numeric ``nodata``, naming the argument.  Unless ``copy``,
+    a float64 input with nothing to replace is a read-only view, not a copy.
     """
-    arr = np.asarray(heights)
+    nodata = nodata_value(nodata)
+    mask = np.ma.getmask(heights)
+    arr = np.asarray(np.ma.getdata(heights))
     if arr.dtype.kind not in "iuf":
         raise TypeError(f"{name} must be a real numeric array (int or float), got dtype {arr.dtype}")
     if arr.ndim != 2:
         raise ValueError(f"{name} must be 2-D (rows, cols), got shape {arr.shape}")
     if arr.size == 0:
         raise ValueError(f"{name} must not be empty, got shape {arr.shape}")
-    replace = nodata is not None and not (isinstance(nodata, float) and math.isnan(nodata))
-    if arr.dtype == np.float64 and not replace:
+    replace = nodata is not None and not math.isnan(nodata)
+    if arr.dtype == np.float64 and not (replace or copy or mask is not np.ma.nomask):
         out = arr.view()
     else:
         out = arr.astype(np.float64)
         if replace:
             out[arr == nodata] = np.nan
+        if mask is not np.ma.nomask:
+            out[np.broadcast_to(mask, arr.shape)] = np.nan
     out.setflags(write=False)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)    # all-NaN maps
-        lo, hi = np.nanmin(out), np.nanmax(out)
+    lo, hi = extrema(out)
     if np.isinf(lo) or np.isinf(hi):
         n = int(np.isinf(out).sum())
         raise ValueError(f"{name} contains {n} infinite value(s); expected finite heights or NaN/nodata for holes")
     return out
+
+
+def extrema(heights: np.ndarray) -> tuple[float, float]:
+    """(min, max) of the non-NaN heights; (nan, nan) when all are NaN."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)    # all-NaN maps
+        return float(np.nanmin(heights)), float(np.nanmax(heights))
+
+
+def warn_sentinels(heights: np.ndarray, lo: float, hi: float, name: str = "heights") -> None:
+    """Warn (:class:`InputWarning`) for each of :data:`NODATA_SENTINELS` found in ``heights``."""
+    for value in NODATA_SENTINELS:
+        near = 1e-7 * abs(value)   # float32 max written as text ("3.4028235e38") is not float32 max exactly
+        if lo - near <= value <= hi + near:
+            count = int(np.count_nonzero(np.abs(heights - value) <= near))
+            if count:
+                warnings.warn(f"{name}: {count} cell(s) equal {value:.8g}, a common nodata value, but it is not "
+                              f"declared as nodata; if those cells are holes, declare it (--nodata {value:.8g} "
+                              f"or nodata={value:.8g})", InputWarning, stacklevel=3)
+
+
+def float32_tolerance(dx: float, dy: float) -> float:
+    """The largest float32 rounding of relative heights accepted: max(0.001, 1e-4 x the smaller cell size).
+
+    1 mm is below the vertical resolution of any DEM; 1e-4 of the cell size keeps
+    the error of a slope to the next cell under 1e-4 rad (0.006 degrees)."""
+    return max(1e-3, 1e-4 * min(dx, dy))
+
+
+def check_float32(heights: np.ndarray, lo: float, hi: float, dx: float, dy: float) -> None:
+    """Refuse heights whose float32 values relative to the midpoint round by more than
+    :func:`float32_tolerance` (or overflow float32), naming the most extreme value."""
+    span = 0.5 * hi - 0.5 * lo          # max |h - midpoint|, without overflowing float64
+    with np.errstate(over="ignore"):
+        rounding = 0.5 * float(np.spacing(np.float32(min(span, FLOAT32_MAX))))
+    tol = float32_tolerance(dx, dy)
+    if span <= FLOAT32_MAX and rounding <= tol:
+        return
+    median = float(np.nanmedian(heights))
+    value = hi if hi - median >= median - lo else lo
+    where = heights == value
+    row, col = np.unravel_index(int(np.argmax(where)), heights.shape)
+    problem = (f"exceed the float32 range (+-{FLOAT32_MAX:.3g}) the kernels use" if span > FLOAT32_MAX else
+               f"round by up to {rounding:.3g} in the float32 the kernels use, more than the tolerance "
+               f"{tol:.3g} (max(0.001, 1e-4 x cell size))")
+    raise ValueError(f"heights from {lo:.9g} to {hi:.9g} relative to their midpoint {problem}: "
+                     f"{int(np.count_nonzero(where))} cell(s) equal {value:.9g} (first at row {row}, col {col}; "
+                     f"median height {median:.6g}); if that is a nodata value, declare it "
+                     f"(--nodata {value:.9g} or nodata={value:.9g})")
 
 
 def _relative_float32(heights: np.ndarray, offset: float, block_rows: int = 512) -> np.ndarray:
@@ -74,10 +146,10 @@ class Heightmap:
     relative32: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", RuntimeWarning)    # all-NaN maps
-            lo, hi = np.nanmin(self.heights), np.nanmax(self.heights)
-        offset = float(0.5 * (lo + hi)) if np.isfinite(lo) else 0.0
+        lo, hi = extrema(self.heights)
+        if not math.isnan(lo):
+            check_float32(self.heights, lo, hi, self.dx, self.dy)
+        offset = 0.5 * lo + 0.5 * hi if not math.isnan(lo) else 0.0
         object.__setattr__(self, "offset", offset)
         rel = _relative_float32(self.heights, offset)
         rel.setflags(write=False)
@@ -88,10 +160,21 @@ class Heightmap:
                    z_factor: float = 1.0, nodata: float | None = None) -> "Heightmap":
         """Validate ``heights`` and build a heightmap.
 
+        heights: 2-D numbers, NaN (or ``nodata``, or masked cells of a
+        ``numpy.ma`` array) for holes.  It is copied (8 bytes a cell), so
+        editing the array afterwards does not change the heightmap.
         cellsize: one number (dx = dy) or (dx, dy), metres.  z_factor scales
-        heights to the cell-size unit (as gdaldem's -z).
+        heights to the cell-size unit (as gdaldem's -z).  Warns
+        (:class:`InputWarning`) when heights hold a common nodata value
+        (:data:`NODATA_SENTINELS`).
         """
-        h = as_heights(heights, nodata)
+        z = float(z_factor)
+        if not math.isfinite(z) or z == 0.0:
+            raise ValueError(f"z_factor must be a finite non-zero number, got {z_factor!r}")
+        h = as_heights(heights, nodata, copy=z == 1.0)     # scaling copies anyway
+        lo, hi = extrema(h)
+        if math.isfinite(lo):
+            warn_sentinels(h, lo, hi)
         if isinstance(cellsize, (tuple, list, np.ndarray)):
             if len(cellsize) != 2:
                 raise ValueError(f"cellsize must be a number or (dx, dy), got {cellsize!r}")
@@ -99,11 +182,13 @@ class Heightmap:
             dy = positive_finite("cellsize dy", cellsize[1])
         else:
             dx = dy = positive_finite("cellsize", cellsize)
-        z = float(z_factor)
-        if not math.isfinite(z) or z == 0.0:
-            raise ValueError(f"z_factor must be a finite non-zero number, got {z_factor!r}")
         if z != 1.0:
+            peak = max(abs(lo), abs(hi)) if math.isfinite(lo) else 0.0
+            if not math.isfinite(peak * z):
+                raise ValueError(f"z_factor={z_factor!r} makes heights overflow: {peak:.9g} x {z:g} "
+                                 f"exceeds the float64 range")
             h = h * z
+            h.setflags(write=False)
         return cls(h, dx, dy)
 
     @property

@@ -22,6 +22,8 @@ import OpenEXR
 import tifffile
 from PIL import Image
 
+from .heightmap import InputWarning, nodata_value
+
 __all__ = ["Raster", "RasterIOError", "metres_per_degree", "read_dem", "write_raster"]
 
 # GeoTIFF tags copied verbatim by write_raster (tifffile tag dtype codes: 12 double, 3 short, 2 ascii)
@@ -42,13 +44,27 @@ def _georef_4326(scale: float, west: float, north: float, pixel_is_point: bool) 
             34735: geokeys, 34736: (298.257223563, 6378137.0), 34737: "WGS 84|"}
 
 
+def _georef_crs(cx: float, cy: float, west: float, north: float, geographic: bool, epsg: int | None) -> dict:
+    """GeoTIFF tags of a north-up raster whose top-left corner is (west, north); the CRS as an
+    EPSG code in the geokeys when one is known (GeoTIFF keys are 16-bit: codes 1..32766)."""
+    georef = {33550: (cx, cy, 0.0), 33922: (0.0, 0.0, 0.0, west, north, 0.0)}
+    if epsg is not None and 0 < epsg < 32767:
+        georef[34735] = (1, 1, 0, 3, 1024, 0, 1, 2 if geographic else 1, 1025, 0, 1, 1,
+                         2048 if geographic else 3072, 0, 1, epsg)
+    return georef
+
+
 class RasterIOError(ValueError):
     """A raster file cannot be read or written; the message names the path and the problem."""
 
 
 @dataclass
 class Raster:
-    """A DEM read from a file: float64 heights (NaN = nodata), row 0 north, cell sizes in metres."""
+    """A DEM read from a file: float64 heights (NaN = nodata), row 0 north, cell sizes in metres.
+
+    ``crs_wkt`` is the CRS as WKT where the file gives it so (an ESRI ASCII grid's
+    ``.prj``), else None: GeoTIFF and SRTM input keep theirs in the geokeys of ``georef``.
+    """
 
     heights: np.ndarray
     dx: float
@@ -57,6 +73,23 @@ class Raster:
     geographic: bool = False
     georef: dict = field(default_factory=dict)
     path: str | None = None
+    crs_wkt: str | None = None
+
+
+@dataclass
+class _Source:
+    """What a reader found: the chosen band's samples (in the file's dtype) and what the file says."""
+
+    raw: np.ndarray
+    nodata: float | None = None
+    geographic: bool = False
+    georef: dict = field(default_factory=dict)
+    cell: tuple[float, float] | None = None      # metres; None: the file does not say
+    crs_wkt: str | None = None
+    bands: int = 1                                # bands in the file
+    band: int = 1                                 # the band read, 1-based
+    band_name: str = ""
+    notes: list[str] = field(default_factory=list)   # warnings for the user
 
 
 def metres_per_degree(lat_deg: float) -> tuple[float, float]:
@@ -66,6 +99,14 @@ def metres_per_degree(lat_deg: float) -> tuple[float, float]:
     rad = math.pi / 180.0
     return (rad * _WGS84_A * math.cos(phi) / math.sqrt(w),
             rad * _WGS84_A * (1.0 - _WGS84_E2) / w ** 1.5)
+
+
+def _degree_cells(cx: float, cy: float, centre_lat: float) -> tuple[float, float]:
+    """Cell sizes in degrees to metres at the raster's centre latitude."""
+    if not -90.0 <= centre_lat <= 90.0:
+        raise ValueError(f"geographic raster centred at latitude {centre_lat:.9g}, outside -90..90")
+    mx, my = metres_per_degree(centre_lat)
+    return cx * mx, cy * my
 
 
 def _err(path: object, what: str) -> RasterIOError:
@@ -81,6 +122,15 @@ def _cellsize(path: object, cellsize: float | tuple[float, float]) -> tuple[floa
     if not (math.isfinite(dx) and math.isfinite(dy) and dx > 0 and dy > 0):
         raise _err(path, f"cellsize must be positive and finite, got {cellsize!r}")
     return dx, dy
+
+
+def _band_index(path: Path, count: int, band: int | None, default: int = 0) -> int:
+    """0-based index of the 1-based ``band`` (``default`` when None) among ``count`` bands."""
+    if band is None:
+        return default
+    if band > count:
+        raise _err(path, f"band {band} requested but the file has {count} band(s)")
+    return band - 1
 
 
 def _heights(path: object, raw: np.ndarray, nodata: float | None) -> np.ndarray:
@@ -103,13 +153,6 @@ def _heights(path: object, raw: np.ndarray, nodata: float | None) -> np.ndarray:
 
 # ----------------------------------------------------------------------------- GeoTIFF
 
-def _first_band(page: tifffile.TiffPage, arr: np.ndarray) -> np.ndarray:
-    axes = page.axes
-    if "S" in axes and arr.ndim == len(axes):
-        arr = np.take(arr, 0, axis=axes.index("S"))
-    return arr.squeeze() if arr.ndim > 2 else arr
-
-
 def _geokey(keys: Sequence[int], key_id: int) -> int | None:
     for k in range(4, len(keys) - 3, 4):
         if keys[k] == key_id and keys[k + 1] == 0:
@@ -117,11 +160,16 @@ def _geokey(keys: Sequence[int], key_id: int) -> int | None:
     return None
 
 
-def _read_tif(path: Path) -> tuple[np.ndarray, float | None, bool, dict, tuple[float, float] | None]:
+def _read_tif(path: Path, band: int | None) -> _Source:
     with tifffile.TiffFile(path) as tif:
         page = tif.pages[0]
         tags = {t.code: t.value for t in page.tags.values()}
-        raw = _first_band(page, page.asarray())   # LZW/DEFLATE/predictors: imagecodecs
+        raw = page.asarray()                      # LZW/DEFLATE/predictors: imagecodecs
+    bands = page.samplesperpixel if "S" in page.axes and raw.ndim == len(page.axes) else 1
+    index = _band_index(path, bands, band)
+    if bands > 1:
+        raw = np.take(raw, index, axis=page.axes.index("S"))
+    raw = raw.squeeze() if raw.ndim > 2 else raw
     georef = {code: tags[code] for code in GEOTIFF_TAGS if code in tags}
     nodata = None
     if _TAG_NODATA in tags and str(tags[_TAG_NODATA]).strip():
@@ -141,9 +189,8 @@ def _read_tif(path: Path) -> tuple[np.ndarray, float | None, bool, dict, tuple[f
         if centre_lat is None:
             raise ValueError("geographic GeoTIFF without ModelTiepoint: cannot convert degrees to "
                              "metres (pass cellsize)")
-        mx, my = metres_per_degree(centre_lat)
-        cell = (cell[0] * mx, cell[1] * my)
-    return raw, nodata, geographic, georef, cell
+        cell = _degree_cells(*cell, centre_lat)
+    return _Source(raw, nodata, geographic, georef, cell, bands=bands, band=index + 1)
 
 
 # ----------------------------------------------------------------------------- SRTM .hgt
@@ -151,7 +198,8 @@ def _read_tif(path: Path) -> tuple[np.ndarray, float | None, bool, dict, tuple[f
 _HGT_NAME = re.compile(r"([NS])(\d{1,2})([EW])(\d{1,3})", re.IGNORECASE)
 
 
-def _read_hgt(path: Path) -> Raster:
+def _read_hgt(path: Path, band: int | None) -> _Source:
+    _band_index(path, 1, band)
     name = path.name
     if path.suffix.lower() == ".zip":
         with zipfile.ZipFile(path) as zf:
@@ -171,14 +219,128 @@ def _read_hgt(path: Path) -> Raster:
         raise ValueError(f"SRTM .hgt must hold 1201x1201 or 3601x3601 int16 samples, got {len(data)} bytes")
     raw = np.frombuffer(data, dtype=">i2").reshape(side, side).astype(np.int16)
     step = 1.0 / (side - 1)
-    mx, my = metres_per_degree(lat + 0.5)
     georef = _georef_4326(step, float(lon), float(lat + 1), pixel_is_point=True)  # samples on corners
-    return Raster(_heights(path, raw, -32768.0), step * mx, step * my, -32768.0, True, georef, None)
+    return _Source(raw, -32768.0, True, georef, _degree_cells(step, step, lat + 0.5))
 
 
-# ----------------------------------------------------------------------------- ESRI ASCII grid
+# ----------------------------------------------------------------------------- ESRI ASCII grid and its .prj
 
-def _read_asc(path: Path) -> Raster:
+_WKT_TOKEN = re.compile(r'\s*(?:"((?:[^"]|"")*)"|([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)'
+                        r'|([A-Za-z_][\w.]*)|([\[\](),]))')
+_WKT_GEOGRAPHIC = ("GEOGCS", "GEOGCRS", "GEOGRAPHICCRS")
+_WKT_PLANAR = ("PROJCS", "PROJCRS", "PROJECTEDCRS", "LOCAL_CS", "ENGCRS", "ENGINEERINGCRS")
+_WKT_COMPOUND = ("COMPD_CS", "COMPOUNDCRS")
+
+
+@dataclass
+class _Wkt:
+    """One WKT node: KEYWORD[arg, ...] with args strings, numbers, bare words or nodes."""
+
+    keyword: str
+    args: list
+
+    def children(self, *keywords: str) -> list["_Wkt"]:
+        return [a for a in self.args if isinstance(a, _Wkt) and a.keyword in keywords]
+
+
+def _parse_wkt(text: str) -> _Wkt:
+    """Parse WKT 1 (OGC or ESRI flavour) or WKT 2; raises ValueError on malformed text."""
+    tokens, pos = [], 0
+    text = text.strip()
+    while pos < len(text):
+        m = _WKT_TOKEN.match(text, pos)
+        if m is None:
+            raise ValueError(f"not WKT: unexpected {text[pos:pos + 20]!r} at character {pos}")
+        tokens.append(m)
+        pos = m.end()
+    at = 0
+
+    def value() -> object:
+        nonlocal at
+        if at >= len(tokens):
+            raise ValueError("not WKT: ends early")
+        string, number, word, punct = tokens[at].groups()
+        at += 1
+        if string is not None:
+            return string.replace('""', '"')
+        if number is not None:
+            return float(number)
+        if word is None:
+            raise ValueError(f"not WKT: unexpected {punct!r}")
+        if at < len(tokens) and tokens[at][4] in ("[", "("):
+            at += 1
+            args = [value()]
+            while at < len(tokens) and tokens[at][4] == ",":
+                at += 1
+                args.append(value())
+            if at >= len(tokens) or tokens[at][4] not in ("]", ")"):
+                raise ValueError(f"not WKT: {word}[ is not closed")
+            at += 1
+            return _Wkt(word.upper(), args)
+        return word
+
+    root = value()
+    if not isinstance(root, _Wkt) or at != len(tokens):
+        raise ValueError("not WKT: expected one KEYWORD[...] node")
+    return root
+
+
+@dataclass(frozen=True)
+class _Crs:
+    geographic: bool
+    metres_per_unit: float        # of the coordinates (1 for geographic: degrees, converted later)
+    epsg: int | None
+    wkt: str
+
+
+def _wkt_unit(node: _Wkt, keywords: tuple[str, ...]) -> tuple[str, float] | None:
+    """(name, factor) of the node's own unit, or of its first axis's (WKT 2)."""
+    for holder in (node, *node.children("AXIS")):
+        for unit in holder.children(*keywords):
+            if len(unit.args) >= 2 and isinstance(unit.args[1], float):
+                return str(unit.args[0]), unit.args[1]
+    return None
+
+
+def _read_prj(prj: Path) -> _Crs:
+    """The CRS of an ESRI ASCII grid from its .prj (WKT); raises ValueError naming the .prj."""
+    wkt = prj.read_text(encoding="utf-8-sig", errors="replace").strip()
+    try:
+        root = _parse_wkt(wkt)
+    except ValueError as exc:
+        raise ValueError(f"{prj.name}: {exc} (expected the CRS as WKT, e.g. from 'gdalsrsinfo -o wkt EPSG:CODE')") \
+            from None
+    node = root
+    if root.keyword in _WKT_COMPOUND:   # its horizontal part
+        node = next(iter(root.children(*_WKT_GEOGRAPHIC, *_WKT_PLANAR)), root)
+    if node.keyword not in _WKT_GEOGRAPHIC + _WKT_PLANAR:
+        raise ValueError(f"{prj.name}: unsupported CRS {node.keyword}[...]; expected a geographic "
+                         f"(GEOGCS/GEOGCRS) or projected (PROJCS/PROJCRS) CRS")
+    epsg = None
+    for ident in node.children("AUTHORITY", "ID"):
+        if len(ident.args) >= 2 and str(ident.args[0]).upper() == "EPSG":
+            epsg = int(float(ident.args[1]))
+    geographic = node.keyword in _WKT_GEOGRAPHIC
+    if geographic:
+        unit = _wkt_unit(node, ("UNIT", "ANGLEUNIT"))
+        if unit is not None and not math.isclose(unit[1], math.pi / 180.0, rel_tol=1e-9):
+            raise ValueError(f"{prj.name}: angular unit {unit[0]!r} ({unit[1]:.9g} rad) is not supported; "
+                             f"expected degrees")
+        return _Crs(True, 1.0, epsg, wkt)
+    unit = _wkt_unit(node, ("UNIT", "LENGTHUNIT"))
+    if unit is None or not (math.isfinite(unit[1]) and unit[1] > 0):
+        raise ValueError(f"{prj.name}: the projected CRS names no linear unit (UNIT[\"metre\",1])")
+    return _Crs(False, unit[1], epsg, wkt)
+
+
+def _could_be_degrees(cx: float, cy: float, west: float, south: float, cols: int, rows: int) -> bool:
+    """Cells under 1 unit and the whole extent within longitude -180..180, latitude -90..90."""
+    return (cx < 1 and cy < 1 and -180 <= west and west + cols * cx <= 180
+            and -90 <= south and south + rows * cy <= 90)
+
+
+def _read_asc(path: Path, band: int | None, cell_given: bool) -> _Source:
+    _band_index(path, 1, band)
     header: dict[str, float] = {}
     with open(path, encoding="ascii", errors="replace") as fh:
         while True:
@@ -188,7 +350,11 @@ def _read_asc(path: Path) -> Raster:
             if not parts or not parts[0][0].isalpha():
                 fh.seek(pos)
                 break
-            header[parts[0].lower()] = float(parts[1])
+            try:
+                name, value = parts
+                header[name.lower()] = float(value)
+            except ValueError:
+                raise ValueError(f"ESRI ASCII grid header line {line.strip()[:40]!r}: expected NAME NUMBER") from None
         body = fh.read()
     try:
         ncols, nrows = int(header["ncols"]), int(header["nrows"])
@@ -206,74 +372,124 @@ def _read_asc(path: Path) -> Raster:
         values = np.fromstring(body, dtype=np.float64, sep=" ")
     if values.size != nrows * ncols:
         raise ValueError(f"expected {nrows}x{ncols} values, found {values.size}")
-    nodata = header.get("nodata_value")
     if centre:  # to lower-left corner
         x0, y0 = x0 - cx / 2, y0 - cy / 2
-    geographic = cx < 1 and cy < 1 and abs(x0) <= 180 and abs(y0) <= 90
-    dx, dy = cx, cy
-    if geographic and cx == cy:
-        georef = _georef_4326(cx, x0, y0 + nrows * cy, pixel_is_point=False)
-    else:  # transform only: the CRS of a projected .asc is unknown
-        georef = {33550: (cx, cy, 0.0), 33922: (0.0, 0.0, 0.0, x0, y0 + nrows * cy, 0.0)}
-    if geographic:
-        mx, my = metres_per_degree(y0 + nrows * cy / 2)
-        dx, dy = cx * mx, cy * my
-    heights = _heights(path, values.reshape(nrows, ncols), nodata)
-    return Raster(heights, dx, dy, nodata, geographic, georef, None)
+    source = _Source(values.reshape(nrows, ncols), header.get("nodata_value"))
+    prj = next((p for p in (path.with_suffix(".prj"), path.with_suffix(".PRJ")) if p.is_file()), None)
+    if prj is not None:
+        crs = _read_prj(prj)
+        source.geographic, source.crs_wkt = crs.geographic, crs.wkt
+        source.georef = _georef_crs(cx, cy, x0, y0 + nrows * cy, crs.geographic, crs.epsg)
+        source.cell = (_degree_cells(cx, cy, y0 + nrows * cy / 2) if crs.geographic else
+                       (cx * crs.metres_per_unit, cy * crs.metres_per_unit))
+        return source
+    source.georef = _georef_crs(cx, cy, x0, y0 + nrows * cy, False, None)
+    source.cell = (cx, cy)
+    if cell_given:
+        return source
+    prj_name = path.with_suffix(".prj").name
+    if _could_be_degrees(cx, cy, x0, y0, ncols, nrows):
+        raise _err(path, f"no {prj_name} next to the file, and cell size {cx:g} with corner ({x0:g}, {y0:g}) "
+                         f"could be degrees or metres: put the CRS as WKT in {prj_name} (e.g. from "
+                         f"'gdalsrsinfo -o wkt EPSG:CODE'), or give the cell size in metres (--cellsize, "
+                         f"or cellsize= in the API)")
+    source.notes.append(f"no {prj_name} next to the file: cell size {cx:g} x {cy:g} taken as metres, "
+                        f"in an unknown projected CRS")
+    return source
 
 
-# ----------------------------------------------------------------------------- EXR / PNG
+# ----------------------------------------------------------------------------- EXR / PNG / NPY
 
-def _read_exr(path: Path) -> np.ndarray:
+_EXR_HEIGHT_CHANNELS = ("Z", "Y", "R")
+
+
+def _read_exr(path: Path, band: int | None) -> _Source:
     with OpenEXR.File(str(path), separate_channels=True) as exr:
         channels = exr.channels()
         if not channels:
             raise ValueError("EXR file has no channels")
-        name = next((c for c in ("Z", "Y", "R") if c in channels), sorted(channels)[0])
-        return np.array(channels[name].pixels, dtype=np.float64)
+        names = list(channels)
+        preferred = next((names.index(c) for c in _EXR_HEIGHT_CHANNELS if c in channels), 0)
+        index = _band_index(path, len(names), band, default=preferred)
+        raw = np.array(channels[names[index]].pixels, dtype=np.float64)
+    return _Source(raw, bands=len(names), band=index + 1, band_name=names[index])
 
 
-def _read_png(path: Path) -> np.ndarray:
+def _read_png(path: Path, band: int | None) -> _Source:
+    _band_index(path, 1, band)
     with Image.open(path) as img:
         if img.mode not in ("L", "I", "F") and not img.mode.startswith("I;16"):
             raise ValueError(f"expected a greyscale (8- or 16-bit) PNG, got mode {img.mode}")
-        return np.asarray(img)
+        return _Source(np.asarray(img))
 
 
-def read_dem(path: str | os.PathLike, cellsize: float | tuple[float, float] | None = None) -> Raster:
+def _read_npy(path: Path, band: int | None) -> _Source:
+    _band_index(path, 1, band)
+    return _Source(np.load(path))
+
+
+# ----------------------------------------------------------------------------- read_dem
+
+READ_EXTENSIONS = (".tif", ".tiff", ".hgt", ".zip", ".asc", ".npy", ".exr", ".png")
+_URL = re.compile(r"^([a-z][a-z0-9+.-]*://|/vsi[a-z0-9]+/)", re.IGNORECASE)
+
+
+def _input_file(path: str | os.PathLike) -> Path:
+    """``path`` as an existing regular file with a known extension, else a RasterIOError saying why."""
+    text = os.fspath(path)
+    if isinstance(text, str) and _URL.match(text):
+        raise _err(text, "URLs and GDAL virtual paths need the optional GDAL reader "
+                         "(pip install 'oclshade[gdal]'); or download the file and give its path")
+    p = Path(path)
+    if p.is_dir():
+        raise _err(p, "is a directory, not a raster file")
+    if p.exists() and not p.is_file():
+        raise _err(p, "is not a regular file (a FIFO, socket or device)")
+    if p.suffix.lower() not in READ_EXTENSIONS:
+        raise _err(p, f"unknown raster extension {p.suffix!r}; expected one of {', '.join(READ_EXTENSIONS)}")
+    if not p.exists():
+        raise _err(p, "is a broken symbolic link" if p.is_symlink() else "no such file")
+    return p
+
+
+def read_dem(path: str | os.PathLike, cellsize: float | tuple[float, float] | None = None,
+             band: int | None = None, nodata: float | None = None) -> Raster:
     """Read a DEM; the format follows the extension (.tif/.tiff, .hgt, .zip, .asc, .npy, .exr, .png).
 
     ``cellsize`` (one number or (dx, dy), metres) overrides the file's cell size;
-    files without one (.npy, .png, .exr, plain TIFF) default to 1.0.
-    Raises :class:`RasterIOError` naming the path on any problem.
+    files without one (.npy, .png, .exr, plain TIFF) default to 1.0.  An ESRI ASCII
+    grid takes its CRS from the ``.prj`` beside it (see docs/io.md).
+    ``band`` (1-based, as GDAL): the band (TIFF samples, EXR channels in file order)
+    to read; None reads band 1 (an EXR: its Z, Y or R channel) and warns
+    (:class:`~oclshade.heightmap.InputWarning`) when the file has more.
+    ``nodata`` declares the nodata value, overriding the file's (as gdalwarp's -srcnodata).
+    Raises :class:`RasterIOError` naming the path on any problem with the file.
     """
-    p = Path(path)
+    if band is not None and (isinstance(band, bool) or not isinstance(band, (int, np.integer)) or band < 1):
+        raise ValueError(f"band must be a 1-based band number (1, 2, ...), got {band!r}")
+    nodata = nodata_value(nodata)
+    p = _input_file(path)
+    cell = None if cellsize is None else _cellsize(p, cellsize)
     ext = p.suffix.lower()
-    readers = (".tif", ".tiff", ".hgt", ".zip", ".asc", ".npy", ".exr", ".png")
-    if ext not in readers:
-        raise _err(p, f"unknown raster extension {p.suffix!r}; expected one of {', '.join(readers)}")
-    if not p.is_file():
-        raise _err(p, "no such file")
+    readers: dict[str, Callable[[Path, int | None], _Source]] = {
+        ".tif": _read_tif, ".tiff": _read_tif, ".hgt": _read_hgt, ".zip": _read_hgt, ".npy": _read_npy,
+        ".exr": _read_exr, ".png": _read_png,
+        ".asc": lambda asc, b: _read_asc(asc, b, cell is not None)}
     try:
-        if ext in (".hgt", ".zip"):
-            raster = _read_hgt(p)
-        elif ext == ".asc":
-            raster = _read_asc(p)
-        elif ext in (".tif", ".tiff"):
-            raw, nodata, geographic, georef, cell = _read_tif(p)
-            dx, dy = cell if cell is not None else (1.0, 1.0)
-            raster = Raster(_heights(p, raw, nodata), dx, dy, nodata, geographic, georef, None)
-        else:
-            raw = {".npy": np.load, ".exr": _read_exr, ".png": _read_png}[ext](p)
-            raster = Raster(_heights(p, raw, None), 1.0, 1.0)
+        src = readers[ext](p, band)
+        heights = _heights(p, src.raw, src.nodata if nodata is None else nodata)
     except RasterIOError:
         raise
-    except (OSError, ValueError, TypeError, KeyError, IndexError, EOFError, zipfile.BadZipFile) as exc:
-        raise _err(p, f"cannot read as {ext[1:]} raster: {exc}") from exc
-    if cellsize is not None:
-        raster.dx, raster.dy = _cellsize(p, cellsize)
-    raster.path = str(p)
-    return raster
+    except Exception as exc:  # noqa: BLE001 - a corrupt file can fail in any decoder; name the file
+        raise _err(p, f"cannot read as {ext[1:]} raster: {str(exc) or type(exc).__name__}") from exc
+    if band is None and src.bands > 1:
+        src.notes.append(f"the file has {src.bands} bands; reading band {src.band}"
+                         f"{f' ({src.band_name})' if src.band_name else ''} (choose one with -b BAND, or band=)")
+    for note in src.notes:
+        warnings.warn(f"{p}: {note}", InputWarning, stacklevel=2)
+    dx, dy = cell or src.cell or (1.0, 1.0)
+    return Raster(heights, dx, dy, src.nodata if nodata is None else nodata, src.geographic, src.georef,
+                  str(p), src.crs_wkt)
 
 
 # ----------------------------------------------------------------------------- writing

@@ -12,11 +12,16 @@ import tifffile
 from PIL import Image
 
 from oclshade import io as rio
+from oclshade.heightmap import InputWarning
 from oclshade.io import Raster, RasterIOError, metres_per_degree, read_dem, write_raster
 from oclshade.preview import hillshade, shadow_overlay, write_preview
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
 DEM = SHARED / "dem"
+
+
+ESRI_WGS84 = ('GEOGCS["GCS_WGS_1984",DATUM["D_WGS_1984",SPHEROID["WGS_1984",6378137.0,298.257223563]],'
+              'PRIMEM["Greenwich",0.0],UNIT["Degree",0.0174532925199433]]')
 
 
 def need_shared(path: Path) -> Path:
@@ -90,7 +95,8 @@ def test_tif_round_trip_keeps_georef_and_nodata(tmp_path):
         assert tags[code] == (pytest.approx(value) if code != 34737 else value)
     assert float(tags[42113]) == -1.0
     assert "sun1" in tags[42112]
-    again = read_dem(tmp_path / "out.tif")  # first band, same georeferencing
+    with pytest.warns(InputWarning, match="2 bands; reading band 1"):
+        again = read_dem(tmp_path / "out.tif")  # first band, same georeferencing
     np.testing.assert_array_equal(again.heights, coef[0])
     assert (again.dx, again.dy, again.geographic) == pytest.approx((r.dx, r.dy, True))
 
@@ -131,7 +137,8 @@ def test_exr_round_trip(tmp_path):
     mask = np.zeros(h.shape, np.uint8)
     mask[2, 3] = 1
     write_raster(tmp_path / "two.exr", [mask, h], band_names=["mask", "Z"])
-    np.testing.assert_allclose(read_dem(tmp_path / "two.exr").heights, h.astype(np.float32))
+    with pytest.warns(InputWarning, match=r"2 bands; reading band 1 \(Z\)"):
+        np.testing.assert_allclose(read_dem(tmp_path / "two.exr").heights, h.astype(np.float32))
 
 
 def test_png_16bit_round_trip_and_rgb(tmp_path):
@@ -154,7 +161,8 @@ def test_asc_reader(tmp_path):
     text = ("ncols 3\nnrows 2\nxllcorner 500000\nyllcorner 4000000\ncellsize 10\n"
             "NODATA_value -9999\n1 2 3\n4 -9999\n6\n")
     (tmp_path / "g.asc").write_text(text)
-    r = read_dem(tmp_path / "g.asc")
+    with pytest.warns(InputWarning, match="no g.prj next to the file: cell size 10 x 10 taken as metres"):
+        r = read_dem(tmp_path / "g.asc")
     assert not r.geographic and (r.dx, r.dy) == (10.0, 10.0)
     np.testing.assert_array_equal(np.isnan(r.heights), [[0, 0, 0], [0, 1, 0]])
     assert r.georef[33922][4] == 4000020.0
@@ -254,9 +262,15 @@ def test_srtm_zip(tmp_path):
 
 @pytest.mark.parametrize("rel", ["srtm30_qgis2threejs/dem_srtm30.tif", "pysheds/dem.tif",
                                  "whiteboxR/DEM.tif", "landlab/SRTMGL3_40.09_-105.55_40.21_-105.35.asc"])
-def test_real_cell_sizes_against_sidecars(rel):
+def test_real_cell_sizes_against_sidecars(rel, tmp_path):
     path = need_shared(DEM / rel)
     meta = json.loads(path.with_suffix(".f32.json").read_text())
+    if path.suffix == ".asc":  # the grid comes without its .prj: give it one (without, it is refused)
+        with pytest.raises(RasterIOError, match="could be degrees"):
+            read_dem(path)
+        (tmp_path / path.name).write_bytes(path.read_bytes())
+        path = tmp_path / path.name
+        path.with_suffix(".prj").write_text(ESRI_WGS84)
     r = read_dem(path)
     assert list(r.heights.shape) == meta["shape_rows_cols"]
     assert (np.nanmin(r.heights), np.nanmax(r.heights)) == pytest.approx((meta["min"], meta["max"]))
