@@ -1,0 +1,136 @@
+"""``oclshade sun``: the sun's azimuth and elevation for dates, times and a place."""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from datetime import date, datetime
+from typing import Callable
+from zoneinfo import ZoneInfo, ZoneInfoNotFoundError
+
+from .position import DEFAULT_PRESSURE_HPA, DEFAULT_TEMPERATURE_C, sun_position
+
+EPILOG = """\
+datetimes: ISO 8601 with a UTC offset (2024-06-21T12:00+02:00, 2024-06-21T10:00Z), or
+  without one together with --tz NAME (an IANA zone: Europe/Zurich), which resolves
+  daylight saving time; a local time the clocks skip or repeat there is an error.
+  A datetime without an offset and without --tz is an error: UTC is never assumed.
+
+output: one line per --datetime (datetime with its offset, azimuth in degrees clockwise
+  from north, elevation in degrees above the horizon, 4 decimals), or with --json one
+  object: {"latitude", "longitude", "refraction", "positions": [{"datetime", "azimuth",
+  "elevation"}, ...]}. Algorithm: NREL SPA (Reda & Andreas 2008); see docs/solar.md.
+
+examples:
+  oclshade sun --lat 46.95 --lon 7.45 --datetime 2024-06-21T12:00+02:00
+  oclshade sun --lat 46.95 --lon 7.45 --tz Europe/Zurich --datetime 2024-12-21T09:00 --datetime 2024-12-21T12:00
+"""
+
+
+def _number(what: str, expected: str, accept: Callable[[float], bool] = lambda value: True):
+    """An argparse type: a finite number that ``accept`` takes, else an error naming ``what``."""
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            value = math.nan
+        if not (math.isfinite(value) and accept(value)):
+            raise argparse.ArgumentTypeError(f"{what} must be {expected}, got {text!r}")
+        return value
+    return parse
+
+
+_LAT = _number("latitude", "degrees in [-90, 90]", lambda v: -90.0 <= v <= 90.0)
+_LON = _number("longitude", "degrees in [-180, 180]", lambda v: -180.0 <= v <= 180.0)
+_ALTITUDE = _number("altitude", "a number of metres")
+_PRESSURE = _number("pressure", "hPa above 0", lambda v: v > 0.0)
+_TEMPERATURE = _number("temperature", "degrees Celsius above -273", lambda v: v > -273.0)
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    """Register ``sun`` on the ``oclshade`` command's subparsers."""
+    s = sub.add_parser("sun", help="the sun's azimuth and elevation for datetimes at a place (NREL SPA)",
+                       description="The sun's topocentric azimuth and elevation (NREL Solar Position Algorithm).",
+                       epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    s.add_argument("--lat", required=True, type=_LAT, metavar="DEG",
+                   help="latitude, degrees north (south negative)")
+    s.add_argument("--lon", required=True, type=_LON, metavar="DEG",
+                   help="longitude, degrees east (west negative)")
+    s.add_argument("--datetime", dest="datetimes", action="append", required=True, metavar="ISO",
+                   help="date and time, ISO 8601 with a UTC offset (or see --tz); repeat for several")
+    s.add_argument("--tz", metavar="NAME", help="IANA time zone of datetimes given without a UTC offset")
+    s.add_argument("--no-refraction", dest="refraction", action="store_false",
+                   help="the geometric elevation, without atmospheric refraction")
+    s.add_argument("--altitude", type=_ALTITUDE, default=0.0, metavar="M",
+                   help="observer's height above sea level, metres (parallax; default 0)")
+    s.add_argument("--pressure", type=_PRESSURE, default=DEFAULT_PRESSURE_HPA, metavar="HPA",
+                   help=f"air pressure for refraction, hPa (default {DEFAULT_PRESSURE_HPA:g})")
+    s.add_argument("--temperature", type=_TEMPERATURE, default=DEFAULT_TEMPERATURE_C, metavar="C",
+                   help=f"air temperature for refraction, degrees Celsius (default {DEFAULT_TEMPERATURE_C:g})")
+    s.add_argument("--json", action="store_true", help="print JSON instead of text")
+
+
+def parse_datetime(text: str, zone: ZoneInfo | None) -> datetime:
+    """An aware datetime from ISO 8601 text: its own UTC offset, or local time in ``zone``."""
+    from ..cli import UsageError
+
+    iso = text[:-1] + "+00:00" if text[-1:] in ("Z", "z") else text  # Python 3.10 reads no "Z"
+    try:
+        value = datetime.fromisoformat(iso)
+    except ValueError:
+        raise UsageError(f"--datetime {text!r} is not an ISO 8601 date and time "
+                         f"(e.g. 2024-06-21T12:00+02:00)") from None
+    if _is_date(iso):
+        raise UsageError(f"--datetime {text!r} has no time of day (e.g. {text}T12:00+02:00)")
+    if value.tzinfo is not None:
+        if zone is not None:
+            raise UsageError(f"--datetime {text} has a UTC offset and --tz {zone.key} was given: give one or the other")
+        return value
+    if zone is None:
+        raise UsageError(f"--datetime {text} has no UTC offset: add one (e.g. {text}+02:00 or {text}Z) or give "
+                         f"--tz NAME; UTC is not assumed")
+    first, second = value.replace(tzinfo=zone, fold=0), value.replace(tzinfo=zone, fold=1)
+    if first.utcoffset() != second.utcoffset():
+        gap = first.utcoffset() < second.utcoffset()
+        raise UsageError(f"--datetime {text} {'does not exist' if gap else 'occurs twice'} in {zone.key} (the clocks "
+                         f"{'skip' if gap else 'repeat'} it): give its UTC offset instead of --tz")
+    return first
+
+
+def _is_date(text: str) -> bool:
+    try:
+        date.fromisoformat(text)
+    except ValueError:
+        return False
+    return True
+
+
+def _zone(name: str | None) -> ZoneInfo | None:
+    from ..cli import UsageError
+
+    if name is None:
+        return None
+    try:
+        return ZoneInfo(name)
+    except (ZoneInfoNotFoundError, ValueError):
+        raise UsageError(f"--tz {name!r} is not an IANA time zone name "
+                         f"(e.g. Europe/Zurich, America/Denver, UTC)") from None
+
+
+def run(args: argparse.Namespace) -> int:
+    """The ``sun`` command: prints one position per --datetime; returns 0."""
+    zone = _zone(args.tz)
+    times = [parse_datetime(text, zone) for text in args.datetimes]
+    pos = sun_position(times, args.lat, args.lon, altitude=args.altitude, pressure=args.pressure,
+                       temperature=args.temperature, refraction=args.refraction)
+    rows = [(t.isoformat(), float(az), float(el)) for t, az, el in zip(times, pos.azimuth, pos.elevation)]
+    if args.json:
+        positions = [{"datetime": t, "azimuth": az, "elevation": el} for t, az, el in rows]
+        print(json.dumps({"latitude": args.lat, "longitude": args.lon, "refraction": args.refraction,
+                          "positions": positions}, indent=2))
+        return 0
+    width = max(len(t) for t, _, _ in rows)
+    print(f"{'datetime':<{width}}  {'azimuth':>9}  {'elevation':>9}")
+    for t, az, el in rows:
+        print(f"{t:<{width}}  {az:9.4f}  {el:9.4f}")
+    return 0
