@@ -25,6 +25,7 @@ from .preview import write_preview
 from . import runtime
 from .tuning import cli as tuning_cli
 from .bench import cli as bench_cli
+from .solar import cli as solar_cli
 from .shadows import DEFAULT_K_BRIGHT, DEFAULT_K_DARK, METHODS, ShadowCaster
 from .ssao import DEFAULT_M
 from .sun import DEFAULT_AZIMUTH, DEFAULT_ELEVATION, Sun
@@ -233,6 +234,7 @@ def build_parser() -> CliParser:
     sh.add_argument("--quiet", "-q", action="store_true", help="no progress bar and no summary")
     add_render_parser(sub)
     bench_cli.add_parser(sub)
+    solar_cli.add_parser(sub)
     return parser
 
 
@@ -587,7 +589,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except SystemExit as exc:  # --help, or an argparse error already printed
         return int(exc.code or 0)
     command = {"devices": tuning_cli.run_devices, "tune": tuning_cli.run_tune, "shadow": run_shadow,
-               "render": run_render, "bench": bench_cli.run}[args.command]
+               "render": run_render, "bench": bench_cli.run,
+               "sun": solar_cli.run}[args.command]
     debug = runtime.debug()
     runtime.NOTICES = not getattr(args, "quiet", False)
     try:
