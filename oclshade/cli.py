@@ -1,16 +1,20 @@
 """The ``oclshade`` command line: ``oclshade devices``, ``oclshade shadow`` and ``oclshade render``.
 
 Errors are one line ``oclshade: error: ...`` on stderr: exit status 2 for bad
-arguments, 1 for failures while running (unreadable file, device, ...).
+arguments, 1 for failures while running (unreadable file, device, ...); 130 when
+interrupted (SIGINT), 143 when terminated (SIGTERM), with no temporary file left.
 ``OCLSHADE_DEBUG=1`` shows the traceback as well.
 """
 from __future__ import annotations
 
 import argparse
+import contextlib
 import csv
 import math
 import os
+import signal
 import sys
+import threading
 import time
 import traceback
 import warnings
@@ -20,13 +24,14 @@ from typing import NoReturn, Sequence, TextIO
 import numpy as np
 
 from .heightmap import Heightmap, InputWarning
-from .io import Raster, read_dem, write_raster
-from .preview import write_preview
+from .geotiff import tiff_options
+from .io import Raster, RasterWriter, read_dem
+from .preview import Preview
 from . import runtime
 from .tuning import cli as tuning_cli
 from .bench import cli as bench_cli
 from .solar import cli as solar_cli
-from .shadows import DEFAULT_K_BRIGHT, DEFAULT_K_DARK, METHODS, ShadowCaster
+from .shadows import DEFAULT_K_BRIGHT, DEFAULT_K_DARK, METHODS, ShadowCaster, ShadowResult
 from .ssao import DEFAULT_M
 from .sun import DEFAULT_AZIMUTH, DEFAULT_ELEVATION, Sun
 
@@ -132,33 +137,50 @@ def _sun(text: str) -> Sun:
     return Sun(_azimuth(parts[0].strip()), _elevation(parts[1].strip()))
 
 
-def read_suns_csv(path: str) -> list[Sun]:
-    """Suns from a CSV file: columns azimuth,elevation (any order when a header
-    names them; header optional; blank lines and lines starting with # skipped)."""
+#: --suns header names: column role (0 azimuth, 1 elevation); "zenith" is not one (90 - elevation)
+SUN_COLUMNS = {"azimuth": 0, "az": 0, "elevation": 1, "elev": 1, "el": 1, "altitude": 1, "alt": 1}
+
+
+def _is_number(text: str) -> bool:
     try:
-        with open(path, newline="", encoding="utf-8") as f:
-            rows = [(n, r) for n, r in enumerate(csv.reader(f), 1)
-                    if r and any(c.strip() for c in r) and not r[0].lstrip().startswith("#")]
-    except (OSError, UnicodeDecodeError) as exc:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def read_suns_csv(path: str) -> list[Sun]:
+    """Suns from a CSV file: columns azimuth,elevation, or any columns when a header names
+    them (azimuth/az and elevation/elev/el/altitude/alt, any case); the header is the first
+    line when its first cell is not a number. UTF-8 with or without a BOM (Excel), any line
+    ends; blank lines and lines starting with # are skipped; errors name the line."""
+    try:
+        with open(path, newline="", encoding="utf-8-sig") as f:
+            reader = csv.reader(f)
+            rows = [(reader.line_num, [c.strip() for c in r]) for r in reader
+                    if any(c.strip() for c in r) and not r[0].lstrip().startswith("#")]
+    except (OSError, UnicodeDecodeError, csv.Error) as exc:
         raise UsageError(f"--suns {path}: cannot read: {exc}") from None
     cols = (0, 1)
-    if rows:
-        header = [c.strip().lower() for c in rows[0][1]]
-        try:
-            [float(c) for c in header[:2]]
-        except ValueError:
-            names = {"azimuth": 0, "az": 0, "elevation": 1, "altitude": 1, "alt": 1}
-            found = {names[h]: i for i, h in enumerate(header) if h in names}
-            if set(found) != {0, 1}:
-                raise UsageError(f"--suns {path}: header must name columns azimuth and elevation, "
-                                 f"got {','.join(header)}") from None
-            cols = (found[0], found[1])
-            rows = rows[1:]
+    if rows and not _is_number(rows[0][1][0]):
+        n, header = rows.pop(0)
+        found: dict[int, list[int]] = {0: [], 1: []}
+        for i, name in enumerate(header):
+            if name.lower() in SUN_COLUMNS:
+                found[SUN_COLUMNS[name.lower()]].append(i)
+        if len(found[0]) != 1 or len(found[1]) != 1:
+            raise UsageError(f"--suns {path}, line {n}: the header must name one azimuth column (azimuth or az) "
+                             f"and one elevation column (elevation, elev, el, altitude or alt), got {','.join(header)}")
+        cols = (found[0][0], found[1][0])
     suns = []
     for n, row in rows:
+        if len(row) <= max(cols):
+            raise UsageError(f"--suns {path}, line {n}: expected AZ,ALT"
+                             f"{'' if cols == (0, 1) else f' in columns {cols[0] + 1} and {cols[1] + 1}'}, "
+                             f"got {','.join(row)!r}")
         try:
             suns.append(_sun(f"{row[cols[0]]},{row[cols[1]]}"))
-        except (IndexError, argparse.ArgumentTypeError, ValueError) as exc:
+        except argparse.ArgumentTypeError as exc:
             raise UsageError(f"--suns {path}, line {n}: {exc}") from None
     if not suns:
         raise UsageError(f"--suns {path}: no sun positions in the file")
@@ -178,16 +200,22 @@ output bands:
   With several suns the bands are ordered sun by sun (for each sun, its
   outputs); a single band is written as a 2-D array (.npy) or one-band image.
   Band names (GeoTIFF descriptions, EXR channels): mask_az315_alt22p5 etc.
+  (azimuth in [0, 360)).
 
 formats: by OUTPUT's extension: .tif/.tiff (GeoTIFF: georeferencing of the input
-  kept, nodata tag 255 for uint8 bands, NaN for float32), .exr (float channels),
-  .npy (2-D, or (bands, rows, cols)), .png (uint8 outputs only).
+  kept, nodata tag 255 for uint8 bands, NaN for float32; tiled 256x256, DEFLATE with
+  a predictor; --co and --of COG as GDAL), .exr (float channels, named with a
+  zero-padded band number first so that they keep the band order: 0_mask_az315_alt20),
+  .npy (2-D, or (bands, rows, cols)), .png (uint8 outputs only). A georeferenced
+  PNG (OUTPUT or --preview) gets a world file (.pgw) and its CRS in PNG.aux.xml.
+  Bands are written as each sun finishes: memory does not grow with the suns.
 
 examples:
   oclshade shadow dem.tif shadow.tif -az 315 -alt 20 --preview shadow.png
   oclshade shadow dem.npy mask.npy --cellsize 30 -alt 10
   oclshade shadow srtm.hgt day.tif --sun 90,10 --sun 180,45 --sun 270,10
   oclshade shadow dem.tif year.tif --suns positions.csv --output coefficient
+  oclshade shadow dem.tif day.tif --suns positions.csv --of COG --co COMPRESS=ZSTD
 """
 
 
@@ -219,6 +247,14 @@ def build_parser() -> CliParser:
                     help="traversal (default exact; see README)")
     sh.add_argument("--output", dest="kind", default="mask", choices=OUTPUT_CHOICES,
                     help="what to write (default mask)")
+    sh.add_argument("--of", dest="tiff_format", type=str.upper, choices=("GTIFF", "COG"), default="GTIFF",
+                    metavar="GTiff|COG", help="GeoTIFF layout, as GDAL's -of: GTiff (default) or COG "
+                                             "(Cloud-Optimized GeoTIFF: 512x512 tiles, overviews)")
+    sh.add_argument("--co", dest="creation_options", action="append", default=[], metavar="KEY=VALUE",
+                    help="GeoTIFF creation option, as GDAL's -co (repeatable): "
+                         "COMPRESS=NONE|DEFLATE|LZW|ZSTD, PREDICTOR=1|2|3, ZLEVEL=1..12, ZSTD_LEVEL=1..22, "
+                         "TILED=YES|NO, BLOCKXSIZE=N, BLOCKYSIZE=N, BLOCKSIZE=N, "
+                         "BIGTIFF=YES|NO|IF_NEEDED|IF_SAFER, OVERVIEWS=AUTO|NONE")
     sh.add_argument("--sun", dest="suns", action="append", type=_sun, default=[], metavar="AZ,ALT",
                     help="a sun position; repeat for several (one band each); "
                          "write --sun=AZ,ALT when AZ is negative")
@@ -349,6 +385,9 @@ class ShadowJob:
     suns: list[Sun]
     outputs: tuple[str, ...]
     cellsize: float | tuple[float, float] | None
+    dtype: np.dtype                 # of the output bands
+    options: dict[str, str]         # GeoTIFF creation options (--co)
+    cog: bool                       # --of COG
 
 
 def _extension(path: str) -> str:
@@ -389,7 +428,27 @@ def check_shadow_args(args: argparse.Namespace) -> ShadowJob:
         raise UsageError(f"PNG output holds one band; {len(suns)} suns need .tif, .exr or .npy")
     cellsize = None if args.cellsize is None else (
         args.cellsize[0] if len(args.cellsize) == 1 else (args.cellsize[0], args.cellsize[1]))
-    return ShadowJob(suns, outputs, cellsize)
+    dtype = np.dtype(np.uint8 if outputs in (("mask",), ("self",)) else np.float32)
+    options, cog = creation_options(args, dtype)
+    return ShadowJob(suns, outputs, cellsize, dtype, options, cog)
+
+
+def creation_options(args: argparse.Namespace, dtype: np.dtype) -> tuple[dict[str, str], bool]:
+    """--co KEY=VALUE (the last of a key wins, as GDAL) and --of, checked for OUTPUT's bands."""
+    cog = args.tiff_format == "COG"
+    if (args.creation_options or cog) and _extension(args.output) not in (".tif", ".tiff"):
+        raise UsageError(f"--co and --of COG apply to GeoTIFF output (.tif, .tiff), not {args.output!r}")
+    options = {}
+    for item in args.creation_options:
+        key, eq, value = item.partition("=")
+        if not eq or not key.strip():
+            raise UsageError(f"--co takes KEY=VALUE (e.g. COMPRESS=ZSTD), got {item!r}")
+        options[key.strip().upper()] = value.strip()
+    try:
+        tiff_options(options, dtype, cog)
+    except ValueError as exc:
+        raise UsageError(f"--co {exc}") from None
+    return options, cog
 
 
 def read_input(args: argparse.Namespace, cellsize: float | tuple[float, float] | None) -> tuple[Raster, Heightmap]:
@@ -430,19 +489,30 @@ class ProgressBar:
         self.stream.flush()
 
 
-def _bands(results: list, outputs: tuple[str, ...]) -> tuple[list[np.ndarray], list[str], float]:
-    """Output bands sun by sun, their names, and the nodata value to declare."""
-    mixed = len(outputs) > 1
-    bands, names = [], []
-    for res in results:
-        for out in outputs:
-            band = {"mask": res.mask, "self": res.self_shadow, "coefficient": res.coefficient}[out]
-            if mixed and band.dtype == np.uint8:
-                band = np.where(band == 255, np.float32(np.nan), band.astype(np.float32))
-            bands.append(band)
-            names.append(f"{out}_az{res.sun.azimuth:g}_alt{res.sun.elevation:g}".replace(".", "p"))
-    nodata = 255.0 if bands[0].dtype == np.uint8 else math.nan
-    return bands, names, nodata
+def _azimuth_360(azimuth: float) -> float:
+    """An azimuth in [0, 360) degrees (-45 -> 315)."""
+    a = azimuth % 360.0
+    return 0.0 if a == 360.0 else a   # a tiny negative azimuth rounds up to 360
+
+
+def band_names(suns: Sequence[Sun], outputs: tuple[str, ...], exr: bool = False) -> list[str]:
+    """Output band names sun by sun: ``mask_az315_alt22p5``; for EXR, which sorts channels by
+    name, prefixed with the zero-padded band number (``00_mask_...``) to keep the band order."""
+    names = [f"{out}_az{_azimuth_360(sun.azimuth):g}_alt{sun.elevation:g}".replace(".", "p")
+             for sun in suns for out in outputs]
+    width = len(str(len(names) - 1))
+    return [f"{k:0{width}d}_{name}" for k, name in enumerate(names)] if exr else names
+
+
+def _result_bands(res: ShadowResult, outputs: tuple[str, ...]) -> list[np.ndarray]:
+    """One sun's output bands; with several outputs all float32, uint8 nodata 255 as NaN."""
+    bands = []
+    for out in outputs:
+        band = {"mask": res.mask, "self": res.self_shadow, "coefficient": res.coefficient}[out]
+        if len(outputs) > 1 and band.dtype == np.uint8:
+            band = np.where(band == 255, np.float32(np.nan), band.astype(np.float32))
+        bands.append(band)
+    return bands
 
 
 def run_shadow(args: argparse.Namespace) -> int:
@@ -454,33 +524,47 @@ def run_shadow(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     raster, heightmap = read_input(args, job.cellsize)
     dx, dy = heightmap.dx, heightmap.dy
-    caster = ShadowCaster(heightmap, device=args.device)
-    show_bar = not args.quiet and len(job.suns) > 1
-    t1 = time.perf_counter()
-    results = caster.cast_many(job.suns, method=args.method, outputs=("mask", *job.outputs),
-                               k_dark=args.k_dark, k_bright=args.k_bright,
-                               progress=ProgressBar(sys.stderr, "suns") if show_bar else None)
-    t2 = time.perf_counter()
-    bands, names, nodata = _bands(results, job.outputs)
-    for path in (args.output, args.preview):
-        if path is not None and os.path.dirname(path):
-            os.makedirs(os.path.dirname(path), exist_ok=True)
-    write_raster(args.output, bands[0] if len(bands) == 1 else bands, like=raster, nodata=nodata,
-                 band_names=names)
-    if args.preview is not None:
-        first = results[0]
-        write_preview(args.preview, heightmap.heights, dx, dy, first.sun.azimuth, first.sun.elevation,
-                      mask=first.mask)
+    rows, cols = heightmap.shape
+    _make_parents(args.output, args.preview)
+    shadow = lit = 0
+    with contextlib.ExitStack() as stack:   # both files are checked writable before any work
+        preview = None if args.preview is None else stack.enter_context(Preview(args.preview, heightmap.shape, raster))
+        names = band_names(job.suns, job.outputs, exr=_extension(args.output) == ".exr")
+        out = stack.enter_context(RasterWriter(
+            args.output, (len(names), rows, cols), job.dtype, like=raster,
+            nodata=255.0 if job.dtype == np.uint8 else math.nan, band_names=names, options=job.options, cog=job.cog))
+        caster = ShadowCaster(heightmap, device=args.device, cache=False)   # one run: no result is reused
+        show_bar = not args.quiet and len(job.suns) > 1
+        t1 = time.perf_counter()
+        for res in caster.iter_many(job.suns, method=args.method, outputs=("mask", *job.outputs),
+                                    k_dark=args.k_dark, k_bright=args.k_bright,
+                                    progress=ProgressBar(sys.stderr, "suns") if show_bar else None):
+            if preview is not None and not preview.written:
+                preview.draw(heightmap.heights, dx, dy, res.sun.azimuth, res.sun.elevation, mask=res.mask)
+            shadow += int(np.count_nonzero(res.mask == 1))
+            lit += int(np.count_nonzero(res.mask == 0))
+            for band in _result_bands(res, job.outputs):
+                out.write(band)
+        t2 = time.perf_counter()
+        for writer in (out, preview):   # complete both before either replaces a file
+            if writer is not None:
+                writer.finish()
     if not args.quiet:
-        masks = np.stack([r.mask for r in results])
-        valid = masks != 255
-        frac = float((masks == 1).sum() / max(int(valid.sum()), 1))
-        rows, cols = heightmap.shape
-        print(f"{PROG}: {rows}x{cols} cells, {len(job.suns)} sun(s), method {args.method}, "
+        print(f"{PROG}: {cols}x{rows} cells, {len(job.suns)} sun(s), method {args.method}, "
               f"device {caster.runtime.label}: pyramid + shadows {t2 - t1:.2f} s "
-              f"(total {time.perf_counter() - t0:.2f} s), {100 * frac:.1f}% of cells in cast shadow "
-              f"-> {args.output}", file=sys.stderr)
+              f"(total {time.perf_counter() - t0:.2f} s), {100 * shadow / max(shadow + lit, 1):.1f}% of cells "
+              f"in cast shadow -> {args.output}", file=sys.stderr)
     return 0
+
+
+def _make_parents(*paths: str | None) -> None:
+    """Create the directories of the outputs (before any work)."""
+    for path in paths:
+        if path is not None and os.path.dirname(path):
+            try:
+                os.makedirs(os.path.dirname(path), exist_ok=True)
+            except OSError as exc:
+                raise CliError(f"{path}: cannot create its directory: {exc.strerror or exc}") from None
 
 
 # --- render command ---------------------------------------------------------------------
@@ -495,23 +579,22 @@ GBUFFER_CHANNELS = {
 }
 
 
+GBUFFER_NAMES = [name for channels in GBUFFER_CHANNELS.values() for name in channels if name is not None]
+
+
 def gbuffer_bands(gbuf) -> tuple[list[np.ndarray], list[str]]:
-    """The G-buffer as named float32 EXR channels (normal.w, always 0, is left out)."""
-    bands, names = [], []
+    """The G-buffer as float32 EXR channels named :data:`GBUFFER_NAMES` (normal.w, always 0, is left out)."""
+    bands = []
     for field, channels in GBUFFER_CHANNELS.items():
         data = getattr(gbuf, field)
-        for k, name in enumerate(channels):
-            if name is not None:
-                bands.append(data if data.ndim == 2 else data[..., k])
-                names.append(name)
-    return bands, names
+        bands += [data if data.ndim == 2 else data[..., k] for k, name in enumerate(channels) if name is not None]
+    return bands, GBUFFER_NAMES
 
 
 def run_render(args: argparse.Namespace) -> int:
     from .camera import Camera, frame_heightmap
     from .compose import Lighting
     from .frames import AOSettings, FrameSettings, TerrainScene
-    from .ssao import write_ao_exr
     from .terrain import Heightfield
 
     out_ext = _extension(args.output)
@@ -536,43 +619,62 @@ def run_render(args: argparse.Namespace) -> int:
     cellsize = None if args.cellsize is None else (
         args.cellsize[0] if len(args.cellsize) == 1 else (args.cellsize[0], args.cellsize[1]))
     _, heightmap = read_input(args, cellsize)
-    field = Heightfield(heightmap, args.radius)
     width, height = args.size
-    if args.camera is None:
-        camera = frame_heightmap(heightmap, width, height, azimuth=args.view[0], elevation=args.view[1],
-                                 fov=args.fov, projection="orthographic" if args.ortho else "perspective")
-    else:
-        pos, target = np.array(args.camera[:3]), np.array(args.camera[3:])
-        extent = float(np.hypot(heightmap.shape[1] * heightmap.dx, heightmap.shape[0] * heightmap.dy))
-        reach = float(np.linalg.norm(pos - target)) + 2.0 * extent
-        camera = Camera(pos, target, width, height, fov=args.fov, near=1e-4 * reach, far=reach)
-    scene = TerrainScene(field, device=args.device)
-    ao = None if args.ao is None else AOSettings(radius=args.ao * max(heightmap.dx, heightmap.dy), m=args.ao_samples)
-    settings = FrameSettings(caster=args.method, shadows=not args.no_shadows, shadow_method=args.shadow_method,
-                             ao=ao, lighting=Lighting(sun=args.sun))
-    t1 = time.perf_counter()
-    frame = scene.frame(camera, args.sun, settings)
-    t2 = time.perf_counter()
-    for path in (args.output, args.gbuffer, args.ao_map):
-        if path is not None and os.path.dirname(path):
-            os.makedirs(os.path.dirname(path), exist_ok=True)
-    if out_ext == ".png":
-        write_raster(args.output, frame.image[..., :3])
-    if out_ext == ".exr" or args.gbuffer is not None:
-        bands, names = gbuffer_bands(frame.gbuffer.to_host())
-        write_raster(args.output if out_ext == ".exr" else args.gbuffer, bands, band_names=names)
-    if args.ao_map is not None:
-        write_ao_exr(args.ao_map, frame.ao_factor())
+    gbuffer_path = args.output if out_ext == ".exr" else args.gbuffer
+    _make_parents(args.output, args.gbuffer, args.ao_map)
+    with contextlib.ExitStack() as stack:   # every output is checked writable before any work
+
+        def writer(path: str | None, count: int, names: list[str] | None = None) -> RasterWriter | None:
+            return None if path is None else stack.enter_context(
+                RasterWriter(path, (count, height, width), np.float32 if names else np.uint8, band_names=names))
+
+        image = writer(args.output if out_ext == ".png" else None, 3)
+        gbuffer = writer(gbuffer_path, len(GBUFFER_NAMES), GBUFFER_NAMES)
+        ao_map = writer(args.ao_map, 1, ["AO"])
+        field = Heightfield(heightmap, args.radius)
+        if args.camera is None:
+            camera = frame_heightmap(heightmap, width, height, azimuth=args.view[0], elevation=args.view[1],
+                                     fov=args.fov, projection="orthographic" if args.ortho else "perspective")
+        else:
+            pos, target = np.array(args.camera[:3]), np.array(args.camera[3:])
+            extent = float(np.hypot(heightmap.shape[1] * heightmap.dx, heightmap.shape[0] * heightmap.dy))
+            reach = float(np.linalg.norm(pos - target)) + 2.0 * extent
+            camera = Camera(pos, target, width, height, fov=args.fov, near=1e-4 * reach, far=reach)
+        scene = TerrainScene(field, device=args.device)
+        ao = None if args.ao is None else AOSettings(radius=args.ao * max(heightmap.dx, heightmap.dy),
+                                                     m=args.ao_samples)
+        settings = FrameSettings(caster=args.method, shadows=not args.no_shadows, shadow_method=args.shadow_method,
+                                 ao=ao, lighting=Lighting(sun=args.sun))
+        t1 = time.perf_counter()
+        frame = scene.frame(camera, args.sun, settings)
+        t2 = time.perf_counter()
+        outputs = [(image, lambda: [frame.image[..., c] for c in range(3)]),
+                   (gbuffer, lambda: gbuffer_bands(frame.gbuffer.to_host())[0]),
+                   (ao_map, lambda: [frame.ao_factor()])]
+        for out, planes in outputs:
+            for plane in planes() if out is not None else ():
+                out.write(plane)
+        for out, _ in outputs:   # complete every file before any replaces its target
+            if out is not None:
+                out.finish()
     if not args.quiet:
         rows, cols = heightmap.shape
         passes = ", ".join(f"{name} {ms:.0f} ms" for name, ms in frame.ms.items())
-        print(f"{PROG}: {rows}x{cols} cells, {width}x{height} pixels, method {args.method}, device "
+        print(f"{PROG}: {cols}x{rows} cells, {width}x{height} pixels, method {args.method}, device "
               f"{scene.runtime.label}: {passes} (with builds; total {t2 - t1:.2f} s, "
               f"run {time.perf_counter() - t0:.2f} s) -> {args.output}", file=sys.stderr)
     return 0
 
 
 # --- entry point -------------------------------------------------------------------------
+
+class Terminated(BaseException):
+    """SIGTERM, raised like KeyboardInterrupt so that the run unwinds and removes its temporary files."""
+
+
+def _terminate(signum: int, frame: object) -> NoReturn:
+    raise Terminated()
+
 
 def _fail(message: str, status: int) -> int:
     lines = str(message).strip().splitlines() or ["unknown error"]
@@ -582,7 +684,8 @@ def _fail(message: str, status: int) -> int:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the command line; returns the exit status (0 ok, 1 failure, 2 bad arguments)."""
+    """Run the command line; returns the exit status (0 ok, 1 failure, 2 bad arguments,
+    130 interrupted by SIGINT, 143 terminated by SIGTERM; either removes its temporary files)."""
     parser = build_parser()
     try:
         args = parser.parse_args(argv)
@@ -593,6 +696,10 @@ def main(argv: Sequence[str] | None = None) -> int:
                "sun": solar_cli.run}[args.command]
     debug = runtime.debug()
     runtime.NOTICES = not getattr(args, "quiet", False)
+    on_main_thread = threading.current_thread() is threading.main_thread()
+    previous = signal.getsignal(signal.SIGTERM) if on_main_thread else None
+    if on_main_thread:
+        signal.signal(signal.SIGTERM, _terminate)
     try:
         return command(args)
     except CliError as exc:
@@ -602,8 +709,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         sys.stderr.write(f"{PROG}: interrupted\n")
         return 130
+    except Terminated:
+        sys.stderr.write(f"{PROG}: terminated\n")
+        return 128 + signal.SIGTERM
     except Exception as exc:  # noqa: BLE001 - the CLI turns every failure into one line
         if debug:
             traceback.print_exc()
         known = isinstance(exc, (ValueError, TypeError, OSError)) or type(exc).__module__.startswith("oclshade")
         return _fail(str(exc) if known else f"{type(exc).__name__}: {exc}", 1)
+    finally:
+        if on_main_thread:
+            signal.signal(signal.SIGTERM, signal.SIG_DFL if previous is None else previous)

@@ -11,20 +11,26 @@ import math
 import os
 import re
 import secrets
+import stat
+import tempfile
 import warnings
 import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, Sequence
+from typing import BinaryIO, Callable, Mapping, NoReturn, Sequence
+from xml.sax.saxutils import escape as xml_escape
 
 import numpy as np
 import OpenEXR
 import tifffile
 from PIL import Image
 
+from . import gdal_reader
+from .geotiff import GeoTiffWriter, tiff_options
 from .heightmap import InputWarning, nodata_value
 
-__all__ = ["Raster", "RasterIOError", "metres_per_degree", "read_dem", "write_raster"]
+__all__ = ["Raster", "RasterIOError", "RasterWriter", "decimated", "geotransform", "metres_per_degree", "read_dem",
+           "write_raster"]
 
 # GeoTIFF tags copied verbatim by write_raster (tifffile tag dtype codes: 12 double, 3 short, 2 ascii)
 GEOTIFF_TAGS = {33550: 12, 33922: 12, 34264: 12, 34735: 3, 34736: 12, 34737: 2}
@@ -463,11 +469,20 @@ def read_dem(path: str | os.PathLike, cellsize: float | tuple[float, float] | No
     to read; None reads band 1 (an EXR: its Z, Y or R channel) and warns
     (:class:`~oclshade.heightmap.InputWarning`) when the file has more.
     ``nodata`` declares the nodata value, overriding the file's (as gdalwarp's -srcnodata).
+    Other extensions, URLs and GDAL virtual paths go to :mod:`oclshade.gdal_reader` when
+    rasterio is installed (``pip install 'oclshade[gdal]'``).
     Raises :class:`RasterIOError` naming the path on any problem with the file.
     """
     if band is not None and (isinstance(band, bool) or not isinstance(band, (int, np.integer)) or band < 1):
         raise ValueError(f"band must be a 1-based band number (1, 2, ...), got {band!r}")
     nodata = nodata_value(nodata)
+    text = os.fspath(path)
+    if isinstance(text, str) and (_URL.match(text) or Path(text).suffix.lower() not in READ_EXTENSIONS
+                                  and not Path(text).is_dir()) and gdal_reader.available():
+        raster = gdal_reader.read_with_gdal(text, band, nodata)   # optional GDAL reader: URLs, VRT, other formats
+        if cellsize is not None:
+            raster.dx, raster.dy = _cellsize(text, cellsize)
+        return raster
     p = _input_file(path)
     cell = None if cellsize is None else _cellsize(p, cellsize)
     ext = p.suffix.lower()
@@ -494,117 +509,366 @@ def read_dem(path: str | os.PathLike, cellsize: float | tuple[float, float] | No
 
 # ----------------------------------------------------------------------------- writing
 
-def _write_tif(tmp: str, data: np.ndarray, like: Raster | None, nodata: float | None,
-               band_names: Sequence[str] | None) -> None:
-    extratags = []
+WRITE_EXTENSIONS = (".tif", ".tiff", ".exr", ".npy", ".png")
+_GEOTIFF = (".tif", ".tiff")
+
+
+def _crs_text(like: Raster) -> str | None:
+    """The raster's CRS for a GDAL sidecar: its WKT, else ``EPSG:code`` from its GeoTIFF keys."""
+    return like.crs_wkt or _epsg_text(like.georef)
+
+
+def _epsg_text(georef: dict) -> str | None:
+    keys = georef.get(34735, ())
+    model = _geokey(keys, 1024)
+    code = _geokey(keys, {1: 3072, 2: 2048}[model]) if model in (1, 2) else None
+    return f"EPSG:{code}" if code is not None and 0 < code < 32767 else None
+
+
+def geotransform(georef: dict) -> tuple[float, float, float, float, float, float] | None:
+    """GDAL's geotransform (x0, dx/dcol, dx/drow, y0, dy/dcol, dy/drow; (x0, y0) the top-left
+    pixel's outer corner) of GeoTIFF tags, as GDAL reads them (PixelIsPoint: the tie point is a
+    pixel centre); None without a transform or with several tie points (GCPs)."""
+    point = _geokey(georef.get(34735, ()), 1025) == 2
+    shift = 0.5 if point else 0.0
+    if 34264 in georef:
+        a, b, _, d, e, f, _, h = (float(v) for v in georef[34264][:8])
+        return d - (a + b) * shift, a, b, h - (e + f) * shift, e, f
+    tie, scale = georef.get(33922, ()), georef.get(33550, ())
+    if len(tie) != 6 or len(scale) < 2:
+        return None
+    i, j, _, x, y, _ = (float(v) for v in tie)
+    sx, sy = float(scale[0]), float(scale[1])
+    return x - (i + shift) * sx, sx, 0.0, y + (j + shift) * sy, 0.0, -sy
+
+
+def decimated(raster: Raster, step: int) -> Raster:
+    """Every ``step``-th cell of every ``step``-th row (as previews are drawn), georeferenced so
+    that each kept cell stays where it was: cells ``step`` times larger about the same centres."""
+    if isinstance(step, bool) or not isinstance(step, (int, np.integer)) or step < 1:
+        raise ValueError(f"step must be a positive integer, got {step!r}")
+    georef = dict(raster.georef)
+    # raster-space coordinate u of the source = step * u' + off (PixelIsArea: keep the kept cells' centres)
+    off = 0.0 if _geokey(georef.get(34735, ()), 1025) == 2 else (1 - step) / 2
+    if 34264 in georef:
+        m = list(georef[34264])
+        m[3] += (m[0] + m[1]) * off
+        m[7] += (m[4] + m[5]) * off
+        m[0], m[1], m[4], m[5] = m[0] * step, m[1] * step, m[4] * step, m[5] * step
+        georef[34264] = tuple(m)
+    if 33922 in georef:
+        tie = list(georef[33922])
+        for k in range(0, len(tie) - 5, 6):
+            tie[k], tie[k + 1] = (tie[k] - off) / step, (tie[k + 1] - off) / step
+        georef[33922] = tuple(tie)
+    if 33550 in georef:
+        sx, sy, *rest = georef[33550]
+        georef[33550] = (sx * step, sy * step, *rest)
+    return Raster(raster.heights[::step, ::step], raster.dx * step, raster.dy * step, raster.nodata,
+                  raster.geographic, georef, raster.path, raster.crs_wkt)
+
+
+def _pam(srs: str) -> str:
+    """A GDAL .aux.xml (PAM) holding a CRS (WKT or EPSG:code)."""
+    return f"<PAMDataset>\n  <SRS>{xml_escape(srs)}</SRS>\n</PAMDataset>\n"
+
+
+def _world_file(gt: tuple[float, ...]) -> str:
+    """An ESRI world file: pixel sizes and rotations, then the top-left pixel's centre."""
+    x0, a, b, y0, d, e = gt
+    return "".join(f"{v!r}\n" for v in (a, d, b, e, x0 + (a + b) / 2, y0 + (d + e) / 2))
+
+
+def _sidecars(path: Path, like: Raster | None) -> dict[Path, str | None]:
+    """The GDAL sidecar files of an output at ``path`` (beside the name given, where GDAL looks)
+    and their text; None: not needed, so a stale one is removed."""
+    aux = path.with_name(path.name + ".aux.xml")
+    ext = path.suffix.lower()
+    if ext in _GEOTIFF:    # the GeoTIFF keys hold an EPSG code; a CRS without one goes to the .aux.xml
+        wkt = None if like is None else like.crs_wkt
+        return {aux: _pam(wkt) if wkt and _epsg_text(like.georef) is None else None}
+    if ext == ".png":
+        gt = None if like is None else geotransform(like.georef)
+        srs = None if like is None else _crs_text(like)
+        return {path.with_suffix(".pgw"): None if gt is None else _world_file(gt),
+                aux: None if srs is None or gt is None else _pam(srs)}
+    return {}
+
+
+def _geotiff_tags(like: Raster | None, nodata: float | None,
+                  band_names: Sequence[str] | None) -> list[tuple[int, int, object]]:
+    tags: list[tuple[int, int, object]] = []
     for code, value in sorted((like.georef if like is not None else {}).items()):
-        dtype = GEOTIFF_TAGS.get(code)
-        if dtype is not None:
-            value = str(value) if dtype == 2 else tuple(value)
-            extratags.append((code, dtype, 0 if dtype == 2 else len(value), value, True))
+        kind = GEOTIFF_TAGS.get(code)
+        if kind is not None:
+            tags.append((code, kind, str(value) if kind == 2 else tuple(value)))
     if nodata is not None:
-        extratags.append((_TAG_NODATA, 2, 0, f"{float(nodata):.17g}", True))
+        tags.append((_TAG_NODATA, 2, f"{float(nodata):.17g}"))
     if band_names:
-        items = "".join(f'<Item name="DESCRIPTION" sample="{i}" role="description">{n}</Item>'
+        items = "".join(f'<Item name="DESCRIPTION" sample="{i}" role="description">{xml_escape(n)}</Item>'
                         for i, n in enumerate(band_names))
-        extratags.append((_TAG_GDAL_METADATA, 2, 0, f"<GDALMetadata>{items}</GDALMetadata>", True))
-    try:
-        tifffile.TIFF.COMPRESSORS[8]
-        compression = "zlib"
-    except (KeyError, NotImplementedError):
-        compression = None
-    tifffile.imwrite(tmp, data[0] if data.shape[0] == 1 else data, photometric="minisblack",
-                     planarconfig="separate", compression=compression, extratags=extratags)
+        tags.append((_TAG_GDAL_METADATA, 2, f"<GDALMetadata>{items}</GDALMetadata>"))
+    return tags
 
 
-def _write_exr(tmp: str, data: np.ndarray, band_names: Sequence[str] | None) -> None:
-    names = list(band_names) if band_names else (["Y"] if len(data) == 1 else [f"B{i}" for i in range(len(data))])
-    channels = {n: np.ascontiguousarray(b, dtype=np.float32) for n, b in zip(names, data)}
+class _Replacement:
+    """A temporary file beside ``target`` (hidden, ``.NAME.tmp-XXXXXXXX.EXT``) that replaces it
+    by a rename, keeping an existing target's permission bits."""
+
+    def __init__(self, target: Path):
+        self.target = target
+        self.tmp = target.with_name(f".{target.stem}.tmp-{secrets.token_hex(4)}{target.suffix}")
+        with open(self.tmp, "xb"):
+            pass
+
+    def commit(self) -> None:
+        try:
+            os.chmod(self.tmp, stat.S_IMODE(os.stat(self.target).st_mode))
+        except FileNotFoundError:
+            pass
+        os.replace(self.tmp, self.target)
+
+    def discard(self) -> None:
+        self.tmp.unlink(missing_ok=True)
+
+
+def _write_tif(tmp: str, tiff: GeoTiffWriter) -> None:
+    with open(tmp, "wb") as fh:
+        tiff.save(fh)
+
+
+def _write_exr(tmp: str, data: np.ndarray, band_names: Sequence[str]) -> None:
+    channels = {n: np.ascontiguousarray(b, dtype=np.float32) for n, b in zip(band_names, data)}
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
     with OpenEXR.File(header, channels) as exr:
         exr.write(tmp)
 
 
-def _write_npy(tmp: str, data: np.ndarray) -> None:
-    np.save(tmp, data[0] if data.shape[0] == 1 else data)
+def _write_npy(tmp: str, shape: tuple[int, ...], dtype: np.dtype) -> int:
+    """Create the .npy file (header, then room for the data); returns where the data starts."""
+    array = np.lib.format.open_memmap(tmp, mode="w+", dtype=dtype, shape=shape)
+    offset = array.offset
+    del array
+    return offset
 
 
 def _write_png(tmp: str, image: np.ndarray) -> None:
     Image.fromarray(image).save(tmp, format="PNG")
 
 
-def _png_image(path: object, bands: np.ndarray | Sequence[np.ndarray]) -> np.ndarray:
-    img = np.asarray(bands)
-    if img.ndim == 3 and img.shape[0] == 1:
-        img = img[0]
-    ok = (img.ndim == 2 and img.dtype in (np.uint8, np.uint16)) or \
-         (img.ndim == 3 and img.shape[2] in (3, 4) and img.dtype == np.uint8)
-    if not ok:
-        raise _err(path, f"PNG output needs a uint8/uint16 (rows, cols) band or a uint8 "
-                         f"(rows, cols, 3|4) RGB(A) image, got {img.dtype} {img.shape}")
-    return img
+class _Staged:
+    """Bands appended raw, as ``dtype``, to an anonymous temporary file (formats written whole at the end)."""
+
+    def __init__(self, shape: tuple[int, int, int], dtype: np.dtype, directory: Path):
+        self.shape, self.dtype = shape, dtype
+        self.file = tempfile.TemporaryFile(dir=directory)
+
+    def write(self, band: np.ndarray) -> None:
+        self.file.write(np.ascontiguousarray(band, dtype=self.dtype).tobytes())
+
+    def array(self) -> np.ndarray:
+        """The bands (bands, rows, cols), mapped from the file (paged in as they are read)."""
+        self.file.flush()
+        return np.memmap(self.file, dtype=self.dtype, mode="r", shape=self.shape)
+
+    def close(self) -> None:
+        self.file.close()
 
 
-def _stack_bands(path: object, bands: np.ndarray | Sequence[np.ndarray]) -> np.ndarray:
+class RasterWriter:
+    """Write a raster band by band, in constant memory for GeoTIFF and .npy; the format follows the extension.
+
+    ``shape`` is (bands, rows, cols) and ``dtype`` the bands' type, both given before any band:
+    the writer checks everything and creates its temporary file in the destination directory
+    when made, so an unwritable destination fails before any work. :meth:`write` takes the
+    bands in order; :meth:`finish` completes the temporary file (and sidecars); :meth:`commit`
+    renames it over ``path``, keeping an existing file's permission bits (an output that is a
+    symbolic link is written through: the file it points to is replaced, the link stays);
+    :meth:`abort` removes what was written. As a context manager it finishes and commits on
+    success and aborts on an exception.
+
+    ``.tif/.tiff``: tiled, compressed GeoTIFF (:mod:`oclshade.geotiff`; ``options``: GDAL
+    creation options, ``cog``: a Cloud-Optimized GeoTIFF), georeferencing copied from ``like``,
+    GDAL_NODATA from ``nodata``, band names as GDAL band descriptions; a ``like.crs_wkt`` without
+    an EPSG code in the GeoTIFF keys goes into ``PATH.aux.xml``. ``.exr``: float32 channels named
+    ``band_names`` (default "Y" for one band, else "B0", "B1", ...; OpenEXR stores channels sorted
+    by name), staged on disk and mapped back when the file is written. ``.npy``: the 2-D array
+    for one band, else (bands, rows, cols). ``.png``: 1 (grey: uint8 or uint16), 3 (RGB) or 4
+    (RGBA) uint8 bands; with a georeferenced ``like``, a world file ``.pgw`` and the CRS in
+    ``PATH.aux.xml``. Raises :class:`RasterIOError` naming the path.
+    """
+
+    def __init__(self, path: str | os.PathLike, shape: tuple[int, int, int], dtype: np.dtype | type,
+                 like: Raster | None = None, nodata: float | None = None,
+                 band_names: Sequence[str] | None = None, options: Mapping[str, str] | None = None,
+                 cog: bool = False):
+        p = self.path = Path(path)
+        self.ext = ext = p.suffix.lower()
+        if ext not in WRITE_EXTENSIONS:
+            raise _err(p, f"unknown output extension {p.suffix!r}; expected .tif, .tiff, .exr, .npy or .png")
+        if len(shape) != 3 or any(isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1
+                                  for n in shape):
+            raise _err(p, f"shape must be (bands, rows, cols), positive integers, got {shape!r}")
+        self.shape = count, rows, cols = tuple(int(n) for n in shape)
+        self.dtype = np.dtype(dtype)
+        if self.dtype.kind not in "uif":
+            raise _err(p, f"bands must be numeric, got dtype {self.dtype}")
+        if band_names is not None and len(band_names) != count:
+            raise _err(p, f"{len(band_names)} band names given for {count} bands")
+        if like is not None and like.heights.shape != (rows, cols):
+            raise _err(p, f"bands of shape {(rows, cols)} do not match the georeferenced raster {like.heights.shape}")
+        if ext == ".png" and not (count in (3, 4) and self.dtype == np.uint8 or
+                                  count == 1 and self.dtype in (np.uint8, np.uint16)):
+            raise _err(p, f"PNG output needs a uint8/uint16 (rows, cols) band or a uint8 (rows, cols, 3|4) "
+                          f"RGB(A) image, got {count} band(s) of {self.dtype}")
+        if (options or cog) and ext not in _GEOTIFF:
+            raise _err(p, "creation options and COG apply to GeoTIFF output (.tif, .tiff)")
+        try:
+            tiff = tiff_options(options, self.dtype, cog) if ext in _GEOTIFF else None
+        except ValueError as exc:
+            raise _err(p, exc) from None
+        if like is not None and like.path is not None and os.path.realpath(p) == os.path.realpath(like.path):
+            raise _err(p, "refusing to overwrite the input raster")
+        target = Path(os.path.realpath(p)) if p.is_symlink() else p
+        if not target.parent.is_dir():
+            raise _err(p, "output directory does not exist")
+        if target.is_dir():
+            raise _err(p, "is a directory")
+        width = len(str(count - 1))
+        self.band_names = list(band_names) if band_names else (
+            ["Y"] if count == 1 else [f"B{i:0{width}d}" for i in range(count)])
+        self.written, self.finished, self.committed = 0, False, False
+        self._sidecars = _sidecars(p, like)
+        self._replacements: list[_Replacement] = []
+        self._sink: GeoTiffWriter | _Staged | BinaryIO | None = None
+        try:
+            self._out = self._replacement(target)
+            for side, text in self._sidecars.items():
+                if text is not None:
+                    self._replacement(side)
+            tmp = str(self._out.tmp)
+            if tiff is not None:
+                self._sink = GeoTiffWriter(self.shape, self.dtype, tiff, _geotiff_tags(like, nodata, band_names),
+                                           target.parent)
+            elif ext == ".npy":
+                offset = _write_npy(tmp, self.shape[1:] if count == 1 else self.shape, self.dtype)
+                self._sink = open(tmp, "r+b")
+                self._sink.seek(offset)
+            else:
+                self._sink = _Staged(self.shape, np.dtype(np.float32) if ext == ".exr" else self.dtype,
+                                     target.parent)
+        except BaseException as exc:
+            self._fail(exc)
+
+    def _replacement(self, target: Path) -> _Replacement:
+        try:
+            made = _Replacement(target)
+        except OSError as exc:
+            raise _err(self.path, f"cannot write in {target.parent}: {exc.strerror or exc}") from None
+        self._replacements.append(made)
+        return made
+
+    def _fail(self, exc: BaseException) -> NoReturn:
+        """Remove everything written, then raise ``exc`` (as a RasterIOError naming the path)."""
+        self.abort()
+        if isinstance(exc, (OSError, ValueError, TypeError, RuntimeError)) and not isinstance(exc, RasterIOError):
+            raise _err(self.path, f"cannot write {self.ext[1:]} raster: {exc}") from exc
+        raise exc
+
+    def write(self, band: np.ndarray) -> None:
+        """Add the next band (rows, cols); its dtype must cast safely to the writer's."""
+        band = np.asarray(band)
+        k = self.written + 1
+        try:
+            if k > self.shape[0]:
+                raise _err(self.path, f"all {self.shape[0]} bands are already written")
+            if band.shape != self.shape[1:]:
+                raise _err(self.path, f"band {k} has shape {band.shape}, expected {self.shape[1:]}")
+            if not np.can_cast(band.dtype, self.dtype, "safe"):
+                raise _err(self.path, f"band {k} of dtype {band.dtype} does not fit {self.dtype}")
+            self._sink.write(np.ascontiguousarray(band, dtype=self.dtype))
+        except BaseException as exc:
+            self._fail(exc)
+        self.written = k
+
+    def finish(self) -> None:
+        """Complete the temporary file and sidecars once every band is written; nothing is replaced yet."""
+        try:
+            if self.written != self.shape[0]:
+                raise _err(self.path, f"{self.written} of {self.shape[0]} bands written")
+            tmp = str(self._out.tmp)
+            if self.ext in _GEOTIFF:
+                _write_tif(tmp, self._sink)
+            elif self.ext == ".exr":
+                _write_exr(tmp, self._sink.array(), self.band_names)
+            elif self.ext == ".png":
+                data = self._sink.array()
+                _write_png(tmp, np.ascontiguousarray(data[0] if len(data) == 1 else np.moveaxis(data, 0, 2)))
+            self._sink.close()
+            for made in self._replacements[1:]:
+                made.tmp.write_text(self._sidecars[made.target], encoding="utf-8")
+        except BaseException as exc:
+            self._fail(exc)
+        self.finished = True
+
+    def commit(self) -> None:
+        """Rename the finished file (and its sidecars) into place; stale sidecars are removed."""
+        try:
+            if not self.finished:
+                raise _err(self.path, "commit before finish")
+            for made in self._replacements:
+                made.commit()
+            for side, text in self._sidecars.items():
+                if text is None:
+                    side.unlink(missing_ok=True)
+        except BaseException as exc:
+            self._fail(exc)
+        self.committed = True
+
+    def abort(self) -> None:
+        """Remove the temporary files; the target is left as it was (unless already committed)."""
+        if self._sink is not None:
+            self._sink.close()
+        for made in self._replacements:
+            made.discard()
+
+    def __enter__(self) -> "RasterWriter":
+        return self
+
+    def __exit__(self, kind: type | None, exc: BaseException | None, tb: object) -> None:
+        if exc is not None:
+            self.abort()
+        elif not self.committed:
+            if not self.finished:
+                self.finish()
+            self.commit()
+
+
+def _band_list(path: Path, bands: np.ndarray | Sequence[np.ndarray]) -> list[np.ndarray]:
+    """Equally shaped 2-D bands from a 2-D array, a (bands, rows, cols) stack or a sequence
+    (a PNG also takes a (rows, cols, 3|4) image); booleans become uint8."""
     if isinstance(bands, np.ndarray):
-        data = bands[None] if bands.ndim == 2 else bands
+        if bands.ndim == 3 and path.suffix.lower() == ".png" and bands.shape[2] in (3, 4):
+            bands = np.moveaxis(bands, 2, 0)
+        arrays = [bands] if bands.ndim == 2 else list(bands) if bands.ndim == 3 else None
+        if arrays is None or bands.size == 0:
+            raise _err(path, f"bands must be a 2-D array or a (bands, rows, cols) stack, got shape {bands.shape}")
     else:
         arrays = [np.asarray(b) for b in bands]
         if not arrays or any(a.ndim != 2 or a.shape != arrays[0].shape for a in arrays):
-            raise _err(path, f"bands must be equally shaped 2-D arrays, got shapes "
-                             f"{[a.shape for a in arrays]}")
-        data = np.stack(arrays)
-    if data.ndim != 3 or data.size == 0:
-        raise _err(path, f"bands must be a 2-D array or a (bands, rows, cols) stack, got shape {data.shape}")
-    if data.dtype.kind not in "buif":
-        raise _err(path, f"bands must be numeric, got dtype {data.dtype}")
-    return data.astype(np.uint8) if data.dtype.kind == "b" else data
+            raise _err(path, f"bands must be equally shaped 2-D arrays, got shapes {[a.shape for a in arrays]}")
+    return [a.astype(np.uint8) if a.dtype.kind == "b" else a for a in arrays]
 
 
 def write_raster(path: str | os.PathLike, bands: np.ndarray | Sequence[np.ndarray],
                  like: Raster | None = None, nodata: float | None = None,
-                 band_names: Sequence[str] | None = None) -> None:
-    """Write one band or several equally shaped bands; the format follows the extension.
-
-    ``.tif/.tiff``: planar bands, dtype kept, georeferencing copied from ``like``,
-    GDAL_NODATA from ``nodata``, band names as GDAL descriptions. ``.exr``: float32
-    channels named ``band_names`` (default "Y" for one band, else "B0", "B1", ...).
-    ``.npy``: the 2-D array for one band, else (bands, rows, cols). ``.png``: a uint8 or
-    uint16 band or a uint8 RGB(A) image. The write is atomic and never replaces ``like``'s file.
-    """
+                 band_names: Sequence[str] | None = None, options: Mapping[str, str] | None = None,
+                 cog: bool = False) -> None:
+    """Write one band or several equally shaped bands at once (:class:`RasterWriter` for the
+    formats and arguments); the write is atomic and never replaces ``like``'s file."""
     p = Path(path)
-    ext = p.suffix.lower()
-    writers: dict[str, Callable[[str], None]]
-    if ext == ".png":
-        image = _png_image(p, bands)
-        writers = {".png": lambda tmp: _write_png(tmp, image)}
-    else:
-        data = _stack_bands(p, bands)
-        if band_names is not None and len(band_names) != data.shape[0]:
-            raise _err(p, f"{len(band_names)} band names given for {data.shape[0]} bands")
-        if like is not None and like.heights.shape != data.shape[1:]:
-            raise _err(p, f"bands of shape {data.shape[1:]} do not match the georeferenced "
-                          f"raster {like.heights.shape}")
-        writers = {
-            ".tif": lambda tmp: _write_tif(tmp, data, like, nodata, band_names),
-            ".exr": lambda tmp: _write_exr(tmp, data, band_names),
-            ".npy": lambda tmp: _write_npy(tmp, data),
-        }
-        writers[".tiff"] = writers[".tif"]
-    if ext not in writers:
-        raise _err(p, f"unknown output extension {p.suffix!r}; expected .tif, .tiff, .exr, .npy or .png")
-    if like is not None and like.path is not None and os.path.realpath(p) == os.path.realpath(like.path):
-        raise _err(p, "refusing to overwrite the input raster")
-    if not p.parent.is_dir():
-        raise _err(p, "output directory does not exist")
-    tmp = p.with_name(f".{p.stem}.tmp-{secrets.token_hex(4)}{p.suffix}")
-    try:
-        with open(tmp, "xb"):
-            pass
-        writers[ext](str(tmp))
-        os.replace(tmp, p)
-    except BaseException as exc:
-        tmp.unlink(missing_ok=True)
-        if isinstance(exc, (OSError, ValueError, TypeError, RuntimeError)):
-            raise _err(p, f"cannot write {ext[1:]} raster: {exc}") from exc
-        raise
+    arrays = _band_list(p, bands)
+    with RasterWriter(p, (len(arrays), *arrays[0].shape), np.result_type(*arrays), like, nodata, band_names,
+                      options, cog) as writer:
+        for band in arrays:
+            writer.write(band)

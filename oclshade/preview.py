@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 
 from .heightmap import as_heights, positive_finite
-from .io import write_raster
+from .io import Raster, RasterWriter, decimated
 
-__all__ = ["hillshade", "shadow_overlay", "write_preview"]
+__all__ = ["Preview", "hillshade", "shadow_overlay", "write_preview"]
 
 _SHADOW_RGB = np.array([10.0, 25.0, 90.0])   # dark blue blended over cast-shadow cells
 _SHADOW_BLEND = 0.55
@@ -69,21 +69,43 @@ def shadow_overlay(heights: np.ndarray, dx: float, dy: float, azimuth: float, el
     return out
 
 
+class Preview(RasterWriter):
+    """A :func:`shadow_overlay` PNG of a ``shape`` (rows, cols) map, opened before it is drawn
+    (so an unwritable destination fails before any work); a :class:`~oclshade.io.RasterWriter`
+    that :meth:`draw` fills. The map is strided down to at most ``max_size`` pixels a side;
+    with a georeferenced ``like`` (the map's raster) the PNG gets a world file and its CRS
+    (``oclshade.io.decimated``: each preview pixel is georeferenced at the map cell it shows)."""
+
+    def __init__(self, path: str | os.PathLike, shape: tuple[int, int], like: Raster | None = None,
+                 max_size: int = 2048):
+        if Path(path).suffix.lower() != ".png":
+            raise ValueError(f"preview path must end in .png, got {os.fspath(path)!r}")
+        if isinstance(max_size, bool) or not isinstance(max_size, int) or max_size < 1:
+            raise ValueError(f"max_size must be a positive integer, got {max_size!r}")
+        self.map_shape = tuple(shape)
+        self.step = max(1, math.ceil(max(self.map_shape) / max_size))
+        rows, cols = (-(-n // self.step) for n in self.map_shape)
+        super().__init__(path, (3, rows, cols), np.uint8, like=None if like is None else decimated(like, self.step))
+
+    def draw(self, heights: np.ndarray, dx: float, dy: float, azimuth: float, elevation: float,
+             mask: np.ndarray | None = None) -> None:
+        """Render the preview of ``heights`` (the map's shape) and the shadow ``mask`` into the file."""
+        h = _check(heights, dx, dy)
+        for name, a in (("heights", h), ("mask", mask)):
+            if a is not None and np.shape(a) != self.map_shape:
+                raise ValueError(f"{name} must have the preview's map shape {self.map_shape}, got {np.shape(a)}")
+        s = self.step
+        rgb = shadow_overlay(h[::s, ::s], dx * s, dy * s, azimuth, elevation,
+                             None if mask is None else np.asarray(mask)[::s, ::s])
+        for c in range(3):
+            self.write(rgb[..., c])
+
+
 def write_preview(path: str | os.PathLike, heights: np.ndarray, dx: float, dy: float,
                   azimuth: float, elevation: float, mask: np.ndarray | None = None,
-                  max_size: int = 2048) -> None:
-    """Write :func:`shadow_overlay` as a PNG (atomic), strided down to at most ``max_size`` pixels a side."""
-    if Path(path).suffix.lower() != ".png":
-        raise ValueError(f"preview path must end in .png, got {os.fspath(path)!r}")
-    if max_size < 1:
-        raise ValueError(f"max_size must be >= 1, got {max_size!r}")
+                  max_size: int = 2048, like: Raster | None = None) -> None:
+    """Write :func:`shadow_overlay` as a PNG (atomic), strided down to at most ``max_size`` pixels
+    a side; georeferenced (world file and CRS sidecar) when ``like`` is (see :class:`Preview`)."""
     h = _check(heights, dx, dy)
-    step = max(1, math.ceil(max(h.shape) / max_size))
-    small_mask = None
-    if mask is not None:
-        small_mask = np.asarray(mask)
-        if small_mask.shape != h.shape:
-            raise ValueError(f"mask must have the heights' shape {h.shape}, got {small_mask.shape}")
-        small_mask = small_mask[::step, ::step]
-    rgb = shadow_overlay(h[::step, ::step], dx * step, dy * step, azimuth, elevation, small_mask)
-    write_raster(path, rgb)
+    with Preview(path, h.shape, like, max_size) as preview:
+        preview.draw(h, dx, dy, azimuth, elevation, mask)

@@ -14,7 +14,7 @@ Definitions are in ``kernels/shadow.cl``; the float64 twin is
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable, Iterable, Mapping, Sequence
+from typing import Callable, Iterable, Iterator, Mapping, Sequence
 
 import numpy as np
 import pyopencl as cl
@@ -202,11 +202,23 @@ class ShadowCaster:
         A sun whose result is cached gets a copy of it; a sun the scene analysis
         proves shadow-free gets its outputs without a kernel; the others trace.
         """
+        return list(self.iter_many(suns, method, outputs, k_dark, k_bright, progress))
+
+    def iter_many(self, suns: Iterable[SunLike], method: str = "exact",
+                  outputs: str | Sequence[str] = ("mask",), k_dark: float = DEFAULT_K_DARK,
+                  k_bright: float = DEFAULT_K_BRIGHT,
+                  progress: Callable[[int, int], None] | None = None) -> Iterator[ShadowResult]:
+        """:meth:`cast_many` one sun at a time: each result is yielded as soon as it is traced
+        (after ``progress``), so a caller that writes it and lets it go holds one sun's outputs.
+        The arguments are checked at the call, before the first result."""
         sun_list = as_suns(suns)
         outs = check_outputs(outputs)
         k_dark, k_bright = check_coefficients(k_dark, k_bright)
         check_method(method)
-        results = []
+        return self._results(sun_list, method, outs, k_dark, k_bright, progress)
+
+    def _results(self, sun_list: list[Sun], method: str, outs: tuple[str, ...], k_dark: float, k_bright: float,
+                 progress: Callable[[int, int], None] | None) -> Iterator[ShadowResult]:
         launch = None
         for k, sun in enumerate(sun_list):
             key = self._result_key(sun, method, outs, k_dark, k_bright) if self.caching else None
@@ -220,10 +232,9 @@ class ShadowCaster:
                 res = launch(sun, k_dark, k_bright)
                 if key:
                     _cache.RESULTS.put(key, _frozen_result(res), _result_nbytes(res))
-            results.append(res)
             if progress is not None:
                 progress(k + 1, len(sun_list))
-        return results
+            yield res
 
     def _result_key(self, sun: Sun, method: str, outs: tuple[str, ...], k_dark: float, k_bright: float) -> tuple:
         hm = self.heightmap
