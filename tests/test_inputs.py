@@ -13,6 +13,7 @@ import pytest
 import tifffile
 from PIL import Image
 
+from oclshade import gdal_reader
 from oclshade import Heightmap, ShadowCaster, Sun
 from oclshade import io as rio
 from oclshade.cli import main
@@ -466,7 +467,8 @@ def test_directory_fifo_and_broken_link_are_not_no_such_file(tmp_path, capsys):
 
 @pytest.mark.parametrize("url", ["https://example.com/dem.tif", "http://example.com/N10E010.hgt",
                                  "s3://bucket/dem.tif", "/vsicurl/https://example.com/dem.tif"])
-def test_urls_are_not_mangled_into_paths(tmp_path, url, capsys):
+def test_urls_are_not_mangled_into_paths(tmp_path, url, capsys, monkeypatch):
+    monkeypatch.setattr(gdal_reader, "available", lambda: False)  # what a user without rasterio sees
     with pytest.raises(RasterIOError, match="optional GDAL reader") as info:
         read_dem(url)
     assert str(info.value).startswith(f"{url}: ")
