@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import csv
+import dataclasses
 import math
 import os
 import signal
@@ -260,6 +261,7 @@ def build_parser() -> CliParser:
                          "write --sun=AZ,ALT when AZ is negative")
     sh.add_argument("--suns", dest="suns_csv", metavar="FILE.csv",
                     help="sun positions, one per line: azimuth,elevation (header optional)")
+    solar_cli.add_time_arguments(sh)
     sh.add_argument("--k-dark", type=_unit, default=DEFAULT_K_DARK, metavar="K",
                     help=f"eq. (1) k_dark, shadow brightness with the sun at the horizon (default {DEFAULT_K_DARK:g})")
     sh.add_argument("--k-bright", type=_unit, default=DEFAULT_K_BRIGHT, metavar="K",
@@ -382,7 +384,8 @@ def add_render_parser(sub) -> None:
 
 @dataclass(frozen=True)
 class ShadowJob:
-    suns: list[Sun]
+    suns: list[Sun]                 # empty until the input is read when they come from --datetime
+    times: list                     # --datetime values (aware datetimes)
     outputs: tuple[str, ...]
     cellsize: float | tuple[float, float] | None
     dtype: np.dtype                 # of the output bands
@@ -414,23 +417,24 @@ def check_shadow_args(args: argparse.Namespace) -> ShadowJob:
     if args.cellsize is not None and len(args.cellsize) > 2:
         raise UsageError(f"--cellsize takes DX or DX DY, got {len(args.cellsize)} values")
     explicit = args.azimuth is not None or args.elevation is not None
+    times = solar_cli.parse_datetimes(args)
     suns = list(args.suns)
     if args.suns_csv is not None:
         suns += read_suns_csv(args.suns_csv)
-    if suns and explicit:
-        raise UsageError("give the sun either with -az/-alt or with --sun/--suns, not both")
-    if not suns:
+    if sum(map(bool, (explicit, suns, times))) > 1:
+        raise UsageError("give the sun one way: -az/-alt, --sun/--suns or --datetime")
+    if not suns and not times:
         az = DEFAULT_AZIMUTH if args.azimuth is None else args.azimuth
         alt = DEFAULT_ELEVATION if args.elevation is None else args.elevation
         suns = [Sun(az, alt)]
     outputs = ("mask", "self", "coefficient") if args.kind == "all" else (args.kind,)
-    if _extension(args.output) == ".png" and len(suns) > 1:
-        raise UsageError(f"PNG output holds one band; {len(suns)} suns need .tif, .exr or .npy")
+    if _extension(args.output) == ".png" and len(suns) + len(times) > 1:
+        raise UsageError(f"PNG output holds one band; {len(suns) + len(times)} suns need .tif, .exr or .npy")
     cellsize = None if args.cellsize is None else (
         args.cellsize[0] if len(args.cellsize) == 1 else (args.cellsize[0], args.cellsize[1]))
     dtype = np.dtype(np.uint8 if outputs in (("mask",), ("self",)) else np.float32)
     options, cog = creation_options(args, dtype)
-    return ShadowJob(suns, outputs, cellsize, dtype, options, cog)
+    return ShadowJob(suns, times, outputs, cellsize, dtype, options, cog)
 
 
 def creation_options(args: argparse.Namespace, dtype: np.dtype) -> tuple[dict[str, str], bool]:
@@ -523,6 +527,14 @@ def run_shadow(args: argparse.Namespace) -> int:
         raise CliError(f"--preview {args.preview!r} is the input or the output file; refusing to overwrite it")
     t0 = time.perf_counter()
     raster, heightmap = read_input(args, job.cellsize)
+    if job.times:
+        suns, lat, lon = solar_cli.suns_for(job.times, args, raster)
+        job = dataclasses.replace(job, suns=suns)
+        if not args.quiet:
+            first = job.suns[0]
+            print(f"{PROG}: {len(job.suns)} sun(s) at latitude {lat:.5f}, longitude {lon:.5f} (NREL SPA); "
+                  f"{job.times[0].isoformat()}: azimuth {first.azimuth:.4f}, elevation {first.elevation:.4f}",
+                  file=sys.stderr)
     dx, dy = heightmap.dx, heightmap.dy
     rows, cols = heightmap.shape
     _make_parents(args.output, args.preview)

@@ -8,7 +8,7 @@ from datetime import date, datetime
 from typing import Callable
 from zoneinfo import ZoneInfo, ZoneInfoNotFoundError
 
-from .position import DEFAULT_PRESSURE_HPA, DEFAULT_TEMPERATURE_C, sun_position
+from .position import DEFAULT_PRESSURE_HPA, DEFAULT_TEMPERATURE_C, sun_position, suns_at
 
 EPILOG = """\
 datetimes: ISO 8601 with a UTC offset (2024-06-21T12:00+02:00, 2024-06-21T10:00Z), or
@@ -134,3 +134,53 @@ def run(args: argparse.Namespace) -> int:
     for t, az, el in rows:
         print(f"{t:<{width}}  {az:9.4f}  {el:9.4f}")
     return 0
+
+
+# --- suns for `oclshade shadow --datetime` -------------------------------------------------
+
+def add_time_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--datetime``, ``--tz``, ``--lat``, ``--lon`` on a command that takes suns (``shadow``)."""
+    parser.add_argument("--datetime", dest="datetimes", action="append", default=[], metavar="ISO",
+                        help="the sun at this date and time (NREL SPA, with refraction; ISO 8601 with a "
+                             "UTC offset, or see --tz); repeat for several, one band each")
+    parser.add_argument("--tz", metavar="NAME", help="IANA time zone of --datetime values given without an offset")
+    parser.add_argument("--lat", type=_LAT, metavar="DEG",
+                        help="latitude for --datetime (default: the centre of a geographic INPUT)")
+    parser.add_argument("--lon", type=_LON, metavar="DEG",
+                        help="longitude for --datetime (default: the centre of a geographic INPUT)")
+
+
+def parse_datetimes(args: argparse.Namespace) -> list[datetime]:
+    """The --datetime values as aware datetimes (usage errors before any file is read)."""
+    from ..cli import UsageError
+
+    if not args.datetimes and (args.tz is not None or args.lat is not None or args.lon is not None):
+        raise UsageError("--tz, --lat and --lon go with --datetime")
+    if (args.lat is None) != (args.lon is None):
+        raise UsageError("give both --lat and --lon, or neither (the centre of a geographic INPUT)")
+    zone = _zone(args.tz)
+    return [parse_datetime(text, zone) for text in args.datetimes]
+
+
+def map_centre(raster) -> tuple[float, float] | None:
+    """(latitude, longitude) of a geographic raster's centre, from its georeferencing; else None."""
+    from ..io import geotransform
+
+    transform = geotransform(raster.georef) if raster.geographic else None
+    if transform is None:
+        return None
+    x0, xc, xr, y0, yc, yr = transform
+    rows, cols = raster.heights.shape
+    return y0 + yc * cols / 2 + yr * rows / 2, x0 + xc * cols / 2 + xr * rows / 2
+
+
+def suns_for(times: list[datetime], args: argparse.Namespace, raster) -> tuple[list, float, float]:
+    """The suns at ``times`` at --lat/--lon, else at the centre of a geographic raster; and that place."""
+    from ..cli import UsageError
+
+    place = (args.lat, args.lon) if args.lat is not None else map_centre(raster)
+    if place is None:
+        raise UsageError(f"--datetime: INPUT {args.input!r} has no geographic CRS to take the place from; "
+                         f"give --lat and --lon")
+    lat, lon = place
+    return suns_at(times, lat, lon), lat, lon
