@@ -16,13 +16,13 @@ error is stated as the RMS difference to the same quadrature on 1024 lines
 (b) ray-traced: fraction of cosine-weighted rays of length R that hit, two
 independent stratified sets of 256 rays averaged; its error is stated as half
 the RMS difference of the two (the standard error of their mean).
-Every setting (m, blur, range check, kernel distribution or line samples,
+Every setting (m, blur, range check, kernel distribution, line or ray samples,
 plane test) is timed on the device (inputs resident, min of --repeats runs of
 prepare + AO + blur) and its RMSE against each truth is taken over the subset.
-The paper's recipe, the default and the contenders for the default (line
-samples without blur, m in CONTENDER_MS) are then timed again in rotation
+The paper's recipe and the default are then timed again in rotation
 (--interleave runs each, min): those times make the "default vs paper recipe"
-line and the contenders' ranking (see ``ranking``).
+line (a time ratio taken on a shared machine: noisy).  The default itself is
+chosen against ray-traced AO by bench/ssao_bias.py.
 
 Writes bench/results/ssao.json, .md and .png.  ``--quick``: tiny sizes, a
 synthetic terrain when the shared data is absent, a reduced grid.
@@ -55,15 +55,13 @@ from oclshade.ssao import (DEFAULT_FEATURES, DEFAULT_M, PAPER_M, PAPER_RECIPE, P
                            AOFeatures, SSAO)
 
 DATASETS = {
-    # name: (path under the data folder, cells across the 1920-pixel width, R in cells)
-    "santo": ("dem/srtm3_srtmpy/S16E166v2.3a.hgt.zip", 480, 3.0),
-    "front_range": ("dem/landlab/SRTMGL3_40.09_-105.55_40.21_-105.35.asc", 240, 3.0),
+    # name: (path under the data folder, cells across the 1920-pixel width, R in cells, cell size in
+    # metres when the file has none in metres: the .asc is in degrees, its .f32.json gives metres)
+    "santo": ("dem/srtm3_srtmpy/S16E166v2.3a.hgt.zip", 480, 3.0, None),
+    "front_range": ("dem/landlab/SRTMGL3_40.09_-105.55_40.21_-105.35.asc", 240, 3.0, (70.91, 92.77)),
 }
 BLURS = {"none": ("none", 3), "box3": ("box", 3), "box5": ("box", 5), "edge5": ("edge", 5)}
 VIEWS = ("topdown", "oblique")
-#: timed alternately with the paper's recipe in every view (the grid's consecutive times are too
-#: noisy on the shared machine to rank settings by): line samples without blur, and the default
-CONTENDER_MS = (16, 20, 24, 28)
 
 
 @dataclass
@@ -79,11 +77,11 @@ def load(name: str, data_dir: Path) -> tuple[Heightmap, int, float, str] | None:
     if name == "synthetic":
         from oclshade.synthetic import canyon_crater
         return Heightmap.from_array(canyon_crater(128, 160, seed=4), 10.0), 120, 3.0, "oclshade.synthetic.canyon_crater(128, 160, seed=4), 10 m"
-    rel, cells, r_cells = DATASETS[name]
+    rel, cells, r_cells, cellsize = DATASETS[name]
     path = data_dir / rel
     if not path.is_file():
         return None
-    raster = read_dem(path)
+    raster = read_dem(path, cellsize=cellsize)
     h = raster.heights
     h = np.where(h <= 0, np.nan, h) if name == "santo" else h   # ocean (0) and voids: no terrain
     return Heightmap.from_array(h, (raster.dx, raster.dy)), cells, r_cells, f"{rel} via oclshade.io.read_dem"
@@ -122,21 +120,24 @@ def view_for(kind: str, hm: Heightmap, cells: int, width: int, height: int) -> t
 def settings(quick: bool, large: bool) -> list[tuple[int, str, bool, str, bool]]:
     """(m, blur, range check, distribution, plane test).  Point samples: at 1920x1080 only the
     5 x 5 box blur and fewer m (the must-show setting and its neighbours), to keep the run short;
-    line samples: fewer m (they need fewer) and every blur but the edge-aware one at 1920x1080.
-    The default's and the contenders' m are always among the line samples' m."""
+    line and ray samples: fewer m (they need fewer) and every blur but the edge-aware one at
+    1920x1080.  The default's setting is always in the grid."""
     if quick:
-        ms, blurs, line_ms, line_blurs = (24, 32), ("box5",), (), ("none",)
+        grids = {"points": ((24, 32), ("box5",)), "lines": ((20,), ("none",)), "rays": ((8,), ("box3",))}
     elif large:
-        ms, blurs, line_ms, line_blurs = (16, 24, 32), ("box5",), (8, 12, 16, 20, 24, 28), ("none", "box3", "box5")
+        grids = {"points": ((16, 24, 32), ("box5",)), "lines": ((8, 12, 16, 20), ("none", "box3", "box5")),
+                 "rays": ((4, 8, 16), ("none", "box3", "box5"))}
     else:
-        ms, blurs = (8, 16, 24, 32, 64), ("none", "box5", "edge5")
-        line_ms, line_blurs = (8, 12, 16, 20, 24, 28, 32), ("none", "box3", "box5", "edge5")
-    points = [(m, blur, rc, dist, pt) for m in ms for blur in blurs for rc in (False, True)
-              for dist in POINT_DISTRIBUTIONS for pt in (False, True)]
-    line_ms = sorted(set(line_ms) | {DEFAULT_M} | set(CONTENDER_MS))
-    lines = [(m, blur, rc, "lines", pt) for m in line_ms for blur in line_blurs
-             for rc in (False, True) for pt in (False, True)]
-    return points + lines
+        grids = {"points": ((8, 16, 24, 32, 64), ("none", "box5", "edge5")),
+                 "lines": ((8, 12, 16, 20, 24, 28, 32), ("none", "box3", "box5", "edge5")),
+                 "rays": ((4, 8, 12, 16), ("none", "box3", "box5", "edge5"))}
+    out = []
+    for kind, (ms, blurs) in grids.items():
+        for dist in POINT_DISTRIBUTIONS if kind == "points" else (kind,):
+            out += [(m, blur, rc, dist, pt) for m in ms for blur in blurs for rc in (False, True) for pt in (False, True)]
+    default = (DEFAULT_M, "none" if DEFAULT_FEATURES.blur == "none" else f"{DEFAULT_FEATURES.blur}{DEFAULT_FEATURES.blur_size}",
+               DEFAULT_FEATURES.range_check, DEFAULT_FEATURES.distribution, DEFAULT_FEATURES.plane_test)
+    return out + ([] if default in out else [default])
 
 
 def features_of(blur: str, rc: bool, dist: str, pt: bool) -> AOFeatures:
@@ -150,17 +151,12 @@ def setting_key(m: int, f: AOFeatures) -> str:
             f"plane test {'on' if f.plane_test else 'off'}")
 
 
-def contenders() -> list[tuple[int, AOFeatures]]:
-    out = [(m, AOFeatures(distribution="lines")) for m in CONTENDER_MS]
-    return out + ([] if (DEFAULT_M, DEFAULT_FEATURES) in out else [(DEFAULT_M, DEFAULT_FEATURES)])
-
-
 def interleaved_ms(pass_: SSAO, inputs, view: View, radius: float, delta: float, runs: int) -> dict[str, float]:
-    """Min wall time (ms) of the paper's recipe and of each contender, all run in rotation ``runs``
-    times after a warm-up (the machine is shared: the rotation spreads its noise over all)."""
+    """Min wall time (ms) of the paper's recipe and of the default, run in rotation ``runs`` times
+    after a warm-up (the machine is shared: the rotation spreads its noise over both)."""
     queue = pass_.runtime.queue
-    pair = {setting_key(PAPER_M, PAPER_RECIPE): (PAPER_M, PAPER_RECIPE)}
-    pair.update({setting_key(m, f): (m, f) for m, f in contenders()})
+    pair = {setting_key(PAPER_M, PAPER_RECIPE): (PAPER_M, PAPER_RECIPE),
+            setting_key(DEFAULT_M, DEFAULT_FEATURES): (DEFAULT_M, DEFAULT_FEATURES)}
     times: dict[str, list[float]] = {k: [] for k in pair}
     for i in range(runs + 1):
         for key, (m, f) in pair.items():
@@ -247,27 +243,6 @@ def comparison_line(c: dict) -> str:
             f"{c['paper']['rmse_raytraced']:.4f} ({pct(c['rmse_reduction_raytraced'])})")
 
 
-def ranking(cases: list[dict]) -> list[dict]:
-    """Each contender over the views of the real DEMs (not the synthetic canyon): its worst RMSE
-    ratio to the paper's recipe against ground truth (a) and its worst interleaved time ratio.
-    The default is chosen as the contender with the lowest worst RMSE ratio among those with a
-    worst RMSE ratio <= 0.75 and a worst time ratio <= 0.9 (equal or lower time, with a 10 % margin
-    for the shared machine's noise)."""
-    real = [c for c in cases if c["dataset"] != "synthetic"]
-    out = []
-    for m, f in contenders():
-        key = setting_key(m, f)
-        if not real or any(key not in c["interleaved_ms"] for c in real):
-            continue
-        rmse = [find(c["settings"], m, f)["rmse_volume"] / find(c["settings"], PAPER_M, PAPER_RECIPE)["rmse_volume"]
-                for c in real]
-        ms = [c["interleaved_ms"][key] / c["interleaved_ms"][setting_key(PAPER_M, PAPER_RECIPE)] for c in real]
-        out.append({"setting": key, "worst_rmse_ratio": max(rmse), "worst_time_ratio": max(ms),
-                    "eligible": max(rmse) <= 0.75 and max(ms) <= 0.9,
-                    "default": (m, f) == (DEFAULT_M, DEFAULT_FEATURES)})
-    return out
-
-
 def write_md(res: dict, path: Path) -> None:
     meta = res["meta"]
     lines = ["# SSAO (paper 001): run time against RMSE vs ground truth", "",
@@ -283,20 +258,13 @@ def write_md(res: dict, path: Path) -> None:
              "unoccluded fraction of cosine-weighted rays of length R (ground truth b; 2 x 256 rays); 1 = open, "
              "like the AO map.  'truth error': volume, RMS difference to the same quadrature on 1024 lines; "
              "raytraced, the standard error of the two ray sets' mean",
-             "- kernel `lines`: line samples (volumetric obscurance, -D OCLS_LINES), the other kernels point samples",
-             f"- paper recipe: m = {PAPER_M}, {PAPER_RECIPE}; default: m = {DEFAULT_M}, {DEFAULT_FEATURES}",
-             "- 'default vs paper recipe' and contender times: the paper recipe and the contenders run in rotation "
-             "after the grid, min of each; the grid's own times are min of the repeats, run one setting after the "
+             "- kernel `lines`: line samples (volumetric obscurance, -D OCLS_LINES), `rays`: ray samples (m rays of "
+             "-D OCLS_RAY_STEPS points), the other kernels point samples",
+             f"- paper recipe: m = {PAPER_M}, {PAPER_RECIPE}; default: m = {DEFAULT_M}, {DEFAULT_FEATURES} (chosen "
+             "against ray-traced AO by bench/ssao_bias.py)",
+             "- 'default vs paper recipe' times: the two run in rotation after the grid, min of each (a ratio on a "
+             "shared machine: noisy); the grid's own times are min of the repeats, run one setting after the "
              "other (noisier)", ""]
-    ranked = res.get("ranking", [])
-    if ranked:
-        lines += ["## Contenders for the default (real-DEM views; times interleaved with the paper recipe)", "",
-                  "Eligible: worst RMSE ratio (volume) <= 0.75 and worst time ratio <= 0.9; the default is the eligible "
-                  "one with the lowest worst RMSE ratio.", "",
-                  "| setting | worst RMSE ratio | worst time ratio | eligible | default |", "|---|---|---|---|---|"]
-        lines += [f"| {r['setting']} | {r['worst_rmse_ratio']:.2f} | {r['worst_time_ratio']:.2f} | "
-                  f"{'yes' if r['eligible'] else 'no'} | {'**yes**' if r['default'] else ''} |" for r in ranked]
-        lines.append("")
     lines += ["## Default vs paper recipe, every view", "",
               "| view | default ms | paper ms | time ratio | RMSE volume default / paper | reduction | RMSE raytraced default / paper | reduction | truth error volume / raytraced |",
               "|---|---|---|---|---|---|---|---|---|"]
@@ -334,7 +302,7 @@ def write_png(res: dict, path: Path) -> None:
     import matplotlib.pyplot as plt
     cases = res["cases"]
     fig, axes = plt.subplots(len(cases), 2, figsize=(12, 3.6 * len(cases)), squeeze=False)
-    colours = {"paper": "tab:red", "uniform": "tab:blue", "centre": "tab:green", "lines": "tab:purple"}
+    colours = {"paper": "tab:red", "uniform": "tab:blue", "centre": "tab:green", "lines": "tab:purple", "rays": "tab:orange"}
     markers = {"none": "o", "box3": "s", "box5": "D", "edge5": "^"}
     for row, case in zip(axes, cases):
         for ax, key in zip(row, ("rmse_volume", "rmse_raytraced")):
@@ -385,7 +353,6 @@ def main(argv: list[str] | None = None) -> int:
         res = json.loads((args.out / "ssao.json").read_text())
         for case in res["cases"]:
             case["comparison"] = compare(case)
-        res["ranking"] = ranking(res["cases"])
         write_all(res, args.out)
         return 0
     sizes = [tuple(int(v) for v in s.split("x")) for s in args.sizes.split(",")]
@@ -419,7 +386,6 @@ def main(argv: list[str] | None = None) -> int:
                 case["comparison"] = compare(case)
                 res["cases"].append(case)
                 print(f"{name} {kind} {width}x{height}: {comparison_line(case['comparison'])}", flush=True)
-    res["ranking"] = ranking(res["cases"])
     write_all(res, args.out)
     return 0
 

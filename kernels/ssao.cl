@@ -29,14 +29,15 @@
  *           with M the projection matrix, pru = W/2 (M[0] + M[3]),
  *           prv = H/2 (M[3] - M[1]), prw = M[3], so a view-space point A
  *           (w = 1) lands on pixel coordinates (pru.A / prw.A, prv.A / prw.A);
- *           then E (read with -D OCLS_LINES only): the homogeneous point all
- *           lines of sight meet (null vector of M's rows 0, 1, 3; camera
- *           centre with E.w = 1, or the view direction with E.w = 0, E.z > 0)
+ *           then E: the homogeneous point all lines of sight meet (null vector
+ *           of M's rows 0, 1, 3; camera centre with E.w = 1, or the view
+ *           direction with E.w = 0, E.z > 0)
  *     kern  __constant float[3 mpad]: the sample table, structure of arrays
  *           x[mpad], y[mpad], z[mpad], entries m..mpad-1 NaN (they land nowhere,
  *           never counted); generated once by the host.  Point samples: the
  *           tangent-space kernel (unit radius, z along the normal); line
- *           samples: disk points (x, y) and chord half-lengths z = sqrt(1 - x^2 - y^2)
+ *           samples: disk points (x, y) and chord half-lengths z = sqrt(1 - x^2 - y^2);
+ *           ray samples: the same numbers read as unit tangent-space directions
  *     m     int, 1..256; mpad >= m (the host: m rounded up to a multiple of 8, a table
  *           layout, not `lanes`); radius,
  *           delta float (radius > 0); seed uint
@@ -57,6 +58,7 @@
  *   OCLS_RANGE_CHECK (range check), OCLS_PLANE_TEST (plane test, step 4: adds the
  *   float4 W*H buffer `plane` as the last argument of ssao_prepare (out) and of
  *   ssao_ao (in)), OCLS_LINES (line samples, see below; not in the paper),
+ *   OCLS_RAYS with OCLS_RAY_STEPS=k (ray samples, see below; not in the paper),
  *   OCLS_BLUR_BOX, OCLS_BLUR_EDGE (which blur
  *   kernels the program holds).  A feature not defined is not compiled.
  *   OCLS_SSAO_LANES=lanes, lanes in {4, 8, 16} (default 8): the pixels per work-item of
@@ -76,17 +78,28 @@
  *      skipped: not counted at all (the paper does not say; clamping to the
  *      edge would invent occluders, counting it as open would lighten
  *      borders);
- *   4. the sample is occluded iff z_t >= A_t.z + delta (z_t = zbuf at its
- *      pixel; an empty pixel has z_t = -inf and never occludes); with
- *      OCLS_PLANE_TEST (not in the paper) instead iff L.xyz . A_t - L.w <= -delta,
+ *   4. the depth test, against the stored surface where it is known: on the line
+ *      of sight of the sample's pixel j, through j's stored point Q (pos[j]),
+ *      o = E.xyz - E.w Q towards the camera.  The sample is moved onto that line
+ *      at its own depth, A' = Q + o (A_t.z - Q.z) / o.z (at most half a pixel
+ *      sideways); it counts only when A' is on or above P's base plane,
+ *      N . (Q - P) + (A_t.z - Q.z) / o.z N . o >= 0, and is occluded iff
+ *      z_t >= A_t.z + delta (z_t = zbuf[j], = Q.z).  Comparing A_t itself with the
+ *      depth at the pixel centre instead (the paper) makes an oblique plane
+ *      occlude itself: the stored depth is nearer than the plane at A_t for
+ *      samples on the near side of the centre; here, on any plane, a counted
+ *      sample lies above the plane and a sample behind it is not counted, so a
+ *      plane reads 1 up to float32 rounding (a point within rounding of the
+ *      plane may flip; delta above the G-buffer's rounding removes that).  Pixel j
+ *      holds no usable surface (empty: z_t = -inf, o.z <= 0, Q or o not finite):
+ *      the sample counts and is not occluded.  With
+ *      OCLS_PLANE_TEST (not in the paper) instead: counted, and occluded iff L.xyz . A_t - L.w <= -delta,
  *      L = plane[pixel]: the sample lies at least delta below the tangent plane
  *      of the occluder's surface (written by ssao_prepare: L = (N, N . Q) from
  *      the pixel's position Q and geometric normal N normalised, before any
  *      normal map; (0, 0, 1, Q.z) for a degenerate N, i.e. the depth test;
- *      (0, 0, 0, -inf) on empty pixels: never occludes).  On a plane this is
- *      exact whatever the pixel size, so the depth test's false occlusion of
- *      samples just above a slope (compared with the depth at the pixel centre)
- *      goes; with
+ *      (0, 0, 0, -inf) on empty pixels: never occludes); exact on a plane too,
+ *      by extending the occluder's plane to A_t.  With
  *      OCLS_RANGE_CHECK also z_t - P.z <= R (an occluder more than R in
  *      front of P cannot be inside the hemisphere; the paper has no check);
  *   5. AO = 1 - occluded / counted (1 when nothing is counted).
@@ -108,18 +121,35 @@
  *       a = R (x N.T + y N.B), c = N . U: t >= t_c = -a / c when c >= 0 (c = 0:
  *       everything when a >= 0, nothing when a < 0), t <= t_c when c < 0; so the
  *       line's chord is [lo, hi] and its length max(hi - lo, 0);
- *   L4. the solid part is t <= t_s: without the plane test the line lies at
- *       least delta behind the pixel's depth, t_s = (z_t - delta - A.z) / U.z
- *       (an empty pixel: -inf, nothing); with it, at least delta below the
- *       occluder's plane L, t_s = (-delta - (L.xyz . A - L.w)) / (L.xyz . U) when
+ *   L4. the depth test (as in step 4, along the line the depth is known on): the
+ *       line is replaced by the line of sight of A's pixel j, Q + t D through j's
+ *       stored point Q, D = o / |o| (o as in step 4), in the coordinate
+ *       tau = t + b, b = (Q - P) . D (tau = 0 closest to P): it meets the ball for
+ *       |tau| <= hq = sqrt(max(R^2 - |(Q - P) x D|^2, 0)) (the cross product keeps
+ *       the distance accurate when Q is far from P), the base plane where
+ *       a' + tau c' >= 0, a' = N . (Q - P) - b c', c' = N . D (cut as in L3), and
+ *       the solid is tau <= b - delta / D.z (at least delta behind Q); occupied
+ *       length max(min(hi, b - delta / D.z) - lo, 0).  On any plane the solid
+ *       part lies beyond the base plane: a plane reads 1 up to float32 rounding.
+ *       A pixel j without a usable surface (step 4): the line of L3, nothing
+ *       solid.  With the plane test: the line of L3, solid below the occluder's
+ *       plane L by delta, t <= t_s = (-delta - (L.xyz . A - L.w)) / (L.xyz . U) when
  *       L.xyz . U > 0, else the point test of step 4 at A decides the whole line
- *       (+inf or -inf); occupied length max(min(hi, t_s) - lo, 0), 0 when the
- *       range check (z_t - P.z <= R) fails;
+ *       (+inf or -inf); occupied length max(min(hi, t_s) - lo, 0).  Either way 0
+ *       when the range check (z_t - P.z <= R) fails;
  *   L5. AO = 1 - (sum of occupied lengths) / (sum of lengths) over the lines on
  *       screen, 1 when that sum is 0.
- *   Exact for orthographic views up to the per-pixel depth (or plane) and the
- *   m-line quadrature; in perspective the lines are parallel to U, off the
- *   pixels' own lines of sight by at most R / |P| radians.
+ *   Exact up to the per-pixel depth and the m-line quadrature, whose nodes move by
+ *   at most half a pixel (to the pixels' lines of sight).
+ *
+ * Ray samples (-D OCLS_RAYS, OCLS_RAY_STEPS = k; not in the paper): the screen-space
+ *   estimate of ray-traced AO (cosine-weighted rays of length R, a ray occluded when
+ *   it meets the surface): steps 1-2 with N; each table entry is a unit direction
+ *   S (Malley: cosine-weighted), tested at the k points A = P + R (i / k)
+ *   (T S.x + B S.y + N S.z), i = 1..k, each by steps 3-4; the ray counts when all
+ *   its points are on screen and in front of the camera, and is occluded when one of
+ *   its counted points is (with the range check: one within range); AO = 1 -
+ *   occluded rays / counted rays (1 when none counts).
  *
  * Edge-aware blur: weight of neighbour q for centre p (both hit) is
  *   w = c^4 / (1 + (d / plane_tol)^2),  c = max(N_p . N_q, 0),
@@ -267,20 +297,31 @@ __kernel void ssao_prepare(__global const float *restrict pos, __global const fl
     OCLS_AT(buf, (idx).a, stride, off), OCLS_AT(buf, (idx).b, stride, off), \
     OCLS_AT(buf, (idx).c, stride, off), OCLS_AT(buf, (idx).d, stride, off)
 #define OCLS_GATHER(buf, idx, stride, off) ((ocls_vfloat)(OCLS_QUADS(OCLS_G4, buf, idx, stride, off)))
-/* OCLS_PLANES(plane, j, lx, ly, lz, ld): the occluder planes (x, y, z, d) of the pixels j, one
- * 16-byte load per lane, transposed into lx, ly, lz, ld.  OCLS_P4_LOAD declares q_<a>, the
- * planes of four lanes a .. d (x, y, z, d of lane a, then of b, ...); OCLS_P4_PART picks one
- * component of the four (swizzle sw: x s048c, y s159d, z s26ae, d s37bf). */
-#define OCLS_P4_LOAD(plane, j, a, b, c, d) \
-    q_##a = (float16)(ocls_vload4((j).a, plane), ocls_vload4((j).b, plane), \
-                      ocls_vload4((j).c, plane), ocls_vload4((j).d, plane))
+/* OCLS_LOAD4(buf, j, lx, ly, lz, ld): the 4-float records (x, y, z, w) of the pixels j in buf
+ * (occluder planes, positions), one 16-byte load per lane, transposed into lx, ly, lz, ld.
+ * OCLS_P4_LOAD declares q_<a>, the records of four lanes a .. d (x, y, z, w of lane a, then of
+ * b, ...); OCLS_P4_PART picks one component of the four (swizzle sw: x s048c, y s159d, z s26ae,
+ * w s37bf). */
+#define OCLS_P4_LOAD(buf, j, a, b, c, d) \
+    q_##a = (float16)(ocls_vload4((j).a, buf), ocls_vload4((j).b, buf), \
+                      ocls_vload4((j).c, buf), ocls_vload4((j).d, buf))
 #define OCLS_P4_PART(sw, a, b, c, d) q_##a.sw
-#define OCLS_PLANES(plane, j, lx, ly, lz, ld) { \
-    const float16 OCLS_QUADS(OCLS_P4_LOAD, plane, j); \
+#define OCLS_LOAD4(buf, j, lx, ly, lz, ld) { \
+    const float16 OCLS_QUADS(OCLS_P4_LOAD, buf, j); \
     lx = (ocls_vfloat)(OCLS_QUADS(OCLS_P4_PART, s048c)); \
     ly = (ocls_vfloat)(OCLS_QUADS(OCLS_P4_PART, s159d)); \
     lz = (ocls_vfloat)(OCLS_QUADS(OCLS_P4_PART, s26ae)); \
     ld = (ocls_vfloat)(OCLS_QUADS(OCLS_P4_PART, s37bf)); }
+/* OCLS_SIGHT(j, zt): step 4's pixel j (depth zt): declares its stored point Q = (qx, qy, qz) (from
+ * pos), w = Q - P, its line of sight o = E.xyz - E.w Q towards the camera (E = prj[12..15], not
+ * normalised) and surf: j holds a surface usable as an occluder (zt > -inf, o.z > 0, o and w finite). */
+#define OCLS_SIGHT(j, zt) \
+    ocls_vfloat qx, qy, qz, qd; \
+    OCLS_LOAD4(pos, j, qx, qy, qz, qd); \
+    const ocls_vfloat ox = prj[12] - prj[15] * qx, oy = prj[13] - prj[15] * qy, oz = prj[14] - prj[15] * qz; \
+    const ocls_vfloat wx = qx - Px, wy = qy - Py, wz = qz - Pz; \
+    const ocls_vint surf = ((zt) != -INFINITY) & (oz > 0.0f) & (OCLS_DOT3(ox, oy, oz, ox, oy, oz) < INFINITY) \
+                           & (OCLS_DOT3(wx, wy, wz, wx, wy, wz) < INFINITY)
 
 /* Stores the lanes of v at p[0], p[1], ... (p: pixel c0 of a row of W pixels), those before the row end. */
 OCLS_INLINE void ocls_store_lanes(ocls_vfloat v, int c0, int W, __global float *p)
@@ -306,6 +347,61 @@ OCLS_INLINE ocls_vfloat ocls_signed_unitv(ocls_vuint h)
     const ocls_vint k = ocls_convert_vint(h >> 8);
     return ocls_convert_vfloat(2 * k + 1 - (1 << 24)) * 0x1p-24f;
 }
+
+#ifndef OCLS_DEPTH_TOL
+#error "OCLS_DEPTH_TOL (the depth test's relative tolerance, oclshade.ssao.DEPTH_TOL) must be defined"
+#endif
+#if defined(OCLS_RAYS) && !defined(OCLS_RAY_STEPS)
+#error "OCLS_RAYS needs OCLS_RAY_STEPS (points per ray)"
+#endif
+#ifndef OCLS_LINES
+/* Steps 3-4 for one point A per lane, given as its clip coordinates (qu, qv, qw) and view-space
+ * (ax, ay, az): *on = on screen and in front of the camera, *count = counted (on, and with the
+ * depth test the snapped point on or above P's base plane); returns "occluded" (without the range
+ * check's verdict folded into *count: the caller counts with *count, occluded with both). */
+#ifdef OCLS_PLANE_TEST
+#define OCLS_PLANE_ARG , __global const float *restrict plane
+#define OCLS_PLANE_PASS , plane
+#else
+#define OCLS_PLANE_ARG
+#define OCLS_PLANE_PASS
+#endif
+#define OCLS_POINT_ARGS pos, zbuf OCLS_PLANE_PASS, prj, W, fW, fH, ii, Px, Py, Pz, Nx, Ny, Nz, radius, delta
+OCLS_INLINE ocls_vint ocls_point(__global const float *restrict pos, __global const float *restrict zbuf OCLS_PLANE_ARG,
+                                 __constant float *prj, int W, float fW, float fH, ocls_vint ii,
+                                 ocls_vfloat Px, ocls_vfloat Py, ocls_vfloat Pz, ocls_vfloat Nx, ocls_vfloat Ny,
+                                 ocls_vfloat Nz, float radius, float delta, ocls_vfloat qu, ocls_vfloat qv,
+                                 ocls_vfloat qw, ocls_vfloat ax, ocls_vfloat ay, ocls_vfloat az,
+                                 ocls_vint *on_out, ocls_vint *count_out)
+{
+    const ocls_vfloat inv = 1.0f / qw;
+    const ocls_vfloat u = qu * inv, y = qv * inv;
+    const ocls_vint on = (qw > 0.0f) & (u >= 0.0f) & (u < fW) & (y >= 0.0f) & (y < fH);
+    const ocls_vint j = select(ii, ocls_convert_vint(y) * W + ocls_convert_vint(u), on);
+#ifdef OCLS_PLANE_TEST
+    ocls_vfloat lx, ly, lz, ld;
+    OCLS_LOAD4(plane, j, lx, ly, lz, ld);
+    ocls_vint occ = OCLS_DOT3(lx, ly, lz, ax, ay, az) - ld <= -delta;
+    *count_out = on;
+#else
+    /* the depth test; the sample moved onto pixel j's line of sight at its own depth,
+     * A' = Q + o (A.z - Q.z) / o.z, counts only on or above P's base plane (step 4) */
+    const ocls_vfloat zt = OCLS_GATHER(zbuf, j, 1, 0);
+    OCLS_SIGHT(j, zt);
+    ocls_vint occ = surf & (zt >= az + (delta + OCLS_DEPTH_TOL * fabs(zt)));
+    const ocls_vfloat base = OCLS_DOT3(Nx, Ny, Nz, wx, wy, wz) + (az - qz) / oz * OCLS_DOT3(Nx, Ny, Nz, ox, oy, oz);
+    *count_out = on & (~surf | (base >= 0.0f));
+#endif
+#ifdef OCLS_RANGE_CHECK
+#ifdef OCLS_PLANE_TEST
+    const ocls_vfloat zt = OCLS_GATHER(zbuf, j, 1, 0);
+#endif
+    occ = occ & (zt - Pz <= radius);
+#endif
+    *on_out = on;
+    return occ;
+}
+#endif
 
 __kernel void ssao_ao(__global const float *restrict pos, __global const float *restrict nrm,
                       __global const float *restrict zbuf, int W, int H,
@@ -382,7 +478,7 @@ __kernel void ssao_ao(__global const float *restrict pos, __global const float *
     const ocls_vint cpos = cN >= 0.0f;
     const ocls_vfloat ninv_c = select(-1.0f / cN, (ocls_vfloat)(-INFINITY), cN == 0.0f);
 #ifndef OCLS_PLANE_TEST
-    const ocls_vfloat inv_uz = 1.0f / Fz;
+    const float rr = radius * radius;
 #endif
     ocls_vfloat len_sum = zero, occ_sum = zero;
     for (int t = 0; t < m; ++t) {
@@ -404,24 +500,39 @@ __kernel void ssao_ao(__global const float *restrict pos, __global const float *
         const ocls_vfloat ax_t = Px + (RTx * sx + RBx * sy);
         const ocls_vfloat ay_t = Py + (RTy * sx + RBy * sy);
         ocls_vfloat lx, ly, lz, ld;
-        OCLS_PLANES(plane, j, lx, ly, lz, ld);
+        OCLS_LOAD4(plane, j, lx, ly, lz, ld);
         const ocls_vfloat lu = OCLS_DOT3(lx, ly, lz, Fx, Fy, Fz);
         const ocls_vfloat la = OCLS_DOT3(lx, ly, lz, ax_t, ay_t, az_t) - ld;
         const ocls_vfloat ts = select(select((ocls_vfloat)(-INFINITY), (ocls_vfloat)(INFINITY), la <= -delta), (-delta - la) / lu,
                                  lu > 0.0f);
-#else
-        /* solid: t <= t_s, the line at least delta behind the stored depth (depth test along U) */
-        const ocls_vfloat zt = OCLS_GATHER(zbuf, j, 1, 0);
-        const ocls_vfloat ts = (zt - delta - az_t) * inv_uz;
-#endif
+        const ocls_vfloat len = fmax(hi - lo, 0.0f);
         ocls_vfloat occl = fmax(fmin(hi, ts) - lo, 0.0f);
+#else
+        /* the depth test along pixel j's own line of sight Q + t D (step L4), in tau = t + b
+         * (tau = 0 closest to P): chord |tau| <= hq, base plane a + tau cq >= 0, solid
+         * tau <= b - delta / D.z; no usable surface: the line through A, nothing solid */
+        const ocls_vfloat zt = OCLS_GATHER(zbuf, j, 1, 0);
+        OCLS_SIGHT(j, zt);
+        const ocls_vfloat il = select(one, 1.0f / sqrt(OCLS_DOT3(ox, oy, oz, ox, oy, oz)), surf);
+        const ocls_vfloat Dx = ox * il, Dy = oy * il, Dz = select(one, oz * il, surf);
+        const ocls_vfloat b = OCLS_DOT3(wx, wy, wz, Dx, Dy, Dz);
+        const ocls_vfloat xx = wy * Dz - wz * Dy, xy = wz * Dx - wx * Dz, xz = wx * Dy - wy * Dx;
+        const ocls_vfloat hq = sqrt(fmax(rr - OCLS_DOT3(xx, xy, xz, xx, xy, xz), 0.0f));
+        const ocls_vfloat cq = OCLS_DOT3(Nx, Ny, Nz, Dx, Dy, Dz);
+        const ocls_vfloat tq = (OCLS_DOT3(Nx, Ny, Nz, wx, wy, wz) - b * cq) * select(-1.0f / cq, (ocls_vfloat)(-INFINITY), cq == 0.0f);
+        const ocls_vint qpos = cq >= 0.0f;
+        const ocls_vfloat loq = select(-hq, fmax(-hq, tq), qpos), hiq = select(fmin(hq, tq), hq, qpos);
+        const ocls_vfloat len = select(fmax(hi - lo, 0.0f), fmax(hiq - loq, 0.0f), surf);
+        const ocls_vfloat tsq = b - (delta + OCLS_DEPTH_TOL * fabs(zt)) / Dz;
+        ocls_vfloat occl = select(zero, fmax(fmin(hiq, tsq) - loq, 0.0f), surf);
+#endif
 #ifdef OCLS_RANGE_CHECK
 #ifdef OCLS_PLANE_TEST
         const ocls_vfloat zt = OCLS_GATHER(zbuf, j, 1, 0);
 #endif
         occl = select(zero, occl, zt - Pz <= radius);
 #endif
-        len_sum += select(zero, fmax(hi - lo, 0.0f), on);
+        len_sum += select(zero, len, on);
         occ_sum += select(zero, occl, on);
     }
     const ocls_vfloat res = select(one, 1.0f - occ_sum / len_sum, live & (len_sum > 0.0f));
@@ -431,36 +542,33 @@ __kernel void ssao_ao(__global const float *restrict pos, __global const float *
     const ocls_vfloat cnv = OCLS_DOT3(prj[4], prj[5], prj[6], RNx, RNy, RNz);
     const ocls_vfloat cnw = OCLS_DOT3(prj[8], prj[9], prj[10], RNx, RNy, RNz);
 
-    /* steps 3-5 */
+    /* steps 3-5; ray samples: a ray counts when all its steps are on screen, and is occluded
+     * when one of its counted steps is */
     ocls_vint cnt_sum = (ocls_vint)(0), occ_sum = (ocls_vint)(0);
     for (int t = 0; t < m; ++t) {
         const float sx = kern[t], sy = kern[mpad + t], sz = kern[2 * mpad + t];
-        const ocls_vfloat qu = cpu + (ctu * sx + cbu * sy + cnu * sz);
-        const ocls_vfloat qv = cpv + (ctv * sx + cbv * sy + cnv * sz);
-        const ocls_vfloat qw = cpw + (ctw * sx + cbw * sy + cnw * sz);
-        const ocls_vfloat az_t = Pz + (RTz * sx + RBz * sy + RNz * sz);
-        const ocls_vfloat inv = 1.0f / qw;
-        const ocls_vfloat u = qu * inv, y = qv * inv;
-        const ocls_vint on = (qw > 0.0f) & (u >= 0.0f) & (u < fW) & (y >= 0.0f) & (y < fH);
-        const ocls_vint j = select(ii, ocls_convert_vint(y) * W + ocls_convert_vint(u), on);
-#ifdef OCLS_PLANE_TEST
-        const ocls_vfloat ax_t = Px + (RTx * sx + RBx * sy + RNx * sz);
-        const ocls_vfloat ay_t = Py + (RTy * sx + RBy * sy + RNy * sz);
-        ocls_vfloat lx, ly, lz, ld;
-        OCLS_PLANES(plane, j, lx, ly, lz, ld);
-        ocls_vint occ = OCLS_DOT3(lx, ly, lz, ax_t, ay_t, az_t) - ld <= -delta;
+        /* A - P = R (T sx + B sy + N sz): clip coordinates d(u, v, w) and view space d(x, y, z) */
+        const ocls_vfloat du = ctu * sx + cbu * sy + cnu * sz, dv = ctv * sx + cbv * sy + cnv * sz;
+        const ocls_vfloat dw = ctw * sx + cbw * sy + cnw * sz;
+        const ocls_vfloat dx = RTx * sx + RBx * sy + RNx * sz, dy = RTy * sx + RBy * sy + RNy * sz;
+        const ocls_vfloat dz = RTz * sx + RBz * sy + RNz * sz;
+#ifdef OCLS_RAYS
+        ocls_vint count = (ocls_vint)(-1), occ = (ocls_vint)(0);
+        for (int k = 1; k <= OCLS_RAY_STEPS; ++k) {
+            const float f = (float)k / (float)OCLS_RAY_STEPS;
+            ocls_vint on_k, count_k;
+            const ocls_vint occ_k = ocls_point(OCLS_POINT_ARGS, cpu + f * du, cpv + f * dv, cpw + f * dw,
+                                               Px + f * dx, Py + f * dy, Pz + f * dz, &on_k, &count_k);
+            count &= on_k;
+            occ |= count_k & occ_k;
+        }
 #else
-        const ocls_vfloat zt = OCLS_GATHER(zbuf, j, 1, 0);
-        ocls_vint occ = zt >= az_t + delta;
+        ocls_vint on, count;
+        const ocls_vint occ = ocls_point(OCLS_POINT_ARGS, cpu + du, cpv + dv, cpw + dw, Px + dx, Py + dy, Pz + dz,
+                                         &on, &count);
 #endif
-#ifdef OCLS_RANGE_CHECK
-#ifdef OCLS_PLANE_TEST
-        const ocls_vfloat zt = OCLS_GATHER(zbuf, j, 1, 0);
-#endif
-        occ = occ & (zt - Pz <= radius);
-#endif
-        cnt_sum -= on;             /* vector comparisons give -1 for true */
-        occ_sum -= on & occ;
+        cnt_sum -= count;          /* vector comparisons give -1 for true */
+        occ_sum -= count & occ;
     }
     const ocls_vfloat res = select(one, 1.0f - ocls_convert_vfloat(occ_sum) / ocls_convert_vfloat(cnt_sum), live & (cnt_sum > 0));
 #endif

@@ -16,7 +16,16 @@ The AO map is the *unoccluded* fraction: the compose pass multiplies it into
 the ambient term (``kernels/compose.cl`` with ``-D OCLS_AO``).
 
 What each estimator estimates.  The depth-buffer model behind all of them:
-everything behind a stored surface (along the line of sight) is solid.
+everything behind a stored surface (along the line of sight) is solid.  The
+depth is known only on each pixel's line of sight (through its stored point
+Q), so every depth test happens there: a sample is moved onto the line of
+sight of the pixel it falls in (at most half a pixel) before it is compared
+with Q; a sample moved below P's tangent plane is not counted.  Comparing the
+sample itself with the depth at the pixel centre (the paper) makes any oblique
+plane occlude itself (the stored depth is nearer than the plane on one side of
+the centre): that read 0.90-0.97 on flat ground and slopes; now a plane reads
+exactly 1 (kernels/ssao.cl step 4, tests/test_ssao_planes.py).  A sample is
+occluded when at least delta + DEPTH_TOL |z| behind the stored depth z.
 
 * Point samples (the paper's AO map; ``paper``, ``uniform``, ``centre``): the
   fraction of m points around P whose pixel holds a surface at least delta
@@ -30,14 +39,17 @@ everything behind a stored surface (along the line of sight) is solid.
   (behind the surface its pixel stores), so one depth fetch gives the exact
   occupied length of the line's chord through the hemisphere (the ball of
   radius R cut by the tangent plane); lines along the *normal* would cross
-  many pixels and need many fetches.  The lines are parallel to P's line of
-  sight (exact for orthographic views; in perspective they leave their pixel
-  by at most R / distance radians) through m points of a stratified disk of
-  radius R perpendicular to it, and the estimate is the sum of occupied
-  lengths over the sum of lengths.  The 1-D integral's variance is gone, so
-  far fewer samples reach the same error (bench/results/ssao.md).
-* Neither estimates ground truth (b), ray-traced AO (cosine-weighted
-  visibility within R), which bench/ssao.py reports for comparison.
+  many pixels and need many fetches.  The lines run through m points of a
+  stratified disk of radius R perpendicular to P's line of sight, each moved
+  to the line of sight of the pixel it falls in, and the estimate is the sum
+  of occupied lengths over the sum of lengths.  The 1-D integral's variance is
+  gone, so few samples reach a small error against (a) (bench/results/ssao.md).
+* Ray samples (``rays``, -D OCLS_RAYS; not in the paper): ground truth (b),
+  ray-traced AO (cosine-weighted rays of length R, a ray occluded when it meets
+  the surface), in screen space: m cosine-weighted rays, each tested at
+  ``RAY_STEPS`` points out to R; a ray is occluded when one of its points is.
+  The default (below).
+* bench/ssao.py and bench/ssao_bias.py measure each against both truths.
 
 Sample tables (unit radius), generated once on the host and uploaded to
 ``__constant`` memory:
@@ -55,6 +67,9 @@ Sample tables (unit radius), generated once on the host and uploaded to
 * ``lines``: :func:`line_table`, the Vogel spiral uniform in the disk's area
   (x, y in the plane perpendicular to the line of sight) and each point's
   chord half-length sqrt(1 - x^2 - y^2).
+* ``rays``: the same table read as unit tangent-space directions (x, y,
+  sqrt(1 - x^2 - y^2)): the disk lifted to the hemisphere, cosine-weighted
+  (Malley's method).
 """
 from __future__ import annotations
 
@@ -71,7 +86,13 @@ from . import tuning
 from .runtime import Runtime, get_runtime
 
 POINT_DISTRIBUTIONS = ("paper", "uniform", "centre")
-DISTRIBUTIONS = POINT_DISTRIBUTIONS + ("lines",)
+DISTRIBUTIONS = POINT_DISTRIBUTIONS + ("lines", "rays")
+#: the depth test's tolerance, relative to the stored depth: a sample is occluded only when at least
+#: delta + DEPTH_TOL |z_t| behind it (kernels/ssao.cl step 4).  2^-16 = 128 eps32: the float32 depth's
+#: resolution with headroom for the renderer's hit error (up to 40 eps32 |P| measured off rendered planes)
+DEPTH_TOL = 2.0 ** -16
+#: ray samples: points per ray, at R k / RAY_STEPS for k = 1 .. RAY_STEPS (-D OCLS_RAY_STEPS)
+RAY_STEPS = 4
 BLURS = ("none", "box", "edge")
 M_MIN, M_MAX = 4, 256
 PAPER_SEED = 2019
@@ -136,7 +157,7 @@ def line_eye(projection: np.ndarray) -> np.ndarray:
         return e / e[3]
     if abs(e[2]) <= 1e-9 * float(np.abs(e[:3]).max()):
         raise ValueError("projection: the lines of sight lie in the view plane z = const (no depth); "
-                         "line samples need a view direction with a z component")
+                         "SSAO needs a view direction with a z component")
     e = e / np.linalg.norm(e[:3]) * np.sign(e[2])
     e[3] = 0.0
     return e
@@ -146,8 +167,9 @@ def line_eye(projection: np.ndarray) -> np.ndarray:
 class AOFeatures:
     """Features of the AO pass.  ``normal_map``, ``alpha_map``, ``range_check``, ``plane_test``
     and ``blur`` are compile-time (-D options, absent from the program when off); ``distribution``
-    picks the sample table, and ``"lines"`` also the line-sample estimator (-D OCLS_LINES, see the
-    module docstring); ``blur_size`` (N of the N x N window, odd >= 3) is a kernel argument."""
+    picks the sample table, ``"lines"`` also the line-sample estimator (-D OCLS_LINES) and ``"rays"``
+    the ray-sample one (-D OCLS_RAYS; m = rays), see the module docstring; ``blur_size`` (N of the
+    N x N window, odd >= 3) is a kernel argument."""
 
     normal_map: bool = False
     alpha_map: bool = False
@@ -158,9 +180,9 @@ class AOFeatures:
     blur_size: int = 5
     #: ``plane_test``: a sample is occluded iff it lies at least delta below the tangent plane of
     #: the surface at its pixel (plane from the stored position and geometric normal), instead of
-    #: the paper's depth test against the pixel-centre depth; see kernels/ssao.cl step 4
-    #: (not in the paper).  With line samples: each line is cut at that plane instead of at the
-    #: pixel's depth
+    #: the depth test on the pixel's line of sight; see kernels/ssao.cl step 4 (not in the paper).
+    #: With line samples: each line (through the disk point, parallel to P's line of sight) is cut
+    #: at that plane
 
     def __post_init__(self) -> None:
         if self.distribution not in DISTRIBUTIONS:
@@ -177,6 +199,8 @@ class AOFeatures:
             "OCLS_RANGE_CHECK": self.range_check,
             "OCLS_PLANE_TEST": self.plane_test,
             "OCLS_LINES": self.distribution == "lines",
+            "OCLS_RAYS": self.distribution == "rays",
+            "OCLS_RAY_STEPS": RAY_STEPS if self.distribution == "rays" else False,
             "OCLS_BLUR_BOX": self.blur == "box",
             "OCLS_BLUR_EDGE": self.blur == "edge",
         }
@@ -185,14 +209,14 @@ class AOFeatures:
 #: the paper's recipe: its half-cube kernel, m = 32, no range check, a 5 x 5 box blur
 PAPER_RECIPE = AOFeatures(distribution="paper", blur="box", blur_size=5)
 PAPER_M = 32
-#: the library default: 20 line samples, no blur (``oclshade render --ao``, frames.AOSettings).
-#: Chosen by bench/ssao.py (bench/results/ssao.md, "Contenders"): over the eight views of santo and
-#: front_range (top-down and perspective oblique, 640x480 and 1920x1080) its RMSE against ground
-#: truth (a) is 34-70 % below the paper's recipe's at 0.67-0.84 of its time (timed in rotation);
-#: 24 and 28 lines are more accurate but not reliably faster than the recipe, 16 lines only 28 %
-#: better in the worst view.  Against ray-traced AO (b) it is 4-25 % worse than the recipe.
-DEFAULT_FEATURES = AOFeatures(distribution="lines")
-DEFAULT_M = 20
+#: the library default (``oclshade render --ao``, frames.AOSettings): 8 ray samples (32 depth tests,
+#: as many as the recipe's), range check, 3 x 3 box blur.  Chosen against ray-traced AO (ground
+#: truth b) by bench/ssao_bias.py (bench/results/ssao_bias.md): on all 24 views (the bundled canyon,
+#: a generated terrain and two SRTM DEMs; views 200,12 / 135,30 / top; R 4 and 8 cells) its RMSE is
+#: below the paper recipe's, 0.87 of it at worst and 0.55 on average.  The former default, 20 line
+#: samples, estimates the volume fraction (a) instead and lost to the recipe against (b) on 20 of 24.
+DEFAULT_FEATURES = AOFeatures(distribution="rays", range_check=True, blur="box", blur_size=3)
+DEFAULT_M = 8
 
 
 @dataclass
@@ -299,7 +323,8 @@ class SSAO:
         rt = self.runtime
         height, width = inputs.shape
         work = self._buffers(inputs.shape)
-        defines = {**features.defines(), "OCLS_SSAO_LANES": self.lanes, "OCLS_OWN_BUILTINS": self.own_builtins}
+        defines = {**features.defines(), "OCLS_SSAO_LANES": self.lanes, "OCLS_OWN_BUILTINS": self.own_builtins,
+                   "OCLS_DEPTH_TOL": f"{DEPTH_TOL.hex()}f"}
         dims = (np.int32(width), np.int32(height))
 
         prep = rt.kernel("ssao.cl", "ssao_prepare", defines)
@@ -313,8 +338,8 @@ class SSAO:
         self._launch(prep, width, height)
 
         ao = rt.kernel("ssao.cl", "ssao_ao", defines)
-        eye = line_eye(proj) if features.distribution == "lines" else np.zeros(4)
-        rows = np.concatenate([0.5 * width * (proj[0] + proj[3]), 0.5 * height * (proj[3] - proj[1]), proj[3], eye])
+        rows = np.concatenate([0.5 * width * (proj[0] + proj[3]), 0.5 * height * (proj[3] - proj[1]), proj[3],
+                               line_eye(proj)])
         prj = rt.to_device(rows.astype(np.float32), "projection rows")   # referenced until enqueued
         ao.set_args(inputs.position, work["normal"], work["zbuf"], *dims, prj, self._table(m, features.distribution),
                     np.int32(m), np.int32(-(-m // 8) * 8), np.float32(radius), np.float32(delta), np.uint32(seed), work["ao"], *plane)
@@ -364,7 +389,7 @@ class SSAO:
         if key not in self._tables:
             mpad = -(-m // 8) * 8    # structure of arrays x[mpad], y[mpad], z[mpad]; NaN padding
             table = np.full((3, mpad), np.nan, np.float32)
-            table[:, :m] = (line_table(m) if distribution == "lines" else sample_kernel(m, distribution)[:, :3]).T
+            table[:, :m] = (line_table(m) if distribution in ("lines", "rays") else sample_kernel(m, distribution)[:, :3]).T
             self._tables[key] = self.runtime.to_device(table, "sample kernel")
         return self._tables[key]
 

@@ -17,6 +17,8 @@ FEATURES = [
     AOFeatures(distribution="lines", plane_test=True, range_check=True, blur="box", blur_size=3),
     AOFeatures(distribution="uniform", plane_test=True, range_check=True, blur="edge"),
     AOFeatures(distribution="centre", alpha_map=True, normal_map=True, range_check=True, blur="box"),
+    AOFeatures(distribution="rays", range_check=True, blur="box", blur_size=3),
+    AOFeatures(distribution="rays", plane_test=True),
 ]
 #: (width, height, perspective): a width that is no multiple of any lane count, and one of all
 SHAPES = [(37, 23, True), (48, 16, False)]

@@ -4,7 +4,7 @@ One module per kernel family; everything public is re-exported here, so
 ``from oclshade import reference as ref; ref.cast_shadows(...)`` works for all.
 """
 from .ao import (ReferenceAO, TopDownView, bilinear, box_blur, cosine_directions, edge_blur,
-                 raytraced_ao, rotation_vectors, ssao, ssao_lines, topdown_gbuffer, volume_ao,
+                 raytraced_ao, rotation_vectors, ssao, ssao_lines, ssao_rays, topdown_gbuffer, volume_ao,
                  volume_ao_lines, world_frame)
 from .compose import compose
 from .pyramid import extrema_pyramid, mip_pyramid
@@ -17,6 +17,6 @@ __all__ = [
     "CORNER_SNAP", "CORNER_TIE", "ReferenceAO", "ReferencePixelShadows", "ReferenceShadows", "ReferenceTerrain",
     "TopDownView", "bilinear", "box_blur", "cast_shadows", "cast_terrain", "compose", "cosine_directions",
     "dilated_max_levels", "edge_blur", "extrema_pyramid", "minimal_lod", "mip_pyramid", "pixel_shadows", "raytraced_ao",
-    "rotation_vectors", "shadow_coefficient", "ssao", "ssao_lines", "surface_height", "tie_tolerance", "topdown_gbuffer",
+    "rotation_vectors", "shadow_coefficient", "ssao", "ssao_lines", "ssao_rays", "surface_height", "tie_tolerance", "topdown_gbuffer",
     "volume_ao", "volume_ao_lines", "world_frame",
 ]

@@ -35,7 +35,7 @@ import numpy as np
 
 from ..gbuffer import GBuffer
 from ..heightmap import Heightmap
-from ..ssao import disk_points, hemisphere_points, line_eye, line_table
+from ..ssao import DEPTH_TOL, RAY_STEPS, disk_points, hemisphere_points, line_eye, line_table
 
 HASH_SALT = np.uint32(0x9E3779B9)
 F32 = float(np.finfo(np.float32).eps)
@@ -132,57 +132,103 @@ def ssao(position: np.ndarray, normal: np.ndarray, projection: np.ndarray, kerne
          radius: float, delta: float, seed: int = 0, range_check: bool = False, plane_test: bool = False,
          alpha: np.ndarray | None = None, alpha_eps: float = 0.5,
          normal_map: np.ndarray | None = None, tangent: np.ndarray | None = None) -> ReferenceAO:
-    """Twin of ``ssao_prepare`` + ``ssao_ao``: the paper's estimator, see kernels/ssao.cl.
+    """Twin of ``ssao_prepare`` + ``ssao_ao``: the paper's estimator (point samples), see kernels/ssao.cl.
 
     A sample is a *tie* when float32 rounding may change its fate: its depth
     margin |z_t - (A.z + delta)| (plane test: its distance below the occluder's plane less delta,
     tolerance plus 64 eps32 |N . Q|) or its range margin is within
-    ``tol_z = 64 eps32 (|P| + R + |delta|)``, or its pixel coordinate is within
+    ``tol_z = 64 eps32 (|P| + R + |delta|)``, or (depth test) its snapped point's height above
+    P's base plane is within :func:`_base_tolerance`, or its pixel coordinate is within
     ``tol_px = 64 eps32 (1 + |u|)`` (in pixels, likewise for rows) of a pixel or
-    screen edge, or its clip w within tol_z of 0.
+    screen edge, or its clip w within tol_z of 0.  A tie may change the counted samples and the
+    occluded ones by one each, so |kernel - twin| <= ties / (counted - ties).
     """
+    return _point_estimator(position, normal, projection, np.asarray(kernel, np.float64)[:, :3], (1.0,), radius,
+                            delta, seed, range_check, plane_test, alpha, alpha_eps, normal_map, tangent)
+
+
+def ssao_rays(position: np.ndarray, normal: np.ndarray, projection: np.ndarray, m: int, radius: float,
+              delta: float, seed: int = 0, range_check: bool = False, plane_test: bool = False,
+              alpha: np.ndarray | None = None, alpha_eps: float = 0.5,
+              normal_map: np.ndarray | None = None, tangent: np.ndarray | None = None) -> ReferenceAO:
+    """Twin of ``ssao_prepare`` + ``ssao_ao`` with ``-D OCLS_RAYS`` (ray samples, see kernels/ssao.cl
+    "Ray samples"): m cosine-weighted rays of length R (:func:`oclshade.ssao.line_table`'s
+    directions), each tested at ``RAY_STEPS`` points R k / RAY_STEPS by the point test; a ray counts
+    when all its points are on screen and is occluded when one of its counted points is: the
+    screen-space estimate of :func:`raytraced_ao`.  ``counted`` and ``ties`` count rays (a tie ray:
+    one of its points is a tie, as in :func:`ssao`); |kernel - twin| <= ties / (counted - ties)."""
+    steps = tuple(k / RAY_STEPS for k in range(1, RAY_STEPS + 1))
+    return _point_estimator(position, normal, projection, line_table(m).astype(np.float64), steps, radius, delta,
+                            seed, range_check, plane_test, alpha, alpha_eps, normal_map, tangent)
+
+
+def _point_estimator(position: np.ndarray, normal: np.ndarray, projection: np.ndarray, table: np.ndarray,
+                     steps: tuple[float, ...], radius: float, delta: float, seed: int, range_check: bool,
+                     plane_test: bool, alpha: np.ndarray | None, alpha_eps: float, normal_map: np.ndarray | None,
+                     tangent: np.ndarray | None) -> ReferenceAO:
+    """Point samples (``steps`` = (1,)) and ray samples: each table entry S is a sample made of the
+    points P + f R (T S.x + B S.y + N S.z), f in ``steps``; it counts when all its points are on
+    screen (a point sample: when it is counted), and is occluded when one of its counted points is."""
     pos = np.asarray(position, np.float64)
     height, width = pos.shape[:2]
     hit, n = prepare(position, normal, alpha, alpha_eps, normal_map, tangent)
-    zbuf = np.where(hit, pos[..., 2], -np.inf)
-    if plane_test:
-        planes = occluder_planes(pos, normal, hit).reshape(-1, 4)
+    zflat = np.where(hit, pos[..., 2], -np.inf).ravel()
+    pflat = pos[..., :3].reshape(-1, 3)
+    planes = occluder_planes(pos, normal, hit).reshape(-1, 4) if plane_test else None
     nn = _dot(n, n)
     live = hit & (nn > 1e-12) & (nn < np.inf)
     ao = np.ones((height, width))
     counted = np.zeros((height, width), np.int64)
     ties = np.zeros((height, width), np.int64)
     rr, cc = np.nonzero(live)
-    if rr.size == 0 or len(kernel) == 0:
+    if rr.size == 0 or len(table) == 0:
         return ReferenceAO(ao, counted, ties, hit, n, np.zeros((height, width)))
     N = n[rr, cc] / np.sqrt(nn[rr, cc])[:, None]
     P = pos[rr, cc, :3]
     T, B = _rotated_frame(rotation_vectors(width, height, seed)[rr, cc], N)
     M = np.asarray(projection, np.float64)
+    E = line_eye(M)
     tol_z = 64 * F32 * (np.linalg.norm(P, axis=1) + abs(radius) + abs(delta))
     occ_n = np.zeros(rr.size, np.int64)
     cnt_n = np.zeros(rr.size, np.int64)
     tie_n = np.zeros(rr.size, np.int64)
-    zflat = zbuf.ravel()
-    for s in np.asarray(kernel, np.float64)[:, :3]:
-        A = P + radius * (T * s[0] + B * s[1] + N * s[2])
-        on, j, pixel_tie = _pixel_of(A, M, width, height, tol_z)
-        zt = zflat[j]
-        if plane_test:
-            pl = planes[j]
-            with np.errstate(invalid="ignore"):
-                margin = -(_dot(pl[:, :3], A) - pl[:, 3]) - delta   # >= 0: at least delta below the plane
-        else:
-            margin = zt - (A[:, 2] + delta)
-        occ = margin >= 0
-        tie = np.abs(margin) <= (tol_z + 64 * F32 * np.abs(np.nan_to_num(pl[:, 3], neginf=0.0)) if plane_test else tol_z)
-        if range_check:
-            rmargin = radius - (zt - P[:, 2])
-            occ &= rmargin >= 0
-            tie |= (margin >= 0) & (np.abs(rmargin) <= tol_z)
-        cnt_n += on
-        occ_n += on & occ
-        tie_n += pixel_tie | (tie & on)
+    for s in table:
+        count = np.ones(rr.size, bool) if len(steps) > 1 else None
+        occ = np.zeros(rr.size, bool)
+        tie = np.zeros(rr.size, bool)
+        for f in steps:
+            A = P + (f * radius) * (T * s[0] + B * s[1] + N * s[2])
+            on, j, pixel_tie = _pixel_of(A, M, width, height, tol_z)
+            zt = zflat[j]
+            if plane_test:
+                pl = planes[j]
+                with np.errstate(invalid="ignore"):
+                    margin = -(_dot(pl[:, :3], A) - pl[:, 3]) - delta   # >= 0: at least delta below the plane
+                occ_k = margin >= 0
+                tie_k = np.abs(margin) <= tol_z + 64 * F32 * np.abs(np.nan_to_num(pl[:, 3], neginf=0.0))
+                count_k = on
+            else:
+                # the point moved onto pixel j's line of sight at its own depth: A' = Q + g (A.z - Q.z) / g.z;
+                # counted only when A' is on or above P's base plane (see kernels/ssao.cl step 4)
+                surf, Q, g, w = _pixel_sight(E, pflat, zflat, j, P)
+                with np.errstate(invalid="ignore"):
+                    margin = zt - (A[:, 2] + (delta + DEPTH_TOL * np.abs(zt)))
+                occ_k = surf & (margin >= 0)
+                with np.errstate(invalid="ignore", divide="ignore"):
+                    base = _dot(N, w) + (A[:, 2] - Q[:, 2]) / g[:, 2] * _dot(N, g)
+                    near = np.abs(base) <= _base_tolerance(P, Q, g, N, radius, delta)
+                tie_k = surf & ((np.abs(margin) <= tol_z) | near)
+                count_k = on & (~surf | (base >= 0))
+            if range_check:
+                rmargin = radius - (zt - P[:, 2])
+                tie_k |= occ_k & (np.abs(rmargin) <= tol_z)
+                occ_k &= rmargin >= 0
+            count = count_k if count is None else count & on
+            occ |= count_k & occ_k
+            tie |= pixel_tie | (tie_k & on)
+        cnt_n += count
+        occ_n += count & occ
+        tie_n += tie
     with np.errstate(invalid="ignore", divide="ignore"):
         ao[rr, cc] = np.where(cnt_n > 0, 1.0 - occ_n / np.maximum(cnt_n, 1), 1.0)
     counted[rr, cc] = cnt_n
@@ -191,21 +237,97 @@ def ssao(position: np.ndarray, normal: np.ndarray, projection: np.ndarray, kerne
     return ReferenceAO(ao, counted, ties, hit, n, bound)
 
 
+def _pixel_sight(E: np.ndarray, pflat: np.ndarray, zflat: np.ndarray, j: np.ndarray,
+                 P: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Step 4 of kernels/ssao.cl: pixel j's stored surface point Q and its line of sight through
+    the camera point E: (surf, Q, g = E.xyz - E.w Q towards the camera (not normalised),
+    w = Q - P); surf: j holds a surface usable as an occluder (hit, g.z > 0, g and w finite)."""
+    Q = pflat[j]
+    with np.errstate(invalid="ignore", over="ignore"):
+        g = E[:3] - E[3] * Q
+        w = Q - P
+        surf = (zflat[j] != -np.inf) & (g[:, 2] > 0) & (_dot(g, g) < np.inf) & (_dot(w, w) < np.inf)
+    return surf, Q, g, w
+
+
+def _base_tolerance(P: np.ndarray, Q: np.ndarray, g: np.ndarray, N: np.ndarray, radius: float,
+                    delta: float) -> np.ndarray:
+    """How far float32 rounding may move the snapped point's height above the base plane,
+    N . w + (A.z - Q.z) / g.z N . g: 64 eps32 (|w| + (|P| + R + |delta| + |Q.z|) (|N . g| + |g|) / g.z)."""
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        gl = np.linalg.norm(g, axis=1)
+        scale = (np.linalg.norm(P, axis=1) + abs(radius) + abs(delta) + np.abs(Q[:, 2])) * (np.abs(_dot(N, g)) + gl)
+        return 64 * F32 * (np.linalg.norm(Q - P, axis=1) + scale / g[:, 2])
+
+
+def _base_cut(lo: np.ndarray | float, hi: np.ndarray | float, a: np.ndarray,
+              c: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The chord [lo, hi] of a line X(t) cut by the base plane a + t c >= 0 (the kernel's rule:
+    t >= t_c = -a / c when c >= 0, t <= t_c when c < 0; c = 0: all when a >= 0, none when a < 0):
+    (lo, hi, t_c)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        tc = np.where(c != 0, -a / c, np.where(a >= 0, -np.inf, np.inf))
+    return np.where(c >= 0, np.maximum(lo, tc), lo), np.where(c >= 0, hi, np.minimum(hi, tc)), tc
+
+
+def _inside(t: np.ndarray, e: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """e where the cut t (error e) may fall inside the chord [lo, hi], else 0."""
+    with np.errstate(invalid="ignore"):
+        return np.where(np.isfinite(t) & (t >= lo - e) & (t <= hi + e), e, 0.0)
+
+
+def _sight_chord(g: np.ndarray, w: np.ndarray, N: np.ndarray, radius: float,
+                 delta: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Step L4 of kernels/ssao.cl: the line Q + t D (D = g / |g|, w = Q - P) in the coordinate
+    tau = t + b, b = w . D (tau = 0 closest to P): its chord through the ball |tau| <= h,
+    h = sqrt(max(R^2 - |w x D|^2, 0)), cut by the base plane a + tau c >= 0 (a = N . w - b c,
+    c = N . D), and its solid part tau <= b - delta / D.z (at least delta behind Q; the kernel's
+    delta + DEPTH_TOL |Q.z|, per line):
+    (length, occupied length, float32 error bound e of either).
+
+    e = 2 e_h + the cuts' errors where they fall inside the chord: e_h = min(sqrt(e2), e2 / h) +
+    64 eps32 R (e2 = 64 eps32 (|w| (2 |w x D| + 64 eps32 |w|) + R^2), the error of |w x D|^2; 0 where
+    R^2 - |w x D|^2 <= -e2: no chord either way),
+    base cut 64 eps32 (3 |w| + |t_c|) / |c|, solid cut 64 eps32 (|w| + |delta| / D.z)."""
+    k = 64 * F32
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        D = g / np.linalg.norm(g, axis=1)[:, None]
+        b = _dot(w, D)
+        x = np.cross(w, D)
+        d2 = _dot(x, x)
+        h = np.sqrt(np.maximum(radius * radius - d2, 0.0))
+        cq = _dot(N, D)
+        lo, hi, tc = _base_cut(-h, h, _dot(N, w) - b * cq, cq)
+        ts = b - delta / D[:, 2]
+        length = np.maximum(hi - lo, 0.0)
+        occ = np.maximum(np.minimum(hi, ts) - lo, 0.0)
+        wl = np.linalg.norm(w, axis=1)
+        e2 = k * (wl * (2 * np.sqrt(d2) + k * wl) + radius * radius)
+        miss = radius * radius - d2 <= -e2          # the line misses the ball in both: h = 0, no error
+        e_h = np.where(miss, 0.0, np.where(h > 0, np.minimum(np.sqrt(e2), e2 / h), np.sqrt(e2)) + k * radius)
+        e_c = k * (3 * wl + np.abs(tc)) / np.abs(cq)
+        e_s = k * (wl + np.abs(delta) / D[:, 2])
+        e = 2 * e_h + _inside(tc, e_c, lo, hi) + _inside(ts, e_s, lo, hi)
+    return length, occ, e
+
+
 def ssao_lines(position: np.ndarray, normal: np.ndarray, projection: np.ndarray, m: int, radius: float,
                delta: float, seed: int = 0, range_check: bool = False, plane_test: bool = False,
                alpha: np.ndarray | None = None, alpha_eps: float = 0.5,
                normal_map: np.ndarray | None = None, tangent: np.ndarray | None = None) -> ReferenceAO:
     """Twin of ``ssao_prepare`` + ``ssao_ao`` with ``-D OCLS_LINES`` (line samples, see
     kernels/ssao.cl "Line samples"): the occupied fraction of the hemisphere's volume, integrated
-    analytically along m lines parallel to P's line of sight, one depth (or occluder plane) fetch
-    per line.
+    analytically along m lines, one depth (or occluder plane) fetch per line: with the depth test
+    each line is the line of sight of the pixel its disk point falls in, through that pixel's
+    stored point Q (a pixel without a usable surface, and the plane test: the line through the
+    disk point parallel to P's line of sight).
 
     ``counted`` holds the lines on screen, ``ties`` those whose pixel, screen-edge, camera-plane
     (as in :func:`ssao`), range-check or occluder-side decision float32 rounding may flip.
     ``bound`` bounds |kernel - twin| per pixel: each line's two sums (length and occupied length)
-    may differ by e = the chord ends' error 2 (64 eps32 S) (S = R + |delta|), plus, where they fall
-    inside the chord, the base-plane cut's 64 eps32 (S + |t_c|) / |c| and the occluder cut's
-    8 eps32 (|L.w| + |A| + |delta|) / |U . L| (depth: L = (0, 0, 1), L.w = z_t); a tie line adds the most its
+    may differ by e = twice the chord ends' error plus, where they fall inside the chord, the
+    base-plane cut's and the occluder cut's errors (:func:`_sight_chord`; the plane test's
+    occluder cut: 8 eps32 (|L.w| + |A| + |delta|) / |U . L|); a tie line adds the most its
     alternatives differ (another pixel: evaluated; a flipped decision: 2 R).  With E the sum of e,
     |AO error| <= E (1 + O / L) / (L - E), L and O the sums of lengths and occupied lengths."""
     pos = np.asarray(position, np.float64)
@@ -214,6 +336,7 @@ def ssao_lines(position: np.ndarray, normal: np.ndarray, projection: np.ndarray,
     E = line_eye(projection)
     M = np.asarray(projection, np.float64)
     zflat = np.where(hit, pos[..., 2], -np.inf).ravel()
+    pflat = pos[..., :3].reshape(-1, 3)
     planes = occluder_planes(pos, normal, hit).reshape(-1, 4) if plane_test else None
     nn = _dot(n, n)
     with np.errstate(invalid="ignore", over="ignore"):
@@ -239,14 +362,11 @@ def ssao_lines(position: np.ndarray, normal: np.ndarray, projection: np.ndarray,
     cnt_n = np.zeros(rr.size, np.int64)
     tie_n = np.zeros(rr.size, np.int64)
 
-    def occluder(ix: slice | np.ndarray, A: np.ndarray, j: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(t_s, its float32 error, tie): the line A + t U is solid for t <= t_s (step 4 on the line)."""
-        zt, U_ = zflat[j], U[ix]
+    def plane_cut(ix: slice | np.ndarray, A: np.ndarray, j: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Plane test (step L4): (t_s, its float32 error, tie): the line A + t U is solid for
+        t <= t_s, at least delta below the occluder's plane L; L not facing along U: the point test at A."""
+        U_ = U[ix]
         with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
-            if not plane_test:     # at least delta behind the stored depth
-                err = 8 * F32 * (np.abs(np.nan_to_num(zt, neginf=0.0)) + np.abs(A[:, 2]) + abs(delta)) / U_[:, 2]
-                return (zt - delta - A[:, 2]) / U_[:, 2], err, np.zeros(len(j), bool)
-            # at least delta below the occluder's plane L; L not facing along U: the point test at A
             pl = planes[j]
             la = _dot(pl[:, :3], A) - pl[:, 3]          # A's height above L (+inf for an empty pixel)
             lu = _dot(pl[:, :3], U_)
@@ -258,28 +378,35 @@ def ssao_lines(position: np.ndarray, normal: np.ndarray, projection: np.ndarray,
 
     def line(ix: slice | np.ndarray, A: np.ndarray, on: np.ndarray, j: np.ndarray, sx: float, sy: float, hs: float):
         """(length, occupied length, float32 error bound, tie) of the sample's line, for the live pixels ``ix``."""
+        # the line through A parallel to U: the chord |t| <= h, cut by the base plane a + t c >= 0
         h = radius * hs
         a = radius * (sx * nT[ix] + sy * nB[ix])
-        c_ = c[ix]
+        lo, hi, tc = _base_cut(-h, h, a, c[ix])
+        S = radius + abs(delta)
         with np.errstate(divide="ignore", invalid="ignore"):
-            tc = np.where(c_ != 0, -a / c_, np.where(a >= 0, -np.inf, np.inf))
-        lo = np.where(c_ >= 0, np.maximum(-h, tc), -h)
-        hi = np.where(c_ >= 0, h, np.minimum(h, tc))
-        ts, e_s, tie = occluder(ix, A, j)
-        length = np.where(on, np.maximum(hi - lo, 0.0), 0.0)
-        occ = np.where(on, np.maximum(np.minimum(hi, ts) - lo, 0.0), 0.0)
+            e_c = k * (S + np.abs(tc)) / np.abs(c[ix])
+        e_t = k * S
+        if plane_test:
+            ts, e_s, tie = plane_cut(ix, A, j)
+            length = np.maximum(hi - lo, 0.0)
+            occ = np.maximum(np.minimum(hi, ts) - lo, 0.0)
+            e = 2 * e_t + _inside(tc, e_c, lo, hi) + _inside(ts, e_s, lo, hi)
+        else:
+            # the depth test along pixel j's own line of sight (a pixel without a surface: the
+            # line through A, nothing solid)
+            surf, Q, g_, w = _pixel_sight(E, pflat, zflat, j, P[ix])
+            lq, oq, eq = _sight_chord(g_, w, N[ix], radius, delta + DEPTH_TOL * np.abs(Q[:, 2]))
+            length = np.where(surf, lq, np.maximum(hi - lo, 0.0))
+            occ = np.where(surf, oq, 0.0)
+            e = np.where(surf, eq, 2 * e_t + _inside(tc, e_c, lo, hi))
+            with np.errstate(invalid="ignore"):
+                tie = (zflat[j] != -np.inf) & (np.abs(g_[:, 2]) <= k * np.linalg.norm(g_, axis=1))
+            h = np.where(surf, radius, h)
+        length, occ = np.where(on, length, 0.0), np.where(on, occ, 0.0)
         if range_check:
             rmargin = radius - (zflat[j] - P[ix, 2])
             occ = np.where(rmargin >= 0, occ, 0.0)
             tie |= np.abs(rmargin) <= tol_z[ix]
-        S = radius + abs(delta)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            e_c = k * (S + np.abs(tc)) / np.abs(c_)
-        e_t = k * S
-        def inside(t: np.ndarray, e: np.ndarray) -> np.ndarray:
-            with np.errstate(invalid="ignore"):
-                return np.isfinite(t) & (t >= lo - e) & (t <= hi + e)
-        e = 2 * e_t + np.where(inside(tc, e_c), e_c, 0.0) + np.where(inside(ts, e_s), e_s, 0.0)
         e = np.where(on, np.minimum(np.nan_to_num(e, nan=np.inf), 2 * (h + e_t)), 0.0)
         return length, occ, e, on & tie
 
