@@ -1,24 +1,38 @@
-/* compose.cl — the final frame from a G-buffer: albedo x (sun + sky), sRGB 8-bit.
+/* compose.cl — the final frame from a G-buffer: albedo x (sun + sky), box-filtered, sRGB 8-bit.
  *
- *   linear = albedo.rgb * (sun.w * max(dot(n, s), 0) * shadow + sky.rgb * ao)    (hit pixels)
- *   linear = background.rgb                                                       (empty pixels)
- *   out    = round(255 * srgb(clamp(linear, 0, 1))), alpha 255
- * with n the view-space normal, s the view-space unit vector towards the sun,
- * shadow the shadow coefficient (1 = lit; paper 000 eq. 1 or a screen-space
- * pass) and ao the ambient-occlusion factor (1 = unoccluded; paper 001).
- * Both are 1 when their option is off (absent from the program).
+ * Per G-buffer sample (a pixel of the frame, or a sub-pixel with supersampling):
+ *   linear = albedo.rgb * (sun.w * max(n.s, 0) * shadow                      (direct sun)
+ *                          + sky.rgb * ao * (1 + n.up) / 2)                  (sky)         hit
+ *   linear = background.rgb                                                                empty
+ * with n the view-space shading normal (the G-buffer's normal field, or a smooth shading
+ * normal bound in its place: oclshade/frames.py), s the view-space unit vector towards the
+ * sun, up the view-space unit vector of world up, shadow the cast-shadow coefficient
+ * (1 = lit; paper 000 eq. 1 or a screen-space pass) and ao the ambient-occlusion factor
+ * (1 = unoccluded; paper 001).  Both are 1 when their option is off (absent from the program).
+ * Sky: the irradiance of a uniform sky on a plane tilted by beta from the horizontal is
+ * E_horizontal (1 + cos beta) / 2 (the sky dome's view factor); sky.rgb is E_horizontal.  AO
+ * scales the sky term only: the sun is a point source, its occlusion is the shadow.
+ * Output pixel (y, x) is the box filter of the ssaa x ssaa samples (y ssaa + j, x ssaa + k),
+ * j, k = 0..ssaa-1, each clamped to [0, 1] (what the display shows of it), averaged as
+ *   c0 + sum_k (c_k - c0) / ssaa^2
+ * (c0 the first sample: a region of one colour keeps its value bit for bit), then encoded:
+ *   out = round(255 * srgb(mean)), alpha 255.
  *
  * ABI
- *   compose(position, normal, albedo, n, sun, sky, background, [shadow], [ao], out)
- *   global size >= n (1-D), any local size; one work-item per pixel.
- *     __global const float4 *position, *normal, *albedo   G-buffer fields (oclshade/gbuffer.py)
- *     int n                    pixel count
+ *   compose(position, normal, albedo, width, height, ssaa, sun, sky, up, background,
+ *           [shadow], [ao], out)
+ *   global size >= width * height (1-D), any local size; one work-item per output pixel.
+ *     __global const float4 *position, *normal, *albedo   G-buffer fields (oclshade/gbuffer.py),
+ *                              (height ssaa) x (width ssaa) samples, row-major
+ *     int width, height        output size in pixels
+ *     int ssaa                 samples per pixel along each axis (>= 1)
  *     float4 sun               view-space unit vector to the sun (xyz), intensity (w)
- *     float4 sky               ambient sky radiance (rgb)
- *     float4 background        linear colour of empty pixels (rgb)
- *     __global const float *shadow   n floats, only with -D OCLS_SHADOW
- *     __global const float *ao       n floats, only with -D OCLS_AO
- *     __global uchar4 *out     n sRGB pixels (r, g, b, 255)
+ *     float4 sky               sky irradiance on a horizontal plane (rgb)
+ *     float4 up                view-space unit vector of world up (xyz)
+ *     float4 background        linear colour of empty samples (rgb)
+ *     __global const float *shadow   one float per sample, only with -D OCLS_SHADOW
+ *     __global const float *ao       one float per sample, only with -D OCLS_AO
+ *     __global uchar4 *out     width * height sRGB pixels (r, g, b, 255)
  *   -D options: OCLS_SHADOW, OCLS_AO.
  */
 #include "common.h"
@@ -30,8 +44,8 @@ OCLS_INLINE float srgb_encode(float c)
 }
 
 __kernel void compose(__global const float4 *position, __global const float4 *normal,
-                      __global const float4 *albedo, const int n, const float4 sun, const float4 sky,
-                      const float4 background,
+                      __global const float4 *albedo, const int width, const int height, const int ssaa,
+                      const float4 sun, const float4 sky, const float4 up, const float4 background,
 #ifdef OCLS_SHADOW
                       __global const float *shadow,
 #endif
@@ -41,19 +55,30 @@ __kernel void compose(__global const float4 *position, __global const float4 *no
                       __global uchar4 *out)
 {
     const int i = get_global_id(0);
-    if (i >= n) return;
-    float3 c = background.xyz;
-    if (position[i].w > 0.5f) {
-        float lit = sun.w * fmax(dot(normal[i].xyz, sun.xyz), 0.0f);
-        float amb = 1.0f;
+    if (i >= width * height) return;
+    const int y = i / width, x = i - y * width, row = width * ssaa;
+    float3 c0 = (float3)(0.0f), acc = (float3)(0.0f);
+    for (int j = 0; j < ssaa; ++j)
+        for (int k = 0; k < ssaa; ++k) {
+            const int p = (y * ssaa + j) * row + x * ssaa + k;
+            float3 c = background.xyz;
+            if (position[p].w > 0.5f) {
+                const float3 n = normal[p].xyz;
+                float direct = sun.w * fmax(dot(n, sun.xyz), 0.0f);
+                float diffuse = 0.5f * (1.0f + dot(n, up.xyz));
 #ifdef OCLS_SHADOW
-        lit = lit * shadow[i];
+                direct = direct * shadow[p];
 #endif
 #ifdef OCLS_AO
-        amb = ao[i];
+                diffuse = diffuse * ao[p];
 #endif
-        c = albedo[i].xyz * (lit + sky.xyz * amb);
-    }
-    out[i] = (uchar4)((uchar)(255.0f * srgb_encode(c.x) + 0.5f), (uchar)(255.0f * srgb_encode(c.y) + 0.5f),
-                      (uchar)(255.0f * srgb_encode(c.z) + 0.5f), (uchar)255);
+                c = albedo[p].xyz * (direct + sky.xyz * diffuse);
+            }
+            c = clamp(c, 0.0f, 1.0f);
+            if (j == 0 && k == 0) c0 = c;
+            else acc = acc + (c - c0);
+        }
+    const float3 m = c0 + acc / (float)(ssaa * ssaa);
+    out[i] = (uchar4)((uchar)(255.0f * srgb_encode(m.x) + 0.5f), (uchar)(255.0f * srgb_encode(m.y) + 0.5f),
+                      (uchar)(255.0f * srgb_encode(m.z) + 0.5f), (uchar)255);
 }

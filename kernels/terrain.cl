@@ -42,7 +42,15 @@
  *                                  Hp, Wp = max(H-1, 1), max(W-1, 1)
  *     __global float *out          all dilated levels back to back (the dil of terrain_cast)
  *     int off                      offset of level l in out (floats); texel (R, C) at off + R*Cl + C
- *   -D options (both kernels; the host passes -cl-std=CL1.2 and nothing else, no fast-math):
+ *   terrain_normals(h, H, W, uv, position, r0, r1, r2, geo, cu, cv, n, normal)
+ *   smooth shading normals of a G-buffer made by terrain_cast (see "Shading normals" below);
+ *   global size >= n (1-D), any local size; one work-item per pixel.
+ *     h, H, W, r0, r1, r2, geo, cu, cv   as for terrain_cast
+ *     __global const float2 *uv    the G-buffer's uv field (heightmap coordinates of the hit)
+ *     __global const float4 *position  the G-buffer's position field (w = 1 hit)
+ *     int n                        pixel count
+ *     __global float4 *normal      n view-space unit normals (w = 0); 0 on empty pixels
+ *   -D options (all kernels; the host passes -cl-std=CL1.2 and nothing else, no fast-math):
  *     OCLS_METHOD    1 bisect (default), 2 march, 3 dda
  *     OCLS_ORTHO     orthographic camera (cam.xy = half extents) instead of pinhole
  *     OCLS_SPHERE    paraboloid base of a sphere (geo.zw = kx, ky) instead of the plane
@@ -121,6 +129,16 @@
  *   All loops are bounded by OCLS_MAX_IT iterations (not reached on valid
  *   input; reaching it reports an empty pixel).
  *
+ * Shading normals (terrain_normals; not in paper 004): the G-buffer's normal is the bilinear
+ * patch's own (geometric) normal, exact for the surface the rays hit, but its slope jumps at
+ * every cell edge, so a smooth terrain shades as facets.  The shading normal interpolates
+ * instead: per sample the slope by central differences, (h[c+1] - h[c-1]) / 2 along each axis
+ * (one-sided where a neighbour is a hole or off the map, 0 where both are), bilinearly
+ * interpolated at the hit's uv over the 4 samples of its patch (weights (1-s)(1-w), s(1-w),
+ * (1-s)w, sw; a sample of weight 0 or a hole is left out and the weights renormalised, so a
+ * hole beyond an edge the hit lies on does not matter), plus the paraboloid's exact slope on a sphere.  The interpolated slope is
+ * continuous across cell edges (no facets) and exact where the heights are a quadratic
+ * polynomial (central differences are exact for it, and its slope is linear).
  */
 #include "common.h"
 
@@ -196,11 +214,14 @@ OCLS_INLINE float ray_low(const Ray *ray, float ta, float tb)
 
 /* Exact test of patch (r, c) over [ta, tb]: the first downward crossing, or INFINITY.
  * f(t0 + tau) = a + b tau + cq tau^2, expanded about t0, the ray's entry into the patch (the
- * later of its two near-boundary crossings, not before the segment's start ts; ta if rounding
- * puts that after ta), to keep float32 precision.  Expanding about the entry rather than about ta makes the hit the same bits
+ * later of its two near-boundary crossings, not before the segment's start ts), to keep float32
+ * precision.  Expanding about the entry rather than about ta makes the hit the same bits
  * however the traversal reached the patch: a bisection leaf or a DDA descent may start the
  * walk part-way into a patch (after a part proven above the max), so with an expansion about
- * ta the hit depended on OCLS_DESCEND / OCLS_LEAF (tuning knobs) in the last bits.
+ * ta the hit depended on OCLS_DESCEND / OCLS_LEAF (tuning knobs) in the last bits.  The entry
+ * is used even where rounding puts it after ta (then lo = ta - t0 < 0, f is still evaluated
+ * at ta): taking ta there instead made 4 pixels of a 97 x 61 frame differ in the last bit
+ * between leaf levels 0 and 2 (tests/test_knobs.py, camera framed by frame_heightmap).
  * *above: in, whether the ray was above the surface at the end of the previous piece of the
  * walk (patch exit, or a voxel rejected above its max); out, the same at this patch's exit (0
  * over a hole).  Above before and not above at the entry is a crossing on the shared edge:
@@ -219,7 +240,7 @@ OCLS_INLINE float patch_hit(__global const float *h, const Ray *ray, int r, int 
     const float3 o = ray->o, d = ray->d;
     const float eu = d.x != 0.0f ? ((float)(c - ray->cu + (d.x < 0.0f)) - o.x) * ray->iu : -INFINITY;
     const float ev = d.y != 0.0f ? ((float)(r - ray->cv + (d.y < 0.0f)) - o.y) * ray->iv : -INFINITY;
-    const float t0 = fmin(fmax(fmax(eu, ev), ray->ts), ta);
+    const float t0 = fmax(fmax(eu, ev), ray->ts);
     const float px = o.x + t0 * d.x, py = o.y + t0 * d.y, pz = o.z + t0 * d.z;
     const float s = px - (float)(c - ray->cu), w = py - (float)(r - ray->cv);
     const float e = (h00 - h01) - (h10 - h11);
@@ -647,4 +668,45 @@ __kernel void terrain_dilate(__global const float *h, const int H, const int W,
             for (int j = c; j <= min(c + 1, Cl - 1); ++j) m = fmax(m, lev[i * Cl + j].x);
     }
     out[off + r * Cl + c] = m;
+}
+
+/* Slope (dh/du, dh/dv) at sample (r, c) by central differences, one-sided next to holes and
+ * at the map's edges, 0 along an axis with neither neighbour (see "Shading normals"). */
+OCLS_INLINE float2 sample_slope(__global const float *h, int H, int W, int r, int c)
+{
+    const float hc = h[r * W + c];
+    const float hl = ocls_sample(h, H, W, r, c - 1), hr = ocls_sample(h, H, W, r, c + 1);
+    const float ha = ocls_sample(h, H, W, r - 1, c), hb = ocls_sample(h, H, W, r + 1, c);
+    const float gu = !isnan(hl) && !isnan(hr) ? 0.5f * (hr - hl) : !isnan(hr) ? hr - hc : !isnan(hl) ? hc - hl : 0.0f;
+    const float gv = !isnan(ha) && !isnan(hb) ? 0.5f * (hb - ha) : !isnan(hb) ? hb - hc : !isnan(ha) ? hc - ha : 0.0f;
+    return (float2)(gu, gv);
+}
+
+__kernel void terrain_normals(__global const float *h, const int H, const int W,
+                              __global const float2 *uv, __global const float4 *position,
+                              const float4 r0, const float4 r1, const float4 r2, const float4 geo,
+                              const int cu, const int cv, const int n, __global float4 *normal)
+{
+    const int i = get_global_id(0);
+    if (i >= n) return;
+    if (!(position[i].w > 0.5f) || H < 2 || W < 2) { normal[i] = (float4)(0.0f); return; }
+    const float2 p = uv[i];
+    const int c = clamp(ocls_floor_int(p.x), 0, W - 2), r = clamp(ocls_floor_int(p.y), 0, H - 2);
+    const float s = clamp(p.x - (float)c, 0.0f, 1.0f), w = clamp(p.y - (float)r, 0.0f, 1.0f);
+    const float wt[4] = {(1.0f - s) * (1.0f - w), s * (1.0f - w), (1.0f - s) * w, s * w};
+    float2 g = (float2)(0.0f);
+    float sum = 0.0f;
+    for (int k = 0; k < 4; ++k) {
+        const int rk = r + (k >> 1), ck = c + (k & 1);
+        if (wt[k] > 0.0f && !isnan(h[rk * W + ck])) {
+            g = g + wt[k] * sample_slope(h, H, W, rk, ck);
+            sum = sum + wt[k];
+        }
+    }
+    if (sum > 0.0f) g = g / sum;                        /* 0: no valid sample (not from terrain_cast) */
+#ifdef OCLS_SPHERE
+    g = g - 2.0f * (float2)(geo.z * (p.x - (float)cu), geo.w * (p.y - (float)cv));
+#endif
+    const float3 nw = (float3)(-g.x / geo.x, g.y / geo.y, 1.0f);
+    normal[i] = (float4)(normalize((float3)(dot(r0.xyz, nw), dot(r1.xyz, nw), dot(r2.xyz, nw))), 0.0f);
 }

@@ -26,6 +26,8 @@ import numpy as np
 from .heightmap import Heightmap, positive_finite
 
 PROJECTIONS = ("perspective", "orthographic")
+#: a camera's largest width or height in pixels
+MAX_SIDE = 1 << 15
 
 
 def _vec3(name: str, value: object) -> np.ndarray:
@@ -56,8 +58,8 @@ class Camera:
             object.__setattr__(self, name, _vec3(name, getattr(self, name)))
         for name in ("width", "height"):
             v = getattr(self, name)
-            if not isinstance(v, (int, np.integer)) or isinstance(v, bool) or not 1 <= v <= 1 << 15:
-                raise ValueError(f"{name} must be an integer pixel count in 1..32768, got {v!r}")
+            if not isinstance(v, (int, np.integer)) or isinstance(v, bool) or not 1 <= v <= MAX_SIDE:
+                raise ValueError(f"{name} must be an integer pixel count in 1..{MAX_SIDE}, got {v!r}")
             object.__setattr__(self, name, int(v))
         if self.projection not in PROJECTIONS:
             raise ValueError(f"projection must be one of {', '.join(PROJECTIONS)}, got {self.projection!r}")
@@ -167,32 +169,172 @@ def map_bounds(hm: Heightmap) -> tuple[np.ndarray, np.ndarray]:
     return (np.array([0.0, -(rows - 1) * hm.dy, lo_z]), np.array([(cols - 1) * hm.dx, 0.0, hi_z]))
 
 
+#: frame_heightmap's default: at most this fraction of the map may leave the frame so that the
+#: map fills more of it
+DEFAULT_CROP = 0.2
+#: the camera stops moving in once the map covers this fraction of the frame
+FULL = 0.98
+
+
+def _block_boxes(hm: Heightmap, blocks: int = 128) -> np.ndarray:
+    """World-space corners (n, 3) of boxes that hold the map's surface: the samples cut into at
+    most ``blocks`` x ``blocks`` blocks of k x k, each box spanning its block and the next row
+    and column of samples (so the patches between blocks too) and the height range of the
+    2 x 2 blocks it touches; blocks without a finite sample are left out."""
+    rows, cols = hm.shape
+    k = max(1, math.ceil(max(rows, cols) / blocks))
+    nr, nc = -(-rows // k), -(-cols // k)
+    pad = np.full((nr * k, nc * k), np.nan)
+    pad[:rows, :cols] = hm.heights
+    blocks4 = pad.reshape(nr, k, nc, k)
+    hi = np.pad(np.fmax.reduce(np.fmax.reduce(blocks4, axis=3), axis=1), ((0, 1), (0, 1)), constant_values=np.nan)
+    lo = np.pad(np.fmin.reduce(np.fmin.reduce(blocks4, axis=3), axis=1), ((0, 1), (0, 1)), constant_values=np.nan)
+    zmax = np.fmax(np.fmax(hi[:-1, :-1], hi[1:, :-1]), np.fmax(hi[:-1, 1:], hi[1:, 1:]))   # fmax: NaN = none
+    zmin = np.fmin(np.fmin(lo[:-1, :-1], lo[1:, :-1]), np.fmin(lo[:-1, 1:], lo[1:, 1:]))
+    r, c = np.nonzero(np.isfinite(hi[:-1, :-1]))
+    zmin, zmax = zmin[r, c], zmax[r, c]
+    i0, j0 = r * k, c * k
+    i1, j1 = np.minimum(i0 + k, rows - 1), np.minimum(j0 + k, cols - 1)
+    return np.concatenate([np.stack([j * hm.dx, -i * hm.dy, z], -1) for i in (i0, i1) for j in (j0, j1)
+                           for z in (zmin, zmax)])
+
+
+def _samples(hm: Heightmap, count: int = 160) -> np.ndarray:
+    """World-space points (n, 3) of the finite samples on a lattice of at most count x count."""
+    rows, cols = hm.shape
+    k = max(1, math.ceil(max(rows, cols) / count))
+    i, j = np.mgrid[0:rows:k, 0:cols:k]
+    z = hm.heights[i, j]
+    ok = np.isfinite(z)
+    return np.stack([j[ok] * hm.dx, -i[ok] * hm.dy, z[ok]], -1)
+
+
+def _ndc(view: np.ndarray, scale: tuple[float, float], perspective: bool) -> np.ndarray:
+    """Normalised image coordinates (n, 2) of view-space points (x right, y up, depth); points
+    not in front of a pinhole get +inf."""
+    if not perspective:
+        return view[:, :2] / np.array(scale)
+    front = view[:, 2:3] > 0.0
+    return np.where(front, view[:, :2] / (np.array(scale) * np.where(front, view[:, 2:3], 1.0)), np.inf)
+
+
+def _framing(view: np.ndarray, scale: tuple[float, float], perspective: bool, bins: tuple[int, int]
+             ) -> tuple[float, float]:
+    """(fraction of the frame covered, fraction of the points in it) for view-space points (n, 3)
+    of the map's samples: the frame cut into ``bins`` (columns, rows), a bin covered when a
+    point falls in it (the lattice is dense against the bins wherever most of the map is in
+    the frame; holes in the map stay uncovered)."""
+    ndc = _ndc(view, scale, perspective)
+    inside = (np.abs(ndc) <= 1.0).all(axis=1)
+    if not inside.any():
+        return 0.0, 0.0
+    cell = np.minimum(((ndc[inside] + 1.0) * 0.5 * np.array(bins)).astype(np.int64), np.array(bins) - 1)
+    hit = np.zeros(bins[0] * bins[1], bool)
+    hit[cell[:, 1] * bins[0] + cell[:, 0]] = True
+    return float(hit.mean()), float(inside.mean())
+
+
+def _vertical(top: float, bottom: float) -> float:
+    """The camera's offset along its up axis: ``top`` puts the map's top at the frame's top,
+    ``bottom`` its bottom at the frame's bottom; centred while the map fits, else its top held."""
+    return 0.5 * (top + bottom) if top <= bottom else top
+
+
+def _last_before(stop, steps: int = 32, refine: int = 20) -> float:
+    """The largest t in [0, 1] before ``stop(t)`` first holds (scanning ``steps`` steps, then
+    bisecting); 0 if stop(0), 1 if never."""
+    ts = np.linspace(0.0, 1.0, steps + 1)
+    k = next((k for k, t in enumerate(ts) if stop(t)), None)
+    if k is None:
+        return 1.0
+    if k == 0:
+        return 0.0
+    lo, hi = ts[k - 1], ts[k]
+    for _ in range(refine):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if stop(mid) else (mid, hi)
+    return float(lo)
+
+
 def frame_heightmap(hm: Heightmap, width: int = 1280, height: int = 720, azimuth: float = 200.0,
                     elevation: float = 35.0, fov: float = 45.0, projection: str = "perspective",
-                    margin: float = 1.05) -> Camera:
-    """A camera that sees the whole map: looking at the centre of its bounding box from the
-    compass direction ``azimuth`` (degrees clockwise from north: 200 = from the south-south-west,
-    looking north-north-east), ``elevation`` degrees above the horizon, at the distance where the
-    corners of the map's bounding box (times ``margin``) just fit in the view (at least 1.05 times
-    the bounding sphere's radius away); near and far enclose the bounding sphere."""
+                    margin: float = 1.02, crop: float = DEFAULT_CROP) -> Camera:
+    """A camera on the map from the compass direction ``azimuth`` (degrees clockwise from north:
+    200 = from the south-south-west, looking north-north-east), ``elevation`` degrees above the
+    horizon (the view's pitch), that fills the frame with the map.
+
+    Fit: the view direction fixed, the camera placed (across the view as well as along it) where
+    the whole map just fits, centred, with ``margin`` (1.02: 2 % spare on the tight side): the
+    boxes of :func:`_block_boxes` inside the frustum.  Fill: an oblique map is a trapezoid that
+    leaves the frame's corners empty, so the camera moves in along its axis (an orthographic
+    one zooms), the map centred across and, once it is taller than the frame, its top held at
+    the frame's top (its near part leaves the frame at the bottom), until the map covers
+    :data:`FULL` of the frame or a fraction ``crop`` of the map has left it, whichever comes
+    first (both measured with the map's samples on a lattice, :func:`_framing`); a pinhole
+    does not move in below 0.02 radius above the map's highest point (lower, it would look into
+    the terrain or at the map's missing sides), so low views fill less.  ``crop=0``: the whole
+    map, centred.  Near and far enclose what the camera sees."""
     if not -90.0 <= float(elevation) <= 90.0:
         raise ValueError(f"elevation must be in [-90, 90] degrees, got {elevation!r}")
+    if not 0.0 <= float(crop) < 1.0:
+        raise ValueError(f"crop must be in [0, 1) (the fraction of the map that may leave the frame), got {crop!r}")
+    margin = positive_finite("margin", margin)
+    if projection not in PROJECTIONS:
+        raise ValueError(f"projection must be one of {', '.join(PROJECTIONS)}, got {projection!r}")
     lo, hi = map_bounds(hm)
     centre = 0.5 * (lo + hi)
     radius = max(0.5 * float(np.linalg.norm(hi - lo)), min(hm.dx, hm.dy))
     az, el = math.radians(float(azimuth)), math.radians(float(elevation))
     towards_camera = np.array([math.sin(az) * math.cos(el), math.cos(az) * math.cos(el), math.sin(el)])
     probe = Camera(centre + radius * towards_camera, centre, width, height, fov=fov)
-    corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
-    local = (corners - centre) @ probe.rotation.T           # view axes, camera not yet placed
+    rot = probe.rotation                                 # rows: right, up, back
+    flip = np.array([1.0, 1.0, -1.0])                    # view coordinates: right, up, depth
+    boxes = _block_boxes(hm)
+    if len(boxes) == 0:                                  # no finite sample: the bounding box
+        boxes = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+    a, b, f = ((boxes - centre) @ rot.T * flip).T        # right, up, forward of the centre
     sx, sy = probe.scale
-    if projection == "perspective":     # every corner inside the frustum: |x| <= sx (D - z), |y| <= sy (D - z)
-        distance = float(np.max(local[:, 2] + np.maximum(np.abs(local[:, 0]) / sx, np.abs(local[:, 1]) / sy)))
-        distance = max(distance * float(margin), 1.05 * radius)
+    perspective = projection == "perspective"
+    if perspective:     # every box corner inside the frustum: |a - X| <= tx (D + f), |b - Y| <= ty (D + f)
+        tx, ty = sx / margin, sy / margin
+        ap, am = np.max(a - tx * f), np.max(-a - tx * f)
+        bp, bm = np.max(b - ty * f), np.max(-b - ty * f)
+        x0, y0 = 0.5 * (ap - am), 0.5 * (bp - bm)
+        distance = max((ap + am) / (2.0 * tx), (bp + bm) / (2.0 * ty), float(np.max(-f)) + 0.05 * radius)
+        scale = (sx, sy)
     else:
-        distance = 2.0 * radius
-    half_h = float(np.max(np.maximum(np.abs(local[:, 1]), np.abs(local[:, 0]) * height / width))) * float(margin)
-    position = centre + distance * towards_camera
-    return Camera(position, centre, width, height, fov=fov, near=max(distance - radius, 1e-3 * distance),
-                  far=distance + radius, projection=projection,
-                  ortho_height=2.0 * max(half_h, 1e-9 * radius))
+        x0, y0 = 0.5 * (a.max() + a.min()), 0.5 * (b.max() + b.min())
+        half_h = max(0.5 * (b.max() - b.min()), 0.5 * (a.max() - a.min()) * height / width, 1e-9 * radius) * margin
+        distance = float(np.max(-f)) + radius
+        scale = (half_h * width / height, half_h)
+    samples = _samples(hm)
+    sa, sb, sf = ((samples - centre) @ rot.T * flip).T  # the surface's own points place the camera
+    bins = (32, max(4, round(32 * height / width)))
+    if perspective:     # t: the fraction of the way to the centre plane (0.95 of it at most)
+        def place(t: float) -> tuple[np.ndarray, tuple[float, float]]:
+            d = distance * (1.0 - 0.95 * t)
+            x = 0.5 * (np.max(sa - tx * (d + sf)) - np.max(-sa - tx * (d + sf)))
+            top, bottom = np.max(sb - ty * (d + sf)), -np.max(-sb - ty * (d + sf))
+            return centre + rot.T @ np.array([x, _vertical(top, bottom), d]), scale
+    else:               # t: zoom up to 64
+        def place(t: float) -> tuple[np.ndarray, tuple[float, float]]:
+            sc = (scale[0] * 64.0 ** -t, scale[1] * 64.0 ** -t)
+            y = _vertical(sb.max() - sc[1] / margin, sb.min() + sc[1] / margin)
+            return centre + rot.T @ np.array([0.5 * (sa.max() + sa.min()), y, distance]), sc
+
+    def stop(t: float) -> bool:
+        position, sc = place(t)
+        if perspective and position[2] < hi[2] + 0.02 * radius:
+            return True
+        covered, kept = _framing((samples - position) @ rot.T * flip, sc, perspective, bins)
+        return kept < 1.0 - crop or covered >= FULL
+
+    if crop > 0.0 and len(samples):
+        position, scale = place(_last_before(stop))
+    else:
+        position = centre + rot.T @ np.array([x0, y0, distance])
+    depth = (boxes - position) @ -rot[2]
+    far = 1.02 * float(depth.max()) + 1e-6 * radius
+    near = 0.9 * float(depth.min()) if depth.min() > 0.0 else 1e-4 * far
+    return Camera(position, position - rot[2] * radius, width, height, fov=fov,
+                  near=max(near, 1e-4 * far), far=far, projection=projection, ortho_height=2.0 * scale[1])

@@ -278,26 +278,31 @@ def build_parser() -> CliParser:
 
 RENDER_EPILOG = """\
 outputs (by OUTPUT's extension):
-  .png  the shaded frame: albedo x (Lambert sun + sky ambient), albedo a hypsometric
-        tint, 8-bit sRGB; empty pixels show the sky colour
+  .png  the shaded frame: albedo x (sun x cast shadow + sky x AO), albedo a hypsometric
+        tint, smooth shading normals, 8-bit sRGB; empty pixels show the sky colour
+        (docs/methods.md, "Image quality in render")
   .exr  the G-buffer (oclshade/gbuffer.py), float32 channels:
         position.x/y/z/w (view space, w = 1 hit), normal.x/y/z, uv.u/v,
         uv_grad.dudc/dvdc/dudr/dvdr, Z (linear depth, +inf where empty), R/G/B/A (albedo)
   --gbuffer FILE.exr writes the G-buffer as well when OUTPUT is a PNG.
 
-camera: automatic by default (the whole map from --view AZ,EL, default 200,30:
-  from the south-south-west, 30 degrees up); or --camera X,Y,Z,TX,TY,TZ: position
-  and target in metres, x east from the first column, y north from the first row
-  (so the map lies at y <= 0), z the height after -z.
+camera: automatic by default (the map from --view AZ,EL, default 200,30: from the
+  south-south-west, 30 degrees down; it fills the frame, up to --crop of the map left
+  out, --crop 0 for the whole map); or --camera X,Y,Z,TX,TY,TZ: position and target in
+  metres, x east from the first column, y north from the first row (so the map lies at
+  y <= 0), z the height after -z.
 
 examples:
   oclshade render dem.tif view.png --size 1920x1080
   oclshade render dem.tif view.png --view 315,20 --fov 60 --sun 135,25 --gbuffer view.exr
   oclshade render dem.npy gbuf.exr --cellsize 30 --camera 0,-9000,2500,6000,-3000,300
   oclshade render dem.tif view.png --sun 135,8 --ao 6 --ao-map ao.exr   # low sun, AO radius 6 cells
+  oclshade render dem.tif view.png --ssaa 3        # 3 x 3 samples per pixel: smooth edges
 
-passes: the G-buffer (ray casting), per-pixel cast shadows (on; --no-shadows),
-  ambient occlusion (off; --ao), compose; a pass switched off is not compiled.
+passes: the G-buffer (ray casting), shading normals, per-pixel cast shadows (on;
+  --no-shadows), ambient occlusion (off; --ao), compose; a pass switched off is not
+  compiled.  --ssaa N runs every pass on N x N samples per pixel (N^2 times the work)
+  and box-filters the frame.
 """
 
 
@@ -309,6 +314,25 @@ def _ao_samples(text: str) -> int:
     if not 4 <= m <= 256:
         raise argparse.ArgumentTypeError(f"expected an integer 4..256, got {text!r}")
     return m
+
+
+def _ssaa(text: str) -> int:
+    from .compose import MAX_SSAA
+    try:
+        n = int(text)
+    except ValueError:
+        n = 0
+    if not 1 <= n <= MAX_SSAA:
+        raise argparse.ArgumentTypeError(f"expected an integer 1..{MAX_SSAA} (samples per pixel along each axis), "
+                                         f"got {text!r}")
+    return n
+
+
+def _crop(text: str) -> float:
+    value = _number(text, "--crop")
+    if not 0.0 <= value < 1.0:
+        raise argparse.ArgumentTypeError(f"expected a fraction in [0, 1) of the map, got {text!r}")
+    return value
 
 
 def _size(text: str) -> tuple[int, int]:
@@ -339,6 +363,7 @@ def _fov(text: str) -> float:
 
 
 def add_render_parser(sub) -> None:
+    from .camera import DEFAULT_CROP
     from .terrain import METHODS as TERRAIN_METHODS
 
     rd = sub.add_parser("render", help="ray-cast a DEM into a shaded PNG and/or an EXR G-buffer",
@@ -351,6 +376,9 @@ def add_render_parser(sub) -> None:
                     help="camera position and target in metres (see below); default: automatic")
     rd.add_argument("--view", type=lambda t: _floats(t, 2, "--view"), default=(200.0, 30.0), metavar="AZ,EL",
                     help="automatic camera: direction from the map centre to the camera (default 200,30)")
+    rd.add_argument("--crop", type=_crop, default=DEFAULT_CROP, metavar="F",
+                    help=f"automatic camera: at most this fraction of the map may leave the frame so that the "
+                         f"map fills it (default {DEFAULT_CROP:g}; 0: the whole map)")
     rd.add_argument("--fov", type=_fov, default=45.0, metavar="DEG", help="vertical field of view (default 45)")
     rd.add_argument("--ortho", action="store_true", help="orthographic camera (automatic framing only)")
     rd.add_argument("--method", default="bisect", choices=TERRAIN_METHODS,
@@ -359,6 +387,9 @@ def add_render_parser(sub) -> None:
                     help=f"sun for the shading (default {DEFAULT_AZIMUTH:g},{DEFAULT_ELEVATION:g})")
     rd.add_argument("--radius", type=_positive, default=None, metavar="METRES",
                     help="put the map on a sphere of this radius (e.g. 6371000)")
+    rd.add_argument("--ssaa", type=_ssaa, default=1, metavar="N",
+                    help="N x N samples per pixel (shadows and AO per sample), box-filtered (default 1; "
+                         "PNG output without --gbuffer / --ao-map)")
     rd.add_argument("--gbuffer", metavar="EXR", help="also write the G-buffer (OUTPUT must be a .png)")
     rd.add_argument("--no-shadows", action="store_true",
                     help="leave out the per-pixel cast shadows (paper 000; on by default)")
@@ -618,6 +649,9 @@ def run_render(args: argparse.Namespace) -> int:
         raise UsageError(f"--cellsize takes DX or DX DY, got {len(args.cellsize)} values")
     if args.ortho and args.camera is not None:
         raise UsageError("--ortho works with the automatic camera only (leave out --camera)")
+    if args.ssaa > 1 and (out_ext != ".png" or args.gbuffer is not None or args.ao_map is not None):
+        raise UsageError(f"--ssaa {args.ssaa} makes the PNG frame only: the G-buffer and AO map have one sample "
+                         "per pixel (leave out --ssaa, or --gbuffer / --ao-map / an .exr OUTPUT)")
     if args.ao_map is not None and (_extension(args.ao_map) != ".exr" or args.ao is None):
         raise UsageError("--ao-map takes an .exr path and needs --ao")
     if args.ao_map is not None and args.ao_map in (args.output, args.gbuffer):
@@ -646,7 +680,8 @@ def run_render(args: argparse.Namespace) -> int:
         field = Heightfield(heightmap, args.radius)
         if args.camera is None:
             camera = frame_heightmap(heightmap, width, height, azimuth=args.view[0], elevation=args.view[1],
-                                     fov=args.fov, projection="orthographic" if args.ortho else "perspective")
+                                     fov=args.fov, projection="orthographic" if args.ortho else "perspective",
+                                     crop=args.crop)
         else:
             pos, target = np.array(args.camera[:3]), np.array(args.camera[3:])
             extent = float(np.hypot(heightmap.shape[1] * heightmap.dx, heightmap.shape[0] * heightmap.dy))
@@ -656,7 +691,7 @@ def run_render(args: argparse.Namespace) -> int:
         ao = None if args.ao is None else AOSettings(radius=args.ao * max(heightmap.dx, heightmap.dy),
                                                      m=args.ao_samples)
         settings = FrameSettings(caster=args.method, shadows=not args.no_shadows, shadow_method=args.shadow_method,
-                                 ao=ao, lighting=Lighting(sun=args.sun))
+                                 ao=ao, lighting=Lighting(sun=args.sun), ssaa=args.ssaa)
         t1 = time.perf_counter()
         frame = scene.frame(camera, args.sun, settings)
         t2 = time.perf_counter()
@@ -672,7 +707,8 @@ def run_render(args: argparse.Namespace) -> int:
     if not args.quiet:
         rows, cols = heightmap.shape
         passes = ", ".join(f"{name} {ms:.0f} ms" for name, ms in frame.ms.items())
-        print(f"{PROG}: {cols}x{rows} cells, {width}x{height} pixels, method {args.method}, device "
+        samples = f" ({args.ssaa}x{args.ssaa} samples each)" if args.ssaa > 1 else ""
+        print(f"{PROG}: {cols}x{rows} cells, {width}x{height} pixels{samples}, method {args.method}, device "
               f"{scene.runtime.label}: {passes} (with builds; total {t2 - t1:.2f} s, "
               f"run {time.perf_counter() - t0:.2f} s) -> {args.output}", file=sys.stderr)
     return 0

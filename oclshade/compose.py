@@ -1,14 +1,17 @@
-"""The final frame: albedo x (Lambert sun x shadow + sky ambient x AO), as 8-bit sRGB.
+"""The final frame: albedo x (Lambert sun x shadow + sky x AO), box-filtered, as 8-bit sRGB.
 
 >>> rgba = compose(gbuf, camera)                                  # uint8 (height, width, 4)
 >>> rgba = compose(gbuf, camera, shadow=coef, ao=occlusion)       # passes written elsewhere
+>>> rgba = compose(big, big_camera, ssaa=3)                       # 3 x 3 samples per pixel
 
 Shadow coefficients (1 = lit) and AO factors (1 = unoccluded) are optional
-per-pixel float inputs (numpy (height, width) arrays or device buffers of
+per-sample float inputs (numpy (height, width) arrays or device buffers of
 height*width floats); a missing one is compiled out (-D OCLS_SHADOW /
--D OCLS_AO).  The G-buffer may be on the host (:class:`~oclshade.gbuffer.GBuffer`)
-or on the device (:class:`~oclshade.terrain.DeviceGBuffer`).  Kernel:
-``kernels/compose.cl``; twin: :func:`oclshade.reference.compose`.
+-D OCLS_AO).  ``normal`` replaces the G-buffer's normal field for the shading (the
+terrain's smooth shading normals, :meth:`oclshade.terrain.TerrainRenderer.shading_normals`).
+The G-buffer may be on the host (:class:`~oclshade.gbuffer.GBuffer`) or on the device
+(:class:`~oclshade.terrain.DeviceGBuffer`).  Kernel: ``kernels/compose.cl`` (the formulas);
+twin: :func:`oclshade.reference.compose`.
 """
 from __future__ import annotations
 
@@ -26,11 +29,17 @@ from .terrain import DeviceGBuffer
 
 @dataclass(frozen=True)
 class Lighting:
-    """Sun (gdaldem words: azimuth, elevation in degrees) and sky, linear RGB."""
+    """Sun (gdaldem words: azimuth, elevation in degrees) and sky, linear RGB.
+
+    ``sun_intensity``: the sun's irradiance on a plane facing it; ``sky``: the sky's
+    irradiance on an unoccluded horizontal plane (a tilted plane gets (1 + cos tilt) / 2 of
+    it).  The defaults keep the clear-sky ratio of diffuse horizontal to direct normal
+    irradiance, about 0.12 (sky luminance 0.24 to the sun's 2.0; docs/methods.md "Image
+    quality in render"), so a cast shadow on sunlit ground keeps only the sky's share."""
 
     sun: SunLike = (315.0, 45.0)
-    sun_intensity: float = 1.6
-    sky: tuple[float, float, float] = (0.22, 0.26, 0.32)
+    sun_intensity: float = 2.0
+    sky: tuple[float, float, float] = (0.21, 0.24, 0.30)
     background: tuple[float, float, float] = (0.45, 0.62, 0.85)
 
     def __post_init__(self) -> None:
@@ -46,6 +55,11 @@ class Lighting:
         """Unit vector towards the sun in view space."""
         assert isinstance(self.sun, Sun)
         return camera.rotation @ np.array(self.sun.vector())
+
+    @staticmethod
+    def up_view(camera: Camera) -> np.ndarray:
+        """Unit vector of world up (+z) in view space (the sky dome's axis)."""
+        return camera.rotation[:, 2].copy()
 
 
 @dataclass(frozen=True)
@@ -66,10 +80,35 @@ def _factor(rt: Runtime, value: object, shape: tuple[int, int], name: str) -> cl
     return rt.to_device(arr, name)
 
 
+def _normals(rt: Runtime, value: object, shape: tuple[int, int]) -> cl.Buffer:
+    if isinstance(value, cl.Buffer):
+        return value
+    arr = np.asarray(value, dtype=np.float32)
+    if arr.shape[:2] != shape or arr.ndim != 3 or arr.shape[2] not in (3, 4):
+        raise ValueError(f"normal must be a {shape + (4,)} (or xyz) float array like the G-buffer's, got {arr.shape}")
+    if arr.shape[2] == 3:
+        arr = np.concatenate([arr, np.zeros(shape + (1,), np.float32)], axis=2)
+    return rt.to_device(np.ascontiguousarray(arr), "shading normals")
+
+
+#: the largest supersampling factor (MAX_SSAA^2 samples per pixel)
+MAX_SSAA = 8
+
+
+def check_ssaa(ssaa: object) -> int:
+    """Samples per pixel along each axis: an integer in 1..MAX_SSAA."""
+    if not isinstance(ssaa, (int, np.integer)) or isinstance(ssaa, bool) or not 1 <= ssaa <= MAX_SSAA:
+        raise ValueError(f"ssaa must be an integer in 1..{MAX_SSAA} (samples per pixel along each axis), got {ssaa!r}")
+    return int(ssaa)
+
+
 def compose(gbuffer: GBuffer | DeviceGBuffer, camera: Camera, lighting: Lighting = Lighting(),
             shadow: np.ndarray | cl.Buffer | None = None, ao: np.ndarray | cl.Buffer | None = None,
-            device: str | int | Runtime | None = None) -> np.ndarray:
-    """uint8 sRGB (height, width, 4) frame of a G-buffer seen by ``camera``."""
+            device: str | int | Runtime | None = None, normal: np.ndarray | cl.Buffer | None = None,
+            ssaa: int = 1) -> np.ndarray:
+    """uint8 sRGB frame of a G-buffer seen by ``camera`` (the G-buffer's size).  ``ssaa``: the
+    G-buffer holds ssaa x ssaa samples per output pixel, box-filtered into a frame of
+    (height / ssaa, width / ssaa, 4) pixels; ``normal``: shading normals in place of the G-buffer's."""
     if isinstance(gbuffer, DeviceGBuffer):
         rt = gbuffer.runtime
         pos, nrm, alb = (gbuffer.buffers[k] for k in ("position", "normal", "albedo"))
@@ -81,17 +120,23 @@ def compose(gbuffer: GBuffer | DeviceGBuffer, camera: Camera, lighting: Lighting
     shape = gbuffer.shape
     if shape != (camera.height, camera.width):
         raise ValueError(f"camera is {camera.height}x{camera.width} pixels but the G-buffer is {shape[0]}x{shape[1]}")
+    ssaa = check_ssaa(ssaa)
+    if shape[0] % ssaa or shape[1] % ssaa:
+        raise ValueError(f"ssaa {ssaa} must divide the G-buffer's size {shape[0]}x{shape[1]}")
+    if normal is not None:
+        nrm = _normals(rt, normal, shape)
     extra = [b for b in (_factor(rt, shadow, shape, "shadow"), _factor(rt, ao, shape, "ao")) if b is not None]
-    n = shape[0] * shape[1]
+    size = (shape[0] // ssaa, shape[1] // ssaa)
+    n = size[0] * size[1]
     kernel = rt.kernel("compose.cl", "compose", ComposeFeatures(shadow is not None, ao is not None).defines())
-    s = lighting.sun_view(camera)
     out = rt.empty(4 * n, "frame")
     f4 = lambda *v: np.array(v, np.float32)  # noqa: E731
-    kernel.set_args(pos, nrm, alb, np.int32(n), f4(*s, lighting.sun_intensity), f4(*lighting.sky, 0.0),
-                    f4(*lighting.background, 0.0), *extra, out)
+    kernel.set_args(pos, nrm, alb, np.int32(size[1]), np.int32(size[0]), np.int32(ssaa),
+                    f4(*lighting.sun_view(camera), lighting.sun_intensity), f4(*lighting.sky, 0.0),
+                    f4(*lighting.up_view(camera), 0.0), f4(*lighting.background, 0.0), *extra, out)
     local = rt.local_size(kernel, 64)
     cl.enqueue_nd_range_kernel(rt.queue, kernel, (-(-n // local) * local,), (local,))
-    frame = np.empty(shape + (4,), np.uint8)
+    frame = np.empty(size + (4,), np.uint8)
     cl.enqueue_copy(rt.queue, frame, out)
     rt.queue.finish()
     return frame

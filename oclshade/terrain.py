@@ -272,21 +272,25 @@ class TerrainRenderer:
         dil, dil_off = self.dilated
         rows, cols = hm.shape
         g = heightmap_from_world(hm, self.field.centre) @ np.linalg.inv(camera.view)
-        rot = camera.rotation
         sx, sy = camera.scale
         hmin, hmax = self.field.height_range
         cv, cu = self.field.centre
         tex, table, ntex = self.texture
-        f4 = lambda *v: np.array(v, np.float32)  # noqa: E731
+        rot, geo = self._rotation_geo(camera)
         return (pyr.heights, np.int32(rows), np.int32(cols), pyr.buffer, pyr.offsets, np.int32(pyr.levels),
                 dil, dil_off,
-                f4(*g[0]), f4(*g[1]), f4(*g[2]),
-                f4(*rot[0], 0.0), f4(*rot[1], 0.0), f4(*rot[2], 0.0),
-                f4(sx, sy, camera.near, camera.far), np.int32(camera.width), np.int32(camera.height),
-                np.int32(cu), np.int32(cv),
-                f4(hm.dx, hm.dy, self.field.curvature * hm.dx ** 2, self.field.curvature * hm.dy ** 2),
-                f4(hmin, hmax, 0.0, 0.0),
+                *(np.array(row, np.float32) for row in g[:3]), *rot,
+                np.array([sx, sy, camera.near, camera.far], np.float32), np.int32(camera.width),
+                np.int32(camera.height), np.int32(cu), np.int32(cv), geo,
+                np.array([hmin, hmax, 0.0, 0.0], np.float32),
                 tex, table, np.int32(ntex))
+
+    def _rotation_geo(self, camera: Camera) -> tuple[list[np.ndarray], np.ndarray]:
+        """The float4 rows r0, r1, r2 of the world -> view rotation and geo = (dx, dy, kx, ky)."""
+        hm = self.field.heightmap
+        rot = [np.array([*row, 0.0], np.float32) for row in camera.rotation]
+        k = self.field.curvature
+        return rot, np.array([hm.dx, hm.dy, k * hm.dx ** 2, k * hm.dy ** 2], np.float32)
 
     def _gbuffer(self, camera: Camera, out: DeviceGBuffer | None) -> DeviceGBuffer:
         """``out`` if it has the camera's shape, else new device buffers."""
@@ -310,6 +314,43 @@ class TerrainRenderer:
         if on_device:
             return out
         return out.to_host()
+
+    def shading_normals(self, camera: Camera, gbuffer: GBuffer | DeviceGBuffer, method: str = "bisect",
+                        out: cl.Buffer | None = None) -> np.ndarray | cl.Buffer:
+        """Smooth shading normals of a G-buffer this renderer made for ``camera``: view-space unit
+        normals (w = 0, 0 on empty pixels) of slopes interpolated from the samples' central
+        differences (kernels/terrain.cl, "Shading normals"), so a smooth terrain shades without
+        per-cell facets; the G-buffer's own normal stays the geometric one.  A
+        :class:`DeviceGBuffer` gives a ``cl.Buffer`` (``out`` if given), a :class:`GBuffer` a
+        float32 (height, width, 4) array.  ``method``: the ray caster the program was built
+        for (any works; the same one shares its build).  Twin:
+        :func:`oclshade.reference.terrain.shading_normals`."""
+        rt = self.runtime
+        if isinstance(gbuffer, DeviceGBuffer):
+            uv, pos = gbuffer.buffers["uv"], gbuffer.buffers["position"]
+        elif isinstance(gbuffer, GBuffer):
+            uv, pos = rt.to_device(gbuffer.uv, "G-buffer uv"), rt.to_device(gbuffer.position, "G-buffer position")
+        else:
+            raise TypeError(f"gbuffer must be a GBuffer or DeviceGBuffer, got {type(gbuffer).__name__}")
+        if gbuffer.shape != (camera.height, camera.width):
+            raise ValueError(f"camera is {camera.height}x{camera.width} pixels but the G-buffer is "
+                             f"{gbuffer.shape[0]}x{gbuffer.shape[1]}")
+        rows, cols = self.field.heightmap.shape
+        cv, cu = self.field.centre
+        rot, geo = self._rotation_geo(camera)
+        n = camera.width * camera.height
+        buf = out if out is not None else rt.empty(16 * n, "shading normals")
+        kernel = rt.kernel("terrain.cl", "terrain_normals", self.features(camera, method).defines())
+        kernel.set_args(self.pyramid.heights, np.int32(rows), np.int32(cols), uv, pos, *rot, geo, np.int32(cu),
+                        np.int32(cv), np.int32(n), buf)
+        local = rt.local_size(kernel, 64)
+        cl.enqueue_nd_range_kernel(rt.queue, kernel, (-(-n // local) * local,), (local,))
+        if isinstance(gbuffer, DeviceGBuffer):
+            return buf
+        host = np.empty(gbuffer.shape + (4,), np.float32)
+        cl.enqueue_copy(rt.queue, host, buf)
+        rt.queue.finish()
+        return host
 
 
     def step_counts(self, camera: Camera, method: str = "bisect", band_pixels: int = 1 << 18,

@@ -72,6 +72,10 @@ def test_render_z_factor_and_scale_change_the_frame(tmp_path: Path, npy: Path) -
     (["--camera", "1,2,3"], "6 comma-separated"),
     (["--fov", "180"], "fov"),
     (["--method", "ray"], "invalid choice"),
+    (["--ssaa", "9"], "1..8"),
+    (["--ssaa", "two"], "1..8"),
+    (["--crop", "1"], "[0, 1)"),
+    (["--ssaa", "2", "--ao", "--ao-map", "a.exr"], "--ssaa 2 makes the PNG frame only"),
 ])
 def test_render_bad_arguments(tmp_path: Path, npy: Path, capsys, argv, message) -> None:
     assert main(["render", str(npy), str(tmp_path / "x.png"), "--cellsize", "30", *argv]) == 2
@@ -131,3 +135,27 @@ def test_render_ao_arguments(tmp_path: Path, npy: Path, capsys) -> None:
     assert "--ao-map" in capsys.readouterr().err
     assert main(["render", str(npy), str(out), "--cellsize", "30", "--ao", "--ao-samples", "3"]) == 2
     assert "4..256" in capsys.readouterr().err
+
+
+def test_render_ssaa_and_crop(tmp_path: Path, npy: Path, capsys) -> None:
+    """--ssaa N: the frame FrameSettings(ssaa=N) makes, at the requested size; --crop: the
+    automatic camera's crop (0: the whole map in view)."""
+    from oclshade.frames import FrameSettings, TerrainScene
+    from oclshade.compose import Lighting
+
+    base = ["--cellsize", "30", "--size", "48x30", "--view", "150,35", "--sun", "120,20"]
+    out = {k: tmp_path / f"{k}.png" for k in ("ssaa", "whole")}
+    assert main(["render", str(npy), str(out["ssaa"]), *base, "--ssaa", "3"]) == 0
+    assert "(3x3 samples each)" in capsys.readouterr().err
+    assert main(["render", str(npy), str(out["whole"]), *base, "--crop", "0", "-q"]) == 0
+    img = {k: np.asarray(Image.open(p)) for k, p in out.items()}
+    assert img["ssaa"].shape == img["whole"].shape == (30, 48, 3)
+    hm = Heightmap.from_array(np.load(npy), 30.0)
+    scene = TerrainScene(Heightfield(hm))
+    light = Lighting(sun=(120.0, 20.0))
+    cam = frame_heightmap(hm, 48, 30, azimuth=150.0, elevation=35.0)
+    assert np.array_equal(img["ssaa"], scene.frame(cam, (120.0, 20.0), FrameSettings(lighting=light, ssaa=3)).image[..., :3])
+    whole = frame_heightmap(hm, 48, 30, azimuth=150.0, elevation=35.0, crop=0.0)
+    frame = scene.frame(whole, (120.0, 20.0), FrameSettings(lighting=light))
+    assert np.array_equal(img["whole"], frame.image[..., :3])
+    assert frame.gbuffer.to_host().hit.mean() < TerrainRenderer(Heightfield(hm)).render(cam).hit.mean()

@@ -10,16 +10,23 @@ def srgb_encode(linear: np.ndarray) -> np.ndarray:
 
 
 def compose(position: np.ndarray, normal: np.ndarray, albedo: np.ndarray, sun_view: np.ndarray,
-            sun_intensity: float, sky: np.ndarray, background: np.ndarray,
-            shadow: np.ndarray | None = None, ao: np.ndarray | None = None) -> np.ndarray:
-    """uint8 (h, w, 4) sRGB: albedo * (I_sun max(n.s, 0) shadow + sky ao), background where empty."""
+            sun_intensity: float, sky: np.ndarray, up_view: np.ndarray, background: np.ndarray,
+            shadow: np.ndarray | None = None, ao: np.ndarray | None = None, ssaa: int = 1) -> np.ndarray:
+    """uint8 (h / ssaa, w / ssaa, 4) sRGB: per sample albedo * (I_sun max(n.s, 0) shadow
+    + sky ao (1 + n.up) / 2), background where empty, clamped to [0, 1]; each output pixel
+    the mean of its ssaa x ssaa samples."""
     hit = position[..., 3] > 0.5
-    lit = sun_intensity * np.maximum(np.einsum("...k,k->...", normal[..., :3].astype(float), sun_view), 0.0)
+    n = normal[..., :3].astype(float)
+    direct = sun_intensity * np.maximum(n @ np.asarray(sun_view, float), 0.0)
+    diffuse = 0.5 * (1.0 + n @ np.asarray(up_view, float))
     if shadow is not None:
-        lit = lit * shadow
-    amb = np.ones(hit.shape) if ao is None else np.asarray(ao, float)
-    colour = albedo[..., :3] * (lit[..., None] + np.asarray(sky, float) * amb[..., None])
-    colour = np.where(hit[..., None], colour, np.asarray(background, float))
-    out = np.full(hit.shape + (4,), 255, np.uint8)
-    out[..., :3] = np.floor(255.0 * srgb_encode(colour) + 0.5).astype(np.uint8)
+        direct = direct * shadow
+    if ao is not None:
+        diffuse = diffuse * ao
+    colour = albedo[..., :3] * (direct[..., None] + np.asarray(sky, float) * diffuse[..., None])
+    colour = np.clip(np.where(hit[..., None], colour, np.asarray(background, float)), 0.0, 1.0)
+    rows, cols = hit.shape
+    mean = colour.reshape(rows // ssaa, ssaa, cols // ssaa, ssaa, 3).mean(axis=(1, 3))
+    out = np.full(mean.shape[:2] + (4,), 255, np.uint8)
+    out[..., :3] = np.floor(255.0 * srgb_encode(mean) + 0.5).astype(np.uint8)
     return out

@@ -195,3 +195,50 @@ def dilated_max_levels(hm) -> list[np.ndarray]:
         p = np.concatenate([p, p[:, -1:]], 1)         # clamped window: repeat the last row/col
         out.append(np.maximum(np.maximum(p[:-1, :-1], p[:-1, 1:]), np.maximum(p[1:, :-1], p[1:, 1:])))
     return out
+
+
+def sample_slopes(h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(dh/du, dh/dv) at every sample of ``h`` (float64, NaN = hole): central differences,
+    one-sided next to holes and at the map's edges, 0 along an axis with neither neighbour."""
+    def along(a: np.ndarray) -> np.ndarray:                 # the slope along axis 1
+        pad = np.pad(a, ((0, 0), (1, 1)), constant_values=np.nan)
+        left, centre, right = pad[:, :-2], pad[:, 1:-1], pad[:, 2:]
+        lok, rok = np.isfinite(left), np.isfinite(right)
+        return np.where(lok & rok, 0.5 * (right - left), np.where(rok, right - centre,
+                                                                   np.where(lok, centre - left, 0.0)))
+    return along(h), along(h.T).T
+
+
+def shading_normals(field, camera: Camera, uv: np.ndarray, hit: np.ndarray) -> np.ndarray:
+    """Smooth shading normals (kernels/terrain.cl terrain_normals, "Shading normals"): view-space
+    unit normals (..., 3) at heightmap coordinates ``uv`` (..., 2) where ``hit``, 0 elsewhere.
+    Slopes of the samples (:func:`sample_slopes`) interpolated bilinearly over the patch
+    floor(uv) (clamped to the map; samples of weight 0 and holes left out, the weights
+    renormalised), plus the paraboloid's slope on a sphere."""
+    hm = field.heightmap
+    H, W = hm.shape
+    out = np.zeros(hit.shape + (3,))
+    if H < 2 or W < 2 or not hit.any():
+        return out
+    h = hm.relative32.astype(np.float64)
+    gu_s, gv_s = sample_slopes(h)
+    u, v = (np.asarray(uv, np.float64)[hit][:, k] for k in (0, 1))
+    c = np.clip(np.floor(u).astype(np.int64), 0, W - 2)
+    r = np.clip(np.floor(v).astype(np.int64), 0, H - 2)
+    s, w = np.clip(u - c, 0.0, 1.0), np.clip(v - r, 0.0, 1.0)
+    gu, gv, total = np.zeros(u.shape), np.zeros(u.shape), np.zeros(u.shape)
+    for dr, dc, wt in ((0, 0, (1 - s) * (1 - w)), (0, 1, s * (1 - w)), (1, 0, (1 - s) * w), (1, 1, s * w)):
+        use = (wt > 0.0) & np.isfinite(h[r + dr, c + dc])
+        wt = np.where(use, wt, 0.0)
+        gu += wt * np.where(use, gu_s[r + dr, c + dc], 0.0)
+        gv += wt * np.where(use, gv_s[r + dr, c + dc], 0.0)
+        total += wt
+    some = total > 0.0
+    gu, gv = np.where(some, gu / np.where(some, total, 1.0), 0.0), np.where(some, gv / np.where(some, total, 1.0), 0.0)
+    cv, cu = field.centre
+    k = field.curvature
+    gu = gu - 2.0 * k * hm.dx ** 2 * (u - cu)
+    gv = gv - 2.0 * k * hm.dy ** 2 * (v - cv)
+    n_view = np.stack([-gu / hm.dx, gv / hm.dy, np.ones_like(gu)], -1) @ camera.rotation.T
+    out[hit] = n_view / np.linalg.norm(n_view, axis=1, keepdims=True)
+    return out
