@@ -267,8 +267,8 @@ def frame_heightmap(hm: Heightmap, width: int = 1280, height: int = 720, azimuth
     the whole map just fits, centred, with ``margin`` (1.02: 2 % spare on the tight side): the
     boxes of :func:`_block_boxes` inside the frustum.  Fill: an oblique map is a trapezoid that
     leaves the frame's corners empty, so the camera moves in along its axis (an orthographic
-    one zooms), the map centred across and, once it is taller than the frame, its top held at
-    the frame's top (its near part leaves the frame at the bottom), until the map covers
+    one zooms), the map centred across and, once what is in the frame across is taller than
+    the frame, its top held at the frame's top (its near part leaves the frame at the bottom), until the map covers
     :data:`FULL` of the frame or a fraction ``crop`` of the map has left it, whichever comes
     first (both measured with the map's samples on a lattice, :func:`_framing`); a pinhole
     does not move in below 0.02 radius above the map's highest point (lower, it would look into
@@ -314,13 +314,18 @@ def frame_heightmap(hm: Heightmap, width: int = 1280, height: int = 720, azimuth
         def place(t: float) -> tuple[np.ndarray, tuple[float, float]]:
             d = distance * (1.0 - 0.95 * t)
             x = 0.5 * (np.max(sa - tx * (d + sf)) - np.max(-sa - tx * (d + sf)))
-            top, bottom = np.max(sb - ty * (d + sf)), -np.max(-sb - ty * (d + sf))
+            across = np.abs(sa - x) <= tx * (d + sf)     # the vertical fit of what is in the frame across
+            vb, vf = (sb[across], sf[across]) if across.any() else (sb, sf)
+            top, bottom = np.max(vb - ty * (d + vf)), -np.max(-vb - ty * (d + vf))
             return centre + rot.T @ np.array([x, _vertical(top, bottom), d]), scale
     else:               # t: zoom up to 64
         def place(t: float) -> tuple[np.ndarray, tuple[float, float]]:
             sc = (scale[0] * 64.0 ** -t, scale[1] * 64.0 ** -t)
-            y = _vertical(sb.max() - sc[1] / margin, sb.min() + sc[1] / margin)
-            return centre + rot.T @ np.array([0.5 * (sa.max() + sa.min()), y, distance]), sc
+            x = 0.5 * (sa.max() + sa.min())
+            across = np.abs(sa - x) <= sc[0] / margin
+            vb = sb[across] if across.any() else sb
+            y = _vertical(vb.max() - sc[1] / margin, vb.min() + sc[1] / margin)
+            return centre + rot.T @ np.array([x, y, distance]), sc
 
     def stop(t: float) -> bool:
         position, sc = place(t)
