@@ -20,7 +20,9 @@ import time
 import traceback
 import warnings
 from dataclasses import dataclass
+from datetime import datetime
 from typing import NoReturn, Sequence, TextIO
+from zoneinfo import ZoneInfo
 
 import numpy as np
 
@@ -140,6 +142,8 @@ def _sun(text: str) -> Sun:
 
 #: --suns header names: column role (0 azimuth, 1 elevation); "zenith" is not one (90 - elevation)
 SUN_COLUMNS = {"azimuth": 0, "az": 0, "elevation": 1, "elev": 1, "el": 1, "altitude": 1, "alt": 1}
+#: --suns header name of a column of ISO 8601 datetimes (suns by NREL SPA instead of azimuth/elevation)
+DATETIME_COLUMN = "datetime"
 
 
 def _is_number(text: str) -> bool:
@@ -150,11 +154,14 @@ def _is_number(text: str) -> bool:
     return True
 
 
-def read_suns_csv(path: str) -> list[Sun]:
+def read_suns_csv(path: str, zone: ZoneInfo | None = None) -> tuple[list[Sun], list[datetime]]:
     """Suns from a CSV file: columns azimuth,elevation, or any columns when a header names
     them (azimuth/az and elevation/elev/el/altitude/alt, any case); the header is the first
-    line when its first cell is not a number. UTF-8 with or without a BOM (Excel), any line
-    ends; blank lines and lines starting with # are skipped; errors name the line."""
+    line when its first cell is not a number. Or, when the header names a ``datetime`` column
+    (and no azimuth or elevation column), datetimes: ISO 8601 with a UTC offset, or local
+    times in ``zone`` (--tz). UTF-8 with or without a BOM (Excel), any line ends; blank lines
+    and lines starting with # are skipped; errors name the line. Returns (suns, datetimes),
+    one of them empty."""
     try:
         with open(path, newline="", encoding="utf-8-sig") as f:
             reader = csv.reader(f)
@@ -169,6 +176,12 @@ def read_suns_csv(path: str) -> list[Sun]:
         for i, name in enumerate(header):
             if name.lower() in SUN_COLUMNS:
                 found[SUN_COLUMNS[name.lower()]].append(i)
+        dated = [i for i, name in enumerate(header) if name.lower() == DATETIME_COLUMN]
+        if dated:
+            if found[0] or found[1] or len(dated) > 1:
+                raise UsageError(f"--suns {path}, line {n}: the header must name one datetime column and no "
+                                 f"azimuth or elevation column (the sun one way), got {','.join(header)}")
+            return [], _csv_datetimes(path, rows, dated[0], zone)
         if len(found[0]) != 1 or len(found[1]) != 1:
             raise UsageError(f"--suns {path}, line {n}: the header must name one azimuth column (azimuth or az) "
                              f"and one elevation column (elevation, elev, el, altitude or alt), got {','.join(header)}")
@@ -185,7 +198,19 @@ def read_suns_csv(path: str) -> list[Sun]:
             raise UsageError(f"--suns {path}, line {n}: {exc}") from None
     if not suns:
         raise UsageError(f"--suns {path}: no sun positions in the file")
-    return suns
+    return suns, []
+
+
+def _csv_datetimes(path: str, rows: list[tuple[int, list[str]]], col: int, zone: ZoneInfo | None) -> list[datetime]:
+    """The datetime column ``col`` of the --suns rows (after the header)."""
+    times = []
+    for n, row in rows:
+        if len(row) <= col or not row[col]:
+            raise UsageError(f"--suns {path}, line {n}: expected a datetime in column {col + 1}, got {','.join(row)!r}")
+        times.append(solar_cli.parse_datetime(row[col], zone, f"--suns {path}, line {n}: datetime"))
+    if not times:
+        raise UsageError(f"--suns {path}: no sun positions in the file")
+    return times
 
 
 # --- parser ----------------------------------------------------------------------------
@@ -260,7 +285,8 @@ def build_parser() -> CliParser:
                     help="a sun position; repeat for several (one band each); "
                          "write --sun=AZ,ALT when AZ is negative")
     sh.add_argument("--suns", dest="suns_csv", metavar="FILE.csv",
-                    help="sun positions, one per line: azimuth,elevation (header optional)")
+                    help="sun positions, one per line: azimuth,elevation (header optional), or under a "
+                         "header naming a datetime column, ISO 8601 datetimes (as --datetime)")
     solar_cli.add_time_arguments(sh)
     sh.add_argument("--k-dark", type=_unit, default=DEFAULT_K_DARK, metavar="K",
                     help=f"eq. (1) k_dark, shadow brightness with the sun at the horizon (default {DEFAULT_K_DARK:g})")
@@ -448,10 +474,10 @@ def check_shadow_args(args: argparse.Namespace) -> ShadowJob:
     if args.cellsize is not None and len(args.cellsize) > 2:
         raise UsageError(f"--cellsize takes DX or DX DY, got {len(args.cellsize)} values")
     explicit = args.azimuth is not None or args.elevation is not None
-    times = solar_cli.parse_datetimes(args)
-    suns = list(args.suns)
-    if args.suns_csv is not None:
-        suns += read_suns_csv(args.suns_csv)
+    csv_suns, csv_times = ([], []) if args.suns_csv is None else read_suns_csv(args.suns_csv,
+                                                                               solar_cli.time_zone(args.tz))
+    times = solar_cli.parse_datetimes(args, more=bool(csv_times)) + csv_times
+    suns = list(args.suns) + csv_suns
     if sum(map(bool, (explicit, suns, times))) > 1:
         raise UsageError("give the sun one way: -az/-alt, --sun/--suns or --datetime")
     if not suns and not times:

@@ -70,29 +70,30 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     s.add_argument("--json", action="store_true", help="print JSON instead of text")
 
 
-def parse_datetime(text: str, zone: ZoneInfo | None) -> datetime:
-    """An aware datetime from ISO 8601 text: its own UTC offset, or local time in ``zone``."""
+def parse_datetime(text: str, zone: ZoneInfo | None, what: str = "--datetime") -> datetime:
+    """An aware datetime from ISO 8601 text: its own UTC offset, or local time in ``zone``;
+    errors name the value as ``what`` (the option or file line it came from)."""
     from ..cli import UsageError
 
     iso = text[:-1] + "+00:00" if text[-1:] in ("Z", "z") else text  # Python 3.10 reads no "Z"
     try:
         value = datetime.fromisoformat(iso)
     except ValueError:
-        raise UsageError(f"--datetime {text!r} is not an ISO 8601 date and time "
+        raise UsageError(f"{what} {text!r} is not an ISO 8601 date and time "
                          f"(e.g. 2024-06-21T12:00+02:00)") from None
     if _is_date(iso):
-        raise UsageError(f"--datetime {text!r} has no time of day (e.g. {text}T12:00+02:00)")
+        raise UsageError(f"{what} {text!r} has no time of day (e.g. {text}T12:00+02:00)")
     if value.tzinfo is not None:
         if zone is not None:
-            raise UsageError(f"--datetime {text} has a UTC offset and --tz {zone.key} was given: give one or the other")
+            raise UsageError(f"{what} {text} has a UTC offset and --tz {zone.key} was given: give one or the other")
         return value
     if zone is None:
-        raise UsageError(f"--datetime {text} has no UTC offset: add one (e.g. {text}+02:00 or {text}Z) or give "
+        raise UsageError(f"{what} {text} has no UTC offset: add one (e.g. {text}+02:00 or {text}Z) or give "
                          f"--tz NAME; UTC is not assumed")
     first, second = value.replace(tzinfo=zone, fold=0), value.replace(tzinfo=zone, fold=1)
     if first.utcoffset() != second.utcoffset():
         gap = first.utcoffset() < second.utcoffset()
-        raise UsageError(f"--datetime {text} {'does not exist' if gap else 'occurs twice'} in {zone.key} (the clocks "
+        raise UsageError(f"{what} {text} {'does not exist' if gap else 'occurs twice'} in {zone.key} (the clocks "
                          f"{'skip' if gap else 'repeat'} it): give its UTC offset instead of --tz")
     return first
 
@@ -105,7 +106,8 @@ def _is_date(text: str) -> bool:
     return True
 
 
-def _zone(name: str | None) -> ZoneInfo | None:
+def time_zone(name: str | None) -> ZoneInfo | None:
+    """The IANA zone of --tz NAME (None without --tz)."""
     from ..cli import UsageError
 
     if name is None:
@@ -119,8 +121,8 @@ def _zone(name: str | None) -> ZoneInfo | None:
 
 def run(args: argparse.Namespace) -> int:
     """The ``sun`` command: prints one position per --datetime; returns 0."""
-    zone = _zone(args.tz)
-    times = [parse_datetime(text, zone) for text in args.datetimes]
+    tz = time_zone(args.tz)
+    times = [parse_datetime(text, tz) for text in args.datetimes]
     pos = sun_position(times, args.lat, args.lon, altitude=args.altitude, pressure=args.pressure,
                        temperature=args.temperature, refraction=args.refraction)
     rows = [(t.isoformat(), float(az), float(el)) for t, az, el in zip(times, pos.azimuth, pos.elevation)]
@@ -143,23 +145,37 @@ def add_time_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--datetime", dest="datetimes", action="append", default=[], metavar="ISO",
                         help="the sun at this date and time (NREL SPA, with refraction; ISO 8601 with a "
                              "UTC offset, or see --tz); repeat for several, one band each")
-    parser.add_argument("--tz", metavar="NAME", help="IANA time zone of --datetime values given without an offset")
+    add_place_arguments(parser, "--datetime")
+
+
+def add_place_arguments(parser: argparse.ArgumentParser, what: str) -> None:
+    """``--tz``, ``--lat``, ``--lon`` for the datetimes of ``what`` (the options that give them)."""
+    parser.add_argument("--tz", metavar="NAME", help=f"IANA time zone of {what} values given without an offset")
     parser.add_argument("--lat", type=_LAT, metavar="DEG",
-                        help="latitude for --datetime (default: the centre of a geographic INPUT)")
+                        help=f"latitude for {what} (default: the centre of a geographic INPUT)")
     parser.add_argument("--lon", type=_LON, metavar="DEG",
-                        help="longitude for --datetime (default: the centre of a geographic INPUT)")
+                        help=f"longitude for {what} (default: the centre of a geographic INPUT)")
 
 
-def parse_datetimes(args: argparse.Namespace) -> list[datetime]:
-    """The --datetime values as aware datetimes (usage errors before any file is read)."""
+def parse_datetimes(args: argparse.Namespace, more: bool = False) -> list[datetime]:
+    """The --datetime values as aware datetimes (usage errors before any file is read);
+    ``more``: datetimes come from elsewhere too (datetime rows of --suns), so --tz, --lat
+    and --lon may come without --datetime."""
     from ..cli import UsageError
 
-    if not args.datetimes and (args.tz is not None or args.lat is not None or args.lon is not None):
-        raise UsageError("--tz, --lat and --lon go with --datetime")
+    if not args.datetimes and not more and (args.tz is not None or args.lat is not None or args.lon is not None):
+        raise UsageError("--tz, --lat and --lon go with --datetime (or datetime rows in --suns)")
+    check_place(args)
+    tz = time_zone(args.tz)
+    return [parse_datetime(text, tz) for text in args.datetimes]
+
+
+def check_place(args: argparse.Namespace) -> None:
+    """--lat and --lon come together or not at all."""
+    from ..cli import UsageError
+
     if (args.lat is None) != (args.lon is None):
         raise UsageError("give both --lat and --lon, or neither (the centre of a geographic INPUT)")
-    zone = _zone(args.tz)
-    return [parse_datetime(text, zone) for text in args.datetimes]
 
 
 def map_centre(raster) -> tuple[float, float] | None:
@@ -174,13 +190,15 @@ def map_centre(raster) -> tuple[float, float] | None:
     return y0 + yc * cols / 2 + yr * rows / 2, x0 + xc * cols / 2 + xr * rows / 2
 
 
-def suns_for(times: list[datetime], args: argparse.Namespace, raster) -> tuple[list, float, float]:
-    """The suns at ``times`` at --lat/--lon, else at the centre of a geographic raster; and that place."""
+def suns_for(times: list[datetime], args: argparse.Namespace, raster,
+             what: str = "--datetime") -> tuple[list, float, float]:
+    """The suns at ``times`` at --lat/--lon, else at the centre of a geographic raster; and that place.
+    ``what``: the options the times came from (for the error)."""
     from ..cli import UsageError
 
     place = (args.lat, args.lon) if args.lat is not None else map_centre(raster)
     if place is None:
-        raise UsageError(f"--datetime: INPUT {args.input!r} has no geographic CRS to take the place from; "
+        raise UsageError(f"{what}: INPUT {args.input!r} has no geographic CRS to take the place from; "
                          f"give --lat and --lon")
     lat, lon = place
     return suns_at(times, lat, lon), lat, lon
