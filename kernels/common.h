@@ -169,4 +169,25 @@ OCLS_LANE_BUILTINS(16)
 #define OCLS_CONVERT_TO(T, x) OCLS_CAT(convert_, T)(x)
 #endif
 
+/* Surface gradient (dz/d(east), dz/d(south)) at sample (i, j) of an H x W map:
+ * central differences, one-sided next to holes and at the edges, 0 along an
+ * axis with neither neighbour; cell = (dx, dy) in metres.  The surface normal
+ * is then (-gx, gy, 1) in (east, north, up), and the sun s = (east, north,
+ * up) is above the tangent plane iff s.z - gx s.x + gy s.y > 0 (the
+ * self-shadow test of shadow.cl and the facing test of sunshine.cl). */
+OCLS_INLINE float2 ocls_gradient(__global const float *h, int H, int W, int i, int j, float2 cell)
+{
+    const float hc = h[i * W + j];
+    const float he = ocls_sample(h, H, W, i, j + 1), hw = ocls_sample(h, H, W, i, j - 1);
+    const float hs = ocls_sample(h, H, W, i + 1, j), hn = ocls_sample(h, H, W, i - 1, j);
+    float gx = 0.0f, gy = 0.0f;
+    if (!isnan(he) && !isnan(hw)) gx = (he - hw) / (2.0f * cell.x);
+    else if (!isnan(he)) gx = (he - hc) / cell.x;
+    else if (!isnan(hw)) gx = (hc - hw) / cell.x;
+    if (!isnan(hs) && !isnan(hn)) gy = (hs - hn) / (2.0f * cell.y);
+    else if (!isnan(hs)) gy = (hs - hc) / cell.y;
+    else if (!isnan(hn)) gy = (hc - hn) / cell.y;
+    return (float2)(gx, gy);
+}
+
 #endif

@@ -579,21 +579,13 @@ OCLS_INLINE float cert_limit(__global const float *cert, int W, int i, int j, fl
 #endif
 
 /* Self-shadow: sun at or below the tangent plane of the central-difference
- * normal (one-sided next to holes and at the edges, 0 slope if neither). */
+ * normal (one-sided next to holes and at the edges, 0 slope if neither;
+ * ocls_gradient in common.h). */
 OCLS_INLINE int self_shadowed(__global const float *h, int H, int W, int i, int j, float2 cell, float4 s)
 {
-    const float hc = h[i * W + j];
-    const float he = ocls_sample(h, H, W, i, j + 1), hw = ocls_sample(h, H, W, i, j - 1);
-    const float hs = ocls_sample(h, H, W, i + 1, j), hn = ocls_sample(h, H, W, i - 1, j);
-    float gx = 0.0f, gy = 0.0f;                        /* dz/d(east), dz/d(south) */
-    if (!isnan(he) && !isnan(hw)) gx = (he - hw) / (2.0f * cell.x);
-    else if (!isnan(he)) gx = (he - hc) / cell.x;
-    else if (!isnan(hw)) gx = (hc - hw) / cell.x;
-    if (!isnan(hs) && !isnan(hn)) gy = (hs - hn) / (2.0f * cell.y);
-    else if (!isnan(hs)) gy = (hs - hc) / cell.y;
-    else if (!isnan(hn)) gy = (hc - hn) / cell.y;
+    const float2 g = ocls_gradient(h, H, W, i, j, cell);   /* dz/d(east), dz/d(south) */
     /* n ~ (-dz/dE, -dz/dN, 1) with dz/dN = -gy */
-    return (s.z - gx * s.x + gy * s.y) <= 0.0f;
+    return (s.z - g.x * s.x + g.y * s.y) <= 0.0f;
 }
 
 /* Cast shadow of cell (i, j) of height z0 (not nodata) by the scalar traversal. */
