@@ -242,27 +242,38 @@ class ShadowCaster:
         return (_cache.heights_digest(hm), hm.dx, hm.dy, sun.azimuth, sun.elevation, method, outs, coef,
                 self.runtime.device.int_ptr)
 
+    def masks_on_device(self, suns: Iterable[SunLike], method: str = "exact") -> Iterator[tuple[Sun, cl.Buffer]]:
+        """Each sun's cast-shadow mask left on the device for a kernel that reads it next on
+        this caster's queue (``runtime.queue``): uint8, rows * cols, values as
+        :attr:`ShadowResult.mask`.  Nothing is copied or waited for.  One buffer serves every
+        sun: enqueue the reader of a yielded mask before advancing the iterator (the queue is
+        in order).  No result cache; a sun the scene analysis proves shadow-free gets a fill
+        with 0 (what the kernel writes then) instead of a traversal.  The arguments are
+        checked at the call, before the first mask."""
+        sun_list = as_suns(suns)
+        check_method(method)
+        return self._device_masks(sun_list, method)
+
+    def _device_masks(self, sun_list: list[Sun], method: str) -> Iterator[tuple[Sun, cl.Buffer]]:
+        rows, cols = self.heightmap.shape
+        mask = self.runtime.empty(rows * cols, "shadow mask")
+        enqueue = None
+        for sun in sun_list:
+            if self.analyse and self.analysis.casts_nothing(sun):
+                cl.enqueue_fill_buffer(self.runtime.queue, mask, np.uint8(0), 0, rows * cols)
+            else:
+                enqueue = enqueue or self._enqueuer(method, ("mask",), {"mask": mask})[0]
+                enqueue(sun, DEFAULT_K_DARK, DEFAULT_K_BRIGHT)
+            yield sun, mask
+
     def _launcher(self, method: str, outs: tuple[str, ...]) -> Callable[[Sun, float, float], ShadowResult]:
         """A function tracing one sun into new host arrays (buffers and kernel shared by its calls)."""
-        rt, hm = self.runtime, self.heightmap
-        self.pyramid  # built (once) before the launches
-        rows, cols = hm.shape
-        n = rows * cols
-        features = self._features(method, outs)
-        kernel = rt.kernel("shadow.cl", features.cells_kernel, features.defines())
-        certify = self._certifier(features)
-        bufs = {
-            "mask": rt.empty(n, "shadow mask") if "mask" in outs else self._dummy_u8,
-            "self": rt.empty(n, "self-shadow flags") if "self" in outs else self._dummy_u8,
-            "coefficient": rt.empty(4 * n, "shadow coefficients") if "coefficient" in outs else self._dummy_f32,
-        }
-        gsize, lsize = self.runtime.grid_2d(kernel, -(-cols // features.run) if features.packeted else cols, rows,
-                                            wanted=self.knobs["group"])
+        rt = self.runtime
+        rows, cols = self.heightmap.shape
+        enqueue, bufs = self._enqueuer(method, outs)
 
         def launch(sun: Sun, k_dark: float, k_bright: float) -> ShadowResult:
-            kernel.set_args(*self._args(sun, k_dark, k_bright), bufs["mask"], bufs["self"], bufs["coefficient"],
-                            *certify(sun))
-            cl.enqueue_nd_range_kernel(rt.queue, kernel, gsize, lsize)
+            enqueue(sun, k_dark, k_bright)
             res = ShadowResult(sun)
             if "mask" in outs:
                 res.mask = np.empty((rows, cols), np.uint8)
@@ -277,6 +288,34 @@ class ShadowCaster:
             return res
 
         return launch
+
+    def _enqueuer(self, method: str, outs: tuple[str, ...], bufs: dict[str, cl.Buffer] | None = None
+                  ) -> tuple[Callable[[Sun, float, float], None], dict[str, cl.Buffer]]:
+        """A function enqueueing the traversal of one sun into device buffers, and those buffers
+        ("mask", "self", "coefficient"; a dummy for an output not in ``outs``; ``bufs``: buffers
+        to reuse).  Buffers and kernel are shared by its calls."""
+        rt, hm = self.runtime, self.heightmap
+        self.pyramid  # built (once) before the launches
+        rows, cols = hm.shape
+        n = rows * cols
+        features = self._features(method, outs)
+        kernel = rt.kernel("shadow.cl", features.cells_kernel, features.defines())
+        certify = self._certifier(features)
+        bufs = dict(bufs or {})
+        for name, what, nbytes, dummy in (("mask", "shadow mask", n, self._dummy_u8),
+                                          ("self", "self-shadow flags", n, self._dummy_u8),
+                                          ("coefficient", "shadow coefficients", 4 * n, self._dummy_f32)):
+            if name not in bufs:
+                bufs[name] = rt.empty(nbytes, what) if name in outs else dummy
+        gsize, lsize = self.runtime.grid_2d(kernel, -(-cols // features.run) if features.packeted else cols, rows,
+                                            wanted=self.knobs["group"])
+
+        def enqueue(sun: Sun, k_dark: float, k_bright: float) -> None:
+            kernel.set_args(*self._args(sun, k_dark, k_bright), bufs["mask"], bufs["self"], bufs["coefficient"],
+                            *certify(sun))
+            cl.enqueue_nd_range_kernel(rt.queue, kernel, gsize, lsize)
+
+        return enqueue, bufs
 
     def _features(self, method: str, outs: tuple[str, ...]) -> ShadowFeatures:
         return ShadowFeatures(method, outs, certificate=self.certificates, lanes=self.knobs["lanes"],

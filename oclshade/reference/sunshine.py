@@ -1,0 +1,118 @@
+"""Float64 twin of kernels/sunshine.cl: sunshine sums from the reference masks.
+
+For each daylight sun (elevation > 0) with weight w seconds, a cell gets
+direct sun when :func:`cast_shadows` leaves it lit and the sun is above its
+tangent plane, v = s_z - g_x s_x + g_y s_y > 0 with the gradient of
+:func:`surface_gradient` (the one shadow.cl's self output tests); its beam
+incidence is cos i = v / sqrt(1 + g_x^2 + g_y^2).  A float32 device can only
+decide a cell differently where the reference's cast decision is a tie
+(:meth:`ReferenceShadows.ties`) or |v| is within :func:`facing_tolerance`;
+such cells are marked in ``ties`` and tests count them apart.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+from ..heightmap import Heightmap
+from ..sun import Sun
+from .shadows import FLOAT32_EPS, cast_shadows, tie_tolerance
+
+
+@dataclass
+class ReferenceSunshine:
+    sun_seconds: np.ndarray   # float64 seconds of direct sun per cell; NaN = nodata
+    cast_seconds: np.ndarray  # float64 daylight seconds in cast shadow; NaN = nodata
+    beam_hours: np.ndarray    # float64 sum of cos(i) x hours over the direct-sun steps; NaN = nodata
+    beam_bound: np.ndarray    # bound on a float32 device's error in beam_hours (see sunshine_sums)
+    daylight_seconds: float
+    ties: np.ndarray          # bool: some sun's decision at the cell is within float32 rounding
+
+    @property
+    def hours(self) -> np.ndarray:
+        return self.sun_seconds / 3600.0
+
+    @property
+    def fraction(self) -> np.ndarray:
+        return self.cast_seconds / self.daylight_seconds if self.daylight_seconds else np.full_like(
+            self.cast_seconds, np.nan)
+
+
+def surface_gradient(hm: Heightmap) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(dz/d(east), dz/d(south)) per sample: central differences, one-sided next to holes
+    and at the edges, 0 along an axis with neither neighbour (kernels/common.h ocls_gradient);
+    and per axis whether a neighbour was there (where not, the gradient is an exact 0)."""
+    h = hm.heights
+    pad = np.pad(h, 1, constant_values=np.nan)
+
+    def along(plus: np.ndarray, minus: np.ndarray, d: float) -> tuple[np.ndarray, np.ndarray]:
+        has_plus, has_minus = ~np.isnan(plus), ~np.isnan(minus)
+        with np.errstate(invalid="ignore"):
+            g = np.where(has_plus & has_minus, (plus - minus) / (2.0 * d),
+                         np.where(has_plus, (plus - h) / d, np.where(has_minus, (h - minus) / d, 0.0)))
+        return g, has_plus | has_minus
+
+    gx, has_x = along(pad[1:-1, 2:], pad[1:-1, :-2], hm.dx)
+    gy, has_y = along(pad[2:, 1:-1], pad[:-2, 1:-1], hm.dy)
+    return gx, gy, has_x, has_y
+
+
+def facing_tolerance(hm: Heightmap, sun: Sun) -> np.ndarray:
+    """Per cell, a bound on |v| within which float32 arithmetic may flip the facing test.
+
+    The kernel's heights are float32 relative to the mid-range, each within
+    eps R / 4 of its value (R: the relief), so a difference of two carries
+    eps R / 2 and a gradient component eps R / (2 d) (none along an axis
+    without neighbours, where it is an exact 0), plus 2 eps |g| for the
+    rounding of the difference, the cell size and the division.  The sun
+    vector's components are rounded (eps / 2 each), and v's two products and
+    two sums add eps (|s_z| + |g_x s_x| + |g_y s_y|) each.  Hence
+    eps [(R / dx + 2 |g_x|) |s_x| + (R / dy + 2 |g_y|) |s_y| + 2 (|s_z| +
+    |g_x s_x| + |g_y s_y|)], times a safety factor of 8.
+    """
+    h = hm.heights
+    finite = h[np.isfinite(h)]
+    relief = float(finite.max() - finite.min()) if finite.size else 0.0
+    gx, gy, has_x, has_y = surface_gradient(hm)
+    sx, sy, sz = (abs(c) for c in sun.vector())
+    axes = (np.where(has_x, relief / hm.dx + 2.0 * np.abs(gx), 0.0) * sx
+            + np.where(has_y, relief / hm.dy + 2.0 * np.abs(gy), 0.0) * sy)
+    return 8.0 * FLOAT32_EPS * (axes + 2.0 * (sz + np.abs(gx) * sx + np.abs(gy) * sy))
+
+
+def sunshine_sums(hm: Heightmap, suns: Sequence[Sun], seconds: Sequence[int]) -> ReferenceSunshine:
+    """Sums over the suns (weights in seconds, one per sun) as kernels/sunshine.cl, from
+    :func:`cast_shadows`; suns at or below the horizon are skipped.
+
+    ``beam_bound``: outside ties a float32 device's cos i is off by at most the
+    facing tolerance (the error of v; dividing by |n| >= 1 only shrinks it)
+    plus 4 eps relative (1 + g^2, sqrt, division, the product with the
+    float32 hours), its Kahan sum by 2 eps of the sum of the terms plus
+    O(n eps^2) (Kahan 1965), and the float32 result by eps / 2: in all at
+    most sum over the direct steps of hours x (facing tolerance + 16 eps).
+    """
+    nodata = np.isnan(hm.heights)
+    gx, gy, _, _ = surface_gradient(hm)
+    norm = np.sqrt(1.0 + gx * gx + gy * gy)
+    sun_s, cast_s, beam, bound = (np.zeros(hm.shape) for _ in range(4))
+    ties = np.zeros(hm.shape, bool)
+    total = 0.0
+    for sun, w in zip(suns, seconds, strict=True):
+        if sun.elevation <= 0.0:
+            continue
+        ref = cast_shadows(hm, sun)
+        sx, sy, sz = sun.vector()
+        v = sz - gx * sx + gy * sy
+        cast = ref.mask == 1
+        direct = (ref.mask == 0) & (v > 0.0)
+        sun_s += np.where(direct, w, 0.0)
+        cast_s += np.where(cast, w, 0.0)
+        beam += np.where(direct, (w / 3600.0) * v / norm, 0.0)
+        tolerance = facing_tolerance(hm, sun)
+        bound += np.where(direct, (w / 3600.0) * (tolerance + 16.0 * FLOAT32_EPS), 0.0)
+        ties |= ref.ties(tie_tolerance(hm, sun)) | (np.abs(v) <= tolerance)
+        total += w
+    return ReferenceSunshine(*(np.where(nodata, np.nan, a) for a in (sun_s, cast_s, beam, bound)), total,
+                             ties & ~nodata)
