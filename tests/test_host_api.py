@@ -1,11 +1,12 @@
 """The C host API (host/) against the Python host and the float64 reference.
 
-host/ is built with CMake into a temporary folder; its C test programs run
-on PoCL through the system ICD loader (libOpenCL), pointed by OCL_ICD_VENDORS
-at the PoCL driver that pyopencl ships.  Outputs must be bit-identical to the
-Python host's on the same driver.  Skips (with the reason) without host/
-(installed package only), cmake, a C compiler, the OpenCL headers and loader,
-or pyopencl's PoCL.
+host/ is built with CMake into a temporary folder (once per session, as a shared
+library: the fixture ``host`` is shared with tests/test_host_frames.py and
+tests/test_host_packaging.py); its C test programs run on PoCL through the system
+ICD loader (libOpenCL), pointed by OCL_ICD_VENDORS at the PoCL driver that pyopencl
+ships.  Outputs must be bit-identical to the Python host's on the same driver.
+Skips (with the reason) without host/ (installed package only), cmake, a C compiler,
+the OpenCL headers and loader, or pyopencl's PoCL.
 """
 from __future__ import annotations
 
@@ -24,6 +25,7 @@ from oclshade.heightmap import Heightmap
 from oclshade.pyramid import level_offsets
 from oclshade.runtime import _kernel_root, define_options, get_runtime, kernel_source
 from oclshade.shadows import METHODS, TUNING, ShadowFeatures
+from oclshade.tuning import family
 from oclshade.tuning.rules import rule_values
 
 HOST = Path(__file__).resolve().parents[1] / "host"
@@ -45,22 +47,25 @@ def _run(cmd: list[str], **kw) -> subprocess.CompletedProcess:
     return subprocess.run(cmd, capture_output=True, text=True, timeout=240, **kw)
 
 
-@pytest.fixture(scope="module")
-def host(tmp_path_factory) -> dict:
-    """Build host/ once; returns the build folder and the environment to run its programs in."""
-    if not (HOST / "CMakeLists.txt").is_file():
-        pytest.skip("host/ is not in this tree (installed package only)")
-    if shutil.which("cmake") is None:
-        pytest.skip("cmake not found: the C host API cannot be built")
-    if not any(shutil.which(c) for c in (os.environ.get("CC") or "cc", "gcc", "clang")):
-        pytest.skip("no C compiler (cc, gcc, clang) found")
+PROGRAMS = ("pyramid.cl", "shadow.cl", "terrain.cl", "ssao.cl", "compose.cl")
+
+
+def build_env(tmp_path_factory) -> dict:
+    """The environment the C programs run in: the system ICD loader pointed at pyopencl's PoCL
+    (POCL_CACHE_DIR as the Python host set it, so both share compiled kernels)."""
     driver = _pocl_driver()
     if driver is None:
         pytest.skip("pyopencl's PoCL driver (libpocl*.so) not found: no device for the C programs")
-    build = tmp_path_factory.mktemp("host-build")
-    # the built-in kernel copy is taken from where the Python host reads its kernels
-    conf = _run(["cmake", "-S", str(HOST), "-B", str(build), "-DCMAKE_BUILD_TYPE=Release",
-                 f"-DOCLSHADE_KERNEL_DIR={_kernel_root()}"])
+    icd = tmp_path_factory.mktemp("icd")
+    (icd / "pocl.icd").write_text(f"{driver}\n")
+    env = dict(os.environ, OCL_ICD_VENDORS=str(icd))
+    env.pop("OCL_ICD_FILENAMES", None)
+    return env
+
+
+def configure(source: Path, build: Path, *options: str) -> None:
+    """cmake configure; skips when CMake finds no OpenCL or no compiler, fails otherwise."""
+    conf = _run(["cmake", "-S", str(source), "-B", str(build), "-DCMAKE_BUILD_TYPE=Release", *options])
     if conf.returncode != 0:
         text = conf.stdout + conf.stderr
         missing = [line.strip() for line in text.splitlines() if "Could NOT find OpenCL" in line]
@@ -69,13 +74,28 @@ def host(tmp_path_factory) -> dict:
                         "and ocl-icd-opencl-dev")
         if "CMAKE_C_COMPILER" in text:
             pytest.skip("CMake found no working C compiler")
-        pytest.fail("cmake configure of host/ failed:\n" + text[-4000:])
-    made = _run(["cmake", "--build", str(build), "--parallel", "2"])
-    assert made.returncode == 0, "build of host/ failed:\n" + (made.stdout + made.stderr)[-4000:]
-    icd = tmp_path_factory.mktemp("icd")
-    (icd / "pocl.icd").write_text(f"{driver}\n")
-    env = dict(os.environ, OCL_ICD_VENDORS=str(icd))
-    env.pop("OCL_ICD_FILENAMES", None)
+        pytest.fail(f"cmake configure of {source} failed:\n" + text[-4000:])
+
+
+def cmake_build(build: Path, *targets: str) -> None:
+    made = _run(["cmake", "--build", str(build), "--parallel", "2", *(a for t in targets for a in ("--target", t))])
+    assert made.returncode == 0, f"build in {build} failed:\n" + (made.stdout + made.stderr)[-4000:]
+
+
+@pytest.fixture(scope="session")
+def host(tmp_path_factory) -> dict:
+    """Build host/ once (shared library); returns the build folder and the environment to run its programs in."""
+    if not (HOST / "CMakeLists.txt").is_file():
+        pytest.skip("host/ is not in this tree (installed package only)")
+    if shutil.which("cmake") is None:
+        pytest.skip("cmake not found: the C host API cannot be built")
+    if not any(shutil.which(c) for c in (os.environ.get("CC") or "cc", "gcc", "clang")):
+        pytest.skip("no C compiler (cc, gcc, clang) found")
+    env = build_env(tmp_path_factory)
+    build = tmp_path_factory.mktemp("host-build")
+    # the built-in kernel copy is taken from where the Python host reads its kernels
+    configure(HOST, build, f"-DOCLSHADE_KERNEL_DIR={_kernel_root()}", "-DBUILD_SHARED_LIBS=ON")
+    cmake_build(build)
     return {"build": build, "env": env}
 
 
@@ -134,7 +154,7 @@ def test_c_host_matches_python_host(host: dict, tmp_path: Path, case: str) -> No
         return np.fromfile(out / name, dtype)
 
     # the very program sources (so the two hosts even share PoCL's binary cache)
-    for name in ("pyramid.cl", "shadow.cl"):
+    for name in PROGRAMS:
         assert (out / name).read_text(encoding="utf-8") == kernel_source(name), name
     # the heights the kernels read, and the pyramid, bit for bit
     assert load("offset.f64", np.float64)[0] == hm.offset
@@ -183,9 +203,13 @@ def test_c_error_paths_and_build_options(host: dict) -> None:
     device = get_runtime().device
     if device.name != name:   # the C programs run on the first device PoCL lists
         device = next(d for p in cl.get_platforms() for d in p.get_devices() if d.name == name)
-    # (the C host has the knobs lanes, run and group; it keeps the library's built-ins)
     rule = rule_values(TUNING, device)
     assert default == {k: rule[k] for k in default}, (default, device)
+    # every knob the C host has starts with the Python host's rule for the device
+    knobs = [line.split()[1:] for line in lines if line.startswith("default_knob ")]
+    assert len(knobs) == 16
+    for fam, name, value in knobs:
+        assert int(value) == rule_values(family(fam), device)[name], (fam, name)
     assert tuned == {"lanes": 4, "run": 16, "group": 16}
     # build options: no packets; the handle's (ray packets for exact and maxmip iff lanes > 0);
     # after oclshade_set_tuning(lanes 4, run 16): all the Python host's for the same knobs

@@ -64,13 +64,19 @@ int main(int argc, char **argv)
     cl_mem d_mask = clCreateBuffer(ctx, CL_MEM_WRITE_ONLY, n, NULL, &err);
     if (err != CL_SUCCESS) { fprintf(stderr, "clCreateBuffer failed: %d\n", (int)err); return 1; }
 
-    TRY(oclshade_enqueue_extrema_pyramid(lib, queue, d_heights, rows, cols, d_pyramid, d_offsets, 0, NULL, NULL));
+    const oclshade_field heights_field = oclshade_field_of(d_heights);   /* packed at offset 0: no scratch */
+    TRY(oclshade_enqueue_extrema_pyramid(lib, queue, &heights_field, rows, cols, d_pyramid, d_offsets, NULL, 0, NULL, NULL));
     oclshade_shadow_params p;
     oclshade_shadow_params_init(&p);
-    p.heights = d_heights; p.rows = rows; p.cols = cols; p.dx = p.dy = cell;
+    p.heights = heights_field; p.rows = rows; p.cols = cols; p.dx = p.dy = cell;
     p.pyramid = d_pyramid; p.offsets = d_offsets;
     p.azimuth = atof(argv[5]); p.elevation = atof(argv[6]);
-    p.mask = d_mask;
+    p.mask = oclshade_field_of(d_mask);
+    size_t scratch_bytes = 0;                 /* the exact method's far-field certificates */
+    TRY(oclshade_shadows_scratch_size(lib, &p, &scratch_bytes));
+    cl_mem d_scratch = scratch_bytes ? clCreateBuffer(ctx, CL_MEM_READ_WRITE, scratch_bytes, NULL, &err) : NULL;
+    if (err != CL_SUCCESS) { fprintf(stderr, "clCreateBuffer failed: %d\n", (int)err); return 1; }
+    p.scratch = d_scratch;
     TRY(oclshade_enqueue_shadows(lib, queue, &p, 0, NULL, NULL));
     err = clEnqueueReadBuffer(queue, d_mask, CL_TRUE, 0, n, mask, 0, NULL, NULL);
     if (err != CL_SUCCESS) { fprintf(stderr, "clEnqueueReadBuffer failed: %d\n", (int)err); return 1; }
@@ -84,6 +90,7 @@ int main(int argc, char **argv)
     oclshade_destroy(lib);
     clReleaseMemObject(d_heights); clReleaseMemObject(d_pyramid);
     clReleaseMemObject(d_offsets); clReleaseMemObject(d_mask);
+    if (d_scratch) clReleaseMemObject(d_scratch);
     clReleaseCommandQueue(queue);
     clReleaseContext(ctx);
     free(raw); free(heights); free(mask);

@@ -2,52 +2,68 @@
  * existing OpenCL pipeline.
  *
  * The library works on the caller's cl_context, cl_device_id and
- * cl_command_queue and on caller-owned cl_mem buffers; it allocates no device
- * memory.  It builds the kernels of kernels/ with the same -D options as the
- * Python host (oclshade/shadows.py, oclshade/pyramid.py), caches each built
- * variant in the handle, and enqueues:
- *   - the extrema pyramid of a heightmap (kernels/pyramid.cl), all levels in
- *     one buffer plus the level-offset table, exactly as oclshade/pyramid.py;
- *   - the heightmap-space shadow pass (kernels/shadow.cl): methods exact,
- *     paper, maxmip, dda; outputs mask, self-shadow flag, shadow coefficient.
- * Results are bit-identical to the Python host's on the same device (the sun
- * ray is rounded exactly as oclshade/sun.py's Sun.ray).  Conventions
- * (north-up rows, azimuth clockwise from north, output codes) are those of
- * the project README; buffer layouts are in the ABI comments at the top of
- * kernels/pyramid.cl and kernels/shadow.cl.
+ * cl_command_queue and on caller-owned cl_mem buffers.  It builds the kernels
+ * of kernels/ with the same -D options as the Python host, caches each built
+ * variant in the handle, and enqueues, one entry point per kernel family:
+ *   - the extrema pyramid of a heightmap and its mean mip pyramid (kernels/pyramid.cl);
+ *   - heightmap-space shadows: mask, self-shadow flag, shadow coefficient (kernels/shadow.cl);
+ *   - the terrain G-buffer of a camera, and the dilated levels it reads (kernels/terrain.cl);
+ *   - per-pixel shadows over a G-buffer at any level of detail (kernels/shadow.cl);
+ *   - screen-space ambient occlusion with its blurs (kernels/ssao.cl);
+ *   - the final frame (kernels/compose.cl).
+ * Results are bit-identical to the Python host's on the same device; the
+ * host-side maths (sun rays, cameras, SSAO sample tables, coarse grids) is
+ * ported from the Python host operation by operation.  Conventions (north-up
+ * rows, azimuth clockwise from north, output codes, the G-buffer's frames)
+ * are those of the project README and oclshade/gbuffer.py; buffer layouts are
+ * in the ABI comments at the top of each kernel file (kernels/).  host/README.md gives
+ * each entry point's preconditions.
  *
- * Typical use (error checks omitted; see host/examples/shadow_mask.c):
+ * Memory.  The library allocates no device memory (CLBlast's convention).
+ * Entry points that need working memory take a caller-owned `scratch` buffer
+ * and have a size query (oclshade_*_scratch_size: 0 when none is needed,
+ * then scratch may be NULL); the library makes sub-buffer views of it
+ * (clCreateSubBuffer: views, no allocation), each at a multiple of the
+ * device's CL_DEVICE_MEM_BASE_ADDR_ALIGN.  A scratch buffer may be reused
+ * by every call whose commands are ordered after the previous user's (an
+ * in-order queue, or events).  Heightmap and G-buffer fields are
+ * oclshade_field: a buffer, a byte offset and a row pitch; a field packed at
+ * offset 0 is used in place, any other is copied into the scratch
+ * (clEnqueueCopyBufferRect; inputs before the kernels, outputs after them).
+ *
+ * Typical use (error checks omitted; see host/examples/render_frame.c):
  *
  *     oclshade *lib;
  *     oclshade_create(context, device, NULL, &lib);     // NULL: built-in kernel copy
- *     oclshade_set_tuning(lib, &measured);              // optional: values `oclshade tune` measured
  *     oclshade_relative_heights(dem, rows * cols, rel, &offset);  // float64 -> relative float32
- *     // heights: rows*cols floats holding rel; layout from oclshade_pyramid_layout_for
- *     oclshade_enqueue_extrema_pyramid(lib, queue, heights, rows, cols, pyr, offs, 0, NULL, NULL);
+ *     oclshade_field h = oclshade_field_of(heights);     // rows*cols floats holding rel
+ *     oclshade_enqueue_extrema_pyramid(lib, queue, &h, rows, cols, pyr, offs, NULL, 0, NULL, NULL);
  *     oclshade_shadow_params p;
  *     oclshade_shadow_params_init(&p);
- *     p.heights = heights; p.rows = rows; p.cols = cols; p.dx = 30; p.dy = 30;
+ *     p.heights = h; p.rows = rows; p.cols = cols; p.dx = 30; p.dy = 30;
  *     p.pyramid = pyr; p.offsets = offs; p.azimuth = 315; p.elevation = 20;
- *     p.mask = mask;                                  // NULL outputs are not computed
+ *     p.mask = oclshade_field_of(mask);              // buffer NULL: not computed
+ *     size_t bytes;
+ *     oclshade_shadows_scratch_size(lib, &p, &bytes); // certificates of exact / maxmip
+ *     p.scratch = scratch;                            // a buffer of >= bytes
  *     oclshade_enqueue_shadows(lib, queue, &p, 0, NULL, NULL);
  *     ...
  *     oclshade_destroy(lib);
  *
  * Errors.  Every function that can fail returns an oclshade_status;
- * oclshade_last_error() gives the message of the handle's latest failure (the
- * argument at fault and the value expected, or the OpenCL call and its error
- * code, or the compiler log of a failed build).  On failure an enqueue
- * function may already have enqueued some of its commands; its outputs are
- * then undefined and no event is returned.
+ * oclshade_last_error() gives the message of the calling thread's latest
+ * failure on the handle (the argument at fault and the value expected, or the
+ * OpenCL call and its error code, or the compiler log of a failed build).
+ * On failure an enqueue function may already have enqueued some of its
+ * commands; its outputs are then undefined and no event is returned.
  *
- * Thread safety.  The pure host functions (layouts, sun parameters, relative
- * heights) are reentrant.  One handle may be used from several threads at
- * once: calls on it serialise on an internal lock (held during a program
- * build, and around setting a kernel's arguments and enqueueing it, as the
- * OpenCL specification requires for a shared cl_kernel).  oclshade_last_error
- * reports the handle's latest failure, whichever thread made it: threads that
- * need their own messages use their own handles (builds are per handle).
- * Functions take no locks across handles; the library has no global state.
+ * Thread safety.  The pure host functions (layouts, sun, camera, tables,
+ * relative heights) are reentrant.  One handle may be used from several
+ * threads at once: builds, knobs and each kernel's argument setting and
+ * enqueueing serialise on the handle's lock (as the OpenCL specification
+ * requires for a shared cl_kernel); error messages are kept per thread (a
+ * thread reads its own).  Functions take no locks across handles; the
+ * library has no global state.
  *
  * Kernel sources.  The handle reads them once, at creation: from a directory
  * (the repository's kernels/, or the installed Python package's
@@ -55,35 +71,32 @@
  * copy compiled into the library by CMake from kernels/ (the default).  The
  * library expands `#include "name"` lines itself (each file once), as the
  * Python host does, so no -I path is passed to the OpenCL compiler and the
- * cache key is the full source text.
+ * program text is byte-identical to the Python host's.
  *
  * Queues may be in-order or out-of-order: the commands of one enqueue call
  * are chained with events, the first waits on the caller's wait list and the
  * returned event completes when all of them have.  The caller orders separate
- * calls (an in-order queue, or the events).
+ * calls (an in-order queue, or the events).  Nothing blocks: no clFinish, no
+ * blocking transfer; small tables (offsets, projection rows, sample tables)
+ * are written with clEnqueueFillBuffer, which copies them at the call.
  *
- * Tuning.  How the shadow pass is built and launched (never what it
- * computes: every legal value gives the same results bit for bit) is set by
- * three knobs, oclshade_tuning, the Python host's "shadow" tuning family
- * (oclshade/shadows.py TUNING): packet_lanes (rays per work-item on vector
- * lanes for EXACT and MAXMIP, 0 = one ray per work-item), packet_run (cells
- * per ray-packet work-item) and group (work-group size).  A new handle starts
- * with oclshade_default_tuning(device), the Python host's rule for a device
- * without a measured entry (oclshade/tuning/rules.py: on a CPU device the
- * widest of 4 / 8 / 16 lanes within CL_DEVICE_NATIVE_VECTOR_WIDTH_FLOAT;
- * elsewhere no packets; runs of 1024, groups of 64).  The values Python's
- * tuner measured for a device are printed by `oclshade devices` (`--json`:
- * tuning.shadow.values) and written by `oclshade tune` into the user entry
- * (JSON under ~/.cache/oclshade/tuning/, families.shadow.values); pass them
- * to oclshade_set_tuning (lanes -> packet_lanes, run -> packet_run, group).
- * Version 0.2 added the tuning (OCLSHADE_VERSION_MINOR 2).
+ * Tuning.  How each family is built and launched (never what it computes:
+ * every legal value gives the same results bit for bit) is set by knobs, the
+ * Python host's tuning families (oclshade/tuning): oclshade_set_knob(lib,
+ * family, knob, value) with the names `oclshade devices --json` prints
+ * ([i].tuning.<family>.values).  A new handle starts with the Python host's
+ * rule for a device without a measured entry.  oclshade_tuning is the 0.2
+ * interface to three of the shadow family's knobs.
+ *
+ * Version 0.3 (this header) changed 0.2's signatures: heights and outputs are
+ * oclshade_field, enqueue calls that need working memory take a scratch
+ * buffer, errors are per thread; see host/README.md "Changes".
  */
 #ifndef OCLSHADE_H
 #define OCLSHADE_H
 
-#ifndef CL_TARGET_OPENCL_VERSION
-#define CL_TARGET_OPENCL_VERSION 120
-#endif
+/* The header needs only OpenCL's types: it leaves CL_TARGET_OPENCL_VERSION to the
+ * includer (the library itself is built with 120 and calls only OpenCL 1.2 functions). */
 #if defined(__APPLE__)
 #include <OpenCL/cl.h>
 #else
@@ -96,14 +109,13 @@ extern "C" {
 #endif
 
 #define OCLSHADE_VERSION_MAJOR 0
-#define OCLSHADE_VERSION_MINOR 2
+#define OCLSHADE_VERSION_MINOR 3
 #define OCLSHADE_VERSION_PATCH 0
 
 /* Status codes.  OCLSHADE_OK is 0.  A failure of a call on a handle leaves
- * its message in oclshade_last_error(); the pure host functions (no handle:
- * layouts, sun parameters, relative heights, build options) only return
- * OCLSHADE_INVALID_ARGUMENT, their arguments being few and documented
- * (oclshade_default_tuning, which queries the device, also OPENCL_ERROR). */
+ * its message in oclshade_last_error(); the pure host functions (no handle)
+ * only return OCLSHADE_INVALID_ARGUMENT (oclshade_default_tuning, which
+ * queries the device, also OPENCL_ERROR). */
 typedef enum oclshade_status {
     OCLSHADE_OK = 0,
     OCLSHADE_INVALID_ARGUMENT = 1,  /* the message names the argument and the expected value */
@@ -113,7 +125,8 @@ typedef enum oclshade_status {
     OCLSHADE_OUT_OF_MEMORY = 5      /* a host allocation failed */
 } oclshade_status;
 
-/* Shadow traversal methods (kernels/shadow.cl, -D OCLS_METHOD). */
+/* Shadow traversal methods (kernels/shadow.cl, -D OCLS_METHOD), for heightmap-space and
+ * per-pixel shadows. */
 typedef enum oclshade_method {
     OCLSHADE_EXACT = 1,   /* equals the float64 reference except at float32 ties */
     OCLSHADE_PAPER = 2,   /* paper 000 Algo 3 as printed (approximate, for comparison) */
@@ -130,7 +143,7 @@ typedef enum oclshade_method {
 /* Output codes (kernels/shadow.cl). */
 #define OCLSHADE_MASK_LIT 0
 #define OCLSHADE_MASK_SHADOW 1
-#define OCLSHADE_NODATA 255       /* mask and self; the coefficient is NaN */
+#define OCLSHADE_NODATA 255       /* mask, self and per-pixel flag and lod; the coefficient is NaN */
 
 #define OCLSHADE_DEFAULT_K_DARK 0.25
 #define OCLSHADE_DEFAULT_K_BRIGHT 0.65
@@ -141,19 +154,38 @@ typedef enum oclshade_method {
 typedef struct oclshade oclshade;   /* opaque library handle */
 
 /* An in-memory kernel source: name as in `#include "name"` and the file list
- * below ("common.h", "pyramid.cl", "shadow.cl"), text NUL-terminated. */
+ * (common.h, pyramid.cl, shadow.cl, terrain.cl, ssao.cl, compose.cl), text NUL-terminated. */
 typedef struct oclshade_source {
     const char *name;
     const char *text;
 } oclshade_source;
 
+/* A 2-D field of a buffer: rows of elements, element (0, 0) at byte `offset`, row r at
+ * offset + r * row_pitch.  row_pitch 0 means packed (the row's size).  Buffers of the
+ * handle's context; the element type and count per row are the entry point's. */
+typedef struct oclshade_field {
+    cl_mem buffer;
+    size_t offset;
+    size_t row_pitch;
+} oclshade_field;
+
+/* The whole of a buffer as a packed field (offset 0, pitch 0). */
+static inline oclshade_field oclshade_field_of(cl_mem buffer)
+{
+    oclshade_field f;
+    f.buffer = buffer;
+    f.offset = 0;
+    f.row_pitch = 0;
+    return f;
+}
+
 /* ------------------------------------------------------------------ handle */
 
 /* Create a handle for (context, device).  kernel_dir: a directory holding
- * common.h, pyramid.cl and shadow.cl, or NULL for the copy built into the
- * library.  The context and device are retained until oclshade_destroy.
- * Sources are read here; programs are built on first use (or
- * oclshade_prepare).
+ * common.h, pyramid.cl, shadow.cl, terrain.cl, ssao.cl and compose.cl, or
+ * NULL for the copy built into the library.  The context and device are
+ * retained until oclshade_destroy.  Sources are read here; programs are built
+ * on first use (or oclshade_prepare).
  *
  * *out is set whenever the handle could be allocated, also on failure: then
  * it is a failed handle whose only uses are oclshade_last_error and
@@ -162,7 +194,8 @@ typedef struct oclshade_source {
 oclshade_status oclshade_create(cl_context context, cl_device_id device, const char *kernel_dir,
                                 oclshade **out);
 
-/* As oclshade_create, with the kernel sources given as strings (copied). */
+/* As oclshade_create, with the kernel sources given as strings (copied); every file of the
+ * list above must be given. */
 oclshade_status oclshade_create_from_sources(cl_context context, cl_device_id device,
                                              const oclshade_source *sources, size_t count,
                                              oclshade **out);
@@ -171,12 +204,13 @@ oclshade_status oclshade_create_from_sources(cl_context context, cl_device_id de
  * Enqueued commands keep their kernels alive (OpenCL reference counting). */
 void oclshade_destroy(oclshade *lib);
 
-/* Message of the handle's latest failure, "" if none; never NULL.  Valid
- * until the next call on the handle.  lib NULL gives a fixed message. */
+/* Message of the calling thread's latest failure on the handle, "" if none; never NULL.
+ * Valid until the thread's next call on the handle.  A failed handle gives its creation
+ * failure to every thread; lib NULL gives a fixed message. */
 const char *oclshade_last_error(const oclshade *lib);
 
-/* The OpenCL error code of the latest OCLSHADE_OPENCL_ERROR or
- * OCLSHADE_BUILD_FAILED (CL_SUCCESS if the latest failure was not OpenCL's). */
+/* The OpenCL error code of the calling thread's latest OCLSHADE_OPENCL_ERROR or
+ * OCLSHADE_BUILD_FAILED (CL_SUCCESS if that failure was not OpenCL's). */
 cl_int oclshade_last_cl_error(const oclshade *lib);
 
 /* "OCLSHADE_OK", "OCLSHADE_INVALID_ARGUMENT", ... ("unknown status" otherwise). */
@@ -186,85 +220,74 @@ const char *oclshade_status_name(oclshade_status status);
  * when linked against another build). */
 const char *oclshade_version(void);
 
-/* The source text the handle builds for file "pyramid.cl" or "shadow.cl",
- * includes expanded (byte-identical to the Python host's
- * oclshade.runtime.kernel_source for the same files), or NULL for another
- * name or a failed handle.  Owned by the handle.  For logs, offline
- * compilers and users building the kernels themselves. */
+/* The source text the handle builds for a program file ("pyramid.cl", "shadow.cl",
+ * "terrain.cl", "ssao.cl", "compose.cl"), includes expanded (byte-identical to the Python
+ * host's oclshade.runtime.kernel_source), or NULL for another name or a failed handle.
+ * Owned by the handle.  For logs, offline compilers and users building the kernels
+ * themselves. */
 const char *oclshade_program_source(const oclshade *lib, const char *file);
 
-/* Build the programs a later enqueue with this method and output set will
- * use (outputs: OCLSHADE_OUT_* bits, at least one), and the pyramid program,
- * so that no build happens inside a frame.  Optional.  Built with the
- * handle's current tuning: call it after oclshade_set_tuning. */
-oclshade_status oclshade_prepare(oclshade *lib, oclshade_method method, unsigned outputs);
+/* ------------------------------------------------------------------ knobs */
 
-/* The -D options and the program file an enqueue with (method, outputs) builds
- * without ray packets (packet_lanes 0),
- * e.g. "-DOCLS_CERT=16 -DOCLS_CERT_K=6 -DOCLS_METHOD=1 -DOCLS_OUT_MASK -cl-std=CL1.2"
- * (the Python host's, sorted by name; OCLS_CERT only for EXACT and MAXMIP).  Writes at most size bytes including the NUL; returns the
- * length the full string needs (snprintf-style), or 0 for a bad method or
- * outputs.  For logs and for users building kernels/shadow.cl themselves. */
-size_t oclshade_shadow_build_options(oclshade_method method, unsigned outputs, char *buf, size_t size);
+/* Set one tuning knob of the handle: family and knob as the Python host names them
+ * (`oclshade devices --json`: [i].tuning.<family>.values.<knob>).  The C host has:
+ *   pyramid         base_lanes 1|4|8|16, own_builtins 0|1
+ *   shadow          lanes 0|4|8|16, run 16|64|256|1024, group 16|64|256, cert_tile 16|32|64,
+ *                   own_builtins 0|1
+ *   terrain         descend 1..5, leaf 0..4, group 16|64|256, own_builtins 0|1
+ *   screen_shadows  group 16|64|256, own_builtins 0|1
+ *   ssao            lanes 4|8|16, group 16|64|256, own_builtins 0|1
+ * (the Python pyramid knob in_place, a host-memory choice, has no C counterpart).  An
+ * unknown family, knob or value is INVALID_ARGUMENT naming the legal ones; nothing
+ * changes then.  Applies to the commands enqueued afterwards (programs built with other
+ * values stay cached in the handle).  terrain leaf also sets the dilated levels' layout:
+ * rebuild them (oclshade_enqueue_dilated_levels) after changing it. */
+oclshade_status oclshade_set_knob(oclshade *lib, const char *family, const char *knob, int value);
 
-/* The options this handle builds for (method, outputs) with its current
- * tuning: where its packet_lanes > 0, EXACT and MAXMIP add
- * -DOCLS_LANES=<packet_lanes> (after -DOCLS_CERT_K) and
- * -DOCLS_PACKET=<packet_run> (before -cl-std) and launch shadow_cells_packet,
- * packet_lanes rays per work-item on vector lanes, with the same results bit
- * for bit (the Python host's ShadowFeatures(method, outputs, lanes=, run=));
- * otherwise oclshade_shadow_build_options.  Returns as that one, and 0 for a
- * failed handle. */
-size_t oclshade_shadow_build_options_for(const oclshade *lib, oclshade_method method, unsigned outputs,
-                                         char *buf, size_t size);
+/* The knob's current value into *value. */
+oclshade_status oclshade_get_knob(const oclshade *lib, const char *family, const char *knob, int *value);
 
-/* ------------------------------------------------------------------ tuning */
+/* The knob's value for a new handle on `device`: the Python host's rule
+ * (oclshade/tuning/rules.py): on a CPU device, shadow lanes and pyramid base_lanes are the
+ * widest of 4 / 8 / 16 within the float lanes of the compiler's target (PoCL's HSTR
+ * target name, else CL_DEVICE_NATIVE_VECTOR_WIDTH_FLOAT; below 4: 0 resp. 1); every
+ * other knob its safe value.  Reentrant. */
+oclshade_status oclshade_default_knob(cl_device_id device, const char *family, const char *knob, int *value);
 
-/* The shadow pass's performance knobs (see "Tuning" above); the Python
- * host's ShadowCaster(knobs={"lanes":, "run":, "group":}).  Legal values: */
+/* The shadow family's knobs lanes, run and group (the 0.2 interface; oclshade_set_knob
+ * sets the same values). */
 typedef struct oclshade_tuning {
-    int packet_lanes;  /* 0, 4, 8 or 16: rays per work-item on vector lanes for EXACT and MAXMIP
-                          (-D OCLS_LANES, kernel shadow_cells_packet); 0: one ray per work-item
-                          (shadow_cells).  Best at the CPU's native float vector width. */
-    int packet_run;    /* 16, 64, 256 or 1024: cells of a row per ray-packet work-item
-                          (-D OCLS_PACKET); read only where packet_lanes > 0 */
-    int group;         /* 16, 64 or 256: the shadow pass's work-group size in work-items (the
-                          largest power of two <= group that the device and kernel accept, at
-                          most 16 wide, as the Python host's Runtime.grid_2d) */
+    int packet_lanes;  /* shadow lanes: 0, 4, 8 or 16 rays per work-item on vector lanes for
+                          EXACT and MAXMIP (-D OCLS_LANES, kernel shadow_cells_packet); 0: one
+                          ray per work-item (shadow_cells) */
+    int packet_run;    /* shadow run: 16, 64, 256 or 1024 cells of a row per ray-packet
+                          work-item (-D OCLS_PACKET); read only where packet_lanes > 0 */
+    int group;         /* shadow group: 16, 64 or 256 work-items per group of the shadow pass */
 } oclshade_tuning;
 
-/* The values a new handle on `device` starts with: the Python host's rule
- * for a device without a measured entry (oclshade/tuning/rules.py) from
- * CL_DEVICE_TYPE and CL_DEVICE_NATIVE_VECTOR_WIDTH_FLOAT: on a CPU device
- * packet_lanes is the widest of 4, 8, 16 within the native width (below 4:
- * 0), on other devices 0; packet_run 1024; group 64.  Reentrant (no handle).
- * INVALID_ARGUMENT for a NULL device or out, OPENCL_ERROR if the device
- * query fails; *out (if not NULL) then holds the safe values (0, 1024, 64). */
+/* The rule's values of the three (see oclshade_default_knob).  INVALID_ARGUMENT for a NULL
+ * device or out, OPENCL_ERROR if the device query fails; *out (if not NULL) then holds the
+ * safe values (0, 1024, 64). */
 oclshade_status oclshade_default_tuning(cl_device_id device, oclshade_tuning *out);
-
-/* Set the handle's tuning, e.g. the values `oclshade tune` measured.  Every
- * field is checked (INVALID_ARGUMENT naming the field and its legal values;
- * nothing is changed then).  Applies to the shadow passes built afterwards:
- * built shadow variants whose knobs change are dropped (under the handle's
- * lock; commands already enqueued are unaffected) and rebuilt on next use
- * or oclshade_prepare.  Setting the current values is a no-op. */
+/* Set the three at once (each checked; nothing changes on a bad one). */
 oclshade_status oclshade_set_tuning(oclshade *lib, const oclshade_tuning *tuning);
-
-/* The handle's current tuning into *out (INVALID_ARGUMENT for NULL
- * arguments; a failed handle returns its creation status). */
 oclshade_status oclshade_get_tuning(const oclshade *lib, oclshade_tuning *out);
 
 /* ----------------------------------------------------------- heights (host) */
 
 /* float32(heights[i] - offset) into out, subtracting in float64, with
- * offset = (min + max) / 2 of the finite heights (0 if none), exactly as the
+ * offset = min / 2 + max / 2 of the finite heights (0 if none), exactly as the
  * Python host's Heightmap.relative32: the heights every kernel reads.  NaN
- * stays NaN (nodata); an infinite height is INVALID_ARGUMENT.  offset_out
- * may be NULL.  Reentrant. */
+ * stays NaN (nodata); an infinite height, or one whose relative value overflows float32, is
+ * INVALID_ARGUMENT.  offset_out may be NULL.  Reentrant. */
 oclshade_status oclshade_relative_heights(const double *heights, size_t count, float *out,
                                           double *offset_out);
 
-/* ----------------------------------------------------------- pyramid */
+/* (min, max) of the finite values of rel (the terrain caster's height range, the Python
+ * host's Heightfield.height_range); (0, 0) when none is finite.  Reentrant. */
+oclshade_status oclshade_height_range(const float *rel, size_t count, float *lo, float *hi);
+
+/* ----------------------------------------------------------- extrema pyramid */
 
 /* Layout of the extrema pyramid of a rows x cols map (kernels/pyramid.cl):
  * levels 1..levels-1 stored back to back in one buffer of float2 texels
@@ -282,25 +305,61 @@ typedef struct oclshade_pyramid_layout {
 /* Fill *out for a rows x cols map (rows, cols >= 1, rows * cols < 2^31). Reentrant. */
 oclshade_status oclshade_pyramid_layout_for(int rows, int cols, oclshade_pyramid_layout *out);
 
-/* Enqueue the build of the extrema pyramid of `heights` (rows*cols float32,
- * relative heights, NaN = nodata) into `pyramid` (>= pyramid_bytes) and write
- * the level-offset table into `offsets` (>= offsets_bytes, int32) with
- * clEnqueueFillBuffer: the call neither blocks nor keeps host memory.  Both
- * buffers must be writable by kernels; heights readable.  Commands:
- * levels-1 fills, one extrema_base launch and levels-2 extrema_reduce
- * launches, chained.  event (may be NULL) completes when all have. */
-oclshade_status oclshade_enqueue_extrema_pyramid(oclshade *lib, cl_command_queue queue, cl_mem heights,
-                                                 int rows, int cols, cl_mem pyramid, cl_mem offsets,
+/* Scratch bytes oclshade_enqueue_extrema_pyramid needs: 0 for heights packed at offset 0,
+ * else rows * cols * 4 (their packed copy). */
+oclshade_status oclshade_extrema_pyramid_scratch_size(oclshade *lib, const oclshade_field *heights,
+                                                      int rows, int cols, size_t *bytes);
+
+/* Enqueue the build of the extrema pyramid of `heights` (rows x cols float32, relative
+ * heights, NaN = nodata) into `pyramid` (>= pyramid_bytes) and write the level-offset table
+ * into `offsets` (>= offsets_bytes, int32) with clEnqueueFillBuffer.  pyramid and offsets
+ * are written, so neither may be CL_MEM_READ_ONLY nor overlap heights or each other.
+ * Commands: levels-1 fills, one extrema_base launch and levels-2 extrema_reduce launches
+ * (after a copy of pitched heights into scratch), chained.  event (may be NULL) completes
+ * when all have.  Knobs: pyramid base_lanes, own_builtins. */
+oclshade_status oclshade_enqueue_extrema_pyramid(oclshade *lib, cl_command_queue queue,
+                                                 const oclshade_field *heights, int rows, int cols,
+                                                 cl_mem pyramid, cl_mem offsets, cl_mem scratch,
                                                  cl_uint num_events_in_wait_list,
                                                  const cl_event *event_wait_list, cl_event *event);
 
+/* ----------------------------------------------------------- mean mip pyramid */
+
+/* Layout of the mean mip pyramid of a rows x cols float32 array (kernels/pyramid.cl
+ * mip_reduce; oclshade/pyramid.py build_mip_levels): level 0 is the array itself,
+ * level l has ceil(rows / 2^l) x ceil(cols / 2^l) floats, down to 1 x 1.  The mip buffer
+ * holds levels 1..levels-1, each packed, level l at byte offsets[l] (a multiple of the
+ * device's CL_DEVICE_MEM_BASE_ADDR_ALIGN, so a layout is per handle). */
+typedef struct oclshade_mip_layout {
+    int levels;                           /* counting level 0; 1 for a 1 x 1 array */
+    int level_rows[OCLSHADE_MAX_LEVELS];
+    int level_cols[OCLSHADE_MAX_LEVELS];
+    size_t offsets[OCLSHADE_MAX_LEVELS];  /* bytes; [0] = 0 (level 0 is not in the buffer) */
+    size_t bytes;                         /* size of the mip buffer (0 for a 1 x 1 array) */
+} oclshade_mip_layout;
+
+oclshade_status oclshade_mip_layout_for(oclshade *lib, int rows, int cols, oclshade_mip_layout *out);
+
+/* Scratch bytes oclshade_enqueue_mip_pyramid needs: 0 for values packed at offset 0, else a
+ * packed copy. */
+oclshade_status oclshade_mip_pyramid_scratch_size(oclshade *lib, const oclshade_field *values, int rows,
+                                                  int cols, size_t *bytes);
+
+/* Enqueue the mean mip pyramid of `values` (rows x cols float32, NaN = no data) into `mip`
+ * (>= layout.bytes; written): one mip_reduce launch per level, chained (each level is a
+ * sub-buffer view of mip).  Level l texel = the mean of the valid values among the (up to)
+ * 2 x 2 below, NaN if none (kernels/pyramid.cl). */
+oclshade_status oclshade_enqueue_mip_pyramid(oclshade *lib, cl_command_queue queue,
+                                             const oclshade_field *values, int rows, int cols, cl_mem mip,
+                                             cl_mem scratch, cl_uint num_events_in_wait_list,
+                                             const cl_event *event_wait_list, cl_event *event);
+
 /* ----------------------------------------------------------- sun (host) */
 
-/* The sun as the shadow kernel reads it, computed exactly as the Python host
- * (oclshade/sun.py Sun.ray and Sun.vector, oclshade/shadows.py): sin/cos
- * exact at multiples of 90 degrees and of equal magnitude at odd multiples
- * of 45, w = 1 exactly at elevation 45, each value rounded to float32 with
- * subnormals flushed to 0. */
+/* The sun as the shadow kernels read it, computed exactly as the Python host
+ * (oclshade/sun.py Sun.ray and Sun.vector): sin/cos exact at multiples of 90 degrees and of
+ * equal magnitude at odd multiples of 45, w = 1 exactly at elevation 45, each value
+ * rounded to float32 with subnormals flushed to 0. */
 typedef struct oclshade_sun {
     float ray[4];     /* (ux, uy, w, 0): cells per metre east and south, tan(elevation); 0s when mode != 0 */
     float vector[4];  /* unit vector to the sun (east, north, up, 0) */
@@ -312,39 +371,329 @@ typedef struct oclshade_sun {
 oclshade_status oclshade_sun_for(double azimuth, double elevation, double dx, double dy,
                                  oclshade_sun *out);
 
-/* ----------------------------------------------------------- shadows */
+/* The unit vector to the sun in float64 (east, north, up): oclshade/sun.py Sun.vector. */
+oclshade_status oclshade_sun_vector(double azimuth, double elevation, double out[3]);
+
+/* ----------------------------------------------------------- heightmap-space shadows */
 
 typedef struct oclshade_shadow_params {
-    cl_mem heights;             /* rows*cols float32 relative heights (the pyramid's), NaN = nodata */
+    oclshade_field heights;     /* rows x cols float32 relative heights (the pyramid's), NaN = nodata */
     int rows, cols;             /* map size; rows * cols < 2^31 */
     double dx, dy;              /* cell size east-west, north-south, in the unit of the heights */
     cl_mem pyramid, offsets;    /* from oclshade_enqueue_extrema_pyramid for these heights */
     double azimuth, elevation;  /* the sun, degrees (see oclshade_sun_for) */
     oclshade_method method;
     double k_dark, k_bright;    /* paper 000 eq. (1), each in [0, 1]; read only for the coefficient */
-    cl_mem mask;                /* rows*cols uchar: 1 shadow, 0 lit, 255 nodata; NULL = not computed */
-    cl_mem self_shadow;         /* rows*cols uchar: 1 sun at/below the tangent plane, 0 not, 255 nodata; or NULL */
-    cl_mem coefficient;         /* rows*cols float32: 1 lit, else k_dark + (k_bright - k_dark) sin(elev); NaN nodata; or NULL */
+    oclshade_field mask;        /* rows x cols uchar: 1 shadow, 0 lit, 255 nodata; buffer NULL = not computed */
+    oclshade_field self_shadow; /* rows x cols uchar: 1 sun at/below the tangent plane, 0 not, 255 nodata */
+    oclshade_field coefficient; /* rows x cols float32: 1 lit, else k_dark + (k_bright - k_dark) sin(elev); NaN nodata */
+    cl_mem scratch;             /* >= oclshade_shadows_scratch_size bytes, or NULL when that is 0 */
 } oclshade_shadow_params;
 
 /* Defaults: no buffers, 0 x 0, dx = dy = 1, sun (315, 45) as gdaldem,
  * OCLSHADE_EXACT, k_dark 0.25, k_bright 0.65. */
 void oclshade_shadow_params_init(oclshade_shadow_params *params);
 
-/* Enqueue one shadow pass (one launch of shadow_cells, global size (cols,
- * rows) rounded up to the local size, or with ray packets (the tuning's
- * packet_lanes > 0, EXACT and MAXMIP) of shadow_cells_packet, global size
- * (ceil(cols / packet_run), rows) rounded up; for EXACT and MAXMIP with the sun above
- * the horizon and below the zenith, preceded by one launch of shadow_certify
- * into a temporary buffer of far-field tile certificates, see
- * kernels/shadow.cl; the returned event is the last command's).  At least one output buffer must be
- * non-NULL; the program variant compiled is the one for that output set
- * (an output not asked for is not in the program).  Buffer sizes are checked
- * against rows, cols and the pyramid layout. */
+/* Scratch bytes oclshade_enqueue_shadows needs for these parameters: the far-field tile
+ * certificates of EXACT and MAXMIP (ceil(rows / t) * ceil(cols / t) * 6 floats, t the
+ * shadow cert_tile knob) and packed copies of fields that are not packed at offset 0. */
+oclshade_status oclshade_shadows_scratch_size(oclshade *lib, const oclshade_shadow_params *params,
+                                              size_t *bytes);
+
+/* Enqueue one shadow pass: for EXACT and MAXMIP with the sun above the horizon and below the
+ * zenith one launch of shadow_certify into the scratch, then one launch of shadow_cells
+ * (global size (cols, rows) rounded up to the local size), or with ray packets (the shadow
+ * lanes knob > 0, EXACT and MAXMIP) of shadow_cells_packet, global size (ceil(cols / run),
+ * rows) rounded up.  At least one output buffer must be non-NULL; the program variant
+ * compiled is the one for that output set (an output not asked for is not in the
+ * program).  Knobs: shadow lanes, run, group, cert_tile, own_builtins. */
 oclshade_status oclshade_enqueue_shadows(oclshade *lib, cl_command_queue queue,
                                          const oclshade_shadow_params *params,
                                          cl_uint num_events_in_wait_list,
                                          const cl_event *event_wait_list, cl_event *event);
+
+/* Build the programs a later oclshade_enqueue_shadows with this method and output set will
+ * use (outputs: OCLSHADE_OUT_* bits, at least one), and the extrema pyramid's, so that no
+ * build happens inside a frame.  Optional.  Built with the handle's current knobs. */
+oclshade_status oclshade_prepare(oclshade *lib, oclshade_method method, unsigned outputs);
+
+/* The -D options and the program file an enqueue with (method, outputs) builds
+ * without ray packets (lanes 0) and with the safe knobs,
+ * e.g. "-DOCLS_CERT=16 -DOCLS_CERT_K=6 -DOCLS_METHOD=1 -DOCLS_OUT_MASK -cl-std=CL1.2"
+ * (the Python host's, sorted by name; OCLS_CERT only for EXACT and MAXMIP).  Writes at most
+ * size bytes including the NUL; returns the length the full string needs (snprintf-style),
+ * or 0 for a bad method or outputs. */
+size_t oclshade_shadow_build_options(oclshade_method method, unsigned outputs, char *buf, size_t size);
+
+/* The options this handle builds for (method, outputs) with its current knobs (the Python
+ * host's ShadowFeatures(method, outputs, lanes=, run=, own_builtins=, cert_tile=)); 0 for a
+ * failed handle. */
+size_t oclshade_shadow_build_options_for(const oclshade *lib, oclshade_method method, unsigned outputs,
+                                         char *buf, size_t size);
+
+/* ----------------------------------------------------------- camera (host) */
+
+typedef enum oclshade_projection {
+    OCLSHADE_PERSPECTIVE = 0,
+    OCLSHADE_ORTHOGRAPHIC = 1
+} oclshade_projection;
+
+/* A camera in the frames of oclshade/gbuffer.py and oclshade/camera.py: world x east,
+ * y north, z up (metres; sample (i, j) at (j dx, -i dy, height)); view space right-handed,
+ * looking down -z; pixel (r, c) at NDC x = (2c + 1) / width - 1, y = 1 - (2r + 1) / height.
+ * Matrices are row-major (m[4 * row + col]) and act on column vectors. */
+typedef struct oclshade_camera {
+    int width, height;                /* pixels, 1..32768 */
+    oclshade_projection projection;
+    double view[16];                  /* world -> view (a rotation and a translation) */
+    double projection_matrix[16];     /* view -> clip, OpenGL conventions (NDC z in [-1, 1]) */
+    double sx, sy;                    /* pixel-ray slopes (perspective) or half extents (orthographic) */
+    double near_depth, far_depth;     /* near, far: the visible depths t = -z_view (not `near`/`far`: macros on Windows) */
+} oclshade_camera;
+
+/* oclshade.camera.Camera(position, look_at, width, height, up, fov, near, far, projection,
+ * ortho_height): up NULL is +z; fov (degrees, (0, 180)) is read for a perspective camera,
+ * ortho_height (metres, > 0) for an orthographic one; near > 0 (perspective) or >= 0
+ * (orthographic), far > near.  Every value computed in float64 in the Python host's order
+ * of operations. */
+oclshade_status oclshade_camera_look_at(const double position[3], const double look_at[3],
+                                        const double up[3], int width, int height,
+                                        oclshade_projection projection, double fov, double ortho_height,
+                                        double near_depth, double far_depth, oclshade_camera *out);
+
+/* A camera from an engine's matrices: view a rigid world -> view transform (orthonormal
+ * rotation within 1e-9, last row 0 0 0 1), projection an OpenGL symmetric perspective
+ * (row 3 = 0 0 -1 0, no off-centre terms) or orthographic (row 3 = 0 0 0 1) projection.
+ * sx, sy, near, far are recovered from it. */
+oclshade_status oclshade_camera_from_matrices(const double view[16], const double projection[16], int width,
+                                              int height, oclshade_camera *out);
+
+/* ----------------------------------------------------------- terrain G-buffer */
+
+/* Ray casters of kernels/terrain.cl (-D OCLS_METHOD). */
+typedef enum oclshade_caster {
+    OCLSHADE_CAST_BISECT = 1,  /* paper 004 voxel bisection (the default) */
+    OCLSHADE_CAST_MARCH = 2,   /* uniform steps (a baseline; misses thin crossings) */
+    OCLSHADE_CAST_DDA = 3      /* max-mipmap traversal (Tevs et al. 2008) */
+} oclshade_caster;
+
+/* The G-buffer (oclshade/gbuffer.py): width x height pixels per field, row-major from the
+ * top row.  Elements: position float4, normal float4, uv float2, uv_grad float4, depth
+ * float, albedo float4. */
+typedef struct oclshade_gbuffer {
+    oclshade_field position, normal, uv, uv_grad, depth, albedo;
+} oclshade_gbuffer;
+
+/* Layout of the dilated max levels bisection reads (kernels/terrain.cl terrain_dilate):
+ * levels first..levels-1 back to back (float), first = min(terrain leaf knob, levels-1),
+ * and a table of int2 (offset in floats, columns) per level 0..levels-1. */
+typedef struct oclshade_dilated_layout {
+    int levels;                           /* the extrema pyramid's, counting level 0 */
+    int first;                            /* the first level stored */
+    int level_rows[OCLSHADE_MAX_LEVELS];  /* ceil(Hp / 2^l), Hp = max(rows - 1, 1) */
+    int level_cols[OCLSHADE_MAX_LEVELS];
+    int offsets[OCLSHADE_MAX_LEVELS];     /* floats; 0 below first */
+    size_t bytes;                         /* the dilated buffer */
+    size_t table_bytes;                   /* the table buffer: levels * 8 */
+} oclshade_dilated_layout;
+
+/* For a rows x cols map with the handle's current terrain leaf knob. */
+oclshade_status oclshade_dilated_layout_for(oclshade *lib, int rows, int cols, oclshade_dilated_layout *out);
+
+oclshade_status oclshade_dilated_levels_scratch_size(oclshade *lib, const oclshade_field *heights, int rows,
+                                                     int cols, size_t *bytes);
+
+/* Enqueue terrain_dilate for every stored level into `dilated` (>= layout bytes) and write
+ * the table into `table` (>= table_bytes) with fills.  Once per map (and after a change
+ * of the terrain leaf knob); pyramid and offsets from oclshade_enqueue_extrema_pyramid. */
+oclshade_status oclshade_enqueue_dilated_levels(oclshade *lib, cl_command_queue queue,
+                                                const oclshade_field *heights, int rows, int cols,
+                                                cl_mem pyramid, cl_mem offsets, cl_mem dilated, cl_mem table,
+                                                cl_mem scratch, cl_uint num_events_in_wait_list,
+                                                const cl_event *event_wait_list, cl_event *event);
+
+typedef struct oclshade_terrain_params {
+    oclshade_field heights;     /* rows x cols float32 relative heights, NaN = hole */
+    int rows, cols;
+    double dx, dy;              /* cell sizes, metres */
+    double offset;              /* the heights' offset (oclshade_relative_heights) */
+    float hmin, hmax;           /* oclshade_height_range of the relative heights */
+    double radius;              /* > 0: the map on a sphere of this radius (paraboloid base); 0: plane */
+    cl_mem pyramid, offsets;    /* oclshade_enqueue_extrema_pyramid */
+    cl_mem dilated, dilated_table;  /* oclshade_enqueue_dilated_levels (read by bisect; may be NULL otherwise) */
+    oclshade_camera camera;
+    oclshade_caster method;
+    /* optional colour texture (-D OCLS_COLOUR), NULL for the hypsometric tint: float4 linear
+     * RGBA mip levels back to back and an int4 (offset in float4, cols, rows, 0) per level
+     * (kernels/terrain.cl; oclshade/terrain.py TerrainRenderer.texture) */
+    cl_mem texture, texture_levels;
+    int texture_count;
+    oclshade_gbuffer gbuffer;   /* outputs: camera.width x camera.height, every field written */
+    cl_mem scratch;
+} oclshade_terrain_params;
+
+/* Defaults: no buffers, dx = dy = 1, plane, bisect, a 1 x 1 perspective camera. */
+void oclshade_terrain_params_init(oclshade_terrain_params *params);
+oclshade_status oclshade_terrain_scratch_size(oclshade *lib, const oclshade_terrain_params *params,
+                                              size_t *bytes);
+/* One launch of terrain_cast, one work-item per pixel.  Knobs: terrain descend, leaf,
+ * group, own_builtins (bisect). */
+oclshade_status oclshade_enqueue_terrain(oclshade *lib, cl_command_queue queue,
+                                         const oclshade_terrain_params *params,
+                                         cl_uint num_events_in_wait_list, const cl_event *event_wait_list,
+                                         cl_event *event);
+
+/* Smooth shading normals of the G-buffer oclshade_enqueue_terrain wrote for these parameters
+ * (its uv and position fields are read; kernels/terrain.cl terrain_normals, "Shading
+ * normals"): view-space unit float4 normals (w = 0, 0 on empty pixels) into `normals`
+ * (camera.width x camera.height), slopes by central differences interpolated at the hit, so
+ * a smooth terrain shades without facets.  One 1-D launch; built like the cast. */
+oclshade_status oclshade_terrain_normals_scratch_size(oclshade *lib, const oclshade_terrain_params *params,
+                                                      const oclshade_field *normals, size_t *bytes);
+oclshade_status oclshade_enqueue_terrain_normals(oclshade *lib, cl_command_queue queue,
+                                                 const oclshade_terrain_params *params, const oclshade_field *normals,
+                                                 cl_uint num_events_in_wait_list, const cl_event *event_wait_list,
+                                                 cl_event *event);
+
+/* ----------------------------------------------------------- per-pixel shadows */
+
+/* The level-q surfaces per-pixel shadows start on (oclshade/screen_shadows.py coarse_grid):
+ * for q = 1..levels-1 a (ceil(Hp / 2^q) + 1) x (ceil(Wp / 2^q) + 1) float grid, back to
+ * back, and the int32 table of their offsets ([q] in floats, [0] = -1). */
+typedef struct oclshade_coarse_layout {
+    int levels;                           /* the extrema pyramid's */
+    int grid_rows[OCLSHADE_MAX_LEVELS], grid_cols[OCLSHADE_MAX_LEVELS];
+    int offsets[OCLSHADE_MAX_LEVELS];     /* [q] first float of grid q; [0] = -1 */
+    size_t grids_bytes, offsets_bytes;
+} oclshade_coarse_layout;
+
+oclshade_status oclshade_coarse_layout_for(int rows, int cols, oclshade_coarse_layout *out);
+
+/* Fill the grids (host memory, grids_bytes) and the offset table (offsets_bytes) from the
+ * relative heights (host, rows x cols packed) and the host copy of their mean mip pyramid
+ * (oclshade_enqueue_mip_pyramid of the heights into a buffer of mip_layout, read back; NULL
+ * for a 1 x 1 map): grid q samples mip level min(q, mip levels - 1) (level 0: the heights)
+ * bilinearly at the level-q tile corners, in float64, rounded to float32, as the Python
+ * host.  The caller uploads both.  Reentrant. */
+oclshade_status oclshade_coarse_grids(const float *heights, const void *mip, const oclshade_mip_layout *mip_layout,
+                                      int rows, int cols, float *grids, int *offsets);
+
+typedef struct oclshade_pixel_shadow_params {
+    oclshade_field heights;     /* rows x cols relative heights (the pyramid's) */
+    int rows, cols;
+    double dx, dy;
+    cl_mem pyramid, offsets;    /* extrema pyramid */
+    cl_mem coarse, coarse_offsets;  /* the uploaded oclshade_coarse_grids */
+    oclshade_field position, uv, uv_grad;   /* G-buffer fields read (float4, float2, float4) */
+    int width, height;          /* pixels */
+    double azimuth, elevation;
+    oclshade_method method;
+    int force_q;                /* -1: Algo 1 picks q per pixel; else a fixed level 0..levels-1 */
+    int bias;                   /* added to Algo 1's q, |bias| <= 64 */
+    int n_a_max;                /* anisotropy cap, 1..256 */
+    double k_dark, k_bright;
+    oclshade_field flag;        /* uchar: 1 cast shadow, 0 lit, 255 empty; buffer NULL = not computed */
+    oclshade_field coefficient; /* float: eq. (1), 1 lit or empty */
+    oclshade_field lod;         /* uchar: the level q used, 255 empty */
+    cl_mem scratch;
+} oclshade_pixel_shadow_params;
+
+/* Defaults: exact, Algo 1 (force_q -1, bias 0, n_a_max 16), sun (315, 45), k 0.25 / 0.65. */
+void oclshade_pixel_shadow_params_init(oclshade_pixel_shadow_params *params);
+oclshade_status oclshade_pixel_shadows_scratch_size(oclshade *lib, const oclshade_pixel_shadow_params *params,
+                                                    size_t *bytes);
+/* One launch of shadow_pixels.  Knobs: screen_shadows group, own_builtins. */
+oclshade_status oclshade_enqueue_pixel_shadows(oclshade *lib, cl_command_queue queue,
+                                               const oclshade_pixel_shadow_params *params,
+                                               cl_uint num_events_in_wait_list, const cl_event *event_wait_list,
+                                               cl_event *event);
+
+/* ----------------------------------------------------------- SSAO */
+
+/* Sample tables (oclshade/ssao.py). */
+typedef enum oclshade_ao_samples {
+    OCLSHADE_AO_PAPER = 0,     /* the paper's half-cube, numpy PCG64 seeded 2019 (point samples) */
+    OCLSHADE_AO_UNIFORM = 1,   /* stratified, uniform in the hemisphere's volume (point samples) */
+    OCLSHADE_AO_CENTRE = 2,    /* uniform's directions, radii towards the centre (point samples) */
+    OCLSHADE_AO_LINES = 3,     /* line samples (-D OCLS_LINES): Vogel disk + chord half-lengths */
+    OCLSHADE_AO_RAYS = 4       /* ray samples (-D OCLS_RAYS): the same table as directions */
+} oclshade_ao_samples;
+
+typedef enum oclshade_blur {
+    OCLSHADE_BLUR_NONE = 0,
+    OCLSHADE_BLUR_BOX = 1,     /* the paper's box blur, separable */
+    OCLSHADE_BLUR_EDGE = 2     /* edge-aware */
+} oclshade_blur;
+
+/* The table ssao_ao reads for m samples (4..256): structure of arrays x[mpad], y[mpad],
+ * z[mpad], mpad = m rounded up to a multiple of 8, entries m..mpad-1 NaN: the bits of the
+ * Python host's SSAO._table (3 * mpad floats; *mpad_out may be NULL).  Reentrant. */
+oclshade_status oclshade_ssao_table(oclshade_ao_samples samples, int m, float *out, int *mpad_out);
+
+typedef struct oclshade_ssao_params {
+    oclshade_field position, normal;   /* G-buffer fields (float4) */
+    oclshade_field alpha;              /* float alpha map, buffer NULL = no alpha (-D OCLS_ALPHA) */
+    oclshade_field normal_map, tangent;/* float4 each, both or neither (-D OCLS_NORMAL_MAP) */
+    int width, height;
+    double projection[16];             /* view -> clip, row-major (oclshade_camera.projection_matrix) */
+    double radius;                     /* metres, > 0 */
+    int m;                             /* samples (rays for OCLSHADE_AO_RAYS), 4..256 */
+    double delta;                      /* depth bias, finite */
+    unsigned seed;
+    oclshade_ao_samples samples;
+    int range_check, plane_test;       /* 0 / 1 (-D OCLS_RANGE_CHECK, OCLS_PLANE_TEST) */
+    oclshade_blur blur;
+    int blur_size;                     /* odd >= 3 */
+    double alpha_eps;                  /* alpha cut-out threshold (with alpha) */
+    double plane_tol;                  /* edge-aware blur; 0: radius / 4 */
+    oclshade_field ao;                 /* output: float per pixel, 1 = unoccluded */
+    cl_mem scratch;
+} oclshade_ssao_params;
+
+/* Defaults: the library's (oclshade/ssao.py DEFAULT_FEATURES, DEFAULT_M): 8 ray samples,
+ * range check, 3 x 3 box blur; delta 0, seed 0, alpha_eps 0.5; radius 0 (must be set). */
+void oclshade_ssao_params_init(oclshade_ssao_params *params);
+/* Scratch: per pixel 4 (depth) + 16 (normals) + 4 (raw AO) bytes, + 16 (plane test),
+ * + 8 (box blur sums), plus the projection rows and the sample table, plus packed copies. */
+oclshade_status oclshade_ssao_scratch_size(oclshade *lib, const oclshade_ssao_params *params, size_t *bytes);
+/* ssao_prepare, ssao_ao, then the blur (box: ssao_box_h + ssao_box_v; edge: ssao_edge).
+ * Knobs: ssao lanes, group, own_builtins. */
+oclshade_status oclshade_enqueue_ssao(oclshade *lib, cl_command_queue queue, const oclshade_ssao_params *params,
+                                      cl_uint num_events_in_wait_list, const cl_event *event_wait_list,
+                                      cl_event *event);
+
+/* ----------------------------------------------------------- compose */
+
+typedef struct oclshade_compose_params {
+    /* inputs: (height * ssaa) x (width * ssaa) samples each */
+    oclshade_field position, albedo;          /* G-buffer fields (float4) */
+    oclshade_field normal;      /* float4 shading normals: oclshade_enqueue_terrain_normals' (smooth) or the
+                                   G-buffer's normal field (geometric) */
+    oclshade_field shadow;      /* float sun visibility per sample (1 = lit), buffer NULL = none */
+    oclshade_field ao;          /* float AO factor (1 = unoccluded), buffer NULL = none */
+    int width, height;          /* the frame, pixels */
+    int ssaa;                   /* samples per pixel along each axis, 1..8, box-filtered */
+    double rotation[9];         /* world -> view rotation, row-major (the camera view's 3 x 3) */
+    double azimuth, elevation;  /* the sun */
+    double sun_intensity;       /* the sun's irradiance on a plane facing it, >= 0 */
+    double sky[3];              /* the sky's irradiance on a horizontal plane, linear RGB, >= 0 */
+    double background[3];       /* linear RGB of empty samples, >= 0 */
+    oclshade_field image;       /* output: width x height uchar4 sRGB (r, g, b, 255) */
+    cl_mem scratch;
+} oclshade_compose_params;
+
+/* Defaults: oclshade/compose.py Lighting(): sun (315, 45), intensity 2.0, sky (0.21, 0.24,
+ * 0.30), background (0.45, 0.62, 0.85); ssaa 1; identity rotation. */
+void oclshade_compose_params_init(oclshade_compose_params *params);
+/* Sets rotation from the camera's view matrix. */
+void oclshade_compose_set_camera(oclshade_compose_params *params, const oclshade_camera *camera);
+oclshade_status oclshade_compose_scratch_size(oclshade *lib, const oclshade_compose_params *params, size_t *bytes);
+/* One launch of compose, one work-item per output pixel (-D OCLS_SHADOW / OCLS_AO for the
+ * inputs given): albedo x (sun x max(n.s, 0) x shadow + sky x AO x (1 + n.up) / 2),
+ * kernels/compose.cl. */
+oclshade_status oclshade_enqueue_compose(oclshade *lib, cl_command_queue queue, const oclshade_compose_params *params,
+                                         cl_uint num_events_in_wait_list, const cl_event *event_wait_list,
+                                         cl_event *event);
 
 #ifdef __cplusplus
 }

@@ -141,6 +141,7 @@ int main(int argc, char **argv)
     expect(oclshade_create(ctx, device, dir, NULL) == OCLSHADE_INVALID_ARGUMENT, "create: NULL out", "");
 
     char *common = read_text(dir, "common.h"), *pyramid = read_text(dir, "pyramid.cl");
+    char *terrain = read_text(dir, "terrain.cl"), *ssao = read_text(dir, "ssao.cl"), *compose = read_text(dir, "compose.cl");
     oclshade_source missing[2] = {{"common.h", common}, {"pyramid.cl", pyramid}};
     st = oclshade_create_from_sources(ctx, device, missing, 2, &lib);
     expect_status(lib, st, OCLSHADE_SOURCE_ERROR, "shadow.cl", "create_from_sources: shadow.cl missing");
@@ -149,8 +150,9 @@ int main(int argc, char **argv)
     /* ---- a build failure carries the compiler log */
     const char *broken = "#include \"common.h\"\n"
                          "__kernel void shadow_cells(__global float *h) { h[0] = oclshade_no_such_name; }\n";
-    oclshade_source sources[3] = {{"common.h", common}, {"pyramid.cl", pyramid}, {"shadow.cl", broken}};
-    st = oclshade_create_from_sources(ctx, device, sources, 3, &lib);
+    oclshade_source sources[6] = {{"common.h", common}, {"pyramid.cl", pyramid}, {"shadow.cl", broken},
+                                  {"terrain.cl", terrain}, {"ssao.cl", ssao}, {"compose.cl", compose}};
+    st = oclshade_create_from_sources(ctx, device, sources, 6, &lib);
     expect_status(lib, st, OCLSHADE_OK, "", "create_from_sources: broken shadow.cl is read");
     st = oclshade_prepare(lib, OCLSHADE_PAPER, OCLSHADE_OUT_MASK | OCLSHADE_OUT_SELF);
     expect_status(lib, st, OCLSHADE_BUILD_FAILED, "oclshade_no_such_name", "build failure: the log names the error");
@@ -180,39 +182,127 @@ int main(int argc, char **argv)
     float zeros[35] = {0};
     clEnqueueWriteBuffer(queue, heights, CL_TRUE, 0, sizeof zeros, zeros, 0, NULL, NULL);
 
-    st = oclshade_enqueue_extrema_pyramid(lib, queue, heights, rows, cols, small, offs, 0, NULL, NULL);
+    const oclshade_field fh = oclshade_field_of(heights), ff = oclshade_field_of(foreign);
+    st = oclshade_enqueue_extrema_pyramid(lib, queue, &fh, rows, cols, small, offs, NULL, 0, NULL, NULL);
     expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "pyramid must hold at least", "pyramid: buffer too small");
-    st = oclshade_enqueue_extrema_pyramid(lib, queue, foreign, rows, cols, pyr, offs, 0, NULL, NULL);
+    st = oclshade_enqueue_extrema_pyramid(lib, queue, &ff, rows, cols, pyr, offs, NULL, 0, NULL, NULL);
     expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "heights must be a buffer", "pyramid: buffer of another context");
-    st = oclshade_enqueue_extrema_pyramid(lib, other_queue, heights, rows, cols, pyr, offs, 0, NULL, NULL);
+    st = oclshade_enqueue_extrema_pyramid(lib, other_queue, &fh, rows, cols, pyr, offs, NULL, 0, NULL, NULL);
     expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "queue must belong", "pyramid: queue of another context");
-    st = oclshade_enqueue_extrema_pyramid(lib, queue, heights, rows, cols, pyr, offs, 1, NULL, NULL);
+    st = oclshade_enqueue_extrema_pyramid(lib, queue, &fh, rows, cols, pyr, offs, NULL, 1, NULL, NULL);
     expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "event_wait_list", "pyramid: inconsistent wait list");
-    st = oclshade_enqueue_extrema_pyramid(lib, queue, heights, rows, cols, pyr, offs, 0, NULL, NULL);
+    st = oclshade_enqueue_extrema_pyramid(lib, queue, &fh, rows, cols, pyr, pyr, NULL, 0, NULL, NULL);
+    expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "pyramid and offsets overlap", "pyramid: offsets alias the pyramid");
+    st = oclshade_enqueue_extrema_pyramid(lib, queue, &fh, rows, cols, heights, offs, NULL, 0, NULL, NULL);
+    expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "heights and pyramid overlap", "pyramid: output aliases the input");
+    {
+        cl_mem ro = clCreateBuffer(ctx, CL_MEM_READ_ONLY, lay.pyramid_bytes, NULL, &err);
+        st = oclshade_enqueue_extrema_pyramid(lib, queue, &fh, rows, cols, ro, offs, NULL, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "pyramid is written by the kernels but was created CL_MEM_READ_ONLY",
+                      "pyramid: a read-only buffer as output");
+        cl_mem wo = clCreateBuffer(ctx, CL_MEM_WRITE_ONLY, 4 * n, NULL, &err);
+        const oclshade_field fwo = oclshade_field_of(wo);
+        st = oclshade_enqueue_extrema_pyramid(lib, queue, &fwo, rows, cols, pyr, offs, NULL, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "heights is read by the kernels but was created CL_MEM_WRITE_ONLY",
+                      "pyramid: a write-only buffer as input");
+        /* sub-buffers of one buffer: overlapping ranges are caught, disjoint ones pass */
+        cl_mem big = clCreateBuffer(ctx, CL_MEM_READ_WRITE, 4096, NULL, &err);
+        cl_buffer_region r0 = {0, 1024}, r1 = {0, 512}, r2 = {2048, 1024};
+        cl_mem s0 = clCreateSubBuffer(big, 0, CL_BUFFER_CREATE_TYPE_REGION, &r0, &err);
+        cl_mem s1 = clCreateSubBuffer(big, 0, CL_BUFFER_CREATE_TYPE_REGION, &r1, &err);
+        cl_mem s2 = clCreateSubBuffer(big, 0, CL_BUFFER_CREATE_TYPE_REGION, &r2, &err);
+        st = oclshade_enqueue_extrema_pyramid(lib, queue, &fh, rows, cols, s0, s1, NULL, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "pyramid and offsets overlap (bytes 0..",
+                      "pyramid: overlapping sub-buffers of one buffer");
+        st = oclshade_enqueue_extrema_pyramid(lib, queue, &fh, rows, cols, s0, s2, NULL, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_OK, "", "pyramid: disjoint sub-buffers of one buffer");
+        clFinish(queue);
+        /* a field at an offset, rows padded: copied into the scratch, which must then be given */
+        cl_mem padded = clCreateBuffer(ctx, CL_MEM_READ_WRITE, 64 + 40 * rows, NULL, &err);
+        const oclshade_field fp = {padded, 64, 40};
+        size_t need = 0;
+        st = oclshade_extrema_pyramid_scratch_size(lib, &fp, rows, cols, &need);
+        expect(st == OCLSHADE_OK && need >= 4u * n, "pyramid: a pitched field needs scratch for its packed copy", "");
+        size_t none = 1;
+        st = oclshade_extrema_pyramid_scratch_size(lib, &fh, rows, cols, &none);
+        expect(st == OCLSHADE_OK && none == 0, "pyramid: a packed field needs no scratch", "");
+        st = oclshade_enqueue_extrema_pyramid(lib, queue, &fp, rows, cols, pyr, offs, NULL, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "scratch must be a buffer of at least", "pyramid: scratch missing");
+        cl_mem sc = clCreateBuffer(ctx, CL_MEM_READ_WRITE, need, NULL, &err);
+        st = oclshade_enqueue_extrema_pyramid(lib, queue, &fp, rows, cols, pyr, offs, small, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "scratch must hold at least", "pyramid: scratch too small");
+        st = oclshade_enqueue_extrema_pyramid(lib, queue, &fp, rows, cols, pyr, offs, padded, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "overlap", "pyramid: scratch aliases an input");
+        const oclshade_field narrow = {padded, 0, 12};
+        st = oclshade_enqueue_extrema_pyramid(lib, queue, &narrow, rows, cols, pyr, offs, sc, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "row_pitch must be 0 (packed) or >= 28", "pyramid: pitch below a row");
+        const oclshade_field beyond = {padded, 128, 40};
+        st = oclshade_enqueue_extrema_pyramid(lib, queue, &beyond, rows, cols, pyr, offs, sc, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "heights must hold at least 316 bytes",
+                      "pyramid: offset + rows past the buffer's end");
+        st = oclshade_enqueue_extrema_pyramid(lib, queue, &fp, rows, cols, pyr, offs, sc, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_OK, "", "pyramid: a pitched field with scratch");
+        clFinish(queue);
+        clReleaseMemObject(sc); clReleaseMemObject(padded);
+        clReleaseMemObject(s0); clReleaseMemObject(s1); clReleaseMemObject(s2); clReleaseMemObject(big);
+        clReleaseMemObject(ro); clReleaseMemObject(wo);
+    }
+    st = oclshade_enqueue_extrema_pyramid(lib, queue, &fh, rows, cols, pyr, offs, NULL, 0, NULL, NULL);
     expect_status(lib, st, OCLSHADE_OK, "", "pyramid: success clears the message");
     expect(oclshade_last_error(lib)[0] == '\0', "pyramid: empty message after success", oclshade_last_error(lib));
 
     oclshade_shadow_params p;
     oclshade_shadow_params_init(&p);
-    p.heights = heights; p.rows = rows; p.cols = cols; p.pyramid = pyr; p.offsets = offs; p.mask = mask;
+    p.heights = fh; p.rows = rows; p.cols = cols; p.pyramid = pyr; p.offsets = offs; p.mask = oclshade_field_of(mask);
+    st = oclshade_enqueue_shadows(lib, queue, &p, 0, NULL, NULL);
+    expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "scratch must be a buffer of at least",
+                  "shadows: exact needs scratch for its certificates");
+    size_t cert_bytes = 0;
+    st = oclshade_shadows_scratch_size(lib, &p, &cert_bytes);
+    expect(st == OCLSHADE_OK && cert_bytes == 6 * 4, "shadows: scratch size = one tile's 6 certificates", "");
+    cl_mem cert = buffer(ctx, cert_bytes);
+    p.scratch = cert;
     st = oclshade_enqueue_shadows(lib, queue, &p, 0, NULL, NULL);
     expect_status(lib, st, OCLSHADE_OK, "", "shadows: valid parameters");
+    {
+        oclshade_shadow_params dda = p;
+        dda.method = OCLSHADE_DDA;
+        dda.scratch = NULL;
+        size_t zero = 1;
+        expect(oclshade_shadows_scratch_size(lib, &dda, &zero) == OCLSHADE_OK && zero == 0, "shadows: dda needs no scratch", "");
+        st = oclshade_enqueue_shadows(lib, queue, &dda, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_OK, "", "shadows: dda without scratch");
+        oclshade_shadow_params alias = p;
+        alias.coefficient = oclshade_field_of(heights);
+        st = oclshade_enqueue_shadows(lib, queue, &alias, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "heights and coefficient overlap", "shadows: output aliases heights");
+        alias = p;
+        alias.self_shadow = oclshade_field_of(mask);
+        st = oclshade_enqueue_shadows(lib, queue, &alias, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "mask and self_shadow overlap", "shadows: two outputs alias");
+        alias = p;
+        alias.scratch = pyr;
+        st = oclshade_enqueue_shadows(lib, queue, &alias, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "pyramid and scratch overlap", "shadows: scratch aliases the pyramid");
+    }
+    clFinish(queue);
     clFinish(queue);
 
-    struct { const char *what, *needle; oclshade_shadow_params q; } bad[11];
-    for (int i = 0; i < 11; ++i) bad[i].q = p;
+    struct { const char *what, *needle; oclshade_shadow_params q; } bad[12];
+    for (int i = 0; i < 12; ++i) bad[i].q = p;
     bad[0].what = "shadows: rows 0"; bad[0].needle = "rows and cols"; bad[0].q.rows = 0;
     bad[1].what = "shadows: dx negative"; bad[1].needle = "dx and dy"; bad[1].q.dx = -1;
     bad[2].what = "shadows: elevation 91"; bad[2].needle = "elevation must be in [-90, 90]"; bad[2].q.elevation = 91;
     bad[3].what = "shadows: azimuth inf"; bad[3].needle = "azimuth"; bad[3].q.azimuth = INFINITY;
     bad[4].what = "shadows: k_bright 2"; bad[4].needle = "k_dark and k_bright"; bad[4].q.k_bright = 2;
-    bad[5].what = "shadows: no output"; bad[5].needle = "at least one of mask"; bad[5].q.mask = NULL;
+    bad[5].what = "shadows: no output"; bad[5].needle = "at least one of mask"; bad[5].q.mask.buffer = NULL;
     bad[6].what = "shadows: method 9"; bad[6].needle = "method must be"; bad[6].q.method = (oclshade_method)9;
-    bad[7].what = "shadows: mask too small"; bad[7].needle = "mask must hold at least 35 bytes"; bad[7].q.mask = small;
-    bad[8].what = "shadows: heights NULL"; bad[8].needle = "heights must be"; bad[8].q.heights = NULL;
+    bad[7].what = "shadows: mask too small"; bad[7].needle = "mask must hold at least 35 bytes"; bad[7].q.mask.buffer = small;
+    bad[8].what = "shadows: heights NULL"; bad[8].needle = "heights must be"; bad[8].q.heights.buffer = NULL;
     bad[9].what = "shadows: offsets too small"; bad[9].needle = "offsets must hold"; bad[9].q.offsets = small;
-    bad[10].what = "shadows: coefficient too small"; bad[10].needle = "coefficient must hold"; bad[10].q.coefficient = mask;
-    for (int i = 0; i < 11; ++i) {
+    bad[10].what = "shadows: coefficient too small"; bad[10].needle = "coefficient must hold"; bad[10].q.coefficient.buffer = mask;
+    bad[11].what = "shadows: scratch too small"; bad[11].needle = "scratch must hold at least 24 bytes"; bad[11].q.scratch = small;
+    for (int i = 0; i < 12; ++i) {
         st = oclshade_enqueue_shadows(lib, queue, &bad[i].q, 0, NULL, NULL);
         expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, bad[i].needle, bad[i].what);
     }
@@ -273,18 +363,47 @@ int main(int argc, char **argv)
     oclshade_shadow_build_options_for(lib, OCLSHADE_MAXMIP, 7, opts, sizeof opts);
     oclshade_shadow_build_options(OCLSHADE_MAXMIP, 7, plain, sizeof plain);
     expect(strcmp(opts, plain) == 0, "set_tuning: lanes 0 gives oclshade_shadow_build_options", opts);
-    expect(strcmp(oclshade_version(), "0.2.0") == 0 && OCLSHADE_VERSION_MINOR == 2, "version 0.2.0 (tuning API)",
-           oclshade_version());
+    expect(strcmp(oclshade_version(), "0.3.0") == 0 && OCLSHADE_VERSION_MINOR == 3, "version 0.3.0", oclshade_version());
     expect(strcmp(oclshade_status_name(OCLSHADE_BUILD_FAILED), "OCLSHADE_BUILD_FAILED") == 0, "status names", "");
+
+    /* ---- knobs: the rule's values (compared with the Python host's by the test), errors */
+    static const char *const knob_names[][2] = {
+        {"pyramid", "base_lanes"}, {"pyramid", "own_builtins"}, {"shadow", "lanes"}, {"shadow", "run"},
+        {"shadow", "group"}, {"shadow", "cert_tile"}, {"shadow", "own_builtins"}, {"terrain", "descend"},
+        {"terrain", "leaf"}, {"terrain", "group"}, {"terrain", "own_builtins"}, {"screen_shadows", "group"},
+        {"screen_shadows", "own_builtins"}, {"ssao", "lanes"}, {"ssao", "group"}, {"ssao", "own_builtins"}};
+    oclshade *fresh = NULL;
+    oclshade_create(ctx, device, dir, &fresh);
+    for (size_t i = 0; i < sizeof knob_names / sizeof knob_names[0]; ++i) {
+        int rule = -1, have = -2;
+        st = oclshade_default_knob(device, knob_names[i][0], knob_names[i][1], &rule);
+        expect(st == OCLSHADE_OK && oclshade_get_knob(fresh, knob_names[i][0], knob_names[i][1], &have) == OCLSHADE_OK &&
+               have == rule, "a new handle starts with the rule's knob", knob_names[i][1]);
+        printf("default_knob %s %s %d\n", knob_names[i][0], knob_names[i][1], rule);
+    }
+    st = oclshade_set_knob(fresh, "pyramid", "in_place", 1);
+    expect_status(fresh, st, OCLSHADE_INVALID_ARGUMENT, "in_place chooses how the Python host", "set_knob: pyramid in_place");
+    st = oclshade_set_knob(fresh, "roofline", "lanes", 1);
+    expect_status(fresh, st, OCLSHADE_INVALID_ARGUMENT, "family must be one of pyramid, shadow", "set_knob: unknown family");
+    st = oclshade_set_knob(fresh, "ssao", "lanes", 2);
+    expect_status(fresh, st, OCLSHADE_INVALID_ARGUMENT, "knob ssao lanes must be 4, 8 or 16, got 2", "set_knob: bad value");
+    int value = 0;
+    expect(oclshade_get_knob(fresh, "ssao", "lanes", &value) == OCLSHADE_OK && value == 8,
+           "set_knob: a rejected value changes nothing", "");
+    expect(oclshade_set_knob(fresh, "terrain", "descend", 5) == OCLSHADE_OK &&
+           oclshade_get_knob(fresh, "terrain", "descend", &value) == OCLSHADE_OK && value == 5, "set_knob, get_knob", "");
+    expect(oclshade_set_knob(fresh, "shadow", "lanes", 4) == OCLSHADE_OK && oclshade_get_tuning(fresh, &now) == OCLSHADE_OK &&
+           now.packet_lanes == 4, "set_knob shadow lanes is the tuning's packet_lanes", "");
+    oclshade_destroy(fresh);
     expect(oclshade_last_error(NULL)[0] != '\0', "last_error(NULL) explains", "");
 
     oclshade_destroy(lib);
     oclshade_destroy(NULL);
     clReleaseMemObject(heights); clReleaseMemObject(pyr); clReleaseMemObject(offs);
-    clReleaseMemObject(small); clReleaseMemObject(mask); clReleaseMemObject(foreign);
+    clReleaseMemObject(small); clReleaseMemObject(mask); clReleaseMemObject(foreign); clReleaseMemObject(cert);
     clReleaseCommandQueue(queue); clReleaseCommandQueue(other_queue);
     clReleaseContext(ctx); clReleaseContext(other_ctx);
-    free(common); free(pyramid);
+    free(common); free(pyramid); free(terrain); free(ssao); free(compose);
     printf("%d failure(s)\n", failures);
     return failures;
 }

@@ -4,7 +4,7 @@
  *   KERNELS  a kernel directory, or "-" for the copy built into the library
  *   HEIGHTS  raw float64 heights, ROWS x COLS, row-major, NaN = nodata
  * On the first OpenCL device (OCL_ICD_VENDORS picks the driver) it writes to OUTDIR:
- *   pyramid.cl, shadow.cl           oclshade_program_source (includes expanded)
+ *   pyramid.cl, shadow.cl, ...      oclshade_program_source of every program (includes expanded)
  *   relative.f32, offset.f64        oclshade_relative_heights
  *   pyramid.f32, offsets.i32        the pyramid buffer and offset table read back
  *   sun<k>.bin                      oclshade_sun_for: ray[4], vector[4] float32, mode int32
@@ -80,6 +80,14 @@ static cl_mem buffer(cl_context ctx, cl_mem_flags flags, size_t n, void *host)
     return m;
 }
 
+/* A scratch buffer for the shadow passes of these parameters (certificates); NULL if none is needed. */
+static cl_mem shadow_scratch(cl_context ctx, const oclshade_shadow_params *p)
+{
+    size_t bytes = 0;
+    CHECK(oclshade_shadows_scratch_size(lib, p, &bytes));
+    return bytes ? buffer(ctx, CL_MEM_READ_WRITE, bytes, NULL) : NULL;
+}
+
 static void read_buffer(cl_command_queue q, cl_mem m, size_t n, void *out, cl_uint nwait, const cl_event *wait)
 {
     CLCHECK(clEnqueueReadBuffer(q, m, CL_TRUE, 0, n, out, nwait, wait, NULL));
@@ -122,16 +130,21 @@ static void *thread_main(void *arg)
     cl_mem d_coef = clCreateBuffer(sh->ctx, CL_MEM_WRITE_ONLY, 4 * sh->n, NULL, &err);
     unsigned char *got = (unsigned char *)xmalloc(sh->n);
     const char *result = "";
+    oclshade_shadow_params sized = sh->base;   /* exact and maxmip: the same certificates */
+    sized.method = OCLSHADE_EXACT;
+    sized.mask = oclshade_field_of(d_mask);
+    cl_mem scratch = shadow_scratch(sh->ctx, &sized);   /* each thread its own: the passes overlap */
     for (int rep = 0; rep < 3 && *result == '\0'; ++rep) {
         if (index == 1 && oclshade_set_tuning(lib, rep % 2 ? &sh->initial : &sh->regrouped) != OCLSHADE_OK)
             result = "thread: set_tuning failed";
         for (int k = 0; k < sh->nsuns && *result == '\0'; ++k) {
             oclshade_shadow_params p = sh->base;
             p.azimuth = sh->az[k]; p.elevation = sh->el[k];
-            p.mask = d_mask;
-            p.self_shadow = NULL;
+            p.mask = oclshade_field_of(d_mask);
+            p.self_shadow = oclshade_field_of(NULL);
             p.method = rep % 2 ? OCLSHADE_EXACT : OCLSHADE_MAXMIP;
-            p.coefficient = p.method == OCLSHADE_MAXMIP ? d_coef : NULL;
+            p.coefficient = oclshade_field_of(p.method == OCLSHADE_MAXMIP ? d_coef : NULL);
+            p.scratch = scratch;
             if (oclshade_enqueue_shadows(lib, q, &p, 0, NULL, NULL) != OCLSHADE_OK ||
                 clEnqueueReadBuffer(q, d_mask, CL_TRUE, 0, sh->n, got, 0, NULL, NULL) != CL_SUCCESS)
                 result = "thread: enqueue failed";
@@ -140,6 +153,7 @@ static void *thread_main(void *arg)
         }
     }
     clReleaseMemObject(d_mask); clReleaseMemObject(d_coef);
+    if (scratch) clReleaseMemObject(scratch);
     clReleaseCommandQueue(q);
     free(got);
     return (void *)result;
@@ -173,8 +187,9 @@ int main(int argc, char **argv)
     cl_command_queue queue = clCreateCommandQueue(ctx, device, 0, &err);
     CLCHECK(err);
     CHECK(oclshade_create(ctx, device, kernels, &lib));
-    write_file("pyramid.cl", oclshade_program_source(lib, "pyramid.cl"), strlen(oclshade_program_source(lib, "pyramid.cl")));
-    write_file("shadow.cl", oclshade_program_source(lib, "shadow.cl"), strlen(oclshade_program_source(lib, "shadow.cl")));
+    static const char *const programs[] = {"pyramid.cl", "shadow.cl", "terrain.cl", "ssao.cl", "compose.cl"};
+    for (int i = 0; i < 5; ++i)
+        write_file(programs[i], oclshade_program_source(lib, programs[i]), strlen(oclshade_program_source(lib, programs[i])));
 
     float *rel = (float *)xmalloc(n * sizeof *rel);
     double offset;
@@ -187,7 +202,8 @@ int main(int argc, char **argv)
     cl_mem d_heights = buffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, n * sizeof *rel, rel);
     cl_mem d_pyramid = buffer(ctx, CL_MEM_READ_WRITE, lay.pyramid_bytes, NULL);
     cl_mem d_offsets = buffer(ctx, CL_MEM_READ_WRITE, lay.offsets_bytes, NULL);
-    CHECK(oclshade_enqueue_extrema_pyramid(lib, queue, d_heights, rows, cols, d_pyramid, d_offsets, 0, NULL, NULL));
+    const oclshade_field f_heights = oclshade_field_of(d_heights);
+    CHECK(oclshade_enqueue_extrema_pyramid(lib, queue, &f_heights, rows, cols, d_pyramid, d_offsets, NULL, 0, NULL, NULL));
     float *pyramid = (float *)xmalloc(lay.pyramid_bytes);
     int *offsets = (int *)xmalloc(lay.offsets_bytes);
     read_buffer(queue, d_pyramid, lay.pyramid_bytes, pyramid, 0, NULL);
@@ -195,6 +211,7 @@ int main(int argc, char **argv)
     write_file("pyramid.f32", pyramid, lay.pyramid_bytes);
     write_file("offsets.i32", offsets, lay.offsets_bytes);
 
+    cl_mem scratch = NULL;   /* the certificates of exact and maxmip, sized at the first sun */
     cl_mem d_mask = buffer(ctx, CL_MEM_WRITE_ONLY, n, NULL);
     cl_mem d_self = buffer(ctx, CL_MEM_WRITE_ONLY, n, NULL);
     cl_mem d_coef = buffer(ctx, CL_MEM_WRITE_ONLY, 4 * n, NULL);
@@ -233,12 +250,16 @@ int main(int argc, char **argv)
 
         oclshade_shadow_params p;
         oclshade_shadow_params_init(&p);
-        p.heights = d_heights; p.rows = rows; p.cols = cols; p.dx = dx; p.dy = dy;
+        p.heights = f_heights; p.rows = rows; p.cols = cols; p.dx = dx; p.dy = dy;
         p.pyramid = d_pyramid; p.offsets = d_offsets; p.azimuth = az; p.elevation = el;
+        p.method = OCLSHADE_EXACT; p.mask = oclshade_field_of(d_mask);
+        if (scratch == NULL) scratch = shadow_scratch(ctx, &p);
+        p.scratch = scratch;
         p.k_dark = 0.2; p.k_bright = 0.7;
         for (int m = 0; m < 4; ++m) {
             p.method = methods[m];
-            p.mask = d_mask; p.self_shadow = d_self; p.coefficient = d_coef;
+            p.mask = oclshade_field_of(d_mask); p.self_shadow = oclshade_field_of(d_self);
+            p.coefficient = oclshade_field_of(d_coef);
             CHECK(oclshade_enqueue_shadows(lib, queue, &p, 0, NULL, NULL));
             read_buffer(queue, d_mask, n, mask, 0, NULL);
             read_buffer(queue, d_self, n, self, 0, NULL);
@@ -262,7 +283,7 @@ int main(int argc, char **argv)
         sh.base = p;
         /* the mask-only variant (no self / coefficient code compiled) agrees */
         p.method = OCLSHADE_EXACT;
-        p.self_shadow = NULL; p.coefficient = NULL;
+        p.self_shadow = oclshade_field_of(NULL); p.coefficient = oclshade_field_of(NULL);
         CHECK(oclshade_enqueue_shadows(lib, queue, &p, 0, NULL, NULL));
         read_buffer(queue, d_mask, n, other, 0, NULL);
         if (memcmp(other, exact_mask, n) != 0) { fprintf(stderr, "sun %d: mask-only build differs\n", sun_index); return 1; }
@@ -278,11 +299,13 @@ int main(int argc, char **argv)
         cl_mem off2 = buffer(ctx, CL_MEM_READ_WRITE, lay.offsets_bytes, NULL);
         cl_mem mask2 = buffer(ctx, CL_MEM_WRITE_ONLY, n, NULL);
         cl_event built, shaded;
-        CHECK(oclshade_enqueue_extrema_pyramid(lib, ooo, d_heights, rows, cols, pyr2, off2, 0, NULL, &built));
+        CHECK(oclshade_enqueue_extrema_pyramid(lib, ooo, &f_heights, rows, cols, pyr2, off2, NULL, 0, NULL, &built));
         oclshade_shadow_params p;
         oclshade_shadow_params_init(&p);
-        p.heights = d_heights; p.rows = rows; p.cols = cols; p.dx = dx; p.dy = dy;
-        p.pyramid = pyr2; p.offsets = off2; p.mask = mask2;
+        p.heights = f_heights; p.rows = rows; p.cols = cols; p.dx = dx; p.dy = dy;
+        p.pyramid = pyr2; p.offsets = off2; p.mask = oclshade_field_of(mask2);
+        cl_mem scratch2 = shadow_scratch(ctx, &p);   /* the first queue's commands may still use `scratch` */
+        p.scratch = scratch2;
         double az, el;
         sscanf(argv[argc - 1], "%lf,%lf", &az, &el);
         p.azimuth = az; p.elevation = el;
@@ -297,6 +320,7 @@ int main(int argc, char **argv)
         printf("out-of-order queue: same pyramid and mask\n");
         clReleaseEvent(built); clReleaseEvent(shaded);
         clReleaseMemObject(pyr2); clReleaseMemObject(off2); clReleaseMemObject(mask2);
+        if (scratch2) clReleaseMemObject(scratch2);
         clReleaseCommandQueue(ooo);
         free(pyramid2);
     } else {
@@ -327,7 +351,8 @@ int main(int argc, char **argv)
         for (int k = 0; k < sh.nsuns; ++k) {
             oclshade_shadow_params p = sh.base;
             p.azimuth = sh.az[k]; p.elevation = sh.el[k];
-            p.mask = d_mask; p.self_shadow = d_self; p.coefficient = d_coef;
+            p.mask = oclshade_field_of(d_mask); p.self_shadow = oclshade_field_of(d_self);
+            p.coefficient = oclshade_field_of(d_coef);
             for (int m = 0; m < 4; ++m) {
                 p.method = methods[m];
                 CHECK(oclshade_enqueue_shadows(lib, queue, &p, 0, NULL, NULL));
@@ -350,6 +375,7 @@ int main(int argc, char **argv)
     oclshade_destroy(lib);
     clReleaseMemObject(d_heights); clReleaseMemObject(d_pyramid); clReleaseMemObject(d_offsets);
     clReleaseMemObject(d_mask); clReleaseMemObject(d_self); clReleaseMemObject(d_coef);
+    if (scratch) clReleaseMemObject(scratch);
     clReleaseCommandQueue(queue);
     clReleaseContext(ctx);
     free(heights); free(rel); free(pyramid); free(offsets); free(mask); free(self); free(exact_mask);

@@ -1,0 +1,236 @@
+/* internal.h — what the per-family sources of the C host API share (not installed).
+ *
+ * core.c        handle, per-thread errors, kernel sources, program cache, knobs,
+ *               argument checks, passes (event chains, scratch regions, field staging)
+ * heightmap.c   relative heights, extrema pyramid, mean mip pyramid, coarse grids
+ * shadows.c     sun parameters, heightmap-space shadows
+ * camera.c      camera maths (host only)
+ * terrain.c     dilated levels, terrain G-buffer
+ * pixels.c      per-pixel shadows
+ * ssao.c        SSAO sample tables and passes
+ * compose.c     the final frame
+ */
+#ifndef OCLSHADE_INTERNAL_H
+#define OCLSHADE_INTERNAL_H
+
+#include "oclshade.h"
+
+#include <stdarg.h>
+#include <stddef.h>
+
+#if defined(_WIN32)
+#include <windows.h>
+typedef CRITICAL_SECTION ocls_mutex;
+typedef DWORD ocls_thread;
+#else
+#include <pthread.h>
+typedef pthread_mutex_t ocls_mutex;
+typedef pthread_t ocls_thread;
+#endif
+
+void ocls_mutex_init(ocls_mutex *m);
+void ocls_mutex_free(ocls_mutex *m);
+void ocls_mutex_lock(ocls_mutex *m);
+void ocls_mutex_unlock(ocls_mutex *m);
+
+#define OCLS_STR2(x) #x
+#define OCLS_STR(x) OCLS_STR2(x)
+#define CL_STD_OPTION "-cl-std=CL1.2"
+#define N_ITEMS(a) (sizeof(a) / sizeof((a)[0]))
+
+/* ------------------------------------------------------------------ knobs */
+
+/* The families of the Python host's tuning database (oclshade/tuning) and the knobs the C host
+ * has (oclshade_set_knob); indices into oclshade.knobs. */
+enum {
+    K_PYRAMID_BASE_LANES, K_PYRAMID_OWN_BUILTINS,
+    K_SHADOW_LANES, K_SHADOW_OWN_BUILTINS, K_SHADOW_CERT_TILE, K_SHADOW_RUN, K_SHADOW_GROUP,
+    K_TERRAIN_DESCEND, K_TERRAIN_LEAF, K_TERRAIN_GROUP, K_TERRAIN_OWN_BUILTINS,
+    K_PIXELS_GROUP, K_PIXELS_OWN_BUILTINS,
+    K_SSAO_LANES, K_SSAO_GROUP, K_SSAO_OWN_BUILTINS,
+    N_KNOBS
+};
+
+/* ------------------------------------------------------------------ handle */
+
+typedef struct err_slot {
+    ocls_thread thread;
+    char *message;
+    size_t cap;
+    cl_int cl_error;
+    struct err_slot *next;
+} err_slot;
+
+typedef struct kernel_entry {
+    char *name;
+    cl_kernel kernel;
+    size_t max_group;            /* CL_KERNEL_WORK_GROUP_SIZE */
+    struct kernel_entry *next;
+} kernel_entry;
+
+typedef struct program_entry {
+    const char *file;            /* one of PROGRAM_FILES (static) */
+    char *options;
+    cl_program program;
+    kernel_entry *kernels;
+    struct program_entry *next;
+} program_entry;
+
+#define N_PROGRAM_FILES 5
+extern const char *const OCLS_PROGRAM_FILES[N_PROGRAM_FILES];   /* pyramid, shadow, terrain, ssao, compose */
+
+struct oclshade {
+    cl_context context;
+    cl_device_id device;
+    int ready;                       /* creation is over (before: failures are the creation message) */
+    oclshade_status failed;          /* != OK: creation failed, the handle only reports it */
+    char *creation_message;          /* the failure of a failed handle (written before it is shared) */
+    char *sources[N_PROGRAM_FILES];  /* expanded program sources, OCLS_PROGRAM_FILES order */
+    size_t dev_max_wg, dev_max_item0;
+    size_t align;                    /* CL_DEVICE_MEM_BASE_ADDR_ALIGN in bytes: scratch regions start there */
+    ocls_mutex lock;                 /* builds, knobs, kernel arguments + enqueues */
+    int knobs[N_KNOBS];              /* under lock */
+    program_entry *programs;         /* under lock */
+    ocls_mutex err_lock;             /* the err_slot list only (a leaf lock) */
+    err_slot *errors;
+};
+
+/* The program source of `file` ("shadow.cl", ...), NULL for another name. */
+const char *ocls_source(const oclshade *lib, const char *file);
+
+/* ------------------------------------------------------------------ errors */
+
+/* Record a failure for the calling thread; returns status.  cl_err: the OpenCL code or 0. */
+oclshade_status ocls_fail(oclshade *lib, oclshade_status status, cl_int cl_err, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 4, 5)))
+#endif
+    ;
+oclshade_status ocls_fail_cl(oclshade *lib, cl_int err, const char *call);
+const char *ocls_cl_error_name(cl_int err);
+/* Common entry check: a usable handle; clears the calling thread's message. */
+oclshade_status ocls_enter(oclshade *lib);
+/* A knob's current value (under the lock). */
+int ocls_knob(oclshade *lib, int knob);
+
+/* ------------------------------------------------------------------ build options */
+
+/* -D defines of one program variant; rendered sorted by name as the Python host's
+ * runtime.define_options, then -cl-std=CL1.2. */
+#define OCLS_MAX_DEFINES 24
+typedef struct ocls_defines {
+    int n;
+    struct { const char *name; char value[48]; int bare; } d[OCLS_MAX_DEFINES];
+} ocls_defines;
+
+void ocls_def_flag(ocls_defines *d, const char *name, int on);      /* -DNAME when on */
+void ocls_def_int(ocls_defines *d, const char *name, int value);    /* -DNAME=value */
+void ocls_def_text(ocls_defines *d, const char *name, const char *value);
+/* snprintf-style: the length needed including the NUL. */
+size_t ocls_options(const ocls_defines *d, char *buf, size_t size);
+
+/* ------------------------------------------------------------------ checks */
+
+oclshade_status ocls_check_queue(oclshade *lib, cl_command_queue q);
+oclshade_status ocls_check_wait_list(oclshade *lib, cl_uint n, const cl_event *list);
+oclshade_status ocls_check_size(oclshade *lib, const char *what_rows, int rows, const char *what_cols, int cols);
+
+/* How a call uses a buffer: read by the kernels, written, or both. */
+enum { OCLS_IN = 1, OCLS_OUT = 2, OCLS_INOUT = 3 };
+
+/* The buffers of one call, for the contract checks: each is a valid buffer of the handle's
+ * context, large enough, with access flags that allow the use, and no buffer written
+ * overlaps another buffer of the call (the same memory object or sub-buffers of one). */
+#define OCLS_MAX_USES 24
+typedef struct ocls_use {
+    const char *name;
+    cl_mem mem;
+    size_t start, end;           /* byte range of the memory object the call touches */
+    int access;
+} ocls_use;
+
+typedef struct ocls_uses {
+    int n;
+    ocls_use u[OCLS_MAX_USES];
+} ocls_uses;
+
+/* A whole buffer of at least `bytes` (its first `bytes` are used). */
+oclshade_status ocls_use_buffer(oclshade *lib, ocls_uses *uses, const char *name, cl_mem mem, size_t bytes,
+                                int access);
+/* A field of rows x row_bytes (its offset and row pitch checked). */
+oclshade_status ocls_use_field(oclshade *lib, ocls_uses *uses, const char *name, const oclshade_field *f,
+                               int rows, size_t row_bytes, int access);
+/* The overlap check over every buffer recorded. */
+oclshade_status ocls_check_overlaps(oclshade *lib, const ocls_uses *uses);
+
+/* ------------------------------------------------------------------ passes */
+
+/* One enqueue call.  Its body runs twice: first to plan (size the scratch: every region
+ * taken, nothing enqueued, no program built), then to run (lock held: programs built,
+ * regions are sub-buffer views of the caller's scratch, commands chained by events). */
+#define OCLS_MAX_VIEWS 24
+typedef struct ocls_pass {
+    oclshade *lib;
+    int run;                     /* 0 plan, 1 run */
+    cl_command_queue queue;
+    cl_uint nwait;
+    const cl_event *wait;
+    cl_event last;
+    cl_mem scratch;              /* run: the caller's scratch (or NULL when none is needed) */
+    size_t scratch_used;         /* bytes taken so far */
+    int nviews;
+    cl_mem views[OCLS_MAX_VIEWS];
+    int nstaged;
+    struct { const oclshade_field *field; cl_mem view; int rows; size_t row_bytes; const char *name; }
+        staged[OCLS_MAX_VIEWS];  /* outputs written to scratch, copied out at the end */
+} ocls_pass;
+
+void ocls_pass_init(ocls_pass *ps, oclshade *lib, int run, cl_command_queue q, cl_uint nwait,
+                    const cl_event *wait, cl_mem scratch);
+/* A sub-buffer view of bytes [offset, offset + size) of mem (of its parent when mem is a
+ * sub-buffer itself); the start must be a multiple of the base address alignment. */
+oclshade_status ocls_view(oclshade *lib, cl_mem mem, size_t offset, size_t size, const char *what, cl_mem *out);
+/* Take a scratch region of `bytes`; run: *view is a sub-buffer over it. */
+oclshade_status ocls_scratch(ocls_pass *ps, size_t bytes, const char *what, cl_mem *view);
+/* The buffer a kernel reads for an input field: the field's own buffer when packed at
+ * offset 0, else a scratch copy (clEnqueueCopyBufferRect). */
+oclshade_status ocls_bind_in(ocls_pass *ps, const oclshade_field *f, int rows, size_t row_bytes,
+                             const char *name, cl_mem *out);
+/* The buffer a kernel writes for an output field: its own when packed at offset 0, else a
+ * scratch region copied out by ocls_pass_finish. */
+oclshade_status ocls_bind_out(ocls_pass *ps, const oclshade_field *f, int rows, size_t row_bytes,
+                              const char *name, cl_mem *out);
+/* Fill `bytes` at `offset` of mem with the data (copied at once: clEnqueueFillBuffer with the
+ * largest fitting patterns), chained. */
+oclshade_status ocls_upload(ocls_pass *ps, cl_mem mem, size_t offset, const void *data, size_t bytes,
+                            const char *what);
+
+/* A kernel of a program variant (built on first use; run mode only). */
+oclshade_status ocls_kernel(ocls_pass *ps, const char *file, const ocls_defines *d, const char *name,
+                            kernel_entry **out);
+/* Kernel arguments: {size, pointer to the value}. */
+typedef struct ocls_arg { size_t size; const void *value; } ocls_arg;
+#define OCLS_ARG(v) {sizeof(v), &(v)}
+oclshade_status ocls_set_args(ocls_pass *ps, kernel_entry *k, const ocls_arg *args, int n);
+/* Enqueue k over (cols, rows) work-items in groups of at most `wanted`, at most max_x wide
+ * (the Python host's Runtime.grid_2d), or 1-D (rows 0: Runtime.local_size). */
+oclshade_status ocls_launch(ocls_pass *ps, kernel_entry *k, int cols, int rows, size_t wanted, size_t max_x);
+/* Copies out the staged outputs, releases the views; returns st (or the first failure) and
+ * the last command's event in *event. */
+oclshade_status ocls_pass_finish(ocls_pass *ps, oclshade_status st, cl_event *event);
+
+/* The whole protocol of an enqueue entry point: plan the body, check the scratch against the
+ * plan, run the body under the lock. */
+typedef oclshade_status (*ocls_body)(ocls_pass *ps, const void *params);
+oclshade_status ocls_enqueue(oclshade *lib, cl_command_queue q, cl_mem scratch, ocls_uses *uses,
+                             ocls_body body, const void *params, cl_uint nwait, const cl_event *wait,
+                             cl_event *event);
+/* The scratch bytes an entry needs (the plan of its body). */
+oclshade_status ocls_plan(oclshade *lib, ocls_body body, const void *params, size_t *bytes);
+
+/* ------------------------------------------------------------------ shared maths */
+
+/* oclshade/pyramid.py extrema_shapes / level_shapes (exposed through the layouts) */
+int ocls_extent(int n0, int level);      /* ceil(n0 / 2^level) */
+
+#endif /* OCLSHADE_INTERNAL_H */

@@ -1,0 +1,683 @@
+/* host_passes — drives the C host API's screen-space and pyramid entry points for
+ * tests/test_host_frames.py, which compares every output with the Python host's bit for bit.
+ *
+ * usage: host_passes COMMAND OUTDIR ARGS...
+ *   mip OUTDIR IN.f32 ROWS COLS
+ *       the mean mip pyramid of IN (float32, ROWS x COLS): mip.bin (the buffer as laid out)
+ *       and mip_layout.txt ("rows cols byte_offset" per level 1..); checks itself that the
+ *       input as a pitched field at an offset gives the same bits
+ *   tables OUTDIR
+ *       table_<samples>_<m>.f32 (oclshade_ssao_table) for samples 0..4 and m in M_LIST
+ *   ssao OUTDIR INDIR WIDTH HEIGHT SPEC...
+ *       INDIR holds position.f32, normal.f32 (float4 per pixel), projection.f64 (4 x 4
+ *       row-major) and, for specs that ask, alpha.f32, normal_map.f32, tangent.f32; SPEC is
+ *       samples,m,range_check,plane_test,blur,blur_size,radius,delta,seed,alpha,normal_map
+ *       (blur 0 none, 1 box, 2 edge); writes ao_<k>.f32 per spec, and checks itself that the
+ *       first spec gives the same bits with pitched inputs and output and with every ssao
+ *       lanes knob.
+ *   terrain OUTDIR HEIGHTS.f64 ROWS COLS DX DY RADIUS METHOD CAMERA [TEXDIR]
+ *       relative heights, extrema pyramid, dilated levels, the G-buffer and its shading
+ *       normals: relative.f32, offset.f64, dilated.f32, dilated_table.i32,
+ *       gbuffer_<field>.f32, normals.f32, camera.f64 (view, projection, sx, sy, near, far);
+ *       METHOD 1 bisect, 2 march, 3 dda; CAMERA "look:X,Y,Z,TX,TY,TZ,FOV,NEAR,FAR,W,H",
+ *       "ortho:X,Y,Z,TX,TY,TZ,HEIGHT,NEAR,FAR,W,H" or "matrices:W,H" (then TEXDIR or
+ *       the current folder holds view.f64 and projection.f64); a TEXDIR holding texture.f32,
+ *       texture_levels.i32 and texture_count.txt ("levels texels"): the colour texture.  Checks itself that
+ *       pitched outputs, other descend / group knobs and another leaf (dilated levels
+ *       rebuilt) give the same bits.
+ *   pixels OUTDIR HEIGHTS.f64 ROWS COLS DX DY INDIR WIDTH HEIGHT AZ,EL METHOD FORCE_Q BIAS NAMAX KDARK KBRIGHT
+ *       INDIR holds the G-buffer's position.f32, uv.f32, uv_grad.f32; the mean mip pyramid of
+ *       the relative heights (device), read back, the coarse grids (host), uploaded, then
+ *       per-pixel shadows: mip.bin, coarse.f32, coarse_offsets.i32, flag.u8, coef.f32,
+ *       lod.u8; checks itself that pitched fields and another group give the same bits.
+ *   compose OUTDIR INDIR WIDTH HEIGHT SSAA AZ,EL INTENSITY SKY_R,G,B BG_R,G,B SHADOW AO
+ *       INDIR holds position.f32, normal.f32, albedo.f32, rotation.f64 (3 x 3) and, where
+ *       SHADOW / AO is 1, shadow.f32 / ao.f32 (samples: WIDTH SSAA x HEIGHT SSAA); writes
+ *       image.u8; checks itself that pitched fields give the same image.
+ * Prints "ok" and exits 0 on success. */
+#include "oclshade.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static oclshade *lib;
+static const char *outdir;
+static cl_context ctx;
+static cl_device_id device;
+static cl_command_queue queue;
+
+#define CHECK(call)                                                                                   \
+    do {                                                                                              \
+        oclshade_status st_ = (call);                                                                 \
+        if (st_ != OCLSHADE_OK) {                                                                     \
+            fprintf(stderr, "%s:%d: %s -> %s: %s\n", __FILE__, __LINE__, #call,                     \
+                    oclshade_status_name(st_), oclshade_last_error(lib));                            \
+            exit(1);                                                                                  \
+        }                                                                                             \
+    } while (0)
+#define CLCHECK(call)                                                                                 \
+    do {                                                                                              \
+        cl_int e_ = (call);                                                                           \
+        if (e_ != CL_SUCCESS) {                                                                       \
+            fprintf(stderr, "%s:%d: %s -> OpenCL error %d\n", __FILE__, __LINE__, #call, (int)e_);   \
+            exit(1);                                                                                  \
+        }                                                                                             \
+    } while (0)
+
+static void fail(const char *what)
+{
+    fprintf(stderr, "%s\n", what);
+    exit(1);
+}
+
+static void *xmalloc(size_t n)
+{
+    void *p = calloc(n ? n : 1, 1);
+    if (p == NULL) fail("out of memory");
+    return p;
+}
+
+static void write_file(const char *name, const void *data, size_t n)
+{
+    char path[4096];
+    snprintf(path, sizeof path, "%s/%s", outdir, name);
+    FILE *f = fopen(path, "wb");
+    if (f == NULL || fwrite(data, 1, n, f) != n || fclose(f) != 0) fail(path);
+}
+
+/* The bytes (exactly n of them) of dir/name (dir NULL: name is the path), or NULL when the
+ * file does not exist and is optional. */
+static void *read_file(const char *dir, const char *name, size_t n, int optional)
+{
+    char path[4096];
+    snprintf(path, sizeof path, "%s%s%s", dir ? dir : "", dir ? "/" : "", name);
+    FILE *f = fopen(path, "rb");
+    if (f == NULL && optional) return NULL;
+    void *data = xmalloc(n);
+    if (f == NULL || fread(data, 1, n, f) != n) fail(path);
+    fclose(f);
+    return data;
+}
+
+static cl_mem buffer(size_t n, const void *host)
+{
+    cl_int err;
+    cl_mem m = clCreateBuffer(ctx, CL_MEM_READ_WRITE | (host ? CL_MEM_COPY_HOST_PTR : 0), n ? n : 1, (void *)host, &err);
+    CLCHECK(err);
+    return m;
+}
+
+static void *read_back(cl_mem m, size_t n)
+{
+    void *host = xmalloc(n);
+    CLCHECK(clEnqueueReadBuffer(queue, m, CL_TRUE, 0, n, host, 0, NULL, NULL));
+    return host;
+}
+
+/* A scratch buffer of `bytes` (NULL for 0). */
+static cl_mem scratch_of(size_t bytes) { return bytes ? buffer(bytes, NULL) : NULL; }
+
+static void release(cl_mem m)
+{
+    if (m) clReleaseMemObject(m);
+}
+
+/* A copy of rows x row_bytes packed host data in a buffer at byte `offset` with rows `pitch`
+ * apart (the gaps filled with 0xAB), as a field. */
+static oclshade_field pitched_copy(const void *packed, int rows, size_t row_bytes, size_t offset, size_t pitch)
+{
+    unsigned char *host = (unsigned char *)xmalloc(offset + (size_t)rows * pitch);
+    memset(host, 0xAB, offset + (size_t)rows * pitch);
+    for (int r = 0; r < rows; ++r) memcpy(host + offset + (size_t)r * pitch, (const unsigned char *)packed + (size_t)r * row_bytes, row_bytes);
+    oclshade_field f = {buffer(offset + (size_t)rows * pitch, host), offset, pitch};
+    free(host);
+    return f;
+}
+
+/* The packed rows of a pitched field read back; also checks the gaps kept their 0xAB. */
+static void *read_pitched(const oclshade_field *f, int rows, size_t row_bytes)
+{
+    const size_t total = f->offset + (size_t)rows * f->row_pitch;
+    unsigned char *host = (unsigned char *)read_back(f->buffer, total), *out = (unsigned char *)xmalloc((size_t)rows * row_bytes);
+    for (size_t i = 0; i < f->offset; ++i)
+        if (host[i] != 0xAB) fail("a pitched output wrote before its offset");
+    for (int r = 0; r < rows; ++r) {
+        memcpy(out + (size_t)r * row_bytes, host + f->offset + (size_t)r * f->row_pitch, row_bytes);
+        for (size_t i = row_bytes; i < f->row_pitch; ++i)
+            if (host[f->offset + (size_t)r * f->row_pitch + i] != 0xAB) fail("a pitched output wrote into a row gap");
+    }
+    free(host);
+    return out;
+}
+
+/* ------------------------------------------------------------------ mip */
+
+static void run_mip(int argc, char **argv)
+{
+    if (argc != 3) fail("usage: host_passes mip OUTDIR IN.f32 ROWS COLS");
+    const int rows = atoi(argv[1]), cols = atoi(argv[2]);
+    const size_t n = (size_t)rows * (size_t)cols;
+    float *values = (float *)read_file(NULL, argv[0], 4 * n, 0);
+    oclshade_mip_layout lay;
+    CHECK(oclshade_mip_layout_for(lib, rows, cols, &lay));
+    cl_mem d_values = buffer(4 * n, values), d_mip = buffer(lay.bytes, NULL);
+    const oclshade_field packed = oclshade_field_of(d_values);
+    size_t bytes = 1;
+    CHECK(oclshade_mip_pyramid_scratch_size(lib, &packed, rows, cols, &bytes));
+    if (bytes != 0) fail("mip: a packed input needs no scratch");
+    CHECK(oclshade_enqueue_mip_pyramid(lib, queue, &packed, rows, cols, d_mip, NULL, 0, NULL, NULL));
+    void *mip = read_back(d_mip, lay.bytes ? lay.bytes : 1);
+    write_file("mip.bin", mip, lay.bytes);
+    FILE *f;
+    char path[4096];
+    snprintf(path, sizeof path, "%s/mip_layout.txt", outdir);
+    if ((f = fopen(path, "w")) == NULL) fail(path);
+    for (int l = 1; l < lay.levels; ++l) fprintf(f, "%d %d %lu\n", lay.level_rows[l], lay.level_cols[l], (unsigned long)lay.offsets[l]);
+    fclose(f);
+    /* the same input at an offset with padded rows: copied into the scratch, same bits */
+    oclshade_field pitched = pitched_copy(values, rows, 4u * (size_t)cols, 256, 4u * (size_t)cols + 20);
+    CHECK(oclshade_mip_pyramid_scratch_size(lib, &pitched, rows, cols, &bytes));
+    cl_mem scratch = scratch_of(bytes), d_mip2 = buffer(lay.bytes, NULL);
+    CHECK(oclshade_enqueue_mip_pyramid(lib, queue, &pitched, rows, cols, d_mip2, scratch, 0, NULL, NULL));
+    void *mip2 = read_back(d_mip2, lay.bytes ? lay.bytes : 1);
+    for (int l = 1; l < lay.levels; ++l)
+        if (memcmp((char *)mip + lay.offsets[l], (char *)mip2 + lay.offsets[l], 4u * (size_t)lay.level_rows[l] * (size_t)lay.level_cols[l]))
+            fail("mip: the pitched input gives other levels");
+    printf("mip: pitched input, same levels\n");
+    release(d_values); release(d_mip); release(d_mip2); release(pitched.buffer); release(scratch);
+    free(values); free(mip); free(mip2);
+}
+
+/* ------------------------------------------------------------------ tables */
+
+static const int M_LIST[] = {4, 5, 8, 13, 32, 100, 256};
+
+static void run_tables(void)
+{
+    for (int s = OCLSHADE_AO_PAPER; s <= OCLSHADE_AO_RAYS; ++s) {
+        for (size_t i = 0; i < sizeof M_LIST / sizeof M_LIST[0]; ++i) {
+            float table[3 * 256];
+            int mpad = 0;
+            CHECK(oclshade_ssao_table((oclshade_ao_samples)s, M_LIST[i], table, &mpad));
+            char name[64];
+            snprintf(name, sizeof name, "table_%d_%d.f32", s, M_LIST[i]);
+            write_file(name, table, 12u * (size_t)mpad);
+        }
+    }
+    float t[768];
+    if (oclshade_ssao_table(OCLSHADE_AO_RAYS, 3, t, NULL) != OCLSHADE_INVALID_ARGUMENT ||
+        oclshade_ssao_table(OCLSHADE_AO_RAYS, 257, t, NULL) != OCLSHADE_INVALID_ARGUMENT ||
+        oclshade_ssao_table((oclshade_ao_samples)5, 8, t, NULL) != OCLSHADE_INVALID_ARGUMENT)
+        fail("tables: bad m or samples accepted");
+}
+
+/* ------------------------------------------------------------------ ssao */
+
+typedef struct ssao_inputs {
+    int width, height;
+    float *position, *normal, *alpha, *normal_map, *tangent;
+    double projection[16];
+} ssao_inputs;
+
+/* Runs one spec; pitched: inputs and output as pitched fields at offsets. */
+static float *ssao_once(const ssao_inputs *in, const char *spec, int pitched)
+{
+    oclshade_ssao_params p;
+    oclshade_ssao_params_init(&p);
+    int samples, blur, alpha, nmap;
+    if (sscanf(spec, "%d,%d,%d,%d,%d,%d,%lf,%lf,%u,%d,%d", &samples, &p.m, &p.range_check, &p.plane_test, &blur,
+               &p.blur_size, &p.radius, &p.delta, &p.seed, &alpha, &nmap) != 11)
+        fail("bad ssao spec");
+    p.samples = (oclshade_ao_samples)samples;
+    p.blur = (oclshade_blur)blur;
+    p.width = in->width;
+    p.height = in->height;
+    memcpy(p.projection, in->projection, sizeof p.projection);
+    const int rows = in->height;
+    const size_t w = (size_t)in->width, n = w * (size_t)rows;
+    const float *host[5] = {in->position, in->normal, alpha ? in->alpha : NULL, nmap ? in->normal_map : NULL,
+                            nmap ? in->tangent : NULL};
+    oclshade_field *fields[5] = {&p.position, &p.normal, &p.alpha, &p.normal_map, &p.tangent};
+    const size_t row_bytes[5] = {16 * w, 16 * w, 4 * w, 16 * w, 16 * w};
+    for (int i = 0; i < 5; ++i) {
+        if (host[i] == NULL) continue;
+        if ((i == 2 && in->alpha == NULL) || (i >= 3 && in->normal_map == NULL)) fail("ssao: spec asks for a missing map");
+        *fields[i] = pitched ? pitched_copy(host[i], rows, row_bytes[i], 384, row_bytes[i] + 16)
+                             : oclshade_field_of(buffer((size_t)rows * row_bytes[i], host[i]));
+    }
+    float *ones = (float *)xmalloc(4 * n);
+    p.ao = pitched ? pitched_copy(ones, rows, 4 * w, 128, 4 * w + 12) : oclshade_field_of(buffer(4 * n, NULL));
+    size_t bytes = 0;
+    CHECK(oclshade_ssao_scratch_size(lib, &p, &bytes));
+    p.scratch = scratch_of(bytes);
+    cl_event done;
+    CHECK(oclshade_enqueue_ssao(lib, queue, &p, 0, NULL, &done));
+    CLCHECK(clWaitForEvents(1, &done));
+    clReleaseEvent(done);
+    float *ao = pitched ? (float *)read_pitched(&p.ao, rows, 4 * w) : (float *)read_back(p.ao.buffer, 4 * n);
+    for (int i = 0; i < 5; ++i) release(fields[i]->buffer);
+    release(p.ao.buffer);
+    release(p.scratch);
+    free(ones);
+    return ao;
+}
+
+static void run_ssao(int argc, char **argv)
+{
+    if (argc < 4) fail("usage: host_passes ssao OUTDIR INDIR WIDTH HEIGHT SPEC...");
+    const char *indir = argv[0];
+    ssao_inputs in;
+    memset(&in, 0, sizeof in);
+    in.width = atoi(argv[1]);
+    in.height = atoi(argv[2]);
+    const size_t n = (size_t)in.width * (size_t)in.height;
+    in.position = (float *)read_file(indir, "position.f32", 16 * n, 0);
+    in.normal = (float *)read_file(indir, "normal.f32", 16 * n, 0);
+    in.alpha = (float *)read_file(indir, "alpha.f32", 4 * n, 1);
+    in.normal_map = (float *)read_file(indir, "normal_map.f32", 16 * n, 1);
+    in.tangent = (float *)read_file(indir, "tangent.f32", 16 * n, 1);
+    double *proj = (double *)read_file(indir, "projection.f64", sizeof in.projection, 0);
+    memcpy(in.projection, proj, sizeof in.projection);
+    free(proj);
+    float *first = NULL;
+    for (int k = 3; k < argc; ++k) {
+        float *ao = ssao_once(&in, argv[k], 0);
+        char name[64];
+        snprintf(name, sizeof name, "ao_%d.f32", k - 3);
+        write_file(name, ao, 4 * n);
+        if (first == NULL) first = ao;
+        else free(ao);
+    }
+    /* the first spec with pitched fields, and under every lanes knob: same bits */
+    float *again = ssao_once(&in, argv[3], 1);
+    if (memcmp(again, first, 4 * n) != 0) fail("ssao: pitched fields give another AO map");
+    free(again);
+    static const int lanes[] = {4, 8, 16}, groups[] = {16, 64, 256};
+    int lanes0 = 0;
+    CHECK(oclshade_get_knob(lib, "ssao", "lanes", &lanes0));
+    for (int i = 0; i < 3; ++i) {
+        CHECK(oclshade_set_knob(lib, "ssao", "lanes", lanes[i]));
+        CHECK(oclshade_set_knob(lib, "ssao", "group", groups[i]));
+        again = ssao_once(&in, argv[3], 0);
+        if (memcmp(again, first, 4 * n) != 0) fail("ssao: another lanes knob gives another AO map");
+        free(again);
+    }
+    CHECK(oclshade_set_knob(lib, "ssao", "lanes", lanes0));
+    CHECK(oclshade_set_knob(lib, "ssao", "group", 64));
+    printf("ssao: pitched fields and lanes 4, 8, 16: same AO\n");
+    free(first);
+    free(in.position); free(in.normal); free(in.alpha); free(in.normal_map); free(in.tangent);
+}
+
+/* ------------------------------------------------------------------ terrain */
+
+static double *read_doubles(const char *dir, const char *name, size_t count)
+{
+    return (double *)read_file(dir, name, count * sizeof(double), 0);
+}
+
+static void parse_camera(const char *spec, const char *matrix_dir, oclshade_camera *cam)
+{
+    double v[11];
+    if (strncmp(spec, "look:", 5) == 0 || strncmp(spec, "ortho:", 6) == 0) {
+        const int ortho = spec[0] == 'o';
+        if (sscanf(strchr(spec, ':') + 1, "%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf", &v[0], &v[1], &v[2], &v[3],
+                   &v[4], &v[5], &v[6], &v[7], &v[8], &v[9], &v[10]) != 11)
+            fail("bad camera");
+        CHECK(oclshade_camera_look_at(v, v + 3, NULL, (int)v[9], (int)v[10],
+                                      ortho ? OCLSHADE_ORTHOGRAPHIC : OCLSHADE_PERSPECTIVE, ortho ? 45.0 : v[6],
+                                      ortho ? v[6] : 1.0, v[7], v[8], cam));
+    } else if (strncmp(spec, "matrices:", 9) == 0) {
+        int w, h;
+        if (sscanf(spec + 9, "%d,%d", &w, &h) != 2) fail("bad camera");
+        double *view = read_doubles(matrix_dir, "view.f64", 16), *proj = read_doubles(matrix_dir, "projection.f64", 16);
+        CHECK(oclshade_camera_from_matrices(view, proj, w, h, cam));
+        free(view);
+        free(proj);
+    } else {
+        fail("bad camera");
+    }
+}
+
+typedef struct map {
+    int rows, cols;
+    size_t n;
+    double offset;
+    float *rel;
+    cl_mem heights, pyramid, offsets;
+    oclshade_pyramid_layout lay;
+} map;
+
+/* Relative heights and their extrema pyramid on the device. */
+static void load_map(map *m, const char *path, int rows, int cols)
+{
+    m->rows = rows;
+    m->cols = cols;
+    m->n = (size_t)rows * (size_t)cols;
+    double *heights = (double *)read_file(NULL, path, 8 * m->n, 0);
+    m->rel = (float *)xmalloc(4 * m->n);
+    CHECK(oclshade_relative_heights(heights, m->n, m->rel, &m->offset));
+    free(heights);
+    CHECK(oclshade_pyramid_layout_for(rows, cols, &m->lay));
+    m->heights = buffer(4 * m->n, m->rel);
+    m->pyramid = buffer(m->lay.pyramid_bytes, NULL);
+    m->offsets = buffer(m->lay.offsets_bytes, NULL);
+    const oclshade_field f = oclshade_field_of(m->heights);
+    CHECK(oclshade_enqueue_extrema_pyramid(lib, queue, &f, rows, cols, m->pyramid, m->offsets, NULL, 0, NULL, NULL));
+    write_file("relative.f32", m->rel, 4 * m->n);
+    write_file("offset.f64", &m->offset, sizeof m->offset);
+}
+
+static void free_map(map *m)
+{
+    release(m->heights); release(m->pyramid); release(m->offsets);
+    free(m->rel);
+}
+
+static const char *const GBUFFER_FIELDS[6] = {"position", "normal", "uv", "uv_grad", "depth", "albedo"};
+static const size_t GBUFFER_BYTES[6] = {16, 16, 8, 16, 4, 16};
+
+static oclshade_field *gbuffer_field(oclshade_gbuffer *g, int i)
+{
+    oclshade_field *const f[6] = {&g->position, &g->normal, &g->uv, &g->uv_grad, &g->depth, &g->albedo};
+    return f[i];
+}
+
+/* The dilated levels for the handle's current leaf knob. */
+static void dilate(const map *m, oclshade_terrain_params *p)
+{
+    oclshade_dilated_layout dl;
+    CHECK(oclshade_dilated_layout_for(lib, m->rows, m->cols, &dl));
+    release(p->dilated);
+    release(p->dilated_table);
+    p->dilated = buffer(dl.bytes, NULL);
+    p->dilated_table = buffer(dl.table_bytes, NULL);
+    const oclshade_field f = oclshade_field_of(m->heights);
+    CHECK(oclshade_enqueue_dilated_levels(lib, queue, &f, m->rows, m->cols, m->pyramid, m->offsets, p->dilated,
+                                          p->dilated_table, NULL, 0, NULL, NULL));
+}
+
+/* The G-buffer (six fields, then the shading normals) read back into out[7]; pitched: every
+ * output a pitched field at an offset. */
+static void cast(oclshade_terrain_params *p, int pitched, void *out[7])
+{
+    const int h = p->camera.height;
+    const size_t w = (size_t)p->camera.width;
+    oclshade_field normals;
+    for (int i = 0; i < 7; ++i) {
+        const size_t row = (i < 6 ? GBUFFER_BYTES[i] : 16) * w;
+        void *zero = xmalloc(row * (size_t)h);
+        oclshade_field *f = i < 6 ? gbuffer_field(&p->gbuffer, i) : &normals;
+        *f = pitched ? pitched_copy(zero, h, row, 128u * (size_t)(i + 1), row + 16u * (size_t)(i + 1))
+                     : oclshade_field_of(buffer(row * (size_t)h, NULL));
+        free(zero);
+    }
+    size_t bytes = 0, normal_bytes = 0;
+    CHECK(oclshade_terrain_scratch_size(lib, p, &bytes));
+    CHECK(oclshade_terrain_normals_scratch_size(lib, p, &normals, &normal_bytes));
+    p->scratch = scratch_of(bytes > normal_bytes ? bytes : normal_bytes);
+    CHECK(oclshade_enqueue_terrain(lib, queue, p, 0, NULL, NULL));
+    CHECK(oclshade_enqueue_terrain_normals(lib, queue, p, &normals, 0, NULL, NULL));
+    for (int i = 0; i < 7; ++i) {
+        const size_t row = (i < 6 ? GBUFFER_BYTES[i] : 16) * w;
+        oclshade_field *f = i < 6 ? gbuffer_field(&p->gbuffer, i) : &normals;
+        out[i] = pitched ? read_pitched(f, h, row) : read_back(f->buffer, row * (size_t)h);
+        release(f->buffer);
+    }
+    release(p->scratch);
+    p->scratch = NULL;
+}
+
+static void same_gbuffer(void *a[7], void *b[7], size_t pixels, const char *what)
+{
+    for (int i = 0; i < 7; ++i) {
+        if (memcmp(a[i], b[i], (i < 6 ? GBUFFER_BYTES[i] : 16) * pixels) != 0) {
+            fprintf(stderr, "terrain: %s: field %s differs\n", what, i < 6 ? GBUFFER_FIELDS[i] : "normals");
+            exit(1);
+        }
+        free(b[i]);
+    }
+}
+
+static void run_terrain(int argc, char **argv)
+{
+    if (argc < 8) fail("usage: host_passes terrain OUTDIR HEIGHTS.f64 ROWS COLS DX DY RADIUS METHOD CAMERA [TEXDIR]");
+    map m;
+    load_map(&m, argv[0], atoi(argv[1]), atoi(argv[2]));
+    oclshade_terrain_params p;
+    oclshade_terrain_params_init(&p);
+    p.rows = m.rows; p.cols = m.cols;
+    p.dx = strtod(argv[3], NULL); p.dy = strtod(argv[4], NULL);
+    p.radius = strtod(argv[5], NULL);
+    p.method = (oclshade_caster)atoi(argv[6]);
+    const char *texdir = argc > 8 ? argv[8] : ".";
+    parse_camera(argv[7], texdir, &p.camera);
+    double cam[36];
+    memcpy(cam, p.camera.view, sizeof p.camera.view);
+    memcpy(cam + 16, p.camera.projection_matrix, sizeof p.camera.projection_matrix);
+    cam[32] = p.camera.sx; cam[33] = p.camera.sy; cam[34] = p.camera.near_depth; cam[35] = p.camera.far_depth;
+    write_file("camera.f64", cam, sizeof cam);
+    p.heights = oclshade_field_of(m.heights);
+    p.offset = m.offset;
+    CHECK(oclshade_height_range(m.rel, m.n, &p.hmin, &p.hmax));
+    p.pyramid = m.pyramid;
+    p.offsets = m.offsets;
+    char path[4096];
+    snprintf(path, sizeof path, "%s/texture_count.txt", texdir);
+    FILE *f = argc > 8 ? fopen(path, "r") : NULL;
+    if (f != NULL) {
+        int count = 0;
+        unsigned long texels = 0;
+        if (fscanf(f, "%d %lu", &count, &texels) != 2) fail(path);
+        fclose(f);
+        float *tex = (float *)read_file(texdir, "texture.f32", 16 * texels, 0);
+        int *levels = (int *)read_file(texdir, "texture_levels.i32", 16u * (size_t)count, 0);
+        p.texture = buffer(16 * texels, tex);
+        p.texture_levels = buffer(16u * (size_t)count, levels);
+        p.texture_count = count;
+        free(tex);
+        free(levels);
+    }
+    dilate(&m, &p);
+    oclshade_dilated_layout dl;
+    CHECK(oclshade_dilated_layout_for(lib, m.rows, m.cols, &dl));
+    void *dil = read_back(p.dilated, dl.bytes), *table = read_back(p.dilated_table, dl.table_bytes);
+    write_file("dilated.f32", dil, dl.bytes);
+    write_file("dilated_table.i32", table, dl.table_bytes);
+    free(dil); free(table);
+    void *fields[7], *again[7];
+    cast(&p, 0, fields);
+    const size_t pixels = (size_t)p.camera.width * (size_t)p.camera.height;
+    for (int i = 0; i < 7; ++i) {
+        char name[64];
+        snprintf(name, sizeof name, i < 6 ? "gbuffer_%s.f32" : "normals.f32", i < 6 ? GBUFFER_FIELDS[i] : "");
+        write_file(name, fields[i], (i < 6 ? GBUFFER_BYTES[i] : 16) * pixels);
+    }
+    cast(&p, 1, again);
+    same_gbuffer(fields, again, pixels, "pitched outputs");
+    int leaf0 = 0;
+    CHECK(oclshade_get_knob(lib, "terrain", "leaf", &leaf0));
+    CHECK(oclshade_set_knob(lib, "terrain", "descend", 1));
+    CHECK(oclshade_set_knob(lib, "terrain", "group", 16));
+    CHECK(oclshade_set_knob(lib, "terrain", "leaf", leaf0 == 0 ? 3 : 0));
+    dilate(&m, &p);
+    cast(&p, 0, again);
+    same_gbuffer(fields, again, pixels, "descend 1, group 16, another leaf");
+    printf("terrain: pitched outputs and other knobs: same G-buffer\n");
+    for (int i = 0; i < 7; ++i) free(fields[i]);
+    release(p.dilated); release(p.dilated_table); release(p.texture); release(p.texture_levels);
+    free_map(&m);
+}
+
+/* ------------------------------------------------------------------ pixels */
+
+static void *pixel_pass(oclshade_pixel_shadow_params *p, int pitched, void **coef_out, void **lod_out)
+{
+    const int h = p->height;
+    const size_t w = (size_t)p->width;
+    void *zero = xmalloc(4 * w * (size_t)h);
+    p->flag = pitched ? pitched_copy(zero, h, w, 256, w + 3) : oclshade_field_of(buffer(w * (size_t)h, NULL));
+    p->coefficient = pitched ? pitched_copy(zero, h, 4 * w, 128, 4 * w + 8) : oclshade_field_of(buffer(4 * w * (size_t)h, NULL));
+    p->lod = oclshade_field_of(buffer(w * (size_t)h, NULL));
+    free(zero);
+    size_t bytes = 0;
+    CHECK(oclshade_pixel_shadows_scratch_size(lib, p, &bytes));
+    p->scratch = scratch_of(bytes);
+    CHECK(oclshade_enqueue_pixel_shadows(lib, queue, p, 0, NULL, NULL));
+    void *flag = pitched ? read_pitched(&p->flag, h, w) : read_back(p->flag.buffer, w * (size_t)h);
+    *coef_out = pitched ? read_pitched(&p->coefficient, h, 4 * w) : read_back(p->coefficient.buffer, 4 * w * (size_t)h);
+    *lod_out = read_back(p->lod.buffer, w * (size_t)h);
+    release(p->flag.buffer); release(p->coefficient.buffer); release(p->lod.buffer); release(p->scratch);
+    return flag;
+}
+
+static void run_pixels(int argc, char **argv)
+{
+    if (argc != 15) fail("usage: host_passes pixels OUTDIR HEIGHTS.f64 ROWS COLS DX DY INDIR WIDTH HEIGHT AZ,EL METHOD "
+                         "FORCE_Q BIAS NAMAX KDARK KBRIGHT");
+    map m;
+    load_map(&m, argv[0], atoi(argv[1]), atoi(argv[2]));
+    oclshade_pixel_shadow_params p;
+    oclshade_pixel_shadow_params_init(&p);
+    p.rows = m.rows; p.cols = m.cols;
+    p.dx = strtod(argv[3], NULL); p.dy = strtod(argv[4], NULL);
+    const char *indir = argv[5];
+    p.width = atoi(argv[6]); p.height = atoi(argv[7]);
+    if (sscanf(argv[8], "%lf,%lf", &p.azimuth, &p.elevation) != 2) fail("bad sun");
+    p.method = (oclshade_method)atoi(argv[9]);
+    p.force_q = atoi(argv[10]); p.bias = atoi(argv[11]); p.n_a_max = atoi(argv[12]);
+    p.k_dark = strtod(argv[13], NULL); p.k_bright = strtod(argv[14], NULL);
+    /* the level-q grids: the mip pyramid on the device, read back, the grids on the host */
+    oclshade_mip_layout ml;
+    CHECK(oclshade_mip_layout_for(lib, m.rows, m.cols, &ml));
+    cl_mem d_mip = buffer(ml.bytes, NULL);
+    const oclshade_field hf = oclshade_field_of(m.heights);
+    CHECK(oclshade_enqueue_mip_pyramid(lib, queue, &hf, m.rows, m.cols, d_mip, NULL, 0, NULL, NULL));
+    void *mip = read_back(d_mip, ml.bytes ? ml.bytes : 1);
+    write_file("mip.bin", mip, ml.bytes);
+    oclshade_coarse_layout cl;
+    CHECK(oclshade_coarse_layout_for(m.rows, m.cols, &cl));
+    float *grids = (float *)xmalloc(cl.grids_bytes);
+    int *grid_offsets = (int *)xmalloc(cl.offsets_bytes);
+    CHECK(oclshade_coarse_grids(m.rel, mip, &ml, m.rows, m.cols, grids, grid_offsets));
+    write_file("coarse.f32", grids, cl.grids_bytes);
+    write_file("coarse_offsets.i32", grid_offsets, cl.offsets_bytes);
+    p.heights = hf;
+    p.pyramid = m.pyramid; p.offsets = m.offsets;
+    p.coarse = buffer(cl.grids_bytes, grids);
+    p.coarse_offsets = buffer(cl.offsets_bytes, grid_offsets);
+    const size_t n = (size_t)p.width * (size_t)p.height;
+    float *pos = (float *)read_file(indir, "position.f32", 16 * n, 0), *uv = (float *)read_file(indir, "uv.f32", 8 * n, 0);
+    float *grad = (float *)read_file(indir, "uv_grad.f32", 16 * n, 0);
+    p.position = oclshade_field_of(buffer(16 * n, pos));
+    p.uv = oclshade_field_of(buffer(8 * n, uv));
+    p.uv_grad = oclshade_field_of(buffer(16 * n, grad));
+    void *coef, *lod, *coef2, *lod2;
+    void *flag = pixel_pass(&p, 0, &coef, &lod);
+    write_file("flag.u8", flag, n);
+    write_file("coef.f32", coef, 4 * n);
+    write_file("lod.u8", lod, n);
+    /* pitched inputs and outputs, another group: same bits */
+    release(p.position.buffer); release(p.uv.buffer);
+    p.position = pitched_copy(pos, p.height, 16u * (size_t)p.width, 640, 16u * (size_t)p.width + 48);
+    p.uv = pitched_copy(uv, p.height, 8u * (size_t)p.width, 128, 8u * (size_t)p.width + 8);
+    CHECK(oclshade_set_knob(lib, "screen_shadows", "group", 16));
+    void *flag2 = pixel_pass(&p, 1, &coef2, &lod2);
+    if (memcmp(flag, flag2, n) || memcmp(coef, coef2, 4 * n) || memcmp(lod, lod2, n))
+        fail("pixels: pitched fields or group 16 give other outputs");
+    printf("pixels: pitched fields and group 16: same outputs\n");
+    release(p.position.buffer); release(p.uv.buffer); release(p.uv_grad.buffer);
+    release(p.coarse); release(p.coarse_offsets); release(d_mip);
+    free(flag); free(coef); free(lod); free(flag2); free(coef2); free(lod2);
+    free(mip); free(grids); free(grid_offsets); free(pos); free(uv); free(grad);
+    free_map(&m);
+}
+
+/* ------------------------------------------------------------------ compose */
+
+static void *compose_once(oclshade_compose_params *p, float *host[5], int pitched)
+{
+    const int sh = p->height * p->ssaa;
+    const size_t sw = (size_t)p->width * (size_t)p->ssaa;
+    oclshade_field *fields[5] = {&p->position, &p->normal, &p->albedo, &p->shadow, &p->ao};
+    const size_t rows[5] = {16 * sw, 16 * sw, 16 * sw, 4 * sw, 4 * sw};
+    for (int i = 0; i < 5; ++i)
+        *fields[i] = host[i] == NULL ? oclshade_field_of(NULL)
+                     : pitched ? pitched_copy(host[i], sh, rows[i], 128u * (size_t)(i + 1), rows[i] + 32)
+                               : oclshade_field_of(buffer((size_t)sh * rows[i], host[i]));
+    const size_t row = 4u * (size_t)p->width;
+    void *zero = xmalloc(row * (size_t)p->height);
+    p->image = pitched ? pitched_copy(zero, p->height, row, 384, row + 4) : oclshade_field_of(buffer(row * (size_t)p->height, NULL));
+    free(zero);
+    size_t bytes = 0;
+    CHECK(oclshade_compose_scratch_size(lib, p, &bytes));
+    p->scratch = scratch_of(bytes);
+    CHECK(oclshade_enqueue_compose(lib, queue, p, 0, NULL, NULL));
+    void *image = pitched ? read_pitched(&p->image, p->height, row) : read_back(p->image.buffer, row * (size_t)p->height);
+    for (int i = 0; i < 5; ++i) release(fields[i]->buffer);
+    release(p->image.buffer);
+    release(p->scratch);
+    return image;
+}
+
+static void run_compose(int argc, char **argv)
+{
+    if (argc != 10) fail("usage: host_passes compose OUTDIR INDIR WIDTH HEIGHT SSAA AZ,EL INTENSITY SKY BG SHADOW AO");
+    const char *indir = argv[0];
+    oclshade_compose_params p;
+    oclshade_compose_params_init(&p);
+    p.width = atoi(argv[1]); p.height = atoi(argv[2]); p.ssaa = atoi(argv[3]);
+    if (sscanf(argv[4], "%lf,%lf", &p.azimuth, &p.elevation) != 2) fail("bad sun");
+    p.sun_intensity = strtod(argv[5], NULL);
+    if (sscanf(argv[6], "%lf,%lf,%lf", &p.sky[0], &p.sky[1], &p.sky[2]) != 3 ||
+        sscanf(argv[7], "%lf,%lf,%lf", &p.background[0], &p.background[1], &p.background[2]) != 3)
+        fail("bad colour");
+    double *rot = read_doubles(indir, "rotation.f64", 9);
+    memcpy(p.rotation, rot, sizeof p.rotation);
+    free(rot);
+    const size_t samples = (size_t)p.width * (size_t)p.height * (size_t)p.ssaa * (size_t)p.ssaa;
+    float *host[5] = {(float *)read_file(indir, "position.f32", 16 * samples, 0),
+                      (float *)read_file(indir, "normal.f32", 16 * samples, 0),
+                      (float *)read_file(indir, "albedo.f32", 16 * samples, 0),
+                      atoi(argv[8]) ? (float *)read_file(indir, "shadow.f32", 4 * samples, 0) : NULL,
+                      atoi(argv[9]) ? (float *)read_file(indir, "ao.f32", 4 * samples, 0) : NULL};
+    const size_t bytes = 4u * (size_t)p.width * (size_t)p.height;
+    void *image = compose_once(&p, host, 0);
+    write_file("image.u8", image, bytes);
+    void *again = compose_once(&p, host, 1);
+    if (memcmp(image, again, bytes) != 0) fail("compose: pitched fields give another image");
+    printf("compose: pitched fields: same image\n");
+    free(image); free(again);
+    for (int i = 0; i < 5; ++i) free(host[i]);
+}
+
+/* ------------------------------------------------------------------ main */
+
+int main(int argc, char **argv)
+{
+    if (argc < 3) fail("usage: host_passes COMMAND OUTDIR ARGS...");
+    outdir = argv[2];
+    cl_platform_id platform;
+    cl_int err;
+    CLCHECK(clGetPlatformIDs(1, &platform, NULL));
+    CLCHECK(clGetDeviceIDs(platform, CL_DEVICE_TYPE_ALL, 1, &device, NULL));
+    ctx = clCreateContext(NULL, 1, &device, NULL, NULL, &err);
+    CLCHECK(err);
+    queue = clCreateCommandQueue(ctx, device, 0, &err);
+    CLCHECK(err);
+    CHECK(oclshade_create(ctx, device, NULL, &lib));
+    if (strcmp(argv[1], "mip") == 0) run_mip(argc - 3, argv + 3);
+    else if (strcmp(argv[1], "tables") == 0) run_tables();
+    else if (strcmp(argv[1], "ssao") == 0) run_ssao(argc - 3, argv + 3);
+    else if (strcmp(argv[1], "terrain") == 0) run_terrain(argc - 3, argv + 3);
+    else if (strcmp(argv[1], "pixels") == 0) run_pixels(argc - 3, argv + 3);
+    else if (strcmp(argv[1], "compose") == 0) run_compose(argc - 3, argv + 3);
+    else fail("unknown command");
+    oclshade_destroy(lib);
+    clReleaseCommandQueue(queue);
+    clReleaseContext(ctx);
+    printf("ok\n");
+    return 0;
+}
