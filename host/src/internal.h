@@ -1,7 +1,10 @@
 /* internal.h — what the per-family sources of the C host API share (not installed).
  *
- * core.c        handle, per-thread errors, kernel sources, program cache, knobs,
- *               argument checks, passes (event chains, scratch regions, field staging)
+ * core.c        handle, per-thread errors, build options, program cache
+ * sources.c     kernel sources (directory, strings, built-in copy), include expansion
+ * knobs.c       tuning knobs of every family and the rule for a new handle
+ * pass.c        argument and contract checks; passes (plan / run, scratch regions, field
+ *               staging, event chains, launches)
  * heightmap.c   relative heights, extrema pyramid, mean mip pyramid, coarse grids
  * shadows.c     sun parameters, heightmap-space shadows
  * camera.c      camera maths (host only)
@@ -97,6 +100,19 @@ struct oclshade {
 
 /* The program source of `file` ("shadow.cl", ...), NULL for another name. */
 const char *ocls_source(const oclshade *lib, const char *file);
+
+/* Where kernel sources come from: a directory, or a list of (name, text). */
+typedef struct source_set {
+    const char *dir;
+    const oclshade_source *list;
+    size_t count;
+} source_set;
+
+/* The text of `name` with its local includes expanded, each file once (malloc'd into *out). */
+oclshade_status ocls_expanded_source(oclshade *lib, const source_set *set, const char *name, char **out);
+
+/* The rule's value of every knob for a device (the safe values when a query fails). */
+cl_int ocls_rule_values(cl_device_id device, int values[N_KNOBS]);
 
 /* ------------------------------------------------------------------ errors */
 
