@@ -7,6 +7,8 @@ from .ao import (ReferenceAO, TopDownView, bilinear, box_blur, cosine_directions
                  raytraced_ao, rotation_vectors, ssao, ssao_lines, ssao_rays, topdown_gbuffer, volume_ao,
                  volume_ao_lines, world_frame)
 from .compose import compose
+from .horizons import (SVF_DEFINITIONS, angle_tolerance, horizon_angles, horizon_tangents, horizon_tolerance,
+                       sky_view_factor)
 from .pyramid import extrema_pyramid, mip_pyramid
 from .screen_shadows import ReferencePixelShadows, minimal_lod, pixel_shadows, surface_height
 from .shadows import (CORNER_SNAP, CORNER_TIE, ReferenceShadows, cast_shadows,
@@ -17,8 +19,9 @@ from .terrain import ReferenceTerrain, cast_terrain, dilated_max_levels
 __all__ = [
     "CORNER_SNAP", "CORNER_TIE", "ReferenceAO", "ReferencePixelShadows", "ReferenceShadows", "ReferenceSunshine",
     "ReferenceTerrain", "facing_tolerance", "sunshine_sums", "surface_gradient",
-    "TopDownView", "bilinear", "box_blur", "cast_shadows", "cast_terrain", "compose", "cosine_directions",
-    "dilated_max_levels", "edge_blur", "extrema_pyramid", "minimal_lod", "mip_pyramid", "pixel_shadows", "raytraced_ao",
-    "rotation_vectors", "shadow_coefficient", "ssao", "ssao_lines", "ssao_rays", "surface_height", "tie_tolerance", "topdown_gbuffer",
+    "SVF_DEFINITIONS", "TopDownView", "angle_tolerance", "bilinear", "box_blur", "cast_shadows", "cast_terrain", "compose", "cosine_directions",
+    "dilated_max_levels", "edge_blur", "extrema_pyramid", "horizon_angles", "horizon_tangents",
+    "horizon_tolerance", "minimal_lod", "mip_pyramid", "pixel_shadows", "raytraced_ao",
+    "rotation_vectors", "shadow_coefficient", "sky_view_factor", "ssao", "ssao_lines", "ssao_rays", "surface_height", "tie_tolerance", "topdown_gbuffer",
     "volume_ao", "volume_ao_lines", "world_frame",
 ]

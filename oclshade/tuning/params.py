@@ -24,7 +24,7 @@ Values = dict[str, int]
 
 #: the modules that register a family, imported on demand by :func:`families`
 FAMILY_MODULES = ("oclshade.pyramid", "oclshade.shadows", "oclshade.terrain", "oclshade.screen_shadows",
-                  "oclshade.ssao")
+                  "oclshade.ssao", "oclshade.horizon.caster")
 
 
 @dataclass(frozen=True)

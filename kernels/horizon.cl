@@ -1,0 +1,263 @@
+/* horizon.cl — horizon angles of a heightmap: per cell and azimuth, the
+ * elevation angle of the highest terrain seen from the cell's surface point
+ * over the bilinear surface, by a multilevel traversal of the extrema
+ * pyramid that maximises instead of thresholding (issue 19: paper 000's
+ * Algo 2 / 3 with a moving threshold).  Host: oclshade/horizon; float64
+ * twin: oclshade.reference.horizon_tangents; definitions, exactness and
+ * error: docs/methods.md "Horizons and sky-view factor".
+ *
+ * Geometry (as shadow.cl).  Sample (i, j) sits at x = j (east), y = i
+ * (south) in cell units; the surface is bilinear over patches (pyramid.cl).
+ * The ray of cell (i, j) at one azimuth starts at the surface point
+ * (j, i, h[i,j]) and follows x(t) = j + ux t, y(t) = i + uy t, t >= 0 the
+ * horizontal distance in metres, ux = sin(az)/dx, uy = -cos(az)/dy: shadow.cl's
+ * sun ray with w = 0, so the patches, corner passes, grid-line profiles and
+ * holes it meets are shadow.cl's (positions are measured from the cell,
+ * (j - pc) + ux t, which keeps the float32 error of a position proportional
+ * to the distance rather than to the column).  The horizon tangent is
+ *     T = sup_{t > 0} (S(t) - z0 - c t^2) / t
+ * over the valid surface inside the map, c = (1 - k) / (2 R) with
+ * -D OCLS_CURVATURE (Earth radius R, refraction coefficient k), else 0.
+ * Without curvature shadow.cl's cell is in cast shadow at (az, e) iff
+ * T > tan(e).
+ *
+ * Steps (paper 000 Algo 3, the threshold being the best tangent so far):
+ *   level l > 0  the tile's max M can raise T only if, somewhere on the
+ *                ray's segment [t, t_out] in it, M - z0 - c s^2 > T s; the
+ *                threshold T s + c s^2 is at least T t_lo + c t^2 there
+ *                (t_lo = t when T >= 0, else t_out), so the tile is skipped
+ *                when M - z0 <= T t_lo + c t^2 (exact pruning), else the
+ *                traversal descends;
+ *   level 0      the patch's sup in closed form: along the ray the surface
+ *                less the curvature drop is a quadratic f(t), and f(t) / t
+ *                has its maximum at an end of the segment or at the one
+ *                interior critical point t* = sqrt(A / C) (f = A + B t +
+ *                C t^2, a maximum iff A, C < 0: the tangent from the eye to
+ *                the surface), where f / t is evaluated (an error in t*
+ *                changes the value only to second order);
+ *   climbing     after a tile as shadow.cl (one level up when the ray has
+ *                just entered that level's tile too);
+ *   exit         when (z_top - z0) - c t^2 <= T t (nothing further can be
+ *                higher: both terms of (z_top - z0) / s - c s decrease) or
+ *                the ray leaves the map.
+ * A ray that sees no surface has T = -inf: angle -90 degrees.
+ *
+ * Outputs (each compiled in by its -D option; an output not compiled in is
+ * not written and its argument may be a 1-byte dummy buffer):
+ *   OCLS_OUT_ANGLE  angle[idx] = atan(T) in degrees (float), -90 when
+ *                   nothing is seen, NaN = nodata
+ *   OCLS_OUT_SVF=1  svf[idx] += sin^2(max(atan T, 0)) = T^2 / (1 + T^2)
+ *                   (T > 0, else 0): the cosine-weighted sky-view factor's
+ *                   term (1 - the mean of the terms over the azimuths)
+ *   OCLS_OUT_SVF=2  svf[idx] += sin(max(atan T, 0)) = T / sqrt(1 + T^2):
+ *                   the solid-angle (Zaksek / RVT) definition's term
+ *   svf is float2 (sum, compensation) of a Kahan summation, so the sum's
+ *   rounding does not grow with the number of azimuths; nodata cells are
+ *   left untouched.
+ *
+ * ABI
+ *   __kernel horizon_cells(h, H, W, ext, lvl_off, nlev, ray, angle, svf)
+ *     __global const float *h        H*W heights relative to the host's offset,
+ *                                    NaN = nodata (as shadow_cells)
+ *     int H, W
+ *     __global const float2 *ext     extrema pyramid levels 1..nlev-1 (pyramid.cl)
+ *     __global const int *lvl_off    level offsets (as shadow_cells)
+ *     int nlev                       levels counting level 0 (>= 2)
+ *     float4 ray                     (ux, uy, c, 0): ux, uy rounded to float32 as
+ *                                    shadow.cl's ray (oclshade Sun(az, 0).ray);
+ *                                    c the curvature per metre^2, read only with
+ *                                    -D OCLS_CURVATURE
+ *     __global float *angle          H*W (OCLS_OUT_ANGLE)
+ *     __global float2 *svf           H*W (OCLS_OUT_SVF), zeroed by the host before
+ *                                    the first azimuth
+ *   global size (W, H) rounded up to any local size.
+ *
+ * Build options: -D OCLS_OUT_ANGLE, OCLS_OUT_SVF=1|2, OCLS_CURVATURE,
+ *   OCLS_OWN_BUILTINS (common.h) and -cl-std=CL1.2, nothing else (no
+ *   fast-math); the hosts paste common.h in place of its include.
+ */
+#include "common.h"
+
+#define OCLS_MAX_ITERATIONS 1000000
+#define OCLS_CORNER_EPS (4.0f * FLT_EPSILON)
+#define OCLS_SIGN(u) ((u) > 0.0f ? 1 : ((u) < 0.0f ? -1 : 0))
+#ifdef OCLS_CURVATURE
+#define OCLS_DROP(c, t) ((c) * (t) * (t))
+#else
+#define OCLS_DROP(c, t) 0.0f
+#endif
+
+/* A ray of cell (i, j): direction, its reciprocals (0 along an axis it does
+ * not move on), and whether it runs along the cell's grid row / column. */
+typedef struct {
+    int i, j, sx, sy, on_row, on_col;
+    float ux, uy, ix, iy, c;
+} HRay;
+
+/* Ray parameter at which the ray leaves the tile [c0, c0+size] x [r0, r0+size]
+ * (shadow.cl's tile_exit for a start on a sample: the same values, so the
+ * same corner passes). */
+OCLS_INLINE float exit_t(const HRay *r, int r0, int c0, int size, int *via_x, int *via_y)
+{
+    const float tx = r->sx ? (float)((r->sx > 0 ? c0 + size : c0) - r->j) * r->ix : INFINITY;
+    const float ty = r->sy ? (float)((r->sy > 0 ? r0 + size : r0) - r->i) * r->iy : INFINITY;
+    const int corner = r->sx && r->sy && fabs(tx - ty) <= OCLS_CORNER_EPS * fmax(tx, ty);
+    *via_x = corner || tx < ty;
+    *via_y = corner || ty < tx;
+    return fmin(tx, ty);
+}
+
+/* Patch index along one axis just after parameter t, clamped to [lo, hi]. */
+OCLS_INLINE int along(int p0, float u, int sign, float t, int lo, int hi)
+{
+    const float p = (float)p0 + u * t;
+    return clamp(sign > 0 ? ocls_floor_int(p) : ocls_ceil_int(p) - 1, lo, hi);
+}
+
+OCLS_INLINE int valid_patch(__global const float *h, int H, int W, int pr, int pc)
+{
+    return !(isnan(ocls_sample(h, H, W, pr, pc)) || isnan(ocls_sample(h, H, W, pr, pc + 1)) ||
+             isnan(ocls_sample(h, H, W, pr + 1, pc)) || isnan(ocls_sample(h, H, W, pr + 1, pc + 1)));
+}
+
+/* sup over [t_in, t_out] of (S(t) - z0 - c t^2) / t in patch (pr, pc) (or on the
+ * grid line the ray runs along); -INFINITY for a hole. */
+OCLS_INLINE float patch_sup(__global const float *h, int H, int W, int pr, int pc, const HRay *r, float z0,
+                            float t_in, float t_out)
+{
+    const float fx = (float)(r->j - pc) + r->ux * t_in, fy = (float)(r->i - pr) + r->uy * t_in;
+    float s_a, s1, s2;
+    if (r->on_row || r->on_col) {
+        const float a = r->on_row ? ocls_sample(h, H, W, r->i, pc) : ocls_sample(h, H, W, pr, r->j);
+        const float b = r->on_row ? ocls_sample(h, H, W, r->i, pc + 1) : ocls_sample(h, H, W, pr + 1, r->j);
+        if (isnan(a) || isnan(b)) return -INFINITY;
+        const float f = r->on_row ? fx : fy;
+        s_a = a + (b - a) * f;
+        s1 = (b - a) * (r->on_row ? r->ux : r->uy);
+        s2 = 0.0f;
+    } else {
+        float h00, h01, h10, h11;
+        if (H > 1 && W > 1) {
+            __global const float *p = h + pr * W + pc;
+            h00 = p[0]; h01 = p[1]; h10 = p[W]; h11 = p[W + 1];
+        } else {
+            h00 = ocls_sample(h, H, W, pr, pc); h01 = ocls_sample(h, H, W, pr, pc + 1);
+            h10 = ocls_sample(h, H, W, pr + 1, pc); h11 = ocls_sample(h, H, W, pr + 1, pc + 1);
+        }
+        if (isnan(h00) || isnan(h01) || isnan(h10) || isnan(h11)) return -INFINITY;
+        const float ex = h01 - h00, ey = h10 - h00, k = (h00 - h01) - (h10 - h11);
+        s_a = h00 + ex * fx + ey * fy + k * (fx * fy);
+        s1 = (ex + k * fy) * r->ux + (ey + k * fx) * r->uy;
+        s2 = k * (r->ux * r->uy);
+    }
+    /* f(t_in + tau) = f_a + a tau + b tau^2, tau in [0, len] */
+    const float len = t_out - t_in;
+#ifdef OCLS_CURVATURE
+    const float a = s1 - 2.0f * r->c * t_in, b = s2 - r->c;
+#else
+    const float a = s1, b = s2;
+#endif
+    if (t_in == 0.0f) return fmax(a, a + b * len);       /* f = tau (a + b tau) from the cell itself */
+    const float f_a = (s_a - z0) - OCLS_DROP(r->c, t_in);
+    float best = fmax(f_a / t_in, (f_a + (a + b * len) * len) / t_out);
+    if (b < 0.0f) {                                      /* the tangent point t* = sqrt(A / C) */
+        const float q = t_in * t_in + (f_a - a * t_in) / b;
+        const float tau = q > 0.0f ? sqrt(q) - t_in : 0.0f;
+        if (tau > 0.0f && tau < len) best = fmax(best, (f_a + (a + b * tau) * tau) / (t_in + tau));
+    }
+    return best;
+}
+
+/* Corner pass out of the hole patch (pr, pc) at t: the ray touches the corner
+ * sample when a side neighbour is a valid patch (shadow.cl's corner_hits). */
+OCLS_INLINE float corner_sup(__global const float *h, int H, int W, int pr, int pc, const HRay *r, float z0,
+                             float t)
+{
+    const int Hp = max(H - 1, 1), Wp = max(W - 1, 1);
+    const int bc = r->sx > 0 ? pc + 1 : pc - 1, cr = r->sy > 0 ? pr + 1 : pr - 1;
+    const int side = (bc >= 0 && bc < Wp && valid_patch(h, H, W, pr, bc)) ||
+                     (cr >= 0 && cr < Hp && valid_patch(h, H, W, cr, pc));
+    const float v = ocls_sample(h, H, W, r->sy > 0 ? pr + 1 : pr, r->sx > 0 ? pc + 1 : pc);
+    return (side && !isnan(v)) ? ((v - z0) - OCLS_DROP(r->c, t)) / t : -INFINITY;
+}
+
+/* T of cell (i, j) (height z0, not nodata). */
+OCLS_INLINE float horizon_tan(__global const float *h, int H, int W, __global const float2 *ext,
+                              __global const int *lvl_off, int nlev, const HRay *r, float z0)
+{
+    const int Hp = max(H - 1, 1), Wp = max(W - 1, 1), top = nlev - 1;
+    int pc = r->sx < 0 ? r->j - 1 : (r->sx > 0 ? r->j : min(r->j, Wp - 1));
+    int pr = r->sy < 0 ? r->i - 1 : (r->sy > 0 ? r->i : min(r->i, Hp - 1));
+    if (pc < 0 || pc >= Wp || pr < 0 || pr >= Hp) return -INFINITY;
+    const float rise = ext[lvl_off[top]].x - z0;           /* z_top - z0 >= 0 */
+    float best = -INFINITY, t = 0.0f;
+    int l = 0;
+    for (int it = 0; it < OCLS_MAX_ITERATIONS; ++it) {
+        const int size = 1 << l, r0 = (pr >> l) << l, c0 = (pc >> l) << l;
+        int via_x, via_y;
+        const float t_out = exit_t(r, r0, c0, size, &via_x, &via_y);
+        if (t > 0.0f && rise - OCLS_DROP(r->c, t) <= best * t) break;   /* nothing further is higher */
+        if (l > 0) {
+            const float2 e = ext[lvl_off[l] + (pr >> l) * ocls_level_extent(Wp, l) + (pc >> l)];
+            if (e.x - z0 > best * (best >= 0.0f ? t : t_out) + OCLS_DROP(r->c, t)) {
+                l -= 1;                                    /* the tile may raise T: descend */
+                continue;
+            }
+        } else {
+            best = fmax(best, patch_sup(h, H, W, pr, pc, r, z0, t, t_out));
+            if (via_x && via_y && !valid_patch(h, H, W, pr, pc))
+                best = fmax(best, corner_sup(h, H, W, pr, pc, r, z0, t_out));
+        }
+        const int opr = pr, opc = pc;
+        if (via_x) pc = r->sx > 0 ? c0 + size : c0 - 1;
+        else if (r->sx) pc = along(r->j, r->ux, r->sx, t_out, c0, c0 + size - 1);
+        if (via_y) pr = r->sy > 0 ? r0 + size : r0 - 1;
+        else if (r->sy) pr = along(r->i, r->uy, r->sy, t_out, r0, r0 + size - 1);
+        t = t_out;
+        if (pr < 0 || pr >= Hp || pc < 0 || pc >= Wp) break;
+        const int diff = (pr ^ opr) | (pc ^ opc);          /* climb as shadow.cl */
+        l = min(min(31 - (int)clz(diff), top), l + 1);
+    }
+    return best;
+}
+
+__kernel void horizon_cells(__global const float *h, const int H, const int W, __global const float2 *ext,
+                            __global const int *lvl_off, const int nlev, const float4 ray,
+                            __global float *angle, __global float2 *svf)
+{
+    const int j = get_global_id(0), i = get_global_id(1);
+    if (j >= W || i >= H) return;
+    const int idx = i * W + j;
+    const float z0 = h[idx];
+    if (isnan(z0)) {
+#ifdef OCLS_OUT_ANGLE
+        angle[idx] = NAN;
+#endif
+        return;
+    }
+    HRay r;
+    r.i = i; r.j = j; r.ux = ray.x; r.uy = ray.y; r.c = ray.z;
+    r.sx = OCLS_SIGN(ray.x); r.sy = OCLS_SIGN(ray.y);
+    r.ix = r.sx ? 1.0f / ray.x : 0.0f;
+    r.iy = r.sy ? 1.0f / ray.y : 0.0f;
+    r.on_row = r.sy == 0;
+    r.on_col = r.sx == 0 && !r.on_row;
+    const float T = horizon_tan(h, H, W, ext, lvl_off, nlev, &r, z0);
+#ifdef OCLS_OUT_ANGLE
+    angle[idx] = T == -INFINITY ? -90.0f : atan(T) * (180.0f / M_PI_F);
+#endif
+#ifdef OCLS_OUT_SVF
+    const float tp = fmax(T, 0.0f);
+#if OCLS_OUT_SVF == 1
+    const float term = (tp * tp) / (1.0f + tp * tp);
+#else
+    const float term = tp / sqrt(1.0f + tp * tp);
+#endif
+    float2 acc = svf[idx];
+    const float y = term - acc.y;                          /* Kahan: the term less the last rounding */
+    const float s = acc.x + y;
+    acc.y = (s - acc.x) - y;
+    acc.x = s;
+    svf[idx] = acc;
+#endif
+}

@@ -1,0 +1,232 @@
+"""Horizon angles and sky-view factor on the device (kernels/horizon.cl).
+
+>>> caster = HorizonCaster(Heightmap.from_array(dem, cellsize=30.0))
+>>> angles = caster.horizons(64)              # float32 (64, rows, cols), degrees, band i at 360 i / 64
+>>> for azimuth, band in caster.iter_horizons(64): ...     # one azimuth at a time (streamed)
+>>> svf = caster.sky_view_factor(64)          # float32 (rows, cols), the cosine-weighted definition
+
+Per cell and azimuth the horizon angle is the elevation angle, in degrees, of
+the highest point of the bilinear surface seen from the cell's surface point
+(exact, as the cast-shadow masks: a cell is in cast shadow at (az, e) iff its
+horizon at az is above e); -90 where the ray sees no terrain (at the map's
+edge looking out), NaN at nodata cells.  Beyond the map there is no terrain.
+One traversal of the extrema pyramid per cell and azimuth, one launch per
+azimuth; the pyramid is shared with the shadow casters over the same heights
+(process-wide cache).  Definitions: kernels/horizon.cl and docs/methods.md;
+float64 twin: :func:`oclshade.reference.horizon_angles`.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable, Iterator, Mapping, Sequence
+
+import numpy as np
+import pyopencl as cl
+
+from .. import cache as _cache
+from .. import tuning
+from ..heightmap import Heightmap
+from ..pyramid import ExtremaPyramid, build_extrema_pyramid
+from ..reference.horizons import SVF_DEFINITIONS
+from ..runtime import Runtime, get_runtime
+from ..sun import Sun
+
+EARTH_RADIUS = 6371008.8          # metres: the IUGG mean radius (r.horizon and HORAYZON use about this)
+MAX_AZIMUTHS = 65536
+_SVF_CODE = {"cosine": 1, "solid-angle": 2}
+
+Progress = Callable[[int, int], None]
+
+
+def azimuth_grid(n: int) -> np.ndarray:
+    """``n`` equally spaced azimuths, degrees clockwise from north: 360 i / n, i = 0 .. n-1."""
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 1 <= n <= MAX_AZIMUTHS:
+        raise ValueError(f"the number of azimuths must be an integer in 1..{MAX_AZIMUTHS}, got {n!r}")
+    return 360.0 * np.arange(int(n)) / int(n)
+
+
+def as_azimuths(azimuths: int | Sequence[float] | np.ndarray) -> np.ndarray:
+    """An azimuth count (:func:`azimuth_grid`) or finite azimuths in degrees, as float64."""
+    if isinstance(azimuths, (int, np.integer)) and not isinstance(azimuths, bool):
+        return azimuth_grid(azimuths)
+    values = np.asarray(azimuths, np.float64) if not isinstance(azimuths, bool) else np.zeros(0)
+    if values.ndim != 1 or values.size == 0 or not np.all(np.isfinite(values)):
+        raise ValueError(f"azimuths must be a count or a non-empty list of finite degrees, got {azimuths!r}")
+    return values
+
+
+def check_definition(definition: str) -> str:
+    if definition not in SVF_DEFINITIONS:
+        raise ValueError(f"definition must be one of {', '.join(SVF_DEFINITIONS)}; got {definition!r}")
+    return definition
+
+
+@dataclass(frozen=True)
+class Curvature:
+    """Earth curvature along the rays: heights drop by (1 - k) d^2 / (2 R) at distance d, R the
+    radius in metres and k the refraction coefficient (light bent down by the air: about 0.13 by
+    day, an effective radius R / (1 - k)).  ``coefficient`` is that drop per square metre as the
+    kernel's float32 (the value the float64 reference is given, so both trace the same rays)."""
+
+    radius: float = EARTH_RADIUS
+    refraction: float = 0.0
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.radius, (int, float)) and math.isfinite(self.radius) and self.radius > 0):
+            raise ValueError(f"radius must be a positive number of metres, got {self.radius!r}")
+        if not (isinstance(self.refraction, (int, float)) and 0.0 <= self.refraction < 1.0):
+            raise ValueError(f"refraction must be a coefficient in [0, 1), got {self.refraction!r}")
+
+    @property
+    def coefficient(self) -> float:
+        return float(np.float32((1.0 - self.refraction) / (2.0 * self.radius)))
+
+
+class HorizonCaster:
+    """Horizon angles of one heightmap for any number of azimuths, over one resident pyramid.
+
+    curvature: None for a flat Earth (default), or a :class:`Curvature` (``Curvature()`` is
+    the mean Earth radius without refraction).  cache: share the pyramid through the
+    process-wide cache (:mod:`oclshade.cache`; None follows :func:`oclshade.cache.enabled`).
+    knobs: the ``horizon`` family's tuning values (:data:`TUNING`: ``group``, ``own_builtins``),
+    any subset; the rest from the device's tuning entry.  Results never depend on them.
+    """
+
+    def __init__(self, heightmap: Heightmap, device: str | int | Runtime | None = None, *,
+                 curvature: Curvature | None = None, cache: bool | None = None,
+                 knobs: Mapping[str, int] | None = None):
+        if curvature is not None and not isinstance(curvature, Curvature):
+            raise TypeError(f"curvature must be None or a Curvature, got {curvature!r}")
+        self.heightmap = heightmap
+        self.runtime = get_runtime(device)
+        self.curvature = curvature
+        self.cache = cache
+        self.knobs = {**tuning.settings(self.runtime, "horizon").values, **TUNING.check(knobs or {}, partial=True)}
+        self._pyramid: ExtremaPyramid | None = None
+        self._dummy = self.runtime.empty(8, "dummy")
+
+    @property
+    def pyramid(self) -> ExtremaPyramid:
+        """The extrema pyramid (built on first use, or the one the shadow casters share)."""
+        if self._pyramid is None:
+            caching = _cache.enabled() if self.cache is None else bool(self.cache)
+            key = (_cache.heights_digest(self.heightmap), id(self.runtime)) if caching else None
+            pyr = _cache.PYRAMIDS.get(key) if key else None
+            if pyr is None:
+                pyr = build_extrema_pyramid(self.heightmap, self.runtime)
+                if key:
+                    _cache.PYRAMIDS.put(key, pyr, pyr.buffer.size + pyr.heights.size + pyr.offsets.size)
+            self._pyramid = pyr
+        return self._pyramid
+
+    @property
+    def coefficient(self) -> float:
+        """The curvature drop per square metre the kernel uses (0 for a flat Earth)."""
+        return 0.0 if self.curvature is None else self.curvature.coefficient
+
+    def horizons(self, azimuths: int | Sequence[float], progress: Progress | None = None) -> np.ndarray:
+        """Horizon angles, float32 (N, rows, cols) degrees, for N azimuths (a count: 360 i / N)."""
+        az = as_azimuths(azimuths)
+        rows, cols = self.heightmap.shape
+        out = np.empty((az.size, rows, cols), np.float32)
+        for k, (_, band) in enumerate(self.iter_horizons(az, progress)):
+            out[k] = band
+        return out
+
+    def iter_horizons(self, azimuths: int | Sequence[float], progress: Progress | None = None
+                      ) -> Iterator[tuple[float, np.ndarray]]:
+        """(azimuth, float32 (rows, cols) degrees) one azimuth at a time, each yielded as soon as it
+        is computed (after ``progress(done, total)``): a caller that writes and drops it holds one
+        band.  The arguments are checked at the call."""
+        az = as_azimuths(azimuths)
+        return self._bands(az, progress)
+
+    def _bands(self, az: np.ndarray, progress: Progress | None) -> Iterator[tuple[float, np.ndarray]]:
+        rows, cols = self.heightmap.shape
+        for k, (a, buf) in enumerate(self._device_angles(az)):
+            band = np.empty((rows, cols), np.float32)
+            cl.enqueue_copy(self.runtime.queue, band, buf)
+            if progress is not None:
+                progress(k + 1, az.size)
+            yield float(a), band
+
+    def angles_on_device(self, azimuths: int | Sequence[float]) -> Iterator[tuple[float, cl.Buffer]]:
+        """(azimuth, device buffer) one azimuth at a time, for a kernel that reads the angles next
+        on this caster's queue (``runtime.queue``): float32 rows * cols degrees, values as
+        :meth:`horizons`; nothing is copied or waited for.  Each azimuth gets its own buffer (keep
+        two to interpolate between azimuths; drop them to free the memory).  The arguments are
+        checked at the call."""
+        return self._device_angles(as_azimuths(azimuths))
+
+    def _device_angles(self, az: np.ndarray) -> Iterator[tuple[float, cl.Buffer]]:
+        rows, cols = self.heightmap.shape
+        enqueue = self._enqueuer({"OCLS_OUT_ANGLE": True})
+        for a in az:
+            buf = self.runtime.empty(4 * rows * cols, "horizon angles")
+            enqueue(float(a), buf, self._dummy)
+            yield float(a), buf
+
+    def sky_view_factor(self, azimuths: int | Sequence[float], definition: str = "cosine",
+                        progress: Progress | None = None) -> np.ndarray:
+        """Sky-view factor, float32 (rows, cols), NaN = nodata, from the horizons of N equally
+        spaced azimuths (a count; or the azimuths, which should be equally spaced), summed on
+        the device without writing the angles.  ``definition``: ``cosine`` (default: the share
+        of an isotropic sky's irradiance on a horizontal surface, 1 - mean sin^2 h) or
+        ``solid-angle`` (Zaksek / RVT: 1 - mean sin h); horizons below 0 count as 0."""
+        az = as_azimuths(azimuths)
+        check_definition(definition)
+        rt = self.runtime
+        rows, cols = self.heightmap.shape
+        sums = rt.empty(8 * rows * cols, "sky-view factor sums")
+        cl.enqueue_fill_buffer(rt.queue, sums, np.float32(0.0), 0, 8 * rows * cols)
+        enqueue = self._enqueuer({"OCLS_OUT_SVF": _SVF_CODE[definition]})
+        for k, a in enumerate(az):
+            enqueue(float(a), self._dummy, sums)
+            if progress is not None:
+                rt.queue.finish()
+                progress(k + 1, az.size)
+        acc = np.empty((rows, cols, 2), np.float32)
+        cl.enqueue_copy(rt.queue, acc, sums)
+        total = acc[..., 0].astype(np.float64) - acc[..., 1]          # the sum less its compensation
+        svf = (1.0 - total / az.size).astype(np.float32)
+        svf[np.isnan(self.heightmap.heights)] = np.nan
+        return svf
+
+    def _enqueuer(self, outputs: Mapping[str, object]) -> Callable[[float, cl.Buffer, cl.Buffer], None]:
+        """A function enqueueing one azimuth's traversal into (angle, svf) buffers."""
+        rt, hm = self.runtime, self.heightmap
+        pyr = self.pyramid
+        rows, cols = hm.shape
+        defines = {**outputs, "OCLS_CURVATURE": self.curvature is not None,
+                   "OCLS_OWN_BUILTINS": bool(self.knobs["own_builtins"])}
+        kernel = rt.kernel("horizon.cl", "horizon_cells", defines)
+        gsize, lsize = rt.grid_2d(kernel, cols, rows, wanted=self.knobs["group"])
+        fixed = (pyr.heights, np.int32(rows), np.int32(cols), pyr.buffer, pyr.offsets, np.int32(pyr.levels))
+        c = self.coefficient
+
+        def enqueue(azimuth: float, angle: cl.Buffer, svf: cl.Buffer) -> None:
+            ux, uy, _ = Sun(azimuth, 0.0).ray(hm.dx, hm.dy)
+            kernel.set_args(*fixed, np.array([ux, uy, c, 0.0], np.float32), angle, svf)
+            cl.enqueue_nd_range_kernel(rt.queue, kernel, gsize, lsize)
+
+        return enqueue
+
+
+def _smoke(rt: Runtime, knobs: tuning.Values) -> None:
+    hm = Heightmap.from_array(tuning.standard_heightmap(64).heights[:, :45], cellsize=30.0)
+    HorizonCaster(hm, rt, cache=False, knobs=knobs).horizons([37.0, 200.0])
+
+
+def _workload(rt: Runtime, knobs: tuning.Values, quick: bool) -> Callable[[], None]:
+    caster = HorizonCaster(tuning.standard_heightmap(512 if quick else 2048), rt, cache=False, knobs=knobs)
+    caster.pyramid
+    return lambda: caster.horizons(8)
+
+
+#: the horizon kernel's knobs (kernels/horizon.cl)
+TUNING = tuning.register(tuning.Family(
+    "horizon",
+    (tuning.OWN_BUILTINS,
+     tuning.Param("group", (16, 64, 256), 64, "work-group size (work-items)")),
+    ("horizon.cl",), _smoke, _workload, "horizon angles and sky-view factor (issue 19)"))

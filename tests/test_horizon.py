@@ -1,0 +1,169 @@
+"""Horizon angles on the device (kernels/horizon.cl) against the float64 reference, closed forms and
+the cast-shadow masks."""
+from __future__ import annotations
+
+import math
+import pathlib
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from oclshade import ShadowCaster, Sun
+from oclshade import reference as ref
+from oclshade.heightmap import Heightmap
+from oclshade.horizon import Curvature, HorizonCaster, azimuth_grid
+
+SRTM = pathlib.Path(__file__).resolve().parents[2] / "shared" / "data" / "dem" / "srtm3_srtmpy" / "N22W160v2.3a.hgt.zip"
+
+
+def assert_matches_reference(hm: Heightmap, azimuths, curvature: Curvature | None = None) -> None:
+    """Every angle within the float32 band of the reference; nodata and 'sees nothing' (-90) alike."""
+    caster = HorizonCaster(hm, curvature=curvature)
+    c = caster.coefficient
+    band = ref.angle_tolerance(hm, c)
+    for az, got in caster.iter_horizons(azimuths):
+        expected = ref.horizon_angles(hm, az, c)
+        assert np.array_equal(np.isnan(got), np.isnan(expected)), f"nodata differs at az {az}"
+        assert np.array_equal(got == -90.0, expected == -90.0), f"'sees nothing' differs at az {az}"
+        err = np.nanmax(np.abs(got - expected)) if np.isfinite(expected).any() else 0.0
+        assert err <= band, f"az {az}: max |angle - reference| {err:.3g} deg > band {band:.3g} on {hm.shape}"
+
+
+@st.composite
+def terrains(draw) -> np.ndarray:
+    rows, cols = draw(st.integers(1, 40)), draw(st.integers(1, 40))
+    rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
+    scale = draw(st.sampled_from([1e-3, 1.0, 50.0, 2000.0]))
+    kind = draw(st.sampled_from(["noise", "smooth", "integer", "walk"]))
+    h = rng.random((rows, cols)) * scale
+    if kind == "smooth":
+        y, x = np.mgrid[0:rows, 0:cols]
+        h = scale * (np.sin(x / 5.0) + np.cos(y / 7.0)) + 0.1 * h
+    elif kind == "integer":
+        h = np.round(h)
+    elif kind == "walk":
+        h = np.cumsum(h - 0.5 * scale, axis=1)
+    if draw(st.booleans()):
+        h[rng.random((rows, cols)) < draw(st.sampled_from([0.02, 0.2]))] = np.nan
+    return h + draw(st.sampled_from([0.0, -500.0, 1e4]))
+
+
+azimuths = st.one_of(st.sampled_from([0.0, 90.0, 180.0, 270.0, 45.0, 135.0, 1e-6]), st.floats(0.0, 360.0))
+cell_sizes = st.sampled_from([(1.0, 1.0), (30.0, 30.0), (2.0, 0.5)])
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(h=terrains(), az=azimuths, cell=cell_sizes)
+def test_equal_to_reference(h, az, cell):
+    assert_matches_reference(Heightmap.from_array(h, cell), [az])
+
+
+@settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(h=terrains(), az=azimuths, radius=st.sampled_from([50.0, 2000.0, 6371008.8]),
+       k=st.sampled_from([0.0, 0.13]))
+def test_equal_to_reference_with_curvature(h, az, radius, k):
+    assert_matches_reference(Heightmap.from_array(h, 30.0), [az], Curvature(radius, k))
+
+
+def test_inclined_plane_closed_form():
+    """On h = g x (rising east) the horizon is atan(g) looking east, -atan(g) west, 0 north and south;
+    -90 looking out of the map."""
+    g, dx = 0.3, 10.0
+    hm = Heightmap.from_array(np.tile(g * dx * np.arange(12.0), (9, 1)), dx)
+    east, south, west, north = HorizonCaster(hm).horizons(4)[[1, 2, 3, 0]]
+    deg = math.degrees(math.atan(g))
+    np.testing.assert_allclose(east[:, :-1], deg, atol=1e-5)
+    np.testing.assert_allclose(west[:, 1:], -deg, atol=1e-5)
+    np.testing.assert_allclose(south[:-1], 0.0, atol=1e-5)
+    np.testing.assert_allclose(north[1:], 0.0, atol=1e-5)
+    assert np.all(east[:, -1] == -90.0) and np.all(west[:, 0] == -90.0)
+    assert np.all(south[-1] == -90.0) and np.all(north[0] == -90.0)
+
+
+def test_curvature_lowers_a_distant_tower():
+    """A tower of height Z at distance D on flat ground is seen at atan((Z - (1 - k) D^2 / 2R) / D), or at
+    0 (the ground at the cell's feet) when the curvature drops it below."""
+    h = np.zeros((3, 200))
+    h[1, 150] = 500.0
+    hm = Heightmap.from_array(h, 100.0)
+    for curvature in (None, Curvature(), Curvature(6371008.8, 0.13), Curvature(3e5), Curvature(1e5)):
+        caster = HorizonCaster(hm, curvature=curvature)
+        angle = caster.horizons([90.0])[0][1, 10]
+        d = 140 * 100.0
+        drop = 0.0 if curvature is None else (1.0 - curvature.refraction) * d * d / (2.0 * curvature.radius)
+        assert angle == pytest.approx(max(0.0, math.degrees(math.atan((500.0 - drop) / d))), abs=2e-5)
+
+
+def test_curvature_checks_its_arguments():
+    for bad in (dict(radius=0.0), dict(radius=-1.0), dict(radius=math.inf), dict(refraction=1.0),
+                dict(refraction=-0.1)):
+        with pytest.raises(ValueError, match="radius|refraction"):
+            Curvature(**bad)
+    with pytest.raises(TypeError, match="curvature"):
+        HorizonCaster(Heightmap.from_array(np.zeros((3, 3))), curvature=6371000.0)
+
+
+def test_shadow_masks_agree_with_horizons_generated():
+    """A cell is in cast shadow at (az, e) exactly when its horizon at az is above e, ties apart."""
+    rng = np.random.default_rng(19)
+    y, x = np.mgrid[0:90, 0:110]
+    h = 300.0 * np.sin(x / 9.0) * np.cos(y / 13.0) + 40.0 * rng.random((90, 110))
+    h[40:44, 50:57] = np.nan
+    assert_masks_agree(Heightmap.from_array(h, 25.0), [(37.0, 10.0), (200.0, 25.0), (90.0, 5.0), (315.0, 45.0)])
+
+
+def assert_masks_agree(hm: Heightmap, suns, limit: int = 0) -> None:
+    horizons, shadows = HorizonCaster(hm), ShadowCaster(hm, cache=False)
+    for az, el in suns:
+        angle = horizons.horizons([az])[0]
+        mask = shadows.cast((az, el)).mask
+        assert np.array_equal(np.isnan(angle), mask == 255)
+        differ = np.flatnonzero((angle > el) != (mask == 1))
+        assert differ.size <= max(limit, 3), f"{differ.size} cells differ at {az}/{el}"
+        if differ.size:      # each one a tie: the reference's T within float32 rounding of tan(el)
+            rows, cols = np.unravel_index(differ, hm.shape)
+            tangent = ref.horizon_tangents(hm, az, cells=(rows, cols))
+            sun = Sun(az, el)
+            band = ref.tie_tolerance(hm, sun) + ref.horizon_tolerance(hm)
+            assert np.all(np.abs(tangent - sun.ray(hm.dx, hm.dy)[2]) <= band)
+
+
+@pytest.mark.skipif(not SRTM.exists(), reason="shared SRTM tile not present")
+def test_shadow_masks_agree_with_horizons_srtm():
+    from oclshade.io import read_dem
+
+    raster = read_dem(SRTM)
+    hm = Heightmap.from_array(raster.heights, (raster.dx, raster.dy))
+    assert_masks_agree(hm, [(37.0, 10.0), (90.0, 20.0), (315.0, 2.0)])
+
+
+def test_knobs_do_not_change_results():
+    rng = np.random.default_rng(4)
+    h = np.cumsum(rng.normal(size=(37, 53)), axis=0) * 20.0
+    h[3:6, 7:9] = np.nan
+    hm = Heightmap.from_array(h, 30.0)
+    base = HorizonCaster(hm, knobs={"group": 64, "own_builtins": 0})
+    angles, svf = base.horizons(6), base.sky_view_factor(6)
+    for group in (16, 64, 256):
+        for own in (0, 1):
+            caster = HorizonCaster(hm, knobs={"group": group, "own_builtins": own}, curvature=None)
+            assert np.array_equal(caster.horizons(6), angles, equal_nan=True)
+            assert np.array_equal(caster.sky_view_factor(6), svf, equal_nan=True)
+
+
+def test_streaming_and_arguments():
+    hm = Heightmap.from_array(np.random.default_rng(2).random((20, 30)) * 100.0, 10.0)
+    caster = HorizonCaster(hm)
+    seen = []
+    bands = list(caster.iter_horizons(8, progress=lambda done, total: seen.append((done, total))))
+    assert [az for az, _ in bands] == list(azimuth_grid(8)) == [45.0 * i for i in range(8)]
+    assert seen == [(k, 8) for k in range(1, 9)]
+    assert np.array_equal(np.stack([b for _, b in bands]), caster.horizons(8))
+    assert np.array_equal(caster.horizons([90.0, 45.0])[0], caster.horizons(4)[1])
+    for bad in (0, -3, 2.5, True, [], [math.nan], [[1.0]]):
+        with pytest.raises(ValueError, match="azimuths"):
+            caster.horizons(bad)
+    with pytest.raises(ValueError, match="definition"):
+        caster.sky_view_factor(4, "fisheye")
