@@ -8,8 +8,10 @@
  * ("tuning <packet_lanes> <packet_run> <group>", oclshade_default_tuning of
  * the device) and the device's name ("device_name <CL_DEVICE_NAME>"), and
  * after oclshade_set_tuning with other values "tuned_tuning ..." and
- * "tuned_options ...", which the Python test compares with the Python host's
- * options and tuning rule. */
+ * "tuned_options ...", and every knob's rule value ("default_knob <family> <knob>
+ * <value>"), which the Python test compares with the Python host's options and
+ * tuning rule.  Covers the contract checks of every entry point (sizes, pitches,
+ * read-only outputs, aliasing, scratch) and the camera's. */
 #include "oclshade.h"
 
 #include <math.h>
@@ -365,6 +367,152 @@ int main(int argc, char **argv)
     expect(strcmp(opts, plain) == 0, "set_tuning: lanes 0 gives oclshade_shadow_build_options", opts);
     expect(strcmp(oclshade_version(), "0.3.0") == 0 && OCLSHADE_VERSION_MINOR == 3, "version 0.3.0", oclshade_version());
     expect(strcmp(oclshade_status_name(OCLSHADE_BUILD_FAILED), "OCLSHADE_BUILD_FAILED") == 0, "status names", "");
+
+    /* ---- the other families' argument checks */
+    {
+        cl_mem f4 = buffer(ctx, 16 * n), f4b = buffer(ctx, 16 * n), f1 = buffer(ctx, 4 * n), f2 = buffer(ctx, 8 * n);
+        const float zero = 0.0f;   /* empty pixels everywhere: the valid calls below run on defined data */
+        clEnqueueFillBuffer(queue, f4, &zero, 4, 0, 16 * n, 0, NULL, NULL);
+        clEnqueueFillBuffer(queue, f4b, &zero, 4, 0, 16 * n, 0, NULL, NULL);
+        clEnqueueFillBuffer(queue, f2, &zero, 4, 0, 8 * n, 0, NULL, NULL);
+        oclshade_mip_layout ml;
+        expect(oclshade_mip_layout_for(lib, rows, cols, &ml) == OCLSHADE_OK && ml.levels == 4 && ml.level_rows[1] == 3 &&
+               ml.level_cols[3] == 1 && ml.offsets[2] % 16 == 0, "mip layout: 5 x 7 has 4 levels, aligned", "");
+        st = oclshade_enqueue_mip_pyramid(lib, queue, &fh, rows, cols, small, NULL, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "mip must hold at least", "mip: buffer too small");
+
+        oclshade_camera cam, cam2;
+        double pos[3] = {0, -50, 40}, at[3] = {0, -50, 40};
+        expect(oclshade_camera_look_at(pos, at, NULL, 7, 5, OCLSHADE_PERSPECTIVE, 45, 1, 1, 100, &cam) ==
+               OCLSHADE_INVALID_ARGUMENT, "camera: target at the position", "");
+        at[1] = 0; at[2] = 0;
+        expect(oclshade_camera_look_at(pos, at, NULL, 7, 5, OCLSHADE_PERSPECTIVE, 180, 1, 1, 100, &cam) ==
+               OCLSHADE_INVALID_ARGUMENT, "camera: fov 180", "");
+        expect(oclshade_camera_look_at(pos, at, NULL, 7, 5, OCLSHADE_PERSPECTIVE, 45, 1, 0, 100, &cam) ==
+               OCLSHADE_INVALID_ARGUMENT, "camera: perspective near 0", "");
+        expect(oclshade_camera_look_at(pos, at, NULL, 0, 5, OCLSHADE_PERSPECTIVE, 45, 1, 1, 100, &cam) ==
+               OCLSHADE_INVALID_ARGUMENT, "camera: width 0", "");
+        expect(oclshade_camera_look_at(pos, at, NULL, 7, 5, OCLSHADE_PERSPECTIVE, 45, 1, 1, 100, &cam) == OCLSHADE_OK &&
+               oclshade_camera_from_matrices(cam.view, cam.projection_matrix, 7, 5, &cam2) == OCLSHADE_OK &&
+               fabs(cam2.sx - cam.sx) < 1e-15 && fabs(cam2.near_depth - 1) < 1e-12 && fabs(cam2.far_depth - 100) < 1e-9,
+               "camera: from its own matrices", "");
+        double skewed[16], shifted[16];
+        memcpy(skewed, cam.view, sizeof skewed);
+        memcpy(shifted, cam.projection_matrix, sizeof shifted);
+        skewed[0] *= 2.0;
+        shifted[2] = 0.1;
+        expect(oclshade_camera_from_matrices(skewed, cam.projection_matrix, 7, 5, &cam2) == OCLSHADE_INVALID_ARGUMENT,
+               "camera: a scaled view is not rigid", "");
+        expect(oclshade_camera_from_matrices(cam.view, shifted, 7, 5, &cam2) == OCLSHADE_INVALID_ARGUMENT,
+               "camera: an off-centre projection", "");
+
+        oclshade_ssao_params sp;
+        oclshade_ssao_params_init(&sp);
+        sp.position = oclshade_field_of(f4); sp.normal = oclshade_field_of(f4b); sp.ao = oclshade_field_of(f1);
+        sp.width = cols; sp.height = rows; sp.radius = 10.0;
+        memcpy(sp.projection, cam.projection_matrix, sizeof sp.projection);
+        size_t need = 0;
+        expect(oclshade_ssao_scratch_size(lib, &sp, &need) == OCLSHADE_OK && need >= 32u * (size_t)n + 64 + 12 * 8,
+               "ssao: scratch for depth, normals, AO, box sums, projection rows and table", "");
+        cl_mem ssao_scratch = buffer(ctx, need);
+        sp.scratch = ssao_scratch;
+        struct { const char *what, *needle; oclshade_ssao_params q; } bad_ssao[8];
+        for (int i = 0; i < 8; ++i) bad_ssao[i].q = sp;
+        bad_ssao[0].what = "ssao: radius 0"; bad_ssao[0].needle = "radius must be positive"; bad_ssao[0].q.radius = 0;
+        bad_ssao[1].what = "ssao: m 3"; bad_ssao[1].needle = "m must be an integer in 4..256"; bad_ssao[1].q.m = 3;
+        bad_ssao[2].what = "ssao: normal map without tangents"; bad_ssao[2].needle = "normal_map and tangent go together";
+        bad_ssao[2].q.normal_map = oclshade_field_of(f4);
+        bad_ssao[3].what = "ssao: blur size 4"; bad_ssao[3].needle = "blur_size must be an odd integer >= 3";
+        bad_ssao[3].q.blur_size = 4;
+        bad_ssao[4].what = "ssao: projection of rank 2"; bad_ssao[4].needle = "must have rank 3";
+        memset(bad_ssao[4].q.projection, 0, sizeof bad_ssao[4].q.projection);
+        bad_ssao[5].what = "ssao: output aliases the positions"; bad_ssao[5].needle = "position and ao overlap";
+        bad_ssao[5].q.ao = oclshade_field_of(f4);
+        bad_ssao[6].what = "ssao: no scratch"; bad_ssao[6].needle = "scratch must be a buffer of at least";
+        bad_ssao[6].q.scratch = NULL;
+        bad_ssao[7].what = "ssao: positions too small"; bad_ssao[7].needle = "position must hold at least 560 bytes";
+        bad_ssao[7].q.position = oclshade_field_of(f1);
+        for (int i = 0; i < 8; ++i) {
+            st = oclshade_enqueue_ssao(lib, queue, &bad_ssao[i].q, 0, NULL, NULL);
+            expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, bad_ssao[i].needle, bad_ssao[i].what);
+        }
+
+        oclshade_pixel_shadow_params pp;
+        oclshade_pixel_shadow_params_init(&pp);
+        oclshade_coarse_layout cl;
+        oclshade_coarse_layout_for(rows, cols, &cl);
+        cl_mem coarse = buffer(ctx, cl.grids_bytes), coarse_off = buffer(ctx, cl.offsets_bytes), flag = buffer(ctx, n);
+        clEnqueueFillBuffer(queue, coarse, &zero, 4, 0, cl.grids_bytes, 0, NULL, NULL);
+        clEnqueueWriteBuffer(queue, coarse_off, CL_TRUE, 0, cl.offsets_bytes, cl.offsets, 0, NULL, NULL);
+        pp.heights = fh; pp.rows = rows; pp.cols = cols; pp.pyramid = pyr; pp.offsets = offs;
+        pp.coarse = coarse; pp.coarse_offsets = coarse_off;
+        pp.position = oclshade_field_of(f4); pp.uv = oclshade_field_of(f2); pp.uv_grad = oclshade_field_of(f4b);
+        pp.width = cols; pp.height = rows; pp.flag = oclshade_field_of(flag);
+        oclshade_pixel_shadow_params q = pp;
+        q.force_q = 9;
+        st = oclshade_enqueue_pixel_shadows(lib, queue, &q, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "force_q must be -1 (Algo 1) or a level in [0, 3]",
+                      "pixels: force_q above the top level");
+        q = pp;
+        q.flag = oclshade_field_of(NULL);
+        st = oclshade_enqueue_pixel_shadows(lib, queue, &q, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "at least one of flag, coefficient, lod", "pixels: no output");
+        q = pp;
+        q.coarse = small;
+        st = oclshade_enqueue_pixel_shadows(lib, queue, &q, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "coarse must hold at least", "pixels: coarse grids too small");
+        q = pp;
+        q.flag = oclshade_field_of(f2);   /* aliases uv */
+        st = oclshade_enqueue_pixel_shadows(lib, queue, &q, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "uv and flag overlap", "pixels: output aliases an input");
+        size_t none = 1;
+        expect(oclshade_pixel_shadows_scratch_size(lib, &pp, &none) == OCLSHADE_OK && none == 0,
+               "pixels: packed fields need no scratch", "");
+        st = oclshade_enqueue_pixel_shadows(lib, queue, &pp, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_OK, "", "pixels: valid parameters");
+
+        oclshade_compose_params cp;
+        oclshade_compose_params_init(&cp);
+        cp.position = oclshade_field_of(f4); cp.normal = oclshade_field_of(f4b); cp.albedo = oclshade_field_of(f4b);
+        cp.image = oclshade_field_of(f1); cp.width = cols; cp.height = rows;
+        oclshade_compose_params cq = cp;
+        cq.ssaa = 9;
+        st = oclshade_enqueue_compose(lib, queue, &cq, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "ssaa must be an integer in 1..8", "compose: ssaa 9");
+        cq = cp;
+        cq.ssaa = 2;
+        st = oclshade_enqueue_compose(lib, queue, &cq, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "position must hold at least 2240 bytes",
+                      "compose: ssaa 2 reads 4 samples a pixel");
+        cq = cp;
+        cq.elevation = 95;
+        st = oclshade_enqueue_compose(lib, queue, &cq, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "elevation in [-90, 90]", "compose: sun below -90 / above 90");
+        st = oclshade_enqueue_compose(lib, queue, &cp, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_OK, "", "compose: valid (normal and albedo may share a buffer: both read)");
+
+        oclshade_terrain_params tp;
+        oclshade_terrain_params_init(&tp);
+        tp.heights = fh; tp.rows = rows; tp.cols = cols; tp.pyramid = pyr; tp.offsets = offs;
+        oclshade_terrain_params tq = tp;
+        tq.method = (oclshade_caster)7;
+        st = oclshade_enqueue_terrain(lib, queue, &tq, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "method must be OCLSHADE_CAST_BISECT", "terrain: method 7");
+        tq = tp;
+        tq.texture = f4;
+        st = oclshade_enqueue_terrain(lib, queue, &tq, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "texture and texture_levels go together", "terrain: texture alone");
+        tq = tp;
+        tq.hmin = 2; tq.hmax = 1;
+        st = oclshade_enqueue_terrain(lib, queue, &tq, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "hmin and hmax must be finite with hmin <= hmax", "terrain: hmin > hmax");
+        st = oclshade_enqueue_terrain(lib, queue, &tp, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "dilated must be a cl_mem buffer", "terrain: bisect needs the dilated levels");
+        clFinish(queue);
+        clReleaseMemObject(f4); clReleaseMemObject(f4b); clReleaseMemObject(f1); clReleaseMemObject(f2);
+        clReleaseMemObject(coarse); clReleaseMemObject(coarse_off); clReleaseMemObject(flag);
+        clReleaseMemObject(ssao_scratch);
+    }
 
     /* ---- knobs: the rule's values (compared with the Python host's by the test), errors */
     static const char *const knob_names[][2] = {
