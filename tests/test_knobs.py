@@ -32,7 +32,7 @@ def every_value(family: tuning.Family) -> list[dict[str, int]]:
 
 def test_every_family_is_registered_with_legal_safe_values():
     fams = tuning.families()
-    assert set(fams) == {"pyramid", "shadow", "terrain", "screen_shadows", "ssao"}
+    assert set(fams) == {"pyramid", "shadow", "terrain", "screen_shadows", "ssao", "horizon"}
     for fam in fams.values():
         assert fam.check(fam.safe()) == fam.safe()
         assert fam.fallbacks(fam.safe()) == [fam.safe()]
