@@ -258,29 +258,13 @@ def build_parser() -> CliParser:
                     help=f"sun azimuth, degrees clockwise from north (default {DEFAULT_AZIMUTH:g})")
     sh.add_argument("-alt", dest="elevation", type=_elevation, default=None, metavar="DEG",
                     help=f"sun elevation above the horizon, degrees (default {DEFAULT_ELEVATION:g})")
-    sh.add_argument("-z", dest="z_factor", type=_nonzero, default=1.0, metavar="ZFACTOR",
-                    help="multiply heights by ZFACTOR (default 1)")
-    sh.add_argument("-s", dest="scale", type=_positive, default=1.0, metavar="SCALE",
-                    help="ratio of vertical units to horizontal, as gdaldem: horizontal cell sizes "
-                         "are multiplied by SCALE (e.g. 111120 for a degree grid with metre heights "
-                         "and no CRS; refused for input with a geographic CRS, which is converted "
-                         "to metres automatically)")
-    sh.add_argument("--cellsize", nargs="+", type=_positive, metavar=("DX", "DY"),
-                    help="cell size (east-west, north-south); required for .npy/.exr/.png input, "
-                         "overrides the file's otherwise")
+    add_grid_arguments(sh)
     add_input_arguments(sh)
     sh.add_argument("--method", default="exact", choices=METHODS,
                     help="traversal (default exact; see README)")
     sh.add_argument("--output", dest="kind", default="mask", choices=OUTPUT_CHOICES,
                     help="what to write (default mask)")
-    sh.add_argument("--of", dest="tiff_format", type=str.upper, choices=("GTIFF", "COG"), default="GTIFF",
-                    metavar="GTiff|COG", help="GeoTIFF layout, as GDAL's -of: GTiff (default) or COG "
-                                             "(Cloud-Optimized GeoTIFF: 512x512 tiles, overviews)")
-    sh.add_argument("--co", dest="creation_options", action="append", default=[], metavar="KEY=VALUE",
-                    help="GeoTIFF creation option, as GDAL's -co (repeatable): "
-                         "COMPRESS=NONE|DEFLATE|LZW|ZSTD, PREDICTOR=1|2|3, ZLEVEL=1..12, ZSTD_LEVEL=1..22, "
-                         "TILED=YES|NO, BLOCKXSIZE=N, BLOCKYSIZE=N, BLOCKSIZE=N, "
-                         "BIGTIFF=YES|NO|IF_NEEDED|IF_SAFER, OVERVIEWS=AUTO|NONE")
+    add_tiff_arguments(sh)
     sh.add_argument("--sun", dest="suns", action="append", type=_sun, default=[], metavar="AZ,ALT",
                     help="a sun position; repeat for several (one band each); "
                          "write --sun=AZ,ALT when AZ is negative")
@@ -297,9 +281,46 @@ def build_parser() -> CliParser:
                     help="OpenCL device: index or name substring (default: $OCLSHADE_DEVICE, else PoCL CPU)")
     sh.add_argument("--quiet", "-q", action="store_true", help="no progress bar and no summary")
     add_render_parser(sub)
+    add_sunshine_parser(sub)
+    add_horizon_parsers(sub)
     bench_cli.add_parser(sub)
     solar_cli.add_parser(sub)
     return parser
+
+
+def add_grid_arguments(parser: argparse.ArgumentParser) -> None:
+    """-z, -s and --cellsize: INPUT's heights and cell size (shadow and sunshine)."""
+    parser.add_argument("-z", dest="z_factor", type=_nonzero, default=1.0, metavar="ZFACTOR",
+                        help="multiply heights by ZFACTOR (default 1)")
+    parser.add_argument("-s", dest="scale", type=_positive, default=1.0, metavar="SCALE",
+                        help="ratio of vertical units to horizontal, as gdaldem: horizontal cell sizes "
+                             "are multiplied by SCALE (e.g. 111120 for a degree grid with metre heights "
+                             "and no CRS; refused for input with a geographic CRS, which is converted "
+                             "to metres automatically)")
+    parser.add_argument("--cellsize", nargs="+", type=_positive, metavar=("DX", "DY"),
+                        help="cell size (east-west, north-south); required for .npy/.exr/.png input, "
+                             "overrides the file's otherwise")
+
+
+def add_tiff_arguments(parser: argparse.ArgumentParser) -> None:
+    """--of and --co: the GeoTIFF layout and creation options of OUTPUT (shadow and sunshine)."""
+    parser.add_argument("--of", dest="tiff_format", type=str.upper, choices=("GTIFF", "COG"), default="GTIFF",
+                        metavar="GTiff|COG", help="GeoTIFF layout, as GDAL's -of: GTiff (default) or COG "
+                                                 "(Cloud-Optimized GeoTIFF: 512x512 tiles, overviews)")
+    parser.add_argument("--co", dest="creation_options", action="append", default=[], metavar="KEY=VALUE",
+                        help="GeoTIFF creation option, as GDAL's -co (repeatable): "
+                             "COMPRESS=NONE|DEFLATE|LZW|ZSTD, PREDICTOR=1|2|3, ZLEVEL=1..12, ZSTD_LEVEL=1..22, "
+                             "TILED=YES|NO, BLOCKXSIZE=N, BLOCKYSIZE=N, BLOCKSIZE=N, "
+                             "BIGTIFF=YES|NO|IF_NEEDED|IF_SAFER, OVERVIEWS=AUTO|NONE")
+
+
+def cellsize_argument(args: argparse.Namespace) -> float | tuple[float, float] | None:
+    """--cellsize DX [DY] as read_input takes it (None: the file's)."""
+    if args.cellsize is None:
+        return None
+    if len(args.cellsize) > 2:
+        raise UsageError(f"--cellsize takes DX or DX DY, got {len(args.cellsize)} values")
+    return args.cellsize[0] if len(args.cellsize) == 1 else (args.cellsize[0], args.cellsize[1])
 
 
 RENDER_EPILOG = """\
@@ -471,8 +492,7 @@ def check_shadow_args(args: argparse.Namespace) -> ShadowJob:
         raise UsageError(f"--preview {args.preview!r}: must end with .png")
     if _extension(args.output) == ".png" and args.kind not in ("mask", "self"):
         raise UsageError(f"--output {args.kind}: PNG holds uint8 bands only (mask or self); use .tif, .exr or .npy")
-    if args.cellsize is not None and len(args.cellsize) > 2:
-        raise UsageError(f"--cellsize takes DX or DX DY, got {len(args.cellsize)} values")
+    cellsize = cellsize_argument(args)
     explicit = args.azimuth is not None or args.elevation is not None
     csv_suns, csv_times = ([], []) if args.suns_csv is None else read_suns_csv(args.suns_csv,
                                                                                solar_cli.time_zone(args.tz))
@@ -487,8 +507,6 @@ def check_shadow_args(args: argparse.Namespace) -> ShadowJob:
     outputs = ("mask", "self", "coefficient") if args.kind == "all" else (args.kind,)
     if _extension(args.output) == ".png" and len(suns) + len(times) > 1:
         raise UsageError(f"PNG output holds one band; {len(suns) + len(times)} suns need .tif, .exr or .npy")
-    cellsize = None if args.cellsize is None else (
-        args.cellsize[0] if len(args.cellsize) == 1 else (args.cellsize[0], args.cellsize[1]))
     dtype = np.dtype(np.uint8 if outputs in (("mask",), ("self",)) else np.float32)
     options, cog = creation_options(args, dtype)
     return ShadowJob(suns, times, outputs, cellsize, dtype, options, cog)
@@ -740,6 +758,248 @@ def run_render(args: argparse.Namespace) -> int:
     return 0
 
 
+# --- sunshine command -------------------------------------------------------------------
+
+SUNSHINE_OUTPUTS = ("hours", "fraction", "irradiation")
+
+SUNSHINE_EPILOG = """\
+output bands (float32, NaN = nodata; band names as below):
+  hours        hours of direct sun: the sun above the horizon (elevation > 0), the
+               cell not in cast shadow and its surface facing the sun (the sun above
+               its tangent plane, as 'shadow --output self')
+  fraction     the share of the daylight time the cell spends in cast shadow (0..1;
+               NaN everywhere when the sun never rises in the period)
+  irradiation  the sum of cos(incidence on the sloped surface) x hours over the
+               direct-sun steps: hours of beam irradiance at normal incidence, i.e.
+               Wh/m^2 per W/m^2 of direct-normal irradiance (no atmosphere model)
+
+time steps: [--start, --end) cut into --step steps from --start (the last one shorter
+  when --step does not divide the period); each step counts its length, with the sun
+  (NREL SPA, with refraction) at its midpoint. Datetimes as for 'oclshade sun': ISO
+  8601 with a UTC offset, or local times with --tz. The place: --lat/--lon, else the
+  centre of a geographic INPUT (one sun for the whole map).
+
+routes (--method): masks (default) traces the exact cast-shadow mask of every daylight
+  step; horizons computes the horizon angles of --azimuths N directions once and
+  compares each sun with the horizon interpolated linearly between the two azimuths
+  around it (faster for many steps; its error against masks: docs/solar.md).
+  Either way the sums stay on the device: memory does not grow with the steps.
+
+formats: .tif/.tiff (georeferencing of the input kept; --co, --of COG), .exr, .npy.
+
+examples:
+  oclshade sunshine dem.tif june.tif --start 2024-06-01T00:00 --end 2024-07-01T00:00 --tz Europe/Zurich
+  oclshade sunshine srtm.hgt.zip day.tif --start 2024-03-20T00:00Z --end 2024-03-21T00:00Z --step 5min --output all
+  oclshade sunshine dem.npy year.npy --cellsize 30 --lat 46.9 --lon 7.4 --start 2024-01-01T00:00Z --end 2025-01-01T00:00Z --step 1h --method horizons
+"""
+
+
+def _sunshine_outputs(text: str) -> tuple[str, ...]:
+    items = tuple(item.strip() for item in text.split(","))
+    if items == ("all",):
+        return SUNSHINE_OUTPUTS
+    bad = [item for item in items if item not in SUNSHINE_OUTPUTS]
+    if bad or not items:
+        raise argparse.ArgumentTypeError(f"expected a comma-separated subset of {','.join(SUNSHINE_OUTPUTS)} "
+                                         f"or all, got {text!r}")
+    return tuple(out for out in SUNSHINE_OUTPUTS if out in items)
+
+
+def _step(text: str):
+    from .sunshine import parse_step
+    try:
+        return parse_step(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def _azimuths(text: str) -> int:
+    try:
+        n = int(text)
+    except ValueError:
+        n = 0
+    if not 4 <= n <= 3600:
+        raise argparse.ArgumentTypeError(f"expected a whole number of azimuths in 4..3600, got {text!r}")
+    return n
+
+
+def add_sunshine_parser(sub) -> None:
+    ss = sub.add_parser("sunshine", help="hours of direct sun per cell over a period (and shadow frequency, "
+                                         "beam irradiation)",
+                        description="Sunshine over time: per cell, the hours of direct sun between two datetimes.",
+                        epilog=SUNSHINE_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ss.add_argument("input", metavar="INPUT", help="DEM: .tif/.tiff, .hgt, .zip (with .hgt), .asc, .exr, .png, .npy")
+    ss.add_argument("output", metavar="OUTPUT", help="output raster: .tif/.tiff, .exr or .npy")
+    ss.add_argument("--start", required=True, metavar="ISO", help="start of the period (ISO 8601; see --tz)")
+    ss.add_argument("--end", required=True, metavar="ISO", help="end of the period, not included")
+    ss.add_argument("--step", type=_step, default=_step("10min"), metavar="STEP",
+                    help="time step: a whole number with s, min, h or d (default 10min)")
+    solar_cli.add_place_arguments(ss, "--start and --end")
+    ss.add_argument("--output", dest="outputs", type=_sunshine_outputs, default=("hours",), metavar="LIST",
+                    help="comma-separated bands to write: hours, fraction, irradiation, or all (default hours)")
+    ss.add_argument("--method", default="masks", choices=("masks", "horizons"),
+                    help="masks: an exact mask per step (default); horizons: compare with horizons of "
+                         "--azimuths directions")
+    ss.add_argument("--azimuths", type=_azimuths, default=None, metavar="N",
+                    help="horizon directions of --method horizons (default 64)")
+    add_grid_arguments(ss)
+    add_input_arguments(ss)
+    add_tiff_arguments(ss)
+    ss.add_argument("--device", metavar="SPEC",
+                    help="OpenCL device: index or name substring (default: $OCLSHADE_DEVICE, else PoCL CPU)")
+    ss.add_argument("--quiet", "-q", action="store_true", help="no progress bar and no summary")
+
+
+def run_sunshine(args: argparse.Namespace) -> int:
+    from .sunshine import DEFAULT_AZIMUTHS, SunshineCaster, time_steps
+
+    if _extension(args.output) not in (".tif", ".tiff", ".exr", ".npy"):
+        raise UsageError(f"OUTPUT {args.output!r}: expected .tif, .tiff, .exr or .npy (float32 bands)")
+    if args.azimuths is not None and args.method != "horizons":
+        raise UsageError("--azimuths goes with --method horizons")
+    cellsize = cellsize_argument(args)
+    options, cog = creation_options(args, np.dtype(np.float32))
+    solar_cli.check_place(args)
+    zone = solar_cli.time_zone(args.tz)
+    start, end = (solar_cli.parse_datetime(getattr(args, name), zone, f"--{name}") for name in ("start", "end"))
+    try:
+        steps = time_steps(start, end, args.step)
+    except ValueError as exc:
+        raise UsageError(f"--start, --end, --step: {exc}") from None
+    if _same_file(args.output, args.input):
+        raise CliError(f"OUTPUT {args.output!r} is the input file; refusing to overwrite it")
+    t0 = time.perf_counter()
+    raster, heightmap = read_input(args, cellsize)
+    suns, lat, lon = solar_cli.suns_for(steps.times, args, raster, "--start and --end")
+    rows, cols = heightmap.shape
+    _make_parents(args.output)
+    with RasterWriter(args.output, (len(args.outputs), rows, cols), np.float32, like=raster, nodata=math.nan,
+                      band_names=list(args.outputs), options=options, cog=cog) as out:
+        caster = SunshineCaster(heightmap, device=args.device)
+        daylight = sum(sun.elevation > 0.0 for sun in suns)
+        if not args.quiet:
+            print(f"{PROG}: {len(suns)} steps of {args.step} from {start.isoformat()} to {end.isoformat()} at "
+                  f"latitude {lat:.5f}, longitude {lon:.5f} (NREL SPA): {daylight} in daylight", file=sys.stderr)
+        t1 = time.perf_counter()
+        maps = caster.accumulate(suns, steps.seconds, args.outputs, method=args.method,
+                                 azimuths=args.azimuths or DEFAULT_AZIMUTHS,
+                                 progress=ProgressBar(sys.stderr, "suns") if not args.quiet and daylight > 1 else None)
+        t2 = time.perf_counter()
+        for name in args.outputs:
+            out.write(getattr(maps, name))
+    if not args.quiet:
+        mean = "" if maps.hours is None or not np.isfinite(maps.hours).any() else \
+            f", {float(np.nanmean(maps.hours)):.2f} h of direct sun on average"
+        print(f"{PROG}: {cols}x{rows} cells, {maps.daylight_suns} daylight steps "
+              f"({maps.daylight_seconds / 3600:.2f} h), method {args.method}, device {caster.runtime.label}: "
+              f"{t2 - t1:.2f} s (total {time.perf_counter() - t0:.2f} s){mean} -> {args.output}", file=sys.stderr)
+    return 0
+
+
+# --- horizon and svf commands ------------------------------------------------------------
+
+HORIZON_EPILOG = """\
+output: float32 bands, NaN = nodata; .tif/.tiff (georeferencing of the input kept; --co,
+  --of COG), .exr or .npy.
+  horizon  N bands, band i at azimuth 360 i / N (degrees clockwise from north), named
+           horizon_az22p5 etc.: the elevation angle in degrees of the highest terrain
+           seen from the cell over the bilinear surface (exact); -90 where the ray
+           sees no terrain (the map's edge looking out: beyond the map there is none)
+  svf      one band: the sky-view factor from the horizons of N azimuths, horizons
+           below 0 counted as 0; --definition cosine (default): 1 - mean sin^2 h, the
+           share of an isotropic sky's irradiance on a horizontal surface;
+           solid-angle: 1 - mean sin h, the visible share of the hemisphere (Zaksek
+           et al. 2011, RVT)
+  --curvature lowers terrain at distance d by (1 - k) d^2 / (2 R) (R = --radius,
+  k = --refraction), as r.horizon and HORAYZON do.
+
+examples:
+  oclshade horizon dem.tif horizons.tif --azimuths 64
+  oclshade horizon srtm.hgt.zip far.tif --azimuths 16 --curvature --refraction 0.13
+  oclshade svf dem.tif svf.tif --azimuths 32 --definition solid-angle
+"""
+
+
+def _refraction(text: str) -> float:
+    value = _number(text, "refraction coefficient")
+    if not 0.0 <= value < 1.0:
+        raise argparse.ArgumentTypeError(f"must be in [0, 1) (about 0.13 by day), got {text}")
+    return value
+
+
+def add_horizon_parsers(sub) -> None:
+    """``oclshade horizon`` and ``oclshade svf``: the same input, curvature and output options."""
+    from .horizon import EARTH_RADIUS, SVF_DEFINITIONS
+
+    helps = {"horizon": ("horizon angles of a DEM, one band per azimuth",
+                         "Horizon angles of a DEM: per cell and azimuth, the elevation angle of the highest terrain."),
+             "svf": ("sky-view factor of a DEM from its horizons",
+                     "Sky-view factor of a DEM from the horizon angles of N equally spaced azimuths.")}
+    for name, (summary, description) in helps.items():
+        p = sub.add_parser(name, help=summary, description=description, epilog=HORIZON_EPILOG,
+                           formatter_class=argparse.RawDescriptionHelpFormatter)
+        p.add_argument("input", metavar="INPUT", help="DEM: .tif/.tiff, .hgt, .zip (with .hgt), .asc, .exr, .png, .npy")
+        p.add_argument("output", metavar="OUTPUT", help="output raster: .tif/.tiff, .exr or .npy")
+        p.add_argument("--azimuths", type=_azimuths, default=16, metavar="N",
+                       help="equally spaced azimuths, 360 i / N degrees (default 16)")
+        if name == "svf":
+            p.add_argument("--definition", default="cosine", choices=SVF_DEFINITIONS,
+                           help="cosine (default): 1 - mean sin^2 h; solid-angle: 1 - mean sin h (RVT)")
+        p.add_argument("--curvature", action="store_true", help="lower distant terrain by the Earth's curvature")
+        p.add_argument("--radius", type=_positive, default=None, metavar="METRES",
+                       help=f"Earth radius of --curvature (default {EARTH_RADIUS:g})")
+        p.add_argument("--refraction", type=_refraction, default=None, metavar="K",
+                       help="refraction coefficient of --curvature, in [0, 1) (default 0)")
+        add_grid_arguments(p)
+        add_input_arguments(p)
+        add_tiff_arguments(p)
+        p.add_argument("--device", metavar="SPEC",
+                       help="OpenCL device: index or name substring (default: $OCLSHADE_DEVICE, else PoCL CPU)")
+        p.add_argument("--quiet", "-q", action="store_true", help="no progress bar and no summary")
+
+
+def run_horizon(args: argparse.Namespace) -> int:
+    """``oclshade horizon`` (N bands of angles, streamed) and ``oclshade svf`` (one band)."""
+    from .horizon import EARTH_RADIUS, Curvature, HorizonCaster, azimuth_grid
+
+    if _extension(args.output) not in (".tif", ".tiff", ".exr", ".npy"):
+        raise UsageError(f"OUTPUT {args.output!r}: expected .tif, .tiff, .exr or .npy (float32 bands)")
+    if not args.curvature and (args.radius is not None or args.refraction is not None):
+        raise UsageError("--radius and --refraction go with --curvature")
+    curvature = Curvature(args.radius or EARTH_RADIUS, args.refraction or 0.0) if args.curvature else None
+    cellsize = cellsize_argument(args)
+    options, cog = creation_options(args, np.dtype(np.float32))
+    if _same_file(args.output, args.input):
+        raise CliError(f"OUTPUT {args.output!r} is the input file; refusing to overwrite it")
+    t0 = time.perf_counter()
+    raster, heightmap = read_input(args, cellsize)
+    rows, cols = heightmap.shape
+    azimuths = azimuth_grid(args.azimuths)
+    svf = args.command == "svf"
+    names = [f"svf_{args.definition}"] if svf else \
+        [f"horizon_az{az:g}".replace(".", "p") for az in azimuths]
+    if _extension(args.output) == ".exr" and not svf:   # EXR sorts channels by name: keep the band order
+        names = [f"{k:0{len(str(len(names) - 1))}d}_{name}" for k, name in enumerate(names)]
+    _make_parents(args.output)
+    bar = ProgressBar(sys.stderr, "azimuths") if not args.quiet and len(azimuths) > 1 else None
+    with RasterWriter(args.output, (len(names), rows, cols), np.float32, like=raster, nodata=math.nan,
+                      band_names=names, options=options, cog=cog) as out:
+        caster = HorizonCaster(heightmap, device=args.device, curvature=curvature, cache=False)
+        t1 = time.perf_counter()
+        if svf:
+            out.write(caster.sky_view_factor(azimuths, args.definition, progress=bar))
+        else:
+            for _, band in caster.iter_horizons(azimuths, progress=bar):
+                out.write(band)
+        t2 = time.perf_counter()
+    if not args.quiet:
+        what = f"sky-view factor ({args.definition})" if svf else "horizons"
+        bent = "" if curvature is None else f", curvature R {curvature.radius:g} m k {curvature.refraction:g}"
+        print(f"{PROG}: {cols}x{rows} cells, {len(azimuths)} azimuths{bent}, device {caster.runtime.label}: "
+              f"{what} {t2 - t1:.2f} s (total {time.perf_counter() - t0:.2f} s) -> {args.output}", file=sys.stderr)
+    return 0
+
+
 # --- entry point -------------------------------------------------------------------------
 
 class Terminated(BaseException):
@@ -766,7 +1026,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except SystemExit as exc:  # --help, or an argparse error already printed
         return int(exc.code or 0)
     command = {"devices": tuning_cli.run_devices, "tune": tuning_cli.run_tune, "shadow": run_shadow,
-               "render": run_render, "bench": bench_cli.run,
+               "render": run_render, "sunshine": run_sunshine, "horizon": run_horizon, "svf": run_horizon, "bench": bench_cli.run,
                "sun": solar_cli.run}[args.command]
     debug = runtime.debug()
     runtime.NOTICES = not getattr(args, "quiet", False)

@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 from oclshade import ShadowCaster, Sun
 from oclshade import reference as ref
 from oclshade.heightmap import Heightmap
+from oclshade.horizon import HorizonCaster
 from oclshade.sunshine import MAX_SECONDS, SunshineCaster, daylight, parse_step, time_steps
 from oclshade.synthetic import canyon_crater
 from test_shadows import azimuths, cell_sizes, elevations, terrains
@@ -147,6 +148,82 @@ def test_unknown_output_is_refused():
     hm = Heightmap.from_array(np.zeros((4, 4)), 1.0)
     with pytest.raises(ValueError, match="outputs must be a non-empty subset of hours, fraction, irradiation"):
         SunshineCaster(hm).accumulate([Sun(10, 10)], 60, "mask")
+
+
+# --- the horizon route --------------------------------------------------------------------
+
+def horizon_model(hm: Heightmap, suns: list[Sun], seconds: int, n: int) -> np.ndarray:
+    """Hours by the horizon route's definition, in numpy float32 (the kernel's operations):
+    direct where the horizon interpolated between the grid azimuths around the sun is not
+    above it and the device's self flag is 0."""
+    angles = HorizonCaster(hm).horizons(n)
+    shadows = ShadowCaster(hm, cache=False)
+    total = np.zeros(hm.shape)
+    for sun in suns:
+        if sun.elevation <= 0:
+            continue
+        pos = (sun.azimuth % 360.0) * n / 360.0
+        i = min(int(np.floor(pos)), n - 1)
+        frac = np.float32(pos - i)
+        low, high = angles[i], angles[(i + 1) % n]
+        cast = low + frac * (high - low) > np.float32(sun.elevation)
+        facing = shadows.cast(sun, outputs="self").self_shadow == 0
+        total += seconds * (~cast & facing)
+    return np.where(np.isnan(hm.heights), np.nan, total / 3600).astype(np.float32)
+
+
+def test_horizon_route_is_its_definition():
+    """Suns in every part of the circle, the wrap from the last grid azimuth to 0 included."""
+    h = canyon_crater(40, 36, seed=8, relief=700)
+    h[rng_holes(h.shape, 8)] = np.nan
+    hm = Heightmap.from_array(h, 30.0)
+    suns = [Sun(az, el) for az, el in [(3, 10), (95, 4), (100, 20), (181, 35), (260, 6), (355, 8), (359.9, 12),
+                                       (200, -1)]]
+    for n in (8, 17):
+        got = SunshineCaster(hm).accumulate(suns, 600, method="horizons", azimuths=n)
+        assert np.array_equal(got.hours, horizon_model(hm, suns, 600, n), equal_nan=True), n
+
+
+def test_horizon_route_on_grid_azimuths_equals_the_reference():
+    """A sun on a grid azimuth needs no interpolation: exact, as the masks (ties apart)."""
+    hm = Heightmap.from_array(canyon_crater(48, 40, seed=9, relief=1000), (30.0, 20.0))
+    suns = [Sun(360.0 * k / 16, 2.0 + 3.0 * k) for k in range(16)]
+    got = SunshineCaster(hm).accumulate(suns, 600, ("hours", "fraction"), method="horizons", azimuths=16)
+    want = ref.sunshine_sums(hm, suns, [600] * len(suns))
+    for name, expected in (("hours", want.hours), ("fraction", want.fraction)):
+        differ = getattr(got, name) != expected.astype(np.float32)
+        assert not np.any(differ & ~want.ties) and differ.sum() <= 3, name
+
+
+def test_horizon_route_error_shrinks_with_the_azimuths():
+    hm = Heightmap.from_array(canyon_crater(64, 64, seed=10, relief=900), 30.0)
+    rng = np.random.default_rng(1)
+    suns = [Sun(float(a), float(e)) for a, e in zip(rng.uniform(0, 360, 30), rng.uniform(2, 50, 30))]
+    caster = SunshineCaster(hm)
+    masks = caster.accumulate(suns, 600).hours
+    errors = [np.abs(caster.accumulate(suns, 600, method="horizons", azimuths=n).hours - masks).mean()
+              for n in (8, 64, 512)]
+    assert errors[0] > errors[1] > errors[2] and errors[0] > 0
+
+
+def test_horizon_route_computes_each_needed_band_once(monkeypatch):
+    """Suns in two azimuth intervals of 64: four bands, no more, whatever the number of suns."""
+    hm = Heightmap.from_array(canyon_crater(24, 24, seed=3, relief=300), 30.0)
+    caster = SunshineCaster(hm)
+    whats: list[str] = []
+    real = caster.runtime.empty
+    monkeypatch.setattr(caster.runtime, "empty", lambda nbytes, what: whats.append(what) or real(nbytes, what))
+    suns = [Sun(90.0 + 0.5 * k, 10.0) for k in range(5)] + [Sun(270.0 + 0.5 * k, 10.0) for k in range(5)]
+    caster.accumulate(suns, 600, method="horizons", azimuths=64)
+    assert whats.count("horizon angles") == 4
+
+
+def test_unknown_method_and_bad_azimuths_are_refused():
+    caster = SunshineCaster(Heightmap.from_array(np.zeros((4, 4)), 1.0))
+    with pytest.raises(ValueError, match="method must be one of masks, horizons; got 'rays'"):
+        caster.accumulate([Sun(10, 10)], 60, method="rays")
+    with pytest.raises(ValueError, match="the number of azimuths must be an integer"):
+        caster.accumulate([Sun(10, 10)], 60, method="horizons", azimuths=0)
 
 
 # --- time steps ---------------------------------------------------------------------------

@@ -13,12 +13,12 @@ from .pyramid import extrema_pyramid, mip_pyramid
 from .screen_shadows import ReferencePixelShadows, minimal_lod, pixel_shadows, surface_height
 from .shadows import (CORNER_SNAP, CORNER_TIE, ReferenceShadows, cast_shadows,
                       shadow_coefficient, tie_tolerance)
-from .sunshine import ReferenceSunshine, facing_tolerance, sunshine_sums, surface_gradient
+from .sunshine import ReferenceSunshine, facing_tolerance, gradient_error, sunshine_sums, surface_gradient
 from .terrain import ReferenceTerrain, cast_terrain, dilated_max_levels
 
 __all__ = [
     "CORNER_SNAP", "CORNER_TIE", "ReferenceAO", "ReferencePixelShadows", "ReferenceShadows", "ReferenceSunshine",
-    "ReferenceTerrain", "facing_tolerance", "sunshine_sums", "surface_gradient",
+    "ReferenceTerrain", "facing_tolerance", "gradient_error", "sunshine_sums", "surface_gradient",
     "SVF_DEFINITIONS", "TopDownView", "angle_tolerance", "bilinear", "box_blur", "cast_shadows", "cast_terrain", "compose", "cosine_directions",
     "dilated_max_levels", "edge_blur", "extrema_pyramid", "horizon_angles", "horizon_tangents",
     "horizon_tolerance", "minimal_lod", "mip_pyramid", "pixel_shadows", "raytraced_ao",

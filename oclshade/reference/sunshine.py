@@ -59,43 +59,53 @@ def surface_gradient(hm: Heightmap) -> tuple[np.ndarray, np.ndarray, np.ndarray,
     return gx, gy, has_x, has_y
 
 
-def facing_tolerance(hm: Heightmap, sun: Sun) -> np.ndarray:
-    """Per cell, a bound on |v| within which float32 arithmetic may flip the facing test.
+def gradient_error(hm: Heightmap) -> tuple[np.ndarray, np.ndarray]:
+    """Per cell, bounds on the float32 kernel's error in (g_x, g_y).
 
     The kernel's heights are float32 relative to the mid-range, each within
     eps R / 4 of its value (R: the relief), so a difference of two carries
-    eps R / 2 and a gradient component eps R / (2 d) (none along an axis
-    without neighbours, where it is an exact 0), plus 2 eps |g| for the
-    rounding of the difference, the cell size and the division.  The sun
-    vector's components are rounded (eps / 2 each), and v's two products and
-    two sums add eps (|s_z| + |g_x s_x| + |g_y s_y|) each.  Hence
-    eps [(R / dx + 2 |g_x|) |s_x| + (R / dy + 2 |g_y|) |s_y| + 2 (|s_z| +
-    |g_x s_x| + |g_y s_y|)], times a safety factor of 8.
+    eps R / 2 and a gradient component eps R / (2 d); the rounding of the
+    difference, of the cell size and of the division add 2 eps |g|.  Along an
+    axis without neighbours the component is an exact 0.  Bounds: eps (R / d
+    + 2 |g|), twice the first term for safety.
     """
     h = hm.heights
     finite = h[np.isfinite(h)]
     relief = float(finite.max() - finite.min()) if finite.size else 0.0
     gx, gy, has_x, has_y = surface_gradient(hm)
+    return (np.where(has_x, FLOAT32_EPS * (relief / hm.dx + 2.0 * np.abs(gx)), 0.0),
+            np.where(has_y, FLOAT32_EPS * (relief / hm.dy + 2.0 * np.abs(gy)), 0.0))
+
+
+def facing_tolerance(hm: Heightmap, sun: Sun) -> np.ndarray:
+    """Per cell, a bound on |v| within which float32 arithmetic may flip the facing test:
+    the gradient's error (:func:`gradient_error`) times |s_x|, |s_y|, the rounding of the sun
+    vector's components (eps / 2 each) and of v's two products and two sums (eps (|s_z| +
+    |g_x s_x| + |g_y s_y|) each), times a safety factor of 8."""
+    gx, gy, _, _ = surface_gradient(hm)
+    ex, ey = gradient_error(hm)
     sx, sy, sz = (abs(c) for c in sun.vector())
-    axes = (np.where(has_x, relief / hm.dx + 2.0 * np.abs(gx), 0.0) * sx
-            + np.where(has_y, relief / hm.dy + 2.0 * np.abs(gy), 0.0) * sy)
-    return 8.0 * FLOAT32_EPS * (axes + 2.0 * (sz + np.abs(gx) * sx + np.abs(gy) * sy))
+    return 8.0 * (ex * sx + ey * sy + 2.0 * FLOAT32_EPS * (sz + np.abs(gx) * sx + np.abs(gy) * sy))
 
 
 def sunshine_sums(hm: Heightmap, suns: Sequence[Sun], seconds: Sequence[int]) -> ReferenceSunshine:
     """Sums over the suns (weights in seconds, one per sun) as kernels/sunshine.cl, from
     :func:`cast_shadows`; suns at or below the horizon are skipped.
 
-    ``beam_bound``: outside ties a float32 device's cos i is off by at most the
-    facing tolerance (the error of v; dividing by |n| >= 1 only shrinks it)
-    plus 4 eps relative (1 + g^2, sqrt, division, the product with the
-    float32 hours), its Kahan sum by 2 eps of the sum of the terms plus
-    O(n eps^2) (Kahan 1965), and the float32 result by eps / 2: in all at
-    most sum over the direct steps of hours x (facing tolerance + 16 eps).
+    ``beam_bound``: outside ties a float32 device's cos i = v / |n| is off by
+    at most the facing tolerance (the error of v; dividing by |n| >= 1 only
+    shrinks it), plus the gradient's error through |n| = sqrt(1 + g^2):
+    cos i (g . dg) / |n|^2 <= |g_x| dg_x + |g_y| dg_y (times 8, as the
+    tolerance), plus 4 eps relative (1 + g^2, sqrt, division, the product
+    with the float32 hours); its Kahan sum by 2 eps of the sum of the terms
+    plus O(n eps^2) (Kahan 1965), and the float32 result by eps / 2: in all at
+    most the sum over the direct steps of hours x (those terms + 16 eps).
     """
     nodata = np.isnan(hm.heights)
     gx, gy, _, _ = surface_gradient(hm)
     norm = np.sqrt(1.0 + gx * gx + gy * gy)
+    ex, ey = gradient_error(hm)
+    through_norm = 8.0 * (np.abs(gx) * ex + np.abs(gy) * ey)
     sun_s, cast_s, beam, bound = (np.zeros(hm.shape) for _ in range(4))
     ties = np.zeros(hm.shape, bool)
     total = 0.0
@@ -111,7 +121,7 @@ def sunshine_sums(hm: Heightmap, suns: Sequence[Sun], seconds: Sequence[int]) ->
         cast_s += np.where(cast, w, 0.0)
         beam += np.where(direct, (w / 3600.0) * v / norm, 0.0)
         tolerance = facing_tolerance(hm, sun)
-        bound += np.where(direct, (w / 3600.0) * (tolerance + 16.0 * FLOAT32_EPS), 0.0)
+        bound += np.where(direct, (w / 3600.0) * (tolerance + through_norm + 16.0 * FLOAT32_EPS), 0.0)
         ties |= ref.ties(tie_tolerance(hm, sun)) | (np.abs(v) <= tolerance)
         total += w
     return ReferenceSunshine(*(np.where(nodata, np.nan, a) for a in (sun_s, cast_s, beam, bound)), total,

@@ -1,7 +1,8 @@
 """Sunshine over time: hours of direct sun, cast-shadow frequency and beam incidence per cell
 over many suns, accumulated on the device (kernels/sunshine.cl; docs/solar.md)."""
-from .accumulate import MAX_SECONDS, OUTPUTS, SunshineCaster, SunshineMaps, daylight
+from .accumulate import (DEFAULT_AZIMUTHS, MAX_SECONDS, METHODS, OUTPUTS, SunshineCaster, SunshineMaps,
+                         daylight)
 from .steps import TimeSteps, parse_step, time_steps
 
-__all__ = ["MAX_SECONDS", "OUTPUTS", "SunshineCaster", "SunshineMaps", "TimeSteps", "daylight", "parse_step",
-           "time_steps"]
+__all__ = ["DEFAULT_AZIMUTHS", "MAX_SECONDS", "METHODS", "OUTPUTS", "SunshineCaster", "SunshineMaps", "TimeSteps",
+           "daylight", "parse_step", "time_steps"]

@@ -14,17 +14,20 @@ docs/solar.md; float64 twin :func:`oclshade.reference.sunshine`.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable, Iterable, Sequence
+from typing import Callable, Iterable, Iterator, Sequence
 
 import numpy as np
 import pyopencl as cl
 
 from ..heightmap import Heightmap
+from ..horizon import HorizonCaster, azimuth_grid
 from ..runtime import Runtime
 from ..shadows import ShadowCaster, check_outputs
 from ..sun import Sun, SunLike, as_suns
 
 OUTPUTS = ("hours", "fraction", "irradiation")
+METHODS = ("masks", "horizons")
+DEFAULT_AZIMUTHS = 64
 MAX_SECONDS = 2**32 - 1     # the per-cell sums are uint32 seconds
 _SUMS = {"hours": ("sun", 4, "OCLS_OUT_SUN"), "fraction": ("cast", 4, "OCLS_OUT_CAST"),
          "irradiation": ("beam", 8, "OCLS_OUT_BEAM")}
@@ -74,28 +77,67 @@ class SunshineCaster:
         self.runtime = self.shadows.runtime
 
     def accumulate(self, suns: Iterable[SunLike], seconds: int | Sequence[int] | np.ndarray,
-                   outputs: str | Sequence[str] = ("hours",),
+                   outputs: str | Sequence[str] = ("hours",), method: str = "masks",
+                   azimuths: int = DEFAULT_AZIMUTHS,
                    progress: Callable[[int, int], None] | None = None) -> SunshineMaps:
         """Sums over the suns weighted by ``seconds`` (one number for all, or one per sun) of
-        direct sun, cast shadow and beam incidence, by exact cast-shadow masks.
-        ``outputs``: any of :data:`OUTPUTS` (or 'all').  ``progress(done, total)`` after each
-        daylight sun is complete on the device."""
+        direct sun, cast shadow and beam incidence.  ``outputs``: any of :data:`OUTPUTS` (or
+        'all').  ``method``: ``masks`` (an exact cast-shadow mask per sun) or ``horizons``
+        (horizon angles at ``azimuths`` equally spaced azimuths, computed once, interpolated
+        linearly at each sun's azimuth: approximate, docs/solar.md).  ``progress(done, total)``
+        after each daylight sun is complete on the device."""
         outs = check_outputs(outputs, OUTPUTS)
+        if method not in METHODS:
+            raise ValueError(f"method must be one of {', '.join(METHODS)}; got {method!r}")
+        if method == "horizons":
+            azimuth_grid(azimuths)   # checks the count
         day, weights = daylight(suns, seconds)
         sums = self._sums(outs)
-        kernel = self._kernel("sunshine_masks", outs)
-        rt, hm = self.runtime, self.heightmap
-        rows, cols = hm.shape
-        heights = self.shadows.pyramid.heights
-        gsize, lsize = rt.grid_2d(kernel, cols, rows)
-        for k, (sun, mask) in enumerate(self.shadows.masks_on_device(day) if day else ()):
-            kernel.set_args(heights, np.int32(rows), np.int32(cols), np.array([hm.dx, hm.dy], np.float32), mask,
-                            *_sun_args(sun, int(weights[k])), *sums.values())
-            cl.enqueue_nd_range_kernel(rt.queue, kernel, gsize, lsize)
+        launches = self._by_masks(day, outs) if method == "masks" else self._by_horizons(day, outs, azimuths)
+        rt = self.runtime
+        for done, (k, kernel, args) in enumerate(launches if day else (), 1):
+            kernel.set_args(*args, *_sun_args(day[k], int(weights[k])), *sums.values())
+            cl.enqueue_nd_range_kernel(rt.queue, kernel, *rt.grid_2d(kernel, self.heightmap.shape[1],
+                                                                      self.heightmap.shape[0]))
             if progress is not None:
                 rt.queue.finish()
-                progress(k + 1, len(day))
+                progress(done, len(day))
         return self._maps(outs, sums, int(weights.sum()), len(day))
+
+    def _grid_args(self, heights: cl.Buffer) -> tuple:
+        hm = self.heightmap
+        return heights, np.int32(hm.shape[0]), np.int32(hm.shape[1]), np.array([hm.dx, hm.dy], np.float32)
+
+    def _by_masks(self, day: list[Sun], outs: tuple[str, ...]) -> Iterator[tuple[int, cl.Kernel, tuple]]:
+        """(sun index, kernel, arguments before the sun's) per sun: each sun's exact mask,
+        traced into the device buffer that ``sunshine_masks`` reads next."""
+        kernel = self._kernel("sunshine_masks", outs)
+        grid = self._grid_args(self.shadows.pyramid.heights)
+        for k, (_, mask) in enumerate(self.shadows.masks_on_device(day)):
+            yield k, kernel, (*grid, mask)
+
+    def _by_horizons(self, day: list[Sun], outs: tuple[str, ...], n: int) -> Iterator[tuple[int, cl.Kernel, tuple]]:
+        """As :meth:`_by_masks` by horizons: the suns in order of azimuth, each between the
+        horizon bands of the grid azimuths around it.  Only the bands next to some sun are
+        computed, each once, and at most three are held on the device at a time."""
+        horizons = HorizonCaster(self.heightmap, self.runtime)
+        kernel = self._kernel("sunshine_horizons", outs)
+        grid = self._grid_args(horizons.pyramid.heights)
+        position = np.array([sun.azimuth % 360.0 for sun in day]) * n / 360.0
+        interval = np.minimum(np.floor(position).astype(np.int64), n - 1)
+        pending = sorted(set(interval.tolist()))                  # intervals with suns, in azimuth order
+        needed = sorted(set(pending) | {(i + 1) % n for i in pending})
+        bands: dict[int, cl.Buffer] = {}
+        for k, (_, buf) in zip(needed, horizons.angles_on_device(azimuth_grid(n)[needed])):
+            bands[k] = buf
+            while pending and pending[0] in bands and (pending[0] + 1) % n in bands:
+                i = pending.pop(0)
+                low, high = bands[i], bands[(i + 1) % n]
+                for s in np.flatnonzero(interval == i):
+                    frac = np.float32(position[s] - i)
+                    yield int(s), kernel, (*grid, low, high, frac, np.float32(day[s].elevation))
+                keep = set(pending) | {(j + 1) % n for j in pending}
+                bands = {j: b for j, b in bands.items() if j in keep}
 
     def _kernel(self, name: str, outs: tuple[str, ...]) -> cl.Kernel:
         return self.runtime.kernel("sunshine.cl", name, {_SUMS[out][2]: True for out in outs})
