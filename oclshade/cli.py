@@ -34,6 +34,7 @@ from . import runtime
 from .tuning import cli as tuning_cli
 from .bench import cli as bench_cli
 from .solar import cli as solar_cli
+from .envmap import cli as envmap_cli
 from .shadows import DEFAULT_K_BRIGHT, DEFAULT_K_DARK, METHODS, ShadowCaster, ShadowResult
 from .ssao import DEFAULT_M
 from .sun import DEFAULT_AZIMUTH, DEFAULT_ELEVATION, Sun
@@ -285,6 +286,7 @@ def build_parser() -> CliParser:
     add_horizon_parsers(sub)
     bench_cli.add_parser(sub)
     solar_cli.add_parser(sub)
+    envmap_cli.add_parser(sub)
     return parser
 
 
@@ -1027,7 +1029,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return int(exc.code or 0)
     command = {"devices": tuning_cli.run_devices, "tune": tuning_cli.run_tune, "shadow": run_shadow,
                "render": run_render, "sunshine": run_sunshine, "horizon": run_horizon, "svf": run_horizon, "bench": bench_cli.run,
-               "sun": solar_cli.run}[args.command]
+               "sun": solar_cli.run, "envmap": envmap_cli.run}[args.command]
     debug = runtime.debug()
     runtime.NOTICES = not getattr(args, "quiet", False)
     on_main_thread = threading.current_thread() is threading.main_thread()

@@ -7,6 +7,8 @@ from .ao import (ReferenceAO, TopDownView, bilinear, box_blur, cosine_directions
                  raytraced_ao, rotation_vectors, ssao, ssao_lines, ssao_rays, topdown_gbuffer, volume_ao,
                  volume_ao_lines, world_frame)
 from .compose import compose
+from .envmap import (FACE_NAMES, cube_to_latlong, face_direction, face_st, latlong_directions, latlong_to_cube,
+                     sample_cube, sample_face, sample_latlong, seam_jump, texel_directions)
 from .horizons import (SVF_DEFINITIONS, angle_tolerance, horizon_angles, horizon_tangents, horizon_tolerance,
                        sky_view_factor)
 from .pyramid import extrema_pyramid, mip_pyramid
@@ -24,4 +26,6 @@ __all__ = [
     "horizon_tolerance", "minimal_lod", "mip_pyramid", "pixel_shadows", "raytraced_ao",
     "rotation_vectors", "shadow_coefficient", "sky_view_factor", "ssao", "ssao_lines", "ssao_rays", "surface_height", "tie_tolerance", "topdown_gbuffer",
     "volume_ao", "volume_ao_lines", "world_frame",
+    "FACE_NAMES", "cube_to_latlong", "face_direction", "face_st", "latlong_directions", "latlong_to_cube",
+    "sample_cube", "sample_face", "sample_latlong", "seam_jump", "texel_directions",
 ]
