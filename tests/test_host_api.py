@@ -82,9 +82,20 @@ def cmake_build(build: Path, *targets: str) -> None:
     assert made.returncode == 0, f"build in {build} failed:\n" + (made.stdout + made.stderr)[-4000:]
 
 
+#: the session's build of host/: the modules that import the fixture get their own fixture
+#: definition from pytest, and must not build again
+_BUILT: dict = {}
+
+
 @pytest.fixture(scope="session")
 def host(tmp_path_factory) -> dict:
     """Build host/ once (shared library); returns the build folder and the environment to run its programs in."""
+    if "host" not in _BUILT:
+        _BUILT["host"] = _build_host(tmp_path_factory)
+    return _BUILT["host"]
+
+
+def _build_host(tmp_path_factory) -> dict:
     if not (HOST / "CMakeLists.txt").is_file():
         pytest.skip("host/ is not in this tree (installed package only)")
     if shutil.which("cmake") is None:

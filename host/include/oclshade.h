@@ -75,7 +75,8 @@
  *
  * Queues may be in-order or out-of-order: the commands of one enqueue call
  * are chained with events, the first waits on the caller's wait list and the
- * returned event completes when all of them have.  The caller orders separate
+ * returned event completes when all of them have (a marker after the wait list when a
+ * call has nothing to enqueue: the mip pyramid of a 1 x 1 array).  The caller orders separate
  * calls (an in-order queue, or the events).  Nothing blocks: no clFinish, no
  * blocking transfer; small tables (offsets, projection rows, sample tables)
  * are written with clEnqueueFillBuffer, which copies them at the call.

@@ -332,6 +332,13 @@ oclshade_status ocls_pass_finish(ocls_pass *ps, oclshade_status st, cl_event *ev
     }
     for (int i = 0; i < ps->nviews; ++i) clReleaseMemObject(ps->views[i]);   /* OpenCL keeps them for the commands */
     ps->nviews = 0;
+    if (st == OCLSHADE_OK && event != NULL && ps->last == NULL && ps->queue != NULL) {
+        /* nothing to do (the mip pyramid of a 1 x 1 map): still an event, after the wait list */
+        cl_event ev = NULL;
+        const cl_int err = clEnqueueMarkerWithWaitList(ps->queue, ps->nwait, ps->wait, &ev);
+        chain_next(ps, err, ev);
+        if (err != CL_SUCCESS) st = ocls_fail_cl(ps->lib, err, "clEnqueueMarkerWithWaitList");
+    }
     if (st == OCLSHADE_OK && event != NULL) {
         *event = ps->last;
     } else if (ps->last) {

@@ -167,7 +167,11 @@ static void run_mip(int argc, char **argv)
     size_t bytes = 1;
     CHECK(oclshade_mip_pyramid_scratch_size(lib, &packed, rows, cols, &bytes));
     if (bytes != 0) fail("mip: a packed input needs no scratch");
-    CHECK(oclshade_enqueue_mip_pyramid(lib, queue, &packed, rows, cols, d_mip, NULL, 0, NULL, NULL));
+    cl_event built = NULL;
+    CHECK(oclshade_enqueue_mip_pyramid(lib, queue, &packed, rows, cols, d_mip, NULL, 0, NULL, &built));
+    if (built == NULL) fail("mip: no event returned");   /* also for a 1 x 1 map, where nothing is launched */
+    CLCHECK(clWaitForEvents(1, &built));
+    clReleaseEvent(built);
     void *mip = read_back(d_mip, lay.bytes ? lay.bytes : 1);
     write_file("mip.bin", mip, lay.bytes);
     FILE *f;
