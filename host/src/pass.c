@@ -369,6 +369,7 @@ oclshade_status ocls_enqueue(oclshade *lib, cl_command_queue q, cl_mem scratch, 
     ocls_pass_init(&ps, lib, 0, NULL, 0, NULL, NULL);
     ocls_mutex_lock(&lib->lock);   /* held from the plan to the last enqueue: one set of knobs */
     st = body(&ps, params);
+    if (st == OCLSHADE_OK) st = ocls_check_overlaps(lib, uses);   /* the caller's buffers first: the clearer message */
     if (st == OCLSHADE_OK && ps.scratch_used > 0) {
         st = ocls_use_buffer(lib, uses, "scratch", scratch, ps.scratch_used, OCLS_INOUT);
         if (st != OCLSHADE_OK && scratch == NULL)
