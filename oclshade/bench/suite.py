@@ -22,7 +22,11 @@ Cases (``family/variant``) and what one timed run is:
 * ``ssao/default`` (:data:`~oclshade.ssao.DEFAULT_FEATURES`, m = DEFAULT_M) and
   ``ssao/paper`` (:data:`~oclshade.ssao.PAPER_RECIPE`, m = PAPER_M), radius 4 cells;
 * ``compose``: :func:`oclshade.compose.compose` of the G-buffer with the exact
-  per-pixel shadow coefficients and the default AO, the frame copied to the host.
+  per-pixel shadow coefficients and the default AO, the frame copied to the host;
+* ``horizons``: ``HorizonCaster(..., cache=False).horizons([37])`` (exact horizon
+  angles, one azimuth, the band copied to the host) on the canyon of a quarter of
+  the masks' side (a horizon ray walks until nothing further can be higher: a
+  horizon band costs tens of masks).
 
 Work model, per case (``nbytes`` and ``flops`` of :class:`Case`): the traffic
 and arithmetic the case cannot avoid, so the roofline time derived from them
@@ -52,11 +56,13 @@ ssao/paper                124 P (as above + two blur       m (25 P) + 20 P + 4 b
                           passes of 16 P each)             two separable passes)
 compose                   56 P read + 4 P written +        40 P (Lambert, sky, three sRGB encodes)
                           8 P copy
+horizons                  4 N heights + 4 N angles +       30 N (the start patch of each ray)
+                          8 N copy (N: cells of its map)
 ========================  ===============================  ====================================
 
 ``exact`` cases must give the same bits on every device (their results equal
 the float64 reference by construction): the pyramid (min / max only) and the
-``exact`` masks.  The other cases are compared too, for information.
+``exact`` masks, the horizons.  The other cases are compared too, for information.
 """
 from __future__ import annotations
 
@@ -72,6 +78,7 @@ from ..camera import Camera, frame_heightmap
 from ..compose import Lighting, compose
 from ..gbuffer import CHANNELS
 from ..heightmap import Heightmap
+from ..horizon import HorizonCaster
 from ..pyramid import build_extrema_pyramid, extrema_shapes
 from ..runtime import Runtime
 from ..screen_shadows import ScreenShadowCaster
@@ -81,7 +88,7 @@ from ..sun import Sun
 from ..synthetic import canyon_crater
 from ..terrain import METHODS as TERRAIN_METHODS, DeviceGBuffer, Heightfield, TerrainRenderer
 
-FAMILIES = ("pyramid", "masks", "render", "pixel_shadows", "ssao", "compose")
+FAMILIES = ("pyramid", "masks", "render", "pixel_shadows", "ssao", "compose", "horizons")
 PIXEL_SHADOW_METHODS = ("exact", "maxmip")
 CELL_M = 30.0
 RELIEF_M = 1500.0
@@ -364,6 +371,20 @@ def _compose(w: Workload) -> Case:
                 w.frame_digest(), run, lambda: [state["frame"]])
 
 
+def _horizons(w: Workload) -> Case:
+    side = max(w.sizes.map_side // 4, 8)
+    caster = HorizonCaster(terrain(side), w.rt, cache=False)
+    caster.pyramid
+    state: dict = {}
+
+    def run() -> None:
+        state["angles"] = caster.horizons([MASK_SUN.azimuth])
+
+    n = side * side
+    return Case(f"horizon angles, {_map_label(side)}, azimuth {MASK_SUN.azimuth:g}", "cells", n, 16.0 * n,
+                30.0 * n, terrain_digest(side), run, lambda: [state["angles"]])
+
+
 SPECS: tuple[CaseSpec, ...] = (
     CaseSpec("pyramid", "pyramid", True, _pyramid),
     *(CaseSpec(f"masks/{m}", "masks", m == "exact", _mask(m)) for m in SHADOW_METHODS),
@@ -372,4 +393,5 @@ SPECS: tuple[CaseSpec, ...] = (
     CaseSpec("ssao/default", "ssao", False, _ssao("default", DEFAULT_FEATURES, DEFAULT_M)),
     CaseSpec("ssao/paper", "ssao", False, _ssao("paper", PAPER_RECIPE, PAPER_M)),
     CaseSpec("compose", "compose", False, _compose),
+    CaseSpec("horizons", "horizons", True, _horizons),
 )
