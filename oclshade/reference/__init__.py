@@ -12,6 +12,8 @@ from .envmap import (FACE_NAMES, cube_to_latlong, face_direction, face_st, latlo
 from .horizons import (SVF_DEFINITIONS, angle_tolerance, horizon_angles, horizon_tangents, horizon_tolerance,
                        sky_view_factor)
 from .pyramid import extrema_pyramid, mip_pyramid
+from .quadrics import (ReferenceQuadrics, cast_quadrics, intersect, quadric_occludes,
+                       terrain_margin)
 from .screen_shadows import ReferencePixelShadows, minimal_lod, pixel_shadows, surface_height
 from .shadows import (CORNER_SNAP, CORNER_TIE, ReferenceShadows, cast_shadows,
                       shadow_coefficient, tie_tolerance)
@@ -28,4 +30,5 @@ __all__ = [
     "volume_ao", "volume_ao_lines", "world_frame",
     "FACE_NAMES", "cube_to_latlong", "face_direction", "face_st", "latlong_directions", "latlong_to_cube",
     "sample_cube", "sample_face", "sample_latlong", "seam_jump", "texel_directions",
+    "ReferenceQuadrics", "cast_quadrics", "intersect", "quadric_occludes", "terrain_margin",
 ]
