@@ -7,8 +7,9 @@ from .ao import (ReferenceAO, TopDownView, bilinear, box_blur, cosine_directions
                  raytraced_ao, rotation_vectors, ssao, ssao_lines, ssao_rays, topdown_gbuffer, volume_ao,
                  volume_ao_lines, world_frame)
 from .compose import compose
-from .envmap import (FACE_NAMES, cube_to_latlong, face_direction, face_st, latlong_directions, latlong_to_cube,
-                     sample_cube, sample_face, sample_latlong, seam_jump, texel_directions)
+from .envmap import (CONE_SAMPLES, FACE_NAMES, cone_directions, cube_to_latlong, face_direction, face_st,
+                     latlong_directions, latlong_to_cube, reflect, reflect_frame, sample_cube, sample_face,
+                     sample_latlong, schlick, seam_jump, texel_directions)
 from .horizons import (SVF_DEFINITIONS, angle_tolerance, horizon_angles, horizon_tangents, horizon_tolerance,
                        sky_view_factor)
 from .pyramid import extrema_pyramid, mip_pyramid
@@ -30,5 +31,6 @@ __all__ = [
     "volume_ao", "volume_ao_lines", "world_frame",
     "FACE_NAMES", "cube_to_latlong", "face_direction", "face_st", "latlong_directions", "latlong_to_cube",
     "sample_cube", "sample_face", "sample_latlong", "seam_jump", "texel_directions",
+    "CONE_SAMPLES", "cone_directions", "reflect", "reflect_frame", "schlick",
     "ReferenceQuadrics", "cast_quadrics", "intersect", "quadric_occludes", "terrain_margin",
 ]

@@ -193,3 +193,78 @@ def _across_seam(d: np.ndarray, f: int) -> tuple[np.ndarray, np.ndarray, np.ndar
     sc = np.choose(g, [-z, z, x, x, x, -x])
     tc = np.choose(g, [-y, -y, z, -z, -y, -y])
     return g, 0.5 * (sc / ma + 1.0), 0.5 * (tc / ma + 1.0)
+
+
+# --- reflections (kernels/reflect.cl) -----------------------------------------------------------
+
+#: kernels/reflect.cl: OCLS_CONE_SAMPLES and the golden angle of its spiral
+CONE_SAMPLES = 16
+GOLDEN_ANGLE = np.pi * (3.0 - np.sqrt(5.0))
+
+
+def reflect(u: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """R = U - 2 (N . U) N (paper 002), row-wise over (..., 3)."""
+    return u - 2.0 * np.sum(n * u, -1, keepdims=True) * n
+
+
+def schlick(f0: np.ndarray | float, cosine: np.ndarray) -> np.ndarray:
+    """Schlick's Fresnel factor F0 + (1 - F0)(1 - cos)^5, cos clamped to [0, 1]."""
+    return f0 + (1.0 - f0) * (1.0 - np.clip(cosine, 0.0, 1.0)) ** 5
+
+
+def cone_directions(d: np.ndarray, cone: float) -> np.ndarray:
+    """(..., CONE_SAMPLES, 3): the blur cone's directions around unit d (..., 3): d + rad_k
+    (cos phi_k T + sin phi_k B), rad_k = cone sqrt((k + 0.5) / K), phi_k = k x golden angle,
+    (T, B) the tangent frame of Duff et al. 2017 ("Building an orthonormal basis, revisited")."""
+    x, y, z = d[..., 0], d[..., 1], d[..., 2]
+    sgn = np.where(z >= 0.0, 1.0, -1.0)
+    a = -1.0 / (sgn + z)
+    b = x * y * a
+    t1 = np.stack([1.0 + sgn * x * x * a, sgn * b, -sgn * x], -1)
+    t2 = np.stack([b, sgn + y * y * a, -y], -1)
+    k = np.arange(CONE_SAMPLES)
+    rad = cone * np.sqrt((k + 0.5) / CONE_SAMPLES)
+    phi = k * GOLDEN_ANGLE
+    off = (rad * np.cos(phi))[:, None] * t1[..., None, :] + (rad * np.sin(phi))[:, None] * t2[..., None, :]
+    return d[..., None, :] + off
+
+
+def reflect_frame(position: np.ndarray, normal: np.ndarray, albedo: np.ndarray, objects: np.ndarray,
+                  materials, camera, faces: np.ndarray, world_to_cube: np.ndarray, ssaa: int = 1,
+                  intensity: float = 1.0, background: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """(albedo compose reads (Hs, Ws, 4), reflection added in linear light (H, W, 3)) of a
+    G-buffer (Hs = H ssaa rows of samples; ``objects`` index + 1 into ``materials``, 0 none)
+    seen by ``camera`` (its size: the samples), as kernels/reflect.cl computes them:
+    U from the eye, R = U - 2 (N.U) N in view space, to the world by the transpose of the
+    view rotation, to the cube-map frame by ``world_to_cube``, filtered seam-continuously."""
+    hs, ws = objects.shape
+    _, d = camera.view_rays()
+    p = position[..., :3].astype(np.float64)
+    with np.errstate(invalid="ignore", divide="ignore"):           # empty samples: no direction, unused
+        u = d / np.linalg.norm(d, axis=-1, keepdims=True) if camera.projection == "orthographic" else \
+            p / np.linalg.norm(p, axis=-1, keepdims=True)
+    n = normal[..., :3].astype(np.float64)
+    r = reflect(u, n)
+    to_cube = np.asarray(world_to_cube, float) @ camera.rotation.T           # view -> world -> cube
+    rc = r @ to_cube.T
+    out_albedo = albedo.astype(np.float64).copy()
+    contrib = np.zeros((hs, ws, 3))
+    for k, m in enumerate(materials):
+        mask = objects == k + 1
+        if not mask.any() or m.kind == "diffuse":
+            continue
+        cos = -np.sum(u[mask] * n[mask], -1)
+        f = schlick(m.fresnel, cos) if m.kind == "glossy" else np.ones(mask.sum())
+        tint = np.asarray(m.colour) if m.kind == "mirror" else np.ones(3)
+        out_albedo[mask, :3] *= (1.0 - f)[:, None]
+        if m.roughness > 0.0:
+            dirs = rc[mask] / np.linalg.norm(rc[mask], axis=-1, keepdims=True)
+            env = sample_cube(faces, cone_directions(dirs, m.cone)).mean(-2)
+        else:
+            env = sample_cube(faces, rc[mask])
+        contrib[mask] = f[:, None] * tint * env
+    if background:
+        empty = position[..., 3] <= 0.5
+        contrib[empty] = sample_cube(faces, d[empty] @ to_cube.T)
+    acc = intensity * contrib.reshape(hs // ssaa, ssaa, ws // ssaa, ssaa, 3).mean(axis=(1, 3))
+    return out_albedo, acc
