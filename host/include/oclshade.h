@@ -10,7 +10,9 @@
  *   - the terrain G-buffer of a camera, and the dilated levels it reads (kernels/terrain.cl);
  *   - per-pixel shadows over a G-buffer at any level of detail (kernels/shadow.cl);
  *   - screen-space ambient occlusion with its blurs (kernels/ssao.cl);
- *   - the final frame (kernels/compose.cl).
+ *   - the final frame (kernels/compose.cl);
+ *   - sunshine over time: per-cell sums over many suns (kernels/sunshine.cl);
+ *   - horizon angles and sky-view factor sums (kernels/horizon.cl).
  * Results are bit-identical to the Python host's on the same device; the
  * host-side maths (sun rays, cameras, SSAO sample tables, coarse grids) is
  * ported from the Python host operation by operation.  Conventions (north-up
@@ -155,7 +157,8 @@ typedef enum oclshade_method {
 typedef struct oclshade oclshade;   /* opaque library handle */
 
 /* An in-memory kernel source: name as in `#include "name"` and the file list
- * (common.h, pyramid.cl, shadow.cl, terrain.cl, ssao.cl, compose.cl), text NUL-terminated. */
+ * (common.h, pyramid.cl, shadow.cl, terrain.cl, ssao.cl, compose.cl, sunshine.cl, horizon.cl),
+ * text NUL-terminated. */
 typedef struct oclshade_source {
     const char *name;
     const char *text;
@@ -183,7 +186,7 @@ static inline oclshade_field oclshade_field_of(cl_mem buffer)
 /* ------------------------------------------------------------------ handle */
 
 /* Create a handle for (context, device).  kernel_dir: a directory holding
- * common.h, pyramid.cl, shadow.cl, terrain.cl, ssao.cl and compose.cl, or
+ * common.h, pyramid.cl, shadow.cl, terrain.cl, ssao.cl, compose.cl, sunshine.cl and horizon.cl, or
  * NULL for the copy built into the library.  The context and device are
  * retained until oclshade_destroy.  Sources are read here; programs are built
  * on first use (or oclshade_prepare).
@@ -222,7 +225,7 @@ const char *oclshade_status_name(oclshade_status status);
 const char *oclshade_version(void);
 
 /* The source text the handle builds for a program file ("pyramid.cl", "shadow.cl",
- * "terrain.cl", "ssao.cl", "compose.cl"), includes expanded (byte-identical to the Python
+ * "terrain.cl", "ssao.cl", "compose.cl", "sunshine.cl", "horizon.cl"), includes expanded (byte-identical to the Python
  * host's oclshade.runtime.kernel_source), or NULL for another name or a failed handle.
  * Owned by the handle.  For logs, offline compilers and users building the kernels
  * themselves. */
@@ -238,6 +241,7 @@ const char *oclshade_program_source(const oclshade *lib, const char *file);
  *   terrain         descend 1..5, leaf 0..4, group 16|64|256, own_builtins 0|1
  *   screen_shadows  group 16|64|256, own_builtins 0|1
  *   ssao            lanes 4|8|16, group 16|64|256, own_builtins 0|1
+ *   horizon         group 16|64|256, own_builtins 0|1
  * (the Python pyramid knob in_place, a host-memory choice, has no C counterpart).  An
  * unknown family, knob or value is INVALID_ARGUMENT naming the legal ones; nothing
  * changes then.  Applies to the commands enqueued afterwards (programs built with other
@@ -693,6 +697,102 @@ oclshade_status oclshade_compose_scratch_size(oclshade *lib, const oclshade_comp
  * inputs given): albedo x (sun x max(n.s, 0) x shadow + sky x AO x (1 + n.up) / 2),
  * kernels/compose.cl. */
 oclshade_status oclshade_enqueue_compose(oclshade *lib, cl_command_queue queue, const oclshade_compose_params *params,
+                                         cl_uint num_events_in_wait_list, const cl_event *event_wait_list,
+                                         cl_event *event);
+
+/* ----------------------------------------------------------- zeroing */
+
+/* Zero the first `bytes` of `buffer` (>= 1; clEnqueueFillBuffer with zero patterns): the
+ * accumulators of oclshade_enqueue_sunshine and oclshade_enqueue_horizon's svf sums before
+ * the first sun or azimuth (the Python hosts' enqueue_fill_buffer).  buffer is written. */
+oclshade_status oclshade_enqueue_zero(oclshade *lib, cl_command_queue queue, cl_mem buffer, size_t bytes,
+                                      cl_uint num_events_in_wait_list, const cl_event *event_wait_list,
+                                      cl_event *event);
+
+/* ----------------------------------------------------------- sunshine over time */
+
+/* One daylight sun's contribution to per-cell sums (kernels/sunshine.cl; oclshade/sunshine
+ * SunshineCaster.accumulate): per cell, with s the unit vector to the sun and (gx, gy) the
+ * gradient of shadow.cl's self test, facing = s.z - gx s.x + gy s.y > 0, cast = the cell is in
+ * cast shadow, direct = facing and not cast:
+ *   sun   uint32 seconds of direct sun:   += seconds when direct
+ *   cast  uint32 seconds in cast shadow:  += seconds when cast
+ *   beam  float2 (sum, compensation) of a Kahan sum of (seconds / 3600) cos(incidence) when
+ *         direct; the hours are sum - compensation (in float64)
+ * Nodata cells are left untouched.  The sums are whole packed buffers of rows * cols
+ * elements, zeroed by oclshade_enqueue_zero before the first sun; the caller keeps the
+ * total of the seconds below 2^32 (device contents are not checked).  The Python host's
+ * outputs: hours = sun / 3600, fraction = cast / (total daylight seconds), irradiation =
+ * beam.x - beam.y, NaN at nodata. */
+typedef struct oclshade_sunshine_params {
+    oclshade_field heights;     /* rows x cols float32 relative heights (the shadow pass's), NaN = nodata */
+    int rows, cols;
+    double dx, dy;              /* cell size east-west, north-south */
+    double azimuth, elevation;  /* the sun, degrees; elevation in (0, 90] (the host skips the night) */
+    cl_uint seconds;            /* the sun's weight w, >= 1 */
+    /* where the cast-shadow flag comes from: exactly one of */
+    oclshade_field mask;        /* rows x cols uchar: oclshade_enqueue_shadows' mask for this sun (kernel
+                                   sunshine_masks), or */
+    oclshade_field low, high;   /* rows x cols float32 horizon angles (degrees, oclshade_enqueue_horizon) at
+                                   the two grid azimuths around the sun's (kernel sunshine_horizons): cast iff
+                                   low + fraction (high - low) > elevation, in float32 */
+    double fraction;            /* horizons: where the sun's azimuth lies between low's and high's, [0, 1]
+                                   (rounded to float32, as the Python host's np.float32) */
+    cl_mem sun, cast, beam;     /* the sums (read and written); NULL = not accumulated, at least one given */
+    cl_mem scratch;             /* >= oclshade_sunshine_scratch_size (packed copies of pitched inputs) */
+} oclshade_sunshine_params;
+
+/* Defaults: no buffers, 0 x 0, dx = dy = 1, sun (0, 45), seconds 1, fraction 0. */
+void oclshade_sunshine_params_init(oclshade_sunshine_params *params);
+oclshade_status oclshade_sunshine_scratch_size(oclshade *lib, const oclshade_sunshine_params *params,
+                                               size_t *bytes);
+/* One launch of sunshine_masks (mask given) or sunshine_horizons (low and high given), global
+ * size (cols, rows) rounded up to the local size, compiled with -D OCLS_OUT_SUN / OCLS_OUT_CAST
+ * / OCLS_OUT_BEAM for the sums given.  Calls for successive suns on the same sums must be
+ * ordered (an in-order queue or the events). */
+oclshade_status oclshade_enqueue_sunshine(oclshade *lib, cl_command_queue queue,
+                                          const oclshade_sunshine_params *params,
+                                          cl_uint num_events_in_wait_list, const cl_event *event_wait_list,
+                                          cl_event *event);
+
+/* ----------------------------------------------------------- horizons and sky-view factor */
+
+/* Sky-view factor definitions (kernels/horizon.cl -D OCLS_OUT_SVF). */
+typedef enum oclshade_svf_definition {
+    OCLSHADE_SVF_COSINE = 1,       /* term sin^2(max(h, 0)); svf = 1 - mean of the terms */
+    OCLSHADE_SVF_SOLID_ANGLE = 2   /* term sin(max(h, 0)) (Zaksek / RVT) */
+} oclshade_svf_definition;
+
+/* One azimuth of horizon angles (kernels/horizon.cl; oclshade/horizon HorizonCaster): per cell
+ * the elevation angle (degrees) of the highest point of the bilinear surface seen from the
+ * cell's surface point towards `azimuth`, -90 where nothing is seen, NaN at nodata; and/or
+ * its sky-view factor term added to a Kahan sum. */
+typedef struct oclshade_horizon_params {
+    oclshade_field heights;     /* rows x cols float32 relative heights (the pyramid's), NaN = nodata */
+    int rows, cols;
+    double dx, dy;
+    cl_mem pyramid, offsets;    /* from oclshade_enqueue_extrema_pyramid for these heights */
+    double azimuth;             /* degrees clockwise from north, finite */
+    double curvature;           /* Earth curvature drop per square metre (1 - k) / (2 R), rounded to float32
+                                   (the Python host's Curvature.coefficient); 0: a flat Earth (no
+                                   -D OCLS_CURVATURE) */
+    oclshade_field angle;       /* output: rows x cols float32 degrees; buffer NULL = not computed */
+    cl_mem svf;                 /* rows x cols float2 (sum, compensation), read and written; NULL = none.
+                                   Zero it before the first azimuth; after N equally spaced azimuths
+                                   svf = 1 - (sum - compensation) / N, NaN at nodata (the Python host's) */
+    oclshade_svf_definition svf_definition;
+    cl_mem scratch;             /* >= oclshade_horizon_scratch_size (packed copies of pitched fields) */
+} oclshade_horizon_params;
+
+/* Defaults: no buffers, 0 x 0, dx = dy = 1, azimuth 0, flat Earth, the cosine definition. */
+void oclshade_horizon_params_init(oclshade_horizon_params *params);
+oclshade_status oclshade_horizon_scratch_size(oclshade *lib, const oclshade_horizon_params *params,
+                                              size_t *bytes);
+/* One launch of horizon_cells, global size (cols, rows) rounded up to the local size; -D
+ * OCLS_OUT_ANGLE when angle is given, OCLS_OUT_SVF=definition when svf is, OCLS_CURVATURE when
+ * curvature > 0.  Knobs: horizon group, own_builtins. */
+oclshade_status oclshade_enqueue_horizon(oclshade *lib, cl_command_queue queue,
+                                         const oclshade_horizon_params *params,
                                          cl_uint num_events_in_wait_list, const cl_event *event_wait_list,
                                          cl_event *event);
 

@@ -12,6 +12,8 @@
  * pixels.c      per-pixel shadows
  * ssao.c        SSAO sample tables and passes
  * compose.c     the final frame
+ * sunshine.c    sums over many suns; zeroing of accumulators
+ * horizon.c     horizon angles and sky-view factor sums
  */
 #ifndef OCLSHADE_INTERNAL_H
 #define OCLSHADE_INTERNAL_H
@@ -51,6 +53,7 @@ enum {
     K_TERRAIN_DESCEND, K_TERRAIN_LEAF, K_TERRAIN_GROUP, K_TERRAIN_OWN_BUILTINS,
     K_PIXELS_GROUP, K_PIXELS_OWN_BUILTINS,
     K_SSAO_LANES, K_SSAO_GROUP, K_SSAO_OWN_BUILTINS,
+    K_HORIZON_GROUP, K_HORIZON_OWN_BUILTINS,
     N_KNOBS
 };
 
@@ -79,8 +82,9 @@ typedef struct program_entry {
     struct program_entry *next;
 } program_entry;
 
-#define N_PROGRAM_FILES 5
-extern const char *const OCLS_PROGRAM_FILES[N_PROGRAM_FILES];   /* pyramid, shadow, terrain, ssao, compose */
+#define N_PROGRAM_FILES 7
+extern const char *const OCLS_PROGRAM_FILES[N_PROGRAM_FILES];   /* pyramid, shadow, terrain, ssao, compose,
+                                                                   sunshine, horizon */
 
 struct oclshade {
     cl_context context;
@@ -221,6 +225,9 @@ oclshade_status ocls_bind_out(ocls_pass *ps, const oclshade_field *f, int rows, 
 oclshade_status ocls_upload(ocls_pass *ps, cl_mem mem, size_t offset, const void *data, size_t bytes,
                             const char *what);
 
+/* Zero the first `bytes` of mem (clEnqueueFillBuffer), chained. */
+oclshade_status ocls_zero(ocls_pass *ps, cl_mem mem, size_t bytes, const char *what);
+
 /* A kernel of a program variant (built on first use; run mode only). */
 oclshade_status ocls_kernel(ocls_pass *ps, const char *file, const ocls_defines *d, const char *name,
                             kernel_entry **out);
@@ -248,5 +255,9 @@ oclshade_status ocls_plan(oclshade *lib, ocls_body body, const void *params, siz
 
 /* oclshade/pyramid.py extrema_shapes / level_shapes (exposed through the layouts) */
 int ocls_extent(int n0, int level);      /* ceil(n0 / 2^level) */
+
+/* (ux, uy) of oclshade/sun.py Sun(azimuth, 0).ray(dx, dy): cells per metre east and south, float32
+ * with subnormals flushed (shadows.c; the horizon rays). */
+void ocls_horizontal_ray(double azimuth, double dx, double dy, cl_float out[2]);
 
 #endif /* OCLSHADE_INTERNAL_H */

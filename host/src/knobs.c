@@ -35,6 +35,8 @@ static const knob_def KNOBS[N_KNOBS] = {
     [K_SSAO_LANES] = {"ssao", "lanes", 3, {4, 8, 16}, 8, 0},
     [K_SSAO_GROUP] = {"ssao", "group", 3, {16, 64, 256}, 64, 0},
     [K_SSAO_OWN_BUILTINS] = {"ssao", "own_builtins", 2, {0, 1}, 0, 0},
+    [K_HORIZON_GROUP] = {"horizon", "group", 3, {16, 64, 256}, 64, 0},
+    [K_HORIZON_OWN_BUILTINS] = {"horizon", "own_builtins", 2, {0, 1}, 0, 0},
 };
 
 /* oclshade/tuning/rules.py TARGET_FLOAT_LANES: float lanes of the LLVM CPU target PoCL names in

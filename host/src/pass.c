@@ -268,6 +268,28 @@ oclshade_status ocls_upload(ocls_pass *ps, cl_mem mem, size_t offset, const void
     return OCLSHADE_OK;
 }
 
+oclshade_status ocls_zero(ocls_pass *ps, cl_mem mem, size_t bytes, const char *what)
+{
+    static const cl_float4 zeros[8];   /* 128 bytes of zero bits */
+    if (!ps->run) return OCLSHADE_OK;
+    size_t done = 0;
+    while (done < bytes) {
+        size_t n = 128;   /* the largest pattern that divides both the offset and what is left */
+        while (n > 1 && (done % n != 0 || (bytes - done) % n != 0)) n /= 2;
+        const size_t span = (bytes - done) / n * n;
+        cl_event ev = NULL;
+        const cl_int err = clEnqueueFillBuffer(ps->queue, mem, zeros, n, done, span, chain_n(ps), chain_list(ps), &ev);
+        chain_next(ps, err, ev);
+        if (err != CL_SUCCESS) {
+            char call[96];
+            snprintf(call, sizeof call, "clEnqueueFillBuffer(%s)", what);
+            return ocls_fail_cl(ps->lib, err, call);
+        }
+        done += span;
+    }
+    return OCLSHADE_OK;
+}
+
 oclshade_status ocls_set_args(ocls_pass *ps, kernel_entry *k, const ocls_arg *args, int n)
 {
     for (int i = 0; i < n; ++i) {

@@ -61,6 +61,14 @@ oclshade_status oclshade_sun_vector(double azimuth, double elevation, double out
     return OCLSHADE_OK;
 }
 
+void ocls_horizontal_ray(double azimuth, double dx, double dy, cl_float out[2])
+{
+    double sa, ca;
+    sincos_degrees(azimuth, &sa, &ca);
+    out[0] = float32_flushed(sa / dx);
+    out[1] = float32_flushed(-ca / dy);
+}
+
 oclshade_status oclshade_sun_for(double azimuth, double elevation, double dx, double dy, oclshade_sun *out)
 {
     if (out == NULL || !sun_ok(azimuth, elevation) || !isfinite(dx) || dx <= 0.0 || !isfinite(dy) || dy <= 0.0)

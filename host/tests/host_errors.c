@@ -144,6 +144,7 @@ int main(int argc, char **argv)
 
     char *common = read_text(dir, "common.h"), *pyramid = read_text(dir, "pyramid.cl");
     char *terrain = read_text(dir, "terrain.cl"), *ssao = read_text(dir, "ssao.cl"), *compose = read_text(dir, "compose.cl");
+    char *sunshine = read_text(dir, "sunshine.cl"), *horizon = read_text(dir, "horizon.cl");
     oclshade_source missing[2] = {{"common.h", common}, {"pyramid.cl", pyramid}};
     st = oclshade_create_from_sources(ctx, device, missing, 2, &lib);
     expect_status(lib, st, OCLSHADE_SOURCE_ERROR, "shadow.cl", "create_from_sources: shadow.cl missing");
@@ -152,9 +153,10 @@ int main(int argc, char **argv)
     /* ---- a build failure carries the compiler log */
     const char *broken = "#include \"common.h\"\n"
                          "__kernel void shadow_cells(__global float *h) { h[0] = oclshade_no_such_name; }\n";
-    oclshade_source sources[6] = {{"common.h", common}, {"pyramid.cl", pyramid}, {"shadow.cl", broken},
-                                  {"terrain.cl", terrain}, {"ssao.cl", ssao}, {"compose.cl", compose}};
-    st = oclshade_create_from_sources(ctx, device, sources, 6, &lib);
+    oclshade_source sources[8] = {{"common.h", common}, {"pyramid.cl", pyramid}, {"shadow.cl", broken},
+                                  {"terrain.cl", terrain}, {"ssao.cl", ssao}, {"compose.cl", compose},
+                                  {"sunshine.cl", sunshine}, {"horizon.cl", horizon}};
+    st = oclshade_create_from_sources(ctx, device, sources, 8, &lib);
     expect_status(lib, st, OCLSHADE_OK, "", "create_from_sources: broken shadow.cl is read");
     st = oclshade_prepare(lib, OCLSHADE_PAPER, OCLSHADE_OUT_MASK | OCLSHADE_OUT_SELF);
     expect_status(lib, st, OCLSHADE_BUILD_FAILED, "oclshade_no_such_name", "build failure: the log names the error");
@@ -514,12 +516,85 @@ int main(int argc, char **argv)
         clReleaseMemObject(ssao_scratch);
     }
 
+    /* ---- sunshine, horizons, zeroing: bad values named, the cast-flag source, sizes, aliasing */
+    {
+        cl_mem sums = buffer(ctx, 8 * n), sums2 = buffer(ctx, 4 * n), angles = buffer(ctx, 4 * n);
+        oclshade_sunshine_params sp, sq;
+        oclshade_sunshine_params_init(&sp);
+        sp.heights = fh;
+        sp.rows = rows; sp.cols = cols;
+        sp.mask = oclshade_field_of(mask);
+        sp.sun = sums2;
+        st = oclshade_enqueue_sunshine(lib, queue, &sp, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_OK, "", "sunshine: a valid call");
+        sq = sp; sq.elevation = 0.0;
+        st = oclshade_enqueue_sunshine(lib, queue, &sq, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "elevation in (0, 90] degrees (daylight suns only), got 0, 0",
+                      "sunshine: a night sun");
+        sq = sp; sq.seconds = 0;
+        st = oclshade_enqueue_sunshine(lib, queue, &sq, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "seconds must be >= 1", "sunshine: weight 0");
+        sq = sp; sq.sun = NULL;
+        st = oclshade_enqueue_sunshine(lib, queue, &sq, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "at least one of sun, cast, beam", "sunshine: no sums");
+        sq = sp; sq.low = oclshade_field_of(angles);
+        st = oclshade_enqueue_sunshine(lib, queue, &sq, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "give either mask", "sunshine: mask and low");
+        sq = sp; sq.mask.buffer = NULL; sq.low = sq.high = oclshade_field_of(angles); sq.fraction = 1.5;
+        st = oclshade_enqueue_sunshine(lib, queue, &sq, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "fraction must be in [0, 1]", "sunshine: fraction 1.5");
+        sq = sp; sq.beam = sums2;
+        st = oclshade_enqueue_sunshine(lib, queue, &sq, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "beam must hold at least 280 bytes", "sunshine: beam too small");
+        sq = sp; sq.cast = sums2;
+        st = oclshade_enqueue_sunshine(lib, queue, &sq, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "sun and cast overlap", "sunshine: sun and cast alias");
+        sq = sp; sq.dx = -1.0;
+        st = oclshade_enqueue_sunshine(lib, queue, &sq, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "dx and dy must be positive", "sunshine: dx -1");
+        oclshade_horizon_params hp, hq;
+        oclshade_horizon_params_init(&hp);
+        hp.heights = fh;
+        hp.rows = rows; hp.cols = cols;
+        hp.pyramid = pyr; hp.offsets = offs;
+        hp.svf = sums;
+        st = oclshade_enqueue_horizon(lib, queue, &hp, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_OK, "", "horizon: a valid call");
+        hq = hp; hq.svf = NULL;
+        st = oclshade_enqueue_horizon(lib, queue, &hq, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "at least one of angle, svf", "horizon: no output");
+        hq = hp; hq.svf_definition = (oclshade_svf_definition)3;
+        st = oclshade_enqueue_horizon(lib, queue, &hq, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "svf_definition must be OCLSHADE_SVF_COSINE (1) or "
+                      "OCLSHADE_SVF_SOLID_ANGLE (2), got 3", "horizon: definition 3");
+        hq = hp; hq.curvature = -1e-7;
+        st = oclshade_enqueue_horizon(lib, queue, &hq, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "curvature must be a finite drop per square metre >= 0",
+                      "horizon: negative curvature");
+        hq = hp; hq.azimuth = NAN;
+        st = oclshade_enqueue_horizon(lib, queue, &hq, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "azimuth must be finite", "horizon: azimuth NaN");
+        hq = hp; hq.svf = sums2;
+        st = oclshade_enqueue_horizon(lib, queue, &hq, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "svf must hold at least 280 bytes", "horizon: svf too small");
+        hq = hp; hq.angle = fh;
+        st = oclshade_enqueue_horizon(lib, queue, &hq, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "heights and angle overlap", "horizon: angle aliases the heights");
+        st = oclshade_enqueue_zero(lib, queue, sums, 0, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "bytes must be >= 1", "zero: 0 bytes");
+        st = oclshade_enqueue_zero(lib, queue, sums2, 8 * n, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "buffer must hold at least 280 bytes", "zero: buffer too small");
+        clFinish(queue);
+        clReleaseMemObject(sums); clReleaseMemObject(sums2); clReleaseMemObject(angles);
+    }
+
     /* ---- knobs: the rule's values (compared with the Python host's by the test), errors */
     static const char *const knob_names[][2] = {
         {"pyramid", "base_lanes"}, {"pyramid", "own_builtins"}, {"shadow", "lanes"}, {"shadow", "run"},
         {"shadow", "group"}, {"shadow", "cert_tile"}, {"shadow", "own_builtins"}, {"terrain", "descend"},
         {"terrain", "leaf"}, {"terrain", "group"}, {"terrain", "own_builtins"}, {"screen_shadows", "group"},
-        {"screen_shadows", "own_builtins"}, {"ssao", "lanes"}, {"ssao", "group"}, {"ssao", "own_builtins"}};
+        {"screen_shadows", "own_builtins"}, {"ssao", "lanes"}, {"ssao", "group"}, {"ssao", "own_builtins"},
+        {"horizon", "group"}, {"horizon", "own_builtins"}};
     oclshade *fresh = NULL;
     oclshade_create(ctx, device, dir, &fresh);
     for (size_t i = 0; i < sizeof knob_names / sizeof knob_names[0]; ++i) {
@@ -551,7 +626,7 @@ int main(int argc, char **argv)
     clReleaseMemObject(small); clReleaseMemObject(mask); clReleaseMemObject(foreign); clReleaseMemObject(cert);
     clReleaseCommandQueue(queue); clReleaseCommandQueue(other_queue);
     clReleaseContext(ctx); clReleaseContext(other_ctx);
-    free(common); free(pyramid); free(terrain); free(ssao); free(compose);
+    free(common); free(pyramid); free(terrain); free(ssao); free(compose); free(sunshine); free(horizon);
     printf("%d failure(s)\n", failures);
     return failures;
 }

@@ -34,6 +34,14 @@
  *       INDIR holds position.f32, normal.f32, albedo.f32, rotation.f64 (3 x 3) and, where
  *       SHADOW / AO is 1, shadow.f32 / ao.f32 (samples: WIDTH SSAA x HEIGHT SSAA); writes
  *       image.u8; checks itself that pitched fields give the same image.
+ *   horizon OUTDIR HEIGHTS.f64 ROWS COLS DX DY CURVATURE DEFINITION N
+ *       horizon angles at the N azimuths 360 k / N (angle_<k>.f32) and the sky-view factor
+ *       sums over them (svf.f32: float2 per cell, zeroed by oclshade_enqueue_zero); checks
+ *       itself that a pitched angle field and another group give the same bits.
+ *   sunshine OUTDIR HEIGHTS.f64 ROWS COLS DX DY N AZ,EL,SECONDS...
+ *       sunshine sums over the (daylight) suns: N 0 by each sun's exact mask (shadow pass),
+ *       also with pitched heights (pitched_*); N > 0 by the horizons of N grid azimuths;
+ *       sun.u32, cast.u32, beam.f32 (float2 per cell).
  * Prints "ok" and exits 0 on success. */
 #include "oclshade.h"
 
@@ -657,6 +665,203 @@ static void run_compose(int argc, char **argv)
     for (int i = 0; i < 5; ++i) free(host[i]);
 }
 
+/* ------------------------------------------------------------------ sunshine and horizons */
+
+/* Horizon angles of azimuth 360 k / n into `angle` (a packed field when pitched is 0). */
+static void horizon_band(const map *m, double dx, double dy, double curvature, double azimuth, oclshade_field *angle,
+                         cl_mem svf, int definition)
+{
+    oclshade_horizon_params p;
+    oclshade_horizon_params_init(&p);
+    p.heights = oclshade_field_of(m->heights);
+    p.rows = m->rows; p.cols = m->cols; p.dx = dx; p.dy = dy;
+    p.pyramid = m->pyramid; p.offsets = m->offsets;
+    p.azimuth = azimuth;
+    p.curvature = curvature;
+    if (angle) p.angle = *angle;
+    p.svf = svf;
+    p.svf_definition = (oclshade_svf_definition)definition;
+    size_t bytes = 0;
+    CHECK(oclshade_horizon_scratch_size(lib, &p, &bytes));
+    p.scratch = scratch_of(bytes);
+    CHECK(oclshade_enqueue_horizon(lib, queue, &p, 0, NULL, NULL));
+    CLCHECK(clFinish(queue));
+    release(p.scratch);
+}
+
+static void run_horizon(int argc, char **argv)
+{
+    if (argc != 8) fail("usage: host_passes horizon OUTDIR HEIGHTS.f64 ROWS COLS DX DY CURVATURE DEFINITION N");
+    map m;
+    load_map(&m, argv[0], atoi(argv[1]), atoi(argv[2]));
+    const double dx = atof(argv[3]), dy = atof(argv[4]), curvature = atof(argv[5]);
+    const int definition = atoi(argv[6]), n = atoi(argv[7]);
+    const size_t row = 4 * (size_t)m.cols;
+    cl_mem d_angle = buffer(4 * m.n, NULL), d_svf = buffer(8 * m.n, NULL);
+    CHECK(oclshade_enqueue_zero(lib, queue, d_svf, 8 * m.n, 0, NULL, NULL));
+    char name[64];
+    for (int k = 0; k < n; ++k) {   /* oclshade.horizon.azimuth_grid: 360 k / n */
+        oclshade_field angle = oclshade_field_of(d_angle);
+        horizon_band(&m, dx, dy, curvature, 360.0 * k / n, &angle, NULL, definition);
+        horizon_band(&m, dx, dy, curvature, 360.0 * k / n, NULL, d_svf, definition);
+        void *band = read_back(d_angle, 4 * m.n);
+        snprintf(name, sizeof name, "angle_%d.f32", k);
+        write_file(name, band, 4 * m.n);
+        if (k == 1) {   /* a pitched output at an offset, and another group, give the same bits */
+            oclshade_field pitched = pitched_copy(band, m.rows, row, 256, row + 68);
+            horizon_band(&m, dx, dy, curvature, 360.0 * k / n, &pitched, NULL, definition);
+            void *again = read_pitched(&pitched, m.rows, row);
+            if (memcmp(again, band, 4 * m.n) != 0) fail("horizon: a pitched angle field differs");
+            free(again);
+            release(pitched.buffer);
+            CHECK(oclshade_set_knob(lib, "horizon", "group", 16));
+            horizon_band(&m, dx, dy, curvature, 360.0 * k / n, &angle, NULL, definition);
+            CHECK(oclshade_set_knob(lib, "horizon", "group", 64));
+            again = read_back(d_angle, 4 * m.n);
+            if (memcmp(again, band, 4 * m.n) != 0) fail("horizon: group 16 differs");
+            free(again);
+        }
+        free(band);
+    }
+    void *svf = read_back(d_svf, 8 * m.n);
+    write_file("svf.f32", svf, 8 * m.n);
+    free(svf);
+    release(d_angle); release(d_svf);
+    free_map(&m);
+}
+
+typedef struct sunshine_sums { cl_mem sun, cast, beam; } sunshine_sums;
+
+static void zero_sums(const map *m, sunshine_sums *s)
+{
+    s->sun = buffer(4 * m->n, NULL); s->cast = buffer(4 * m->n, NULL); s->beam = buffer(8 * m->n, NULL);
+    CHECK(oclshade_enqueue_zero(lib, queue, s->sun, 4 * m->n, 0, NULL, NULL));
+    CHECK(oclshade_enqueue_zero(lib, queue, s->cast, 4 * m->n, 0, NULL, NULL));
+    CHECK(oclshade_enqueue_zero(lib, queue, s->beam, 8 * m->n, 0, NULL, NULL));
+}
+
+/* One sun into the sums: cast flags from `mask` (a field) or from the bands (low, high). */
+static void add_sun(const map *m, const oclshade_field *heights, double dx, double dy, double az, double el,
+                    unsigned seconds, const oclshade_field *mask, cl_mem low, cl_mem high, double fraction,
+                    const sunshine_sums *s)
+{
+    oclshade_sunshine_params p;
+    oclshade_sunshine_params_init(&p);
+    p.heights = *heights;
+    p.rows = m->rows; p.cols = m->cols; p.dx = dx; p.dy = dy;
+    p.azimuth = az; p.elevation = el; p.seconds = seconds;
+    if (mask) p.mask = *mask;
+    p.low = oclshade_field_of(low);
+    p.high = oclshade_field_of(high);
+    p.fraction = fraction;
+    p.sun = s->sun; p.cast = s->cast; p.beam = s->beam;
+    size_t bytes = 0;
+    CHECK(oclshade_sunshine_scratch_size(lib, &p, &bytes));
+    p.scratch = scratch_of(bytes);
+    CHECK(oclshade_enqueue_sunshine(lib, queue, &p, 0, NULL, NULL));
+    CLCHECK(clFinish(queue));
+    release(p.scratch);
+}
+
+/* The masks route (SunshineCaster._by_masks): each sun's exact mask by the shadow pass, then
+ * sunshine_masks; heights given as `heights` (packed or pitched). */
+static void sunshine_by_masks(const map *m, const oclshade_field *heights, double dx, double dy, int nsuns,
+                              char **suns, sunshine_sums *s)
+{
+    cl_mem d_mask = buffer(m->n, NULL);
+    zero_sums(m, s);
+    for (int k = 0; k < nsuns; ++k) {
+        double az, el;
+        unsigned seconds;
+        if (sscanf(suns[k], "%lf,%lf,%u", &az, &el, &seconds) != 3) fail("bad sun (AZ,EL,SECONDS)");
+        oclshade_shadow_params p;
+        oclshade_shadow_params_init(&p);
+        p.heights = *heights;
+        p.rows = m->rows; p.cols = m->cols; p.dx = dx; p.dy = dy;
+        p.pyramid = m->pyramid; p.offsets = m->offsets;
+        p.azimuth = az; p.elevation = el;
+        p.mask = oclshade_field_of(d_mask);
+        size_t bytes = 0;
+        CHECK(oclshade_shadows_scratch_size(lib, &p, &bytes));
+        p.scratch = scratch_of(bytes);
+        CHECK(oclshade_enqueue_shadows(lib, queue, &p, 0, NULL, NULL));
+        const oclshade_field mask = oclshade_field_of(d_mask);
+        add_sun(m, heights, dx, dy, az, el, seconds, &mask, NULL, NULL, 0.0, s);
+        release(p.scratch);
+    }
+    release(d_mask);
+}
+
+/* The horizon route (SunshineCaster._by_horizons): every sun between the bands of the grid
+ * azimuths around it (here all n bands are computed first). */
+static void sunshine_by_horizons(const map *m, double dx, double dy, int n, int nsuns, char **suns, sunshine_sums *s)
+{
+    cl_mem *bands = (cl_mem *)xmalloc(sizeof(cl_mem) * (size_t)n);
+    for (int k = 0; k < n; ++k) {
+        bands[k] = buffer(4 * m->n, NULL);
+        oclshade_field angle = oclshade_field_of(bands[k]);
+        horizon_band(m, dx, dy, 0.0, 360.0 * k / n, &angle, NULL, 1);
+    }
+    zero_sums(m, s);
+    const oclshade_field heights = oclshade_field_of(m->heights);
+    for (int k = 0; k < nsuns; ++k) {
+        double az, el;
+        unsigned seconds;
+        if (sscanf(suns[k], "%lf,%lf,%u", &az, &el, &seconds) != 3) fail("bad sun (AZ,EL,SECONDS)");
+        double a = fmod(az, 360.0);   /* Python's az % 360 (for az >= 0 or a < 0 not at -0) */
+        if (a < 0.0) a += 360.0;
+        const double position = a * n / 360.0;
+        int i = (int)floor(position);
+        if (i > n - 1) i = n - 1;
+        add_sun(m, &heights, dx, dy, az, el, seconds, NULL, bands[i], bands[(i + 1) % n], position - i, s);
+    }
+    for (int k = 0; k < n; ++k) release(bands[k]);
+    free(bands);
+}
+
+static void write_sums(const map *m, const sunshine_sums *s, const char *prefix)
+{
+    char name[64];
+    const struct { cl_mem mem; const char *ext; size_t size; } out[3] = {
+        {s->sun, "sun.u32", 4}, {s->cast, "cast.u32", 4}, {s->beam, "beam.f32", 8}};
+    for (int i = 0; i < 3; ++i) {
+        void *data = read_back(out[i].mem, out[i].size * m->n);
+        snprintf(name, sizeof name, "%s%s", prefix, out[i].ext);
+        write_file(name, data, out[i].size * m->n);
+        free(data);
+    }
+}
+
+static void release_sums(sunshine_sums *s) { release(s->sun); release(s->cast); release(s->beam); }
+
+static void run_sunshine(int argc, char **argv)
+{
+    if (argc < 6) fail("usage: host_passes sunshine OUTDIR HEIGHTS.f64 ROWS COLS DX DY N AZ,EL,SECONDS...");
+    map m;
+    load_map(&m, argv[0], atoi(argv[1]), atoi(argv[2]));
+    const double dx = atof(argv[3]), dy = atof(argv[4]);
+    const int n = atoi(argv[5]);
+    sunshine_sums s;
+    if (n == 0) {
+        const oclshade_field packed = oclshade_field_of(m.heights);
+        sunshine_by_masks(&m, &packed, dx, dy, argc - 6, argv + 6, &s);
+        write_sums(&m, &s, "");
+        /* heights as a pitched field at an offset give the same sums */
+        sunshine_sums again;
+        const size_t row = 4 * (size_t)m.cols;
+        oclshade_field pitched = pitched_copy(m.rel, m.rows, row, 512, row + 20);
+        sunshine_by_masks(&m, &pitched, dx, dy, argc - 6, argv + 6, &again);
+        write_sums(&m, &again, "pitched_");
+        release_sums(&again);
+        release(pitched.buffer);
+    } else {
+        sunshine_by_horizons(&m, dx, dy, n, argc - 6, argv + 6, &s);
+        write_sums(&m, &s, "");
+    }
+    release_sums(&s);
+    free_map(&m);
+}
+
 /* ------------------------------------------------------------------ main */
 
 int main(int argc, char **argv)
@@ -678,6 +883,8 @@ int main(int argc, char **argv)
     else if (strcmp(argv[1], "terrain") == 0) run_terrain(argc - 3, argv + 3);
     else if (strcmp(argv[1], "pixels") == 0) run_pixels(argc - 3, argv + 3);
     else if (strcmp(argv[1], "compose") == 0) run_compose(argc - 3, argv + 3);
+    else if (strcmp(argv[1], "horizon") == 0) run_horizon(argc - 3, argv + 3);
+    else if (strcmp(argv[1], "sunshine") == 0) run_sunshine(argc - 3, argv + 3);
     else fail("unknown command");
     oclshade_destroy(lib);
     clReleaseCommandQueue(queue);

@@ -187,8 +187,9 @@ int main(int argc, char **argv)
     cl_command_queue queue = clCreateCommandQueue(ctx, device, 0, &err);
     CLCHECK(err);
     CHECK(oclshade_create(ctx, device, kernels, &lib));
-    static const char *const programs[] = {"pyramid.cl", "shadow.cl", "terrain.cl", "ssao.cl", "compose.cl"};
-    for (int i = 0; i < 5; ++i)
+    static const char *const programs[] = {"pyramid.cl", "shadow.cl", "terrain.cl", "ssao.cl", "compose.cl",
+                                           "sunshine.cl", "horizon.cl"};
+    for (int i = 0; i < 7; ++i)
         write_file(programs[i], oclshade_program_source(lib, programs[i]), strlen(oclshade_program_source(lib, programs[i])));
 
     float *rel = (float *)xmalloc(n * sizeof *rel);

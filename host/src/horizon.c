@@ -1,0 +1,104 @@
+/* horizon.c — horizon angles and sky-view factor sums (kernels/horizon.cl horizon_cells;
+ * oclshade/horizon/caster.py HorizonCaster). */
+#include "internal.h"
+
+#include <math.h>
+#include <string.h>
+
+void oclshade_horizon_params_init(oclshade_horizon_params *p)
+{
+    if (p == NULL) return;
+    memset(p, 0, sizeof *p);
+    p->dx = p->dy = 1.0;
+    p->svf_definition = OCLSHADE_SVF_COSINE;
+}
+
+typedef struct horizon_job {
+    const oclshade_horizon_params *p;
+    oclshade_pyramid_layout lay;
+    cl_float4 ray;
+} horizon_job;
+
+static oclshade_status horizon_job_for(oclshade *lib, const oclshade_horizon_params *p, horizon_job *j)
+{
+    oclshade_status st;
+    memset(j, 0, sizeof *j);
+    if (p == NULL) return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "params must point to oclshade_horizon_params, got NULL");
+    if ((st = ocls_check_size(lib, "rows", p->rows, "cols", p->cols)) != OCLSHADE_OK) return st;
+    if (!(isfinite(p->dx) && p->dx > 0.0 && isfinite(p->dy) && p->dy > 0.0))
+        return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "dx and dy must be positive finite cell sizes, got %g, %g", p->dx, p->dy);
+    if (!isfinite(p->azimuth))
+        return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "azimuth must be finite degrees, got %g", p->azimuth);
+    if (!(isfinite(p->curvature) && p->curvature >= 0.0))
+        return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "curvature must be a finite drop per square metre >= 0 "
+                         "((1 - k) / (2 R)), got %g", p->curvature);
+    if (p->angle.buffer == NULL && p->svf == NULL)
+        return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "at least one of angle, svf must have a buffer");
+    if (p->svf != NULL && p->svf_definition != OCLSHADE_SVF_COSINE && p->svf_definition != OCLSHADE_SVF_SOLID_ANGLE)
+        return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "svf_definition must be OCLSHADE_SVF_COSINE (1) or "
+                         "OCLSHADE_SVF_SOLID_ANGLE (2), got %d", (int)p->svf_definition);
+    oclshade_pyramid_layout_for(p->rows, p->cols, &j->lay);
+    cl_float u[2];
+    ocls_horizontal_ray(p->azimuth, p->dx, p->dy, u);
+    j->ray.s[0] = u[0];
+    j->ray.s[1] = u[1];
+    j->ray.s[2] = (cl_float)p->curvature;
+    j->ray.s[3] = 0.0f;
+    j->p = p;
+    return OCLSHADE_OK;
+}
+
+/* HorizonCaster._enqueuer: one launch of horizon_cells for one azimuth. */
+static oclshade_status horizon_body(ocls_pass *ps, const void *params)
+{
+    const horizon_job *j = (const horizon_job *)params;
+    const oclshade_horizon_params *p = j->p;
+    oclshade *lib = ps->lib;
+    const size_t W = (size_t)p->cols;
+    cl_mem h, angle;
+    oclshade_status st;
+    if ((st = ocls_bind_in(ps, &p->heights, p->rows, 4 * W, "heights", &h)) != OCLSHADE_OK ||
+        (st = ocls_bind_out(ps, &p->angle, p->rows, 4 * W, "angle", &angle)) != OCLSHADE_OK || !ps->run)
+        return st;
+    ocls_defines d = {0};
+    ocls_def_flag(&d, "OCLS_OUT_ANGLE", angle != NULL);
+    if (p->svf != NULL) ocls_def_int(&d, "OCLS_OUT_SVF", (int)p->svf_definition);
+    ocls_def_flag(&d, "OCLS_CURVATURE", p->curvature > 0.0);
+    ocls_def_flag(&d, "OCLS_OWN_BUILTINS", ocls_knob(lib, K_HORIZON_OWN_BUILTINS));
+    kernel_entry *k;
+    if ((st = ocls_kernel(ps, "horizon.cl", &d, "horizon_cells", &k)) != OCLSHADE_OK) return st;
+    /* an output not compiled in is not written: its argument is any buffer of the call */
+    cl_mem angle_arg = angle ? angle : h, svf = p->svf ? p->svf : h;
+    const cl_int H = p->rows, Wi = p->cols, nlev = j->lay.levels;
+    ocls_arg a[9] = {OCLS_ARG(h), OCLS_ARG(H), OCLS_ARG(Wi), OCLS_ARG(p->pyramid), OCLS_ARG(p->offsets),
+                     OCLS_ARG(nlev), OCLS_ARG(j->ray), OCLS_ARG(angle_arg), OCLS_ARG(svf)};
+    if ((st = ocls_set_args(ps, k, a, 9)) != OCLSHADE_OK) return st;
+    return ocls_launch(ps, k, Wi, H, (size_t)ocls_knob(lib, K_HORIZON_GROUP), 16);
+}
+
+oclshade_status oclshade_horizon_scratch_size(oclshade *lib, const oclshade_horizon_params *params, size_t *bytes)
+{
+    horizon_job j;
+    oclshade_status st = ocls_enter(lib);
+    if (st == OCLSHADE_OK && bytes == NULL) st = ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "bytes must not be NULL");
+    if (st == OCLSHADE_OK) st = horizon_job_for(lib, params, &j);
+    return st != OCLSHADE_OK ? st : ocls_plan(lib, horizon_body, &j, bytes);
+}
+
+oclshade_status oclshade_enqueue_horizon(oclshade *lib, cl_command_queue queue, const oclshade_horizon_params *p,
+                                         cl_uint num_events_in_wait_list, const cl_event *event_wait_list, cl_event *event)
+{
+    horizon_job j;
+    ocls_uses uses = {0};
+    oclshade_status st = ocls_enter(lib);
+    if (st == OCLSHADE_OK) st = horizon_job_for(lib, p, &j);
+    if (st != OCLSHADE_OK) return st;
+    const size_t W = (size_t)p->cols;
+    if ((st = ocls_use_field(lib, &uses, "heights", &p->heights, p->rows, 4 * W, OCLS_IN)) != OCLSHADE_OK ||
+        (st = ocls_use_buffer(lib, &uses, "pyramid", p->pyramid, j.lay.pyramid_bytes, OCLS_IN)) != OCLSHADE_OK ||
+        (st = ocls_use_buffer(lib, &uses, "offsets", p->offsets, j.lay.offsets_bytes, OCLS_IN)) != OCLSHADE_OK ||
+        (p->angle.buffer && (st = ocls_use_field(lib, &uses, "angle", &p->angle, p->rows, 4 * W, OCLS_OUT)) != OCLSHADE_OK) ||
+        (p->svf && (st = ocls_use_buffer(lib, &uses, "svf", p->svf, 8 * W * (size_t)p->rows, OCLS_INOUT)) != OCLSHADE_OK))
+        return st;
+    return ocls_enqueue(lib, queue, p->scratch, &uses, horizon_body, &j, num_events_in_wait_list, event_wait_list, event);
+}

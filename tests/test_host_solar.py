@@ -1,0 +1,120 @@
+"""The C host API's sunshine, horizon and zeroing entry points (oclshade_enqueue_sunshine,
+oclshade_enqueue_horizon, oclshade_enqueue_zero) against the Python host bit for bit, on
+generated maps: the accumulated sums after several suns (both routes: exact masks and
+horizons), horizon angles per azimuth and the sky-view factor sums (both definitions, with and
+without Earth curvature).
+
+The C side is host/tests/host_passes.c (subcommands sunshine and horizon); the build of host/
+is the session fixture of tests/test_host_api.py.  The Python host's raw sums are read from
+SunshineCaster's device buffers just before it turns them into maps (a spy on _maps), so the
+comparison is of the very buffers, and the maps derived from the C sums by the formulas the
+header documents must equal the Python host's maps.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pyopencl as cl
+import pytest
+
+from oclshade.heightmap import Heightmap
+from oclshade.horizon import Curvature, HorizonCaster
+from oclshade.sunshine import SunshineCaster
+
+from test_host_api import host, run_program  # noqa: F401  (the session build of host/)
+
+# (azimuth, elevation, seconds): a night sun (skipped by both hosts), suns at grid azimuths
+# and between them, 45 degrees (w = 1 exactly), weights that differ
+SUNS = [(100.0, 12.0, 600), (135.0, 45.0, 900), (181.3, 30.5, 300), (250.0, -3.0, 600), (290.0, 8.0, 1200),
+        (359.9, 60.0, 60), (0.0, 20.0, 3600), (47.0, 5.0, 7)]
+
+
+def generated_map(seed: int, rows: int, cols: int, holes: bool) -> Heightmap:
+    rng = np.random.default_rng(seed)
+    h = np.cumsum(rng.normal(size=(rows, cols)), axis=0) * 5.0 + np.cumsum(rng.normal(size=(rows, cols)), axis=1) * 5.0
+    h += 400.0
+    h[rows // 3, cols // 2] += 80.0
+    if holes:
+        h[rng.random(h.shape) < 0.03] = np.nan
+    return Heightmap.from_array(h, (20.0, 25.0))
+
+
+MAPS = {"holes": (5, 33, 47, True), "full": (8, 40, 29, False)}
+
+
+def heights_file(tmp: Path, hm: Heightmap) -> Path:
+    path = tmp / "heights.f64"
+    np.ascontiguousarray(hm.heights, np.float64).tofile(path)
+    return path
+
+
+def python_sums(hm: Heightmap, method: str, azimuths: int):
+    """The Python host's maps and its raw sums (sun, cast: uint32; beam: float32 pairs)."""
+    caster = SunshineCaster(hm)
+    raw: dict[str, np.ndarray] = {}
+    finish = caster._maps
+
+    def spy(outs, sums, total, count):
+        for name, dtype, per in (("sun", np.uint32, 1), ("cast", np.uint32, 1), ("beam", np.float32, 2)):
+            raw[name] = np.empty(hm.heights.size * per, dtype)
+            cl.enqueue_copy(caster.runtime.queue, raw[name], sums[name])
+        return finish(outs, sums, total, count)
+
+    caster._maps = spy
+    maps = caster.accumulate([(az, el) for az, el, _ in SUNS], np.array([s for *_, s in SUNS]), outputs="all",
+                             method=method, azimuths=azimuths)
+    return maps, raw
+
+
+@pytest.mark.parametrize("case", sorted(MAPS))
+@pytest.mark.parametrize("azimuths", [0, 12])   # 0: the masks route; N: horizons at N grid azimuths
+def test_c_sunshine_equals_python(host: dict, tmp_path: Path, case: str, azimuths: int) -> None:
+    hm = generated_map(*MAPS[case])
+    rows, cols = hm.shape
+    day = [(az, el, s) for az, el, s in SUNS if el > 0]
+    if azimuths:   # the horizon route adds the suns by grid interval of azimuth (a Kahan sum's order matters)
+        day.sort(key=lambda sun: min(int(np.floor(sun[0] % 360.0 * azimuths / 360.0)), azimuths - 1))
+    day = [f"{az!r},{el!r},{s}" for az, el, s in day]
+    run_program(host, "host_passes", "sunshine", tmp_path, heights_file(tmp_path, hm), rows, cols, repr(hm.dx),
+                repr(hm.dy), azimuths, *day)
+    maps, raw = python_sums(hm, "horizons" if azimuths else "masks", azimuths or 64)
+    got = {name: np.fromfile(tmp_path / f"{name}.{ext}", raw[name].dtype)
+           for name, ext in (("sun", "u32"), ("cast", "u32"), ("beam", "f32"))}
+    for name in raw:
+        assert got[name].tobytes() == raw[name].tobytes(), f"{case}: {name} sums differ"
+        if not azimuths:
+            pitched = np.fromfile(tmp_path / f"pitched_{name}.{'f32' if name == 'beam' else 'u32'}", raw[name].dtype)
+            assert pitched.tobytes() == raw[name].tobytes(), f"{case}: {name} sums with pitched heights differ"
+    assert raw["sun"].any() and raw["cast"].any(), "the suns must light and shade some cells"
+    # the maps by the header's formulas
+    nodata = np.isnan(hm.heights)
+    total = sum(s for _, el, s in SUNS if el > 0)
+    beam = got["beam"].reshape(rows, cols, 2).astype(np.float64)
+    derived = {"hours": got["sun"].reshape(rows, cols) / 3600.0,
+               "fraction": got["cast"].reshape(rows, cols) / total,
+               "irradiation": beam[..., 0] - beam[..., 1]}
+    for name, values in derived.items():
+        want = getattr(maps, name)
+        assert np.where(nodata, np.nan, values).astype(np.float32).tobytes() == want.tobytes(), name
+
+
+@pytest.mark.parametrize("definition,curved", [(1, False), (2, True)])
+def test_c_horizons_and_svf_equal_python(host: dict, tmp_path: Path, definition: int, curved: bool) -> None:
+    hm = generated_map(*MAPS["holes"])
+    rows, cols = hm.shape
+    n = 8
+    curvature = Curvature(radius=20000.0, refraction=0.13) if curved else None   # a small planet: visible drops
+    coefficient = curvature.coefficient if curved else 0.0
+    run_program(host, "host_passes", "horizon", tmp_path, heights_file(tmp_path, hm), rows, cols, repr(hm.dx),
+                repr(hm.dy), repr(coefficient), definition, n)
+    caster = HorizonCaster(hm, curvature=curvature, cache=False)
+    angles = caster.horizons(n)
+    for k in range(n):
+        assert np.fromfile(tmp_path / f"angle_{k}.f32", np.float32).tobytes() == angles[k].tobytes(), k
+    sums = np.fromfile(tmp_path / "svf.f32", np.float32).reshape(rows, cols, 2).astype(np.float64)
+    svf = (1.0 - (sums[..., 0] - sums[..., 1]) / n).astype(np.float32)   # the header's formula
+    svf[np.isnan(hm.heights)] = np.nan
+    want = caster.sky_view_factor(n, "cosine" if definition == 1 else "solid-angle")
+    assert svf.tobytes() == want.tobytes()
+    assert np.nanmin(want) < 1.0   # some horizon above 0: the sums are not all zero
