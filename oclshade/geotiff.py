@@ -13,6 +13,13 @@ the 4 bytes before it and its last 4 bytes repeated after it), so GDAL reports
 ``LAYOUT=COG``. Bands are stored planar (``INTERLEAVE=BAND``), little-endian;
 classic TIFF unless the file needs 64-bit offsets (``BIGTIFF``).
 
+Bands may instead arrive as windows (:meth:`GeoTiffWriter.write_window`: any
+rectangles, in any order, each cell once): each block is encoded as soon as the
+windows have filled it (partly filled blocks wait in memory), :meth:`save` puts
+the blocks in the file's order, and the overviews are made at the end from the
+full-resolution blocks read back a block row at a time.  The file is the same,
+byte for byte, as from whole bands.
+
 Option names and values follow GDAL's GTiff and COG drivers (see docs/io.md).
 """
 from __future__ import annotations
@@ -133,15 +140,59 @@ def _encoder(options: TiffOptions) -> Callable[[np.ndarray], bytes]:
     return lambda block: compress(np.ascontiguousarray(predict(block)).tobytes())
 
 
+def _decoder(options: TiffOptions, dtype: np.dtype) -> Callable[[bytes, tuple[int, int]], np.ndarray]:
+    """A block's bytes (as :func:`_encoder` made them) back to the (rows, cols) block."""
+    decompress = {"NONE": bytes, "LZW": imagecodecs.lzw_decode, "DEFLATE": imagecodecs.deflate_decode,
+                  "ZSTD": imagecodecs.zstd_decode}[options.compress]
+    unpredict = {1: lambda a: a, 2: lambda a: imagecodecs.delta_decode(a, axis=-1),
+                 3: lambda a: imagecodecs.floatpred_decode(a, axis=-1)}[options.predictor]
+
+    def decode(data: bytes, shape: tuple[int, int]) -> np.ndarray:
+        return unpredict(np.frombuffer(decompress(data), dtype).reshape(shape).copy())
+
+    return decode
+
+
 @dataclass
 class _Level:
-    """One resolution level: its size and its blocks, appended to a temporary file."""
+    """One resolution level: its size and its blocks in a temporary file, in the order they
+    were encoded (``stored``: block numbers, band-major then row-major); ``offsets`` and
+    ``counts`` by block number (where the data starts in the file, after any leader)."""
 
     rows: int
     cols: int
     file: BinaryIO
     offsets: list[int]
     counts: list[int]
+    stored: list[int]
+
+    def add(self, number: int, data: bytes, cog: bool) -> None:
+        leader = struct.pack("<I", len(data)) if cog else b""
+        trailer = data[-4:] if cog else b""
+        self.offsets[number] = self.file.tell() + len(leader)
+        self.counts[number] = len(data)
+        self.stored.append(number)
+        self.file.write(leader + data + trailer)
+
+    def placed(self, cog: bool) -> list[int]:
+        """Where each block's data starts in the level's part of the file (block-number order)."""
+        extra = 4 if cog else 0
+        out, pos = [], 0
+        for count in self.counts:
+            out.append(pos + extra)
+            pos += count + 2 * extra
+        return out
+
+    def copy_to(self, fh: BinaryIO, cog: bool) -> None:
+        """The blocks into ``fh`` in block-number order (a plain copy when stored so)."""
+        self.file.seek(0)
+        if self.stored == sorted(self.stored):
+            shutil.copyfileobj(self.file, fh, 16 << 20)
+            return
+        extra = 4 if cog else 0
+        for number in range(len(self.offsets)):
+            self.file.seek(self.offsets[number] - extra)
+            fh.write(self.file.read(self.counts[number] + 2 * extra))
 
 
 class GeoTiffWriter:
@@ -158,9 +209,14 @@ class GeoTiffWriter:
         self._encode = _encoder(options)
         self._pool = ThreadPoolExecutor(max_workers=os.cpu_count() or 1)
         self.levels: list[_Level] = []
+        self._windows = False                     # write_window used (then write may not be)
+        self._pending: dict[int, tuple[np.ndarray, np.ndarray]] = {}   # block number -> (block, filled)
         bx, by = options.block
         while True:
-            self.levels.append(_Level(rows, cols, tempfile.TemporaryFile(dir=directory), [], []))
+            level = _Level(rows, cols, tempfile.TemporaryFile(dir=directory), [], [], [])
+            self.levels.append(level)
+            n = self.count * self._blocks_per_band(level)
+            level.offsets, level.counts = [0] * n, [0] * n
             if not options.overviews or max(rows, cols) <= max(bx, by):
                 break
             rows, cols = -(-rows // 2), -(-cols // 2)
@@ -171,11 +227,16 @@ class GeoTiffWriter:
         per_row = level.cols * self.dtype.itemsize
         return min(level.rows, self.options.block[1] or max(1, _STRIP_BYTES // per_row)), level.cols
 
+    def _blocks_per_band(self, level: _Level) -> int:
+        th, tw = self._block_shape(level)
+        return -(-level.rows // th) * -(-level.cols // tw)
+
     def _blocks(self, band: np.ndarray, level: _Level) -> list[np.ndarray]:
-        """The band's blocks in row-major order; edge tiles padded with zeros (strips are not)."""
+        """The blocks of a band, or of a stripe of whole block rows of it, in row-major order; edge
+        tiles padded with zeros (strips are not)."""
         th, tw = self._block_shape(level)
         blocks = []
-        for r in range(0, level.rows, th):
+        for r in range(0, band.shape[0], th):
             for c in range(0, level.cols, tw):
                 part = band[r:r + th, c:c + tw]
                 if self.options.tiled and part.shape != (th, tw):
@@ -189,17 +250,84 @@ class GeoTiffWriter:
         """Append the next band (rows, cols), and its overviews."""
         if self.written == self.count:
             raise ValueError(f"all {self.count} bands are already written")
+        if self._windows:
+            raise ValueError("bands are being written as windows (write_window); write does not mix with it")
         band = np.asarray(band)
-        cog = self.options.cog
         for level in self.levels:
-            for data in self._pool.map(self._encode, self._blocks(band, level)):
-                leader = struct.pack("<I", len(data)) if cog else b""
-                trailer = data[-4:] if cog else b""
-                level.offsets.append(level.file.tell() + len(leader))
-                level.counts.append(len(data))
-                level.file.write(leader + data + trailer)
+            first = self.written * self._blocks_per_band(level)
+            for k, data in enumerate(self._pool.map(self._encode, self._blocks(band, level))):
+                level.add(first + k, data, self.options.cog)
             band = band[::2, ::2]
         self.written += 1
+
+    def write_window(self, band: int, row0: int, col0: int, data: np.ndarray) -> None:
+        """Cells [row0, row0 + rows) x [col0, col0 + cols) of band ``band`` (0-based); windows come
+        in any order, each cell once.  Blocks the windows complete are encoded now."""
+        data = np.asarray(data)
+        level = self.levels[0]
+        rows, cols = data.shape if data.ndim == 2 else (0, 0)
+        if self.written:
+            raise ValueError("bands are being written whole (write); write_window does not mix with it")
+        if not 0 <= band < self.count:
+            raise ValueError(f"band {band} out of range: the file has {self.count} band(s), numbered from 0")
+        if data.ndim != 2 or rows == 0 or cols == 0 or row0 < 0 or col0 < 0 or row0 + rows > level.rows or \
+                col0 + cols > level.cols:
+            raise ValueError(f"window of shape {data.shape} at ({row0}, {col0}) does not lie in the "
+                             f"{level.rows}x{level.cols} band")
+        self._windows = True
+        th, tw = self._block_shape(level)
+        per_row = -(-level.cols // tw)
+        done: dict[int, np.ndarray] = {}
+        for br in range(row0 // th, (row0 + rows - 1) // th + 1):
+            for bc in range(col0 // tw, (col0 + cols - 1) // tw + 1):
+                number = band * self._blocks_per_band(level) + br * per_row + bc
+                r0, c0 = br * th, bc * tw
+                valid = (min(th, level.rows - r0), min(tw, level.cols - c0))   # the block's cells in the band
+                a0, a1 = max(row0, r0), min(row0 + rows, r0 + valid[0])
+                b0, b1 = max(col0, c0), min(col0 + cols, c0 + valid[1])
+                if level.counts[number] or number in done:
+                    raise ValueError(f"band {band}: cells ({a0}, {b0}) written twice")
+                block, filled = self._pending.pop(number, (None, None))
+                if block is None:
+                    shape = (th, tw) if self.options.tiled else valid
+                    block, filled = np.zeros(shape, self.dtype), np.zeros(valid, bool)
+                part = (slice(a0 - r0, a1 - r0), slice(b0 - c0, b1 - c0))
+                if filled[part].any():
+                    raise ValueError(f"band {band}: cells ({a0}, {b0}) written twice")
+                block[part] = data[a0 - row0:a1 - row0, b0 - col0:b1 - col0]
+                filled[part] = True
+                if filled.all():
+                    done[number] = block
+                else:
+                    self._pending[number] = (block, filled)
+        for number, encoded in zip(done, self._pool.map(self._encode, done.values())):
+            level.add(number, encoded, self.options.cog)
+
+    def _overviews_from_windows(self) -> None:
+        """The overview levels made from the full-resolution blocks, a block row at a time (as
+        :meth:`write` makes them from whole bands: every other row and column)."""
+        decode = _decoder(self.options, self.dtype)
+        for upper, lower in zip(self.levels[:-1], self.levels[1:]):
+            th, tw = self._block_shape(upper)
+            per_band, per_row = self._blocks_per_band(upper), -(-upper.cols // tw)
+            lower_th = self._block_shape(lower)[0]
+            for band in range(self.count):
+                first = band * self._blocks_per_band(lower)
+                for r in range(0, upper.rows, 2 * lower_th):    # upper rows giving one lower block row
+                    stripe = np.empty((min(2 * lower_th, upper.rows - r), upper.cols), self.dtype)
+                    for br in range(r // th, (r + stripe.shape[0] - 1) // th + 1):
+                        for bc in range(per_row):
+                            number = band * per_band + br * per_row + bc
+                            upper.file.seek(upper.offsets[number])
+                            block = decode(upper.file.read(upper.counts[number]), (th, tw))
+                            a0, a1 = max(r, br * th), min(r + stripe.shape[0], (br + 1) * th)
+                            c1 = min(upper.cols, (bc + 1) * tw)
+                            stripe[a0 - r:a1 - r, bc * tw:c1] = block[a0 - br * th:a1 - br * th, :c1 - bc * tw]
+                    blocks = self._blocks(stripe[::2, ::2], lower)
+                    at = first + (r // (2 * lower_th)) * -(-lower.cols // self._block_shape(lower)[1])
+                    for k, data in enumerate(self._pool.map(self._encode, blocks)):
+                        lower.add(at + k, data, self.options.cog)
+                upper.file.seek(0, os.SEEK_END)
 
     def close(self) -> None:
         """Drop the temporary files (also after a failure)."""
@@ -227,7 +355,7 @@ class GeoTiffWriter:
     def _entries(self, level: _Level, k: int, base: int, big: bool) -> list[tuple[int, int, object]]:
         n = self.count
         th, tw = self._block_shape(level)
-        offsets = tuple(base + o for o in level.offsets)
+        offsets = tuple(base + o for o in level.placed(self.options.cog))
         kind = {"u": 1, "i": 2, "f": 3}[self.dtype.kind]
         entries = [(254, LONG, (1 if k else 0,)), (256, LONG, (level.cols,)), (257, LONG, (level.rows,)),
                    (258, SHORT, (8 * self.dtype.itemsize,) * n),
@@ -248,7 +376,14 @@ class GeoTiffWriter:
 
     def save(self, fh: BinaryIO) -> None:
         """Write the complete GeoTIFF to ``fh`` (at its start) once every band is written."""
-        if self.written != self.count:
+        if self._windows:
+            level = self.levels[0]
+            missing = len(level.offsets) - len(level.stored)
+            if missing:
+                raise ValueError(f"{missing} of {len(level.offsets)} blocks not completely written (windows missing)")
+            if len(self.levels[-1].stored) < len(self.levels[-1].offsets):
+                self._overviews_from_windows()
+        elif self.written != self.count:
             raise ValueError(f"{self.written} of {self.count} bands written")
         ghost = b""
         if self.options.cog:
@@ -272,8 +407,7 @@ class GeoTiffWriter:
         start = struct.pack("<2sHHHQ", b"II", 43, 8, 0, header) if big else struct.pack("<2sHI", b"II", 42, header)
         fh.write(start + ghost + b"\0" * (header - len(start) - len(ghost)) + self._ifds(big, header, data))
         for level in reversed(self.levels):
-            level.file.seek(0)
-            shutil.copyfileobj(level.file, fh, 16 << 20)
+            level.copy_to(fh, self.options.cog)
 
 
 def _values(kind: int, values: object) -> bytes:

@@ -29,8 +29,8 @@ from . import gdal_reader
 from .geotiff import GeoTiffWriter, tiff_options
 from .heightmap import InputWarning, nodata_value
 
-__all__ = ["Raster", "RasterIOError", "RasterWriter", "decimated", "geotransform", "metres_per_degree", "read_dem",
-           "write_raster"]
+__all__ = ["DemWindows", "Raster", "RasterIOError", "RasterWriter", "decimated", "geotransform", "metres_per_degree",
+           "open_dem", "read_dem", "write_raster"]
 
 # GeoTIFF tags copied verbatim by write_raster (tifffile tag dtype codes: 12 double, 3 short, 2 ascii)
 GEOTIFF_TAGS = {33550: 12, 33922: 12, 34264: 12, 34735: 3, 34736: 12, 34737: 2}
@@ -169,19 +169,24 @@ def _geokey(keys: Sequence[int], key_id: int) -> int | None:
 def _read_tif(path: Path, band: int | None) -> _Source:
     with tifffile.TiffFile(path) as tif:
         page = tif.pages[0]
-        tags = {t.code: t.value for t in page.tags.values()}
         raw = page.asarray()                      # LZW/DEFLATE/predictors: imagecodecs
-    bands = page.samplesperpixel if "S" in page.axes and raw.ndim == len(page.axes) else 1
-    index = _band_index(path, bands, band)
-    if bands > 1:
-        raw = np.take(raw, index, axis=page.axes.index("S"))
-    raw = raw.squeeze() if raw.ndim > 2 else raw
+        bands = page.samplesperpixel if "S" in page.axes and raw.ndim == len(page.axes) else 1
+        index = _band_index(path, bands, band)
+        if bands > 1:
+            raw = np.take(raw, index, axis=page.axes.index("S"))
+        raw = raw.squeeze() if raw.ndim > 2 else raw
+        return _tif_source(page, raw, bands, index)
+
+
+def _tif_source(page: tifffile.TiffPage, raw: np.ndarray, bands: int, index: int) -> _Source:
+    """What a GeoTIFF's first page says (georeferencing, nodata, cell size), with its band ``raw``."""
+    tags = {t.code: t.value for t in page.tags.values()}
     georef = {code: tags[code] for code in GEOTIFF_TAGS if code in tags}
     nodata = None
     if _TAG_NODATA in tags and str(tags[_TAG_NODATA]).strip():
         nodata = float(str(tags[_TAG_NODATA]).strip())
     geographic = _geokey(tags.get(34735, ()), 1024) == 2
-    rows, cols = raw.shape[:2]
+    rows, cols = page.imagelength, page.imagewidth
     cell = None
     if 34264 in tags:  # ModelTransformation, row-major 4x4: x = a i + b j + d, y = e i + f j + h
         a, b, _, d, e, f, _, h = tags[34264][:8]
@@ -197,6 +202,66 @@ def _read_tif(path: Path, band: int | None) -> _Source:
                              "metres (pass cellsize)")
         cell = _degree_cells(*cell, centre_lat)
     return _Source(raw, nodata, geographic, georef, cell, bands=bands, band=index + 1)
+
+
+class _TiffWindows:
+    """Windows of one band of a GeoTIFF's first page, decoding only the tiles or strips each
+    window touches (tifffile's per-segment offsets and decoder)."""
+
+    def __init__(self, path: Path, band: int | None):
+        self.tif = tifffile.TiffFile(path)
+        try:
+            page = self.page = self.tif.pages[0]
+            if page.is_tiled:
+                self.segment = (page.tilelength, page.tilewidth)
+                if page.tiledepth > 1:
+                    raise ValueError("volumetric (3-D tiled) TIFF is not a DEM")
+            else:
+                self.segment = (min(page.rowsperstrip, page.imagelength), page.imagewidth)
+            self.shape = (page.imagelength, page.imagewidth)
+            self.bands = page.samplesperpixel
+            self.index = _band_index(path, self.bands, band)
+            self.source = _tif_source(page, np.empty((0, 0), page.dtype), self.bands, self.index)
+            self.separate = page.planarconfig == 2 and self.bands > 1
+        except BaseException:
+            self.tif.close()
+            raise
+
+    @property
+    def segment_bytes(self) -> int:
+        """Bytes of one decoded tile or strip (all its samples): the least a window read holds."""
+        return self.segment[0] * self.segment[1] * self.page.dtype.itemsize * (1 if self.separate else self.bands)
+
+    def read(self, r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
+        """Samples [r0, r1) x [c0, c1) of the band, in the file's dtype."""
+        page, (sl, sw) = self.page, self.segment
+        out = np.empty((r1 - r0, c1 - c0), page.dtype)
+        down, across = -(-self.shape[0] // sl), -(-self.shape[1] // sw)
+        plane = self.index * down * across if self.separate else 0
+        extra = {"jpegtables": page.jpegtables} if page.compression in (6, 7, 34892, 33007) else {}
+        fh = self.tif.filehandle
+        for br in range(r0 // sl, (r1 - 1) // sl + 1):
+            for bc in range(c0 // sw, (c1 - 1) // sw + 1):
+                number = plane + br * across + bc
+                offset, count = page.dataoffsets[number], page.databytecounts[number]
+                data = None
+                if offset and count:
+                    fh.seek(offset)
+                    data = fh.read(count)
+                segment, _, shape = page.decode(data, number, _fullsize=page.is_tiled, **extra)
+                a0, a1 = max(r0, br * sl), min(r1, (br + 1) * sl)
+                b0, b1 = max(c0, bc * sw), min(c1, (bc + 1) * sw)
+                target = out[a0 - r0:a1 - r0, b0 - c0:b1 - c0]
+                if segment is None:                      # a sparse file's empty block
+                    nodata = self.source.nodata
+                    target[...] = 0 if nodata is None or np.isnan(nodata) and out.dtype.kind != "f" else nodata
+                    continue
+                segment = segment.reshape(shape)[0, :, :, 0 if self.separate else self.index]
+                target[...] = segment[a0 - br * sl:a1 - br * sl, b0 - bc * sw:b1 - bc * sw]
+        return out
+
+    def close(self) -> None:
+        self.tif.close()
 
 
 # ----------------------------------------------------------------------------- SRTM .hgt
@@ -497,14 +562,103 @@ def read_dem(path: str | os.PathLike, cellsize: float | tuple[float, float] | No
         raise
     except Exception as exc:  # noqa: BLE001 - a corrupt file can fail in any decoder; name the file
         raise _err(p, f"cannot read as {ext[1:]} raster: {str(exc) or type(exc).__name__}") from exc
+    return _raster(p, src, heights, band, cell, nodata)
+
+
+def _raster(p: Path, src: _Source, heights: np.ndarray, band: int | None, cell: tuple[float, float] | None,
+            nodata: float | None) -> Raster:
+    """The Raster of a read file, after warning about what the reader noted (stacklevel: read_dem's caller)."""
     if band is None and src.bands > 1:
         src.notes.append(f"the file has {src.bands} bands; reading band {src.band}"
                          f"{f' ({src.band_name})' if src.band_name else ''} (choose one with -b BAND, or band=)")
     for note in src.notes:
-        warnings.warn(f"{p}: {note}", InputWarning, stacklevel=2)
+        warnings.warn(f"{p}: {note}", InputWarning, stacklevel=3)
     dx, dy = cell or src.cell or (1.0, 1.0)
     return Raster(heights, dx, dy, src.nodata if nodata is None else nodata, src.geographic, src.georef,
                   str(p), src.crs_wkt)
+
+
+class DemWindows:
+    """A DEM read a window at a time (:func:`open_dem`): :attr:`raster` is what :func:`read_dem`
+    gives but for its heights (a read-only NaN view of the map's shape, holding no memory), and
+    :meth:`read` gives a window's heights as :func:`read_dem` would (float64, nodata as NaN).
+    :attr:`segment_bytes`: what decoding one tile or strip of the file holds (a window read
+    holds at least that)."""
+
+    def __init__(self, raster: Raster, read: Callable[[int, int, int, int], np.ndarray], segment_bytes: int,
+                 close: Callable[[], None] = lambda: None):
+        self.raster, self._read, self.segment_bytes, self._close = raster, read, segment_bytes, close
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.raster.heights.shape  # type: ignore[return-value]
+
+    def read(self, r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
+        """Heights of rows [r0, r1) and columns [c0, c1)."""
+        rows, cols = self.shape
+        if not (0 <= r0 < r1 <= rows and 0 <= c0 < c1 <= cols):
+            raise ValueError(f"window rows {r0}:{r1}, cols {c0}:{c1} is not inside the {rows}x{cols} map")
+        return self._read(r0, r1, c0, c1)
+
+    def close(self) -> None:
+        self._close()
+
+    def __enter__(self) -> "DemWindows":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def open_dem(path: str | os.PathLike, cellsize: float | tuple[float, float] | None = None,
+             band: int | None = None, nodata: float | None = None) -> DemWindows:
+    """:func:`read_dem` a window at a time: a GeoTIFF (tiled, a COG, or in strips) decodes only
+    the tiles or strips a window touches, a .npy file is memory-mapped; other formats, URLs and
+    the GDAL reader's are read whole now and served from memory.  Same arguments, checks and
+    warnings as :func:`read_dem`."""
+    if band is not None and (isinstance(band, bool) or not isinstance(band, (int, np.integer)) or band < 1):
+        raise ValueError(f"band must be a 1-based band number (1, 2, ...), got {band!r}")
+    nodata = nodata_value(nodata)
+    text = os.fspath(path)
+    ext = Path(text).suffix.lower() if isinstance(text, str) else ""
+    if ext not in _GEOTIFF + (".npy",) or _URL.match(text):
+        raster = read_dem(path, cellsize, band, nodata)
+        heights = raster.heights
+        raster.heights = np.broadcast_to(np.float64(np.nan), heights.shape)
+        return DemWindows(raster, lambda r0, r1, c0, c1: heights[r0:r1, c0:c1].copy(), heights.nbytes)
+    p = _input_file(path)
+    cell = None if cellsize is None else _cellsize(p, cellsize)
+    try:
+        if ext == ".npy":
+            _band_index(p, 1, band)
+            raw = np.load(p, mmap_mode="r")
+            src, segment, close = _Source(raw[:0, :0] if raw.ndim == 2 else raw), raw.dtype.itemsize * raw.shape[-1], \
+                (lambda: None)
+            if raw.ndim != 2 or raw.size == 0 or raw.dtype.kind not in "iuf":
+                _heights(p, raw, None)              # raises the read_dem error
+            shape = raw.shape
+
+            def window(r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
+                return raw[r0:r1, c0:c1]
+        else:
+            tiff = _TiffWindows(p, band)
+            src, segment, close, shape, window = tiff.source, tiff.segment_bytes, tiff.close, tiff.shape, tiff.read
+    except RasterIOError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - as read_dem: name the file
+        raise _err(p, f"cannot read as {ext[1:]} raster: {str(exc) or type(exc).__name__}") from exc
+    declared = src.nodata if nodata is None else nodata
+
+    def read(r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
+        try:
+            return _heights(p, window(r0, r1, c0, c1), declared)
+        except RasterIOError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - a corrupt block fails in its decoder
+            raise _err(p, f"cannot read rows {r0}:{r1}, cols {c0}:{c1}: {str(exc) or type(exc).__name__}") from exc
+
+    raster = _raster(p, src, np.broadcast_to(np.float64(np.nan), shape), band, cell, nodata)
+    return DemWindows(raster, read, segment, close)
 
 
 # ----------------------------------------------------------------------------- writing
@@ -738,6 +892,8 @@ class RasterWriter:
         self.band_names = list(band_names) if band_names else (
             ["Y"] if count == 1 else [f"B{i:0{width}d}" for i in range(count)])
         self.written, self.finished, self.committed = 0, False, False
+        self.window_cells = 0                     # cells written by write_window (which excludes write)
+        self._data_offset = 0
         self._sidecars = _sidecars(p, like)
         self._replacements: list[_Replacement] = []
         self._sink: GeoTiffWriter | _Staged | BinaryIO | None = None
@@ -751,9 +907,9 @@ class RasterWriter:
                 self._sink = GeoTiffWriter(self.shape, self.dtype, tiff, _geotiff_tags(like, nodata, band_names),
                                            target.parent)
             elif ext == ".npy":
-                offset = _write_npy(tmp, self.shape[1:] if count == 1 else self.shape, self.dtype)
+                self._data_offset = _write_npy(tmp, self.shape[1:] if count == 1 else self.shape, self.dtype)
                 self._sink = open(tmp, "r+b")
-                self._sink.seek(offset)
+                self._sink.seek(self._data_offset)
             else:
                 self._sink = _Staged(self.shape, np.dtype(np.float32) if ext == ".exr" else self.dtype,
                                      target.parent)
@@ -780,6 +936,8 @@ class RasterWriter:
         band = np.asarray(band)
         k = self.written + 1
         try:
+            if self.window_cells:
+                raise _err(self.path, "bands are being written as windows (write_window); write does not mix with it")
             if k > self.shape[0]:
                 raise _err(self.path, f"all {self.shape[0]} bands are already written")
             if band.shape != self.shape[1:]:
@@ -791,10 +949,46 @@ class RasterWriter:
             self._fail(exc)
         self.written = k
 
+    def write_window(self, band: int, row0: int, col0: int, data: np.ndarray) -> None:
+        """Cells [row0, row0 + rows) x [col0, col0 + cols) of band ``band`` (0-based), instead of
+        :meth:`write`: windows of any band in any order, each cell once.  GeoTIFF encodes each
+        block as soon as windows complete it (memory: the partly written blocks); .npy writes in
+        place; .exr and .png stage the cells on disk."""
+        data = np.asarray(data)
+        try:
+            count, rows, cols = self.shape
+            if self.written:
+                raise _err(self.path, "bands are being written whole (write); write_window does not mix with it")
+            if isinstance(band, bool) or not isinstance(band, (int, np.integer)) or not 0 <= band < count:
+                raise _err(self.path, f"band {band!r} out of range: {count} band(s), numbered from 0")
+            if data.ndim != 2 or data.size == 0 or not (0 <= row0 and 0 <= col0 and row0 + data.shape[0] <= rows
+                                                        and col0 + data.shape[1] <= cols):
+                raise _err(self.path, f"window of shape {data.shape} at ({row0}, {col0}) does not lie in the "
+                                      f"{rows}x{cols} bands")
+            if not np.can_cast(data.dtype, self.dtype, "safe"):
+                raise _err(self.path, f"window of dtype {data.dtype} does not fit {self.dtype}")
+            if isinstance(self._sink, GeoTiffWriter):
+                self._sink.write_window(int(band), int(row0), int(col0), np.ascontiguousarray(data, self.dtype))
+            else:
+                staged = isinstance(self._sink, _Staged)
+                fh, dtype = (self._sink.file, self._sink.dtype) if staged else (self._sink, self.dtype)
+                size = count * rows * cols * dtype.itemsize
+                if staged and fh.seek(0, os.SEEK_END) < size:
+                    fh.truncate(size)
+                for r, line in enumerate(np.ascontiguousarray(data, dtype)):
+                    fh.seek(self._data_offset + ((band * rows + row0 + r) * cols + col0) * dtype.itemsize)
+                    fh.write(line.tobytes())
+        except BaseException as exc:
+            self._fail(exc)
+        self.window_cells += data.size
+
     def finish(self) -> None:
         """Complete the temporary file and sidecars once every band is written; nothing is replaced yet."""
         try:
-            if self.written != self.shape[0]:
+            total = self.shape[0] * self.shape[1] * self.shape[2]
+            if self.window_cells and self.window_cells != total:
+                raise _err(self.path, f"{self.window_cells} of {total} cells written")
+            if not self.window_cells and self.written != self.shape[0]:
                 raise _err(self.path, f"{self.written} of {self.shape[0]} bands written")
             tmp = str(self._out.tmp)
             if self.ext in _GEOTIFF:
