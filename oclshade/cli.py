@@ -35,6 +35,7 @@ from .tuning import cli as tuning_cli
 from .bench import cli as bench_cli
 from .solar import cli as solar_cli
 from .envmap import cli as envmap_cli
+from .scene import cli as scene_cli
 from .shadows import DEFAULT_K_BRIGHT, DEFAULT_K_DARK, METHODS, ShadowCaster, ShadowResult
 from .ssao import DEFAULT_M
 from .sun import DEFAULT_AZIMUTH, DEFAULT_ELEVATION, Sun
@@ -418,7 +419,8 @@ def add_render_parser(sub) -> None:
     rd = sub.add_parser("render", help="ray-cast a DEM into a shaded PNG and/or an EXR G-buffer",
                         description="Render a DEM as terrain seen by a camera (paper 004 voxel bisection).",
                         epilog=RENDER_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
-    rd.add_argument("input", metavar="INPUT", help="DEM: .tif/.tiff, .hgt, .zip (with .hgt), .asc, .exr, .png, .npy")
+    rd.add_argument("input", metavar="INPUT", help="DEM: .tif/.tiff, .hgt, .zip (with .hgt), .asc, .exr, .png, .npy; "
+                                                   "or a scene file .toml (terrain, quadrics, environment: docs/reflections.md)")
     rd.add_argument("output", metavar="OUTPUT", help="shaded frame (.png) or G-buffer (.exr)")
     rd.add_argument("--size", type=_size, default=(1280, 720), metavar="WxH", help="frame size (default 1280x720)")
     rd.add_argument("--camera", type=lambda t: _floats(t, 6, "--camera"), metavar="X,Y,Z,TX,TY,TZ",
@@ -686,6 +688,8 @@ def run_render(args: argparse.Namespace) -> int:
     from .frames import AOSettings, FrameSettings, TerrainScene
     from .terrain import Heightfield
 
+    if scene_cli.is_scene(args.input):
+        return scene_cli.run(args)
     out_ext = _extension(args.output)
     if out_ext not in (".png", ".exr"):
         raise UsageError(f"OUTPUT {args.output!r}: expected .png (shaded frame) or .exr (G-buffer)")

@@ -1,0 +1,307 @@
+"""Scene files (TOML): terrain, camera, sun, render settings, environment and quadrics.
+
+>>> scene = load_scene("valley.toml")        # a SceneDescription; paths relative to the file
+>>> scene.quadrics[0].material.kind
+'mirror'
+
+The format (every section optional but ``[terrain]``; an unknown key or section is an
+error that names it, so a typo never passes silently)::
+
+    [terrain]
+    dem = "dem.tif"              # path; cellsize: the file's, or [terrain] cellsize
+    cellsize = 30.0              # or [dx, dy] (metres)
+    z_factor = 1.0
+    nodata = -32768              # overrides the file's
+    radius = 6371000.0           # the map on a sphere (optional)
+
+    [camera]                     # default: the map framed from view = [200, 30]
+    position = [x, y, z]         # metres: x east from the first column, y north from the
+    look_at = [x, y, z]          #   first row (the map lies at y <= 0), z up
+    view = [azimuth, elevation]  # instead of position / look_at: the framed view
+    fov = 45.0                   # vertical, degrees
+    size = [1280, 720]
+
+    [sun]
+    azimuth = 315.0              # degrees clockwise from north
+    elevation = 45.0
+
+    [render]
+    ssaa = 1                     # samples per pixel along each axis
+    shadows = true
+    ao = 4.0                     # SSAO radius in cells; 0 or absent: off
+
+    [environment]
+    file = "envmaps/sky.exr"     # any layout oclshade.envmap reads
+    layout = "latlong"           # optional: detected from the file
+    size = 256                   # cube face size for a lat-long file (default width / 4)
+    rotation = 0.0               # degrees about world up (oclshade.envmap.cube_frame)
+    intensity = 1.0
+    background = true            # empty pixels show the map
+    # generate = "once" | N      # not implemented (docs/reflections.md)
+
+    [[quadric]]
+    kind = "sphere"              # sphere: radius; ellipsoid: radii = [a, b, c];
+    centre = [x, y, z]           # cylinder: radius, height (centre mid-axis);
+    radius = 120.0               # paraboloid: radius, height (centre = vertex)
+    axis = [0, 0, 1]             # optional
+    material = "mirror"          # diffuse (default), mirror, glossy
+    colour = [0.9, 0.9, 0.9]     # linear RGB; roughness, fresnel: see Material
+
+Meshes (issue 20) can join as ``[[mesh]]`` tables with the same material keys.
+"""
+from __future__ import annotations
+
+import math
+import os
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:                                   # pragma: no cover - Python 3.10
+    import tomli as tomllib
+
+from ..envmap.materials import Material
+from ..quadrics.objects import Quadric
+from ..sun import DEFAULT_AZIMUTH, DEFAULT_ELEVATION, Sun
+
+SECTIONS = ("terrain", "camera", "sun", "render", "environment", "quadric")
+MATERIAL_KEYS = ("material", "colour", "roughness", "fresnel")
+_KEYS = {
+    "terrain": ("dem", "cellsize", "z_factor", "nodata", "radius"),
+    "camera": ("position", "look_at", "view", "fov", "size"),
+    "sun": ("azimuth", "elevation"),
+    "render": ("ssaa", "shadows", "ao"),
+    "environment": ("file", "layout", "size", "rotation", "intensity", "background", "generate"),
+    "quadric": ("kind", "centre", "radius", "radii", "height", "axis") + MATERIAL_KEYS,
+}
+#: which size keys each quadric kind takes
+_SHAPE_KEYS = {"sphere": ("radius",), "ellipsoid": ("radii",), "cylinder": ("radius", "height"),
+               "paraboloid": ("radius", "height")}
+
+
+class SceneError(ValueError):
+    """A scene file that cannot be used; the message names the file, the section and the key."""
+
+
+@dataclass(frozen=True)
+class TerrainSpec:
+    dem: Path
+    cellsize: float | tuple[float, float] | None = None
+    z_factor: float = 1.0
+    nodata: float | None = None
+    radius: float | None = None
+
+
+@dataclass(frozen=True)
+class CameraSpec:
+    """Either position and look_at, or the framed ``view`` (azimuth, elevation)."""
+
+    size: tuple[int, int] = (1280, 720)
+    fov: float = 45.0
+    position: tuple[float, float, float] | None = None
+    look_at: tuple[float, float, float] | None = None
+    view: tuple[float, float] = (200.0, 30.0)
+
+
+@dataclass(frozen=True)
+class RenderSpec:
+    ssaa: int = 1
+    shadows: bool = True
+    ao: float = 0.0                       # SSAO radius in cells, 0 off
+
+
+@dataclass(frozen=True)
+class EnvironmentSpec:
+    file: Path
+    layout: str | None = None
+    size: int | None = None
+    rotation: float = 0.0
+    intensity: float = 1.0
+    background: bool = True
+
+
+@dataclass(frozen=True)
+class SceneDescription:
+    path: Path
+    terrain: TerrainSpec
+    camera: CameraSpec = CameraSpec()
+    sun: Sun = Sun(DEFAULT_AZIMUTH, DEFAULT_ELEVATION)
+    render: RenderSpec = RenderSpec()
+    environment: EnvironmentSpec | None = None
+    quadrics: tuple[Quadric, ...] = field(default_factory=tuple)
+
+
+class _Reader:
+    """Typed access to one table with messages naming file, section and key."""
+
+    def __init__(self, path: Path, where: str, table: object):
+        self.path, self.where = path, where
+        if not isinstance(table, dict):
+            raise self.error(f"must be a table, got {type(table).__name__}")
+        self.table = table
+
+    def error(self, message: str, key: str | None = None) -> SceneError:
+        at = f"{self.where} {key}" if key else self.where
+        return SceneError(f"{self.path}: {at}: {message}")
+
+    def check_keys(self, allowed: tuple[str, ...]) -> None:
+        for key in self.table:
+            if key not in allowed:
+                raise self.error(f"unknown key {key!r}; expected one of {', '.join(allowed)}")
+
+    def number(self, key: str, default: float | None = None, positive: bool = False) -> float | None:
+        if key not in self.table:
+            return default
+        v = self.table[key]
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or (positive and v <= 0):
+            raise self.error(f"must be a {'positive ' if positive else ''}finite number, got {v!r}", key)
+        return float(v)
+
+    def integer(self, key: str, default: int | None, low: int = 1) -> int | None:
+        if key not in self.table:
+            return default
+        v = self.table[key]
+        if isinstance(v, bool) or not isinstance(v, int) or v < low:
+            raise self.error(f"must be an integer >= {low}, got {v!r}", key)
+        return v
+
+    def boolean(self, key: str, default: bool) -> bool:
+        v = self.table.get(key, default)
+        if not isinstance(v, bool):
+            raise self.error(f"must be true or false, got {v!r}", key)
+        return v
+
+    def numbers(self, key: str, count: int, default: tuple | None = None) -> tuple[float, ...] | None:
+        if key not in self.table:
+            return default
+        v = self.table[key]
+        if (not isinstance(v, list) or len(v) != count
+                or not all(isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in v)):
+            raise self.error(f"must be a list of {count} finite numbers, got {v!r}", key)
+        return tuple(float(x) for x in v)
+
+    def text(self, key: str, default: str | None = None) -> str | None:
+        v = self.table.get(key, default)
+        if v is not None and not isinstance(v, str):
+            raise self.error(f"must be a string, got {v!r}", key)
+        return v
+
+    def file(self, key: str) -> Path:
+        v = self.text(key)
+        if v is None:
+            raise self.error("is required", key)
+        p = Path(os.path.expanduser(v))
+        return p if p.is_absolute() else (self.path.parent / p)
+
+
+def load_scene(path: str | os.PathLike) -> SceneDescription:
+    """Read and check a scene file (module doc); paths in it are relative to its folder."""
+    path = Path(path)
+    try:
+        with open(path, "rb") as fh:
+            doc = tomllib.load(fh)
+    except OSError as exc:
+        raise SceneError(f"{path}: cannot read the scene file: {exc.strerror or exc}") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise SceneError(f"{path}: not valid TOML: {exc}") from None
+    for key in doc:
+        if key not in SECTIONS:
+            raise SceneError(f"{path}: unknown section [{key}]; expected {', '.join(SECTIONS)}"
+                             + (" ([[mesh]] arrives with issue 20)" if key == "mesh" else ""))
+    if "terrain" not in doc:
+        raise SceneError(f"{path}: a [terrain] section with dem = \"...\" is required")
+    sections = {name: _Reader(path, f"[{name}]", doc.get(name, {})) for name in SECTIONS if name != "quadric"}
+    for name, reader in sections.items():
+        reader.check_keys(_KEYS[name])
+    quadric_list = doc.get("quadric", [])
+    if not isinstance(quadric_list, list):
+        raise SceneError(f"{path}: quadrics are an array of tables: write [[quadric]]")
+    return SceneDescription(
+        path=path, terrain=_terrain(sections["terrain"]), camera=_camera(sections["camera"]),
+        sun=_sun(sections["sun"]), render=_render(sections["render"]),
+        environment=_environment(sections["environment"]) if "environment" in doc else None,
+        quadrics=tuple(_quadric(_Reader(path, f"[[quadric]] {k + 1}", t)) for k, t in enumerate(quadric_list)))
+
+
+def _terrain(r: _Reader) -> TerrainSpec:
+    cellsize: float | tuple[float, float] | None = None
+    if "cellsize" in r.table:
+        v = r.table["cellsize"]
+        cellsize = r.number("cellsize", positive=True) if not isinstance(v, list) else r.numbers("cellsize", 2)
+        if isinstance(cellsize, tuple) and min(cellsize) <= 0:
+            raise r.error(f"must be positive, got {v!r}", "cellsize")
+    z = r.number("z_factor", 1.0)
+    if z == 0.0:
+        raise r.error("must not be 0", "z_factor")
+    return TerrainSpec(r.file("dem"), cellsize, z, r.number("nodata"), r.number("radius", positive=True))
+
+
+def _camera(r: _Reader) -> CameraSpec:
+    size = r.numbers("size", 2, (1280, 720))
+    if any(s != int(s) or s < 1 for s in size):
+        raise r.error(f"must be two pixel counts >= 1, got {list(size)}", "size")
+    fov = r.number("fov", 45.0)
+    if not 0.0 < fov < 180.0:
+        raise r.error(f"must be in (0, 180) degrees, got {fov}", "fov")
+    position, look_at = r.numbers("position", 3), r.numbers("look_at", 3)
+    if (position is None) != (look_at is None):
+        raise r.error("position and look_at go together (or leave both out for the framed view)")
+    if position is not None and "view" in r.table:
+        raise r.error("view frames the map automatically: give it or position / look_at, not both", "view")
+    return CameraSpec((int(size[0]), int(size[1])), fov, position, look_at, r.numbers("view", 2, (200.0, 30.0)))
+
+
+def _sun(r: _Reader) -> Sun:
+    try:
+        return Sun(r.number("azimuth", DEFAULT_AZIMUTH), r.number("elevation", DEFAULT_ELEVATION))
+    except ValueError as exc:
+        raise r.error(str(exc)) from None
+
+
+def _render(r: _Reader) -> RenderSpec:
+    ao = r.number("ao", 0.0)
+    if ao < 0:
+        raise r.error(f"must be >= 0 cells (0: off), got {ao}", "ao")
+    return RenderSpec(r.integer("ssaa", 1), r.boolean("shadows", True), ao)
+
+
+def _environment(r: _Reader) -> EnvironmentSpec:
+    if "generate" in r.table:
+        raise r.error("generated cube maps (\"once\" | N) are not implemented yet; give file = \"...\" "
+                      "(docs/reflections.md, 'Not done')", "generate")
+    intensity = r.number("intensity", 1.0)
+    if intensity < 0:
+        raise r.error(f"must be >= 0, got {intensity}", "intensity")
+    return EnvironmentSpec(r.file("file"), r.text("layout"), r.integer("size", None), r.number("rotation", 0.0),
+                           intensity, r.boolean("background", True))
+
+
+def _quadric(r: _Reader) -> Quadric:
+    r.check_keys(_KEYS["quadric"])
+    kind = r.text("kind")
+    if kind not in _SHAPE_KEYS:
+        raise r.error(f"must be one of {', '.join(_SHAPE_KEYS)}, got {kind!r}", "kind")
+    for key in ("radius", "radii", "height"):
+        if key in r.table and key not in _SHAPE_KEYS[kind]:
+            raise r.error(f"a {kind} takes {' and '.join(_SHAPE_KEYS[kind])}, not {key}", key)
+    for key in _SHAPE_KEYS[kind]:
+        if key not in r.table:
+            raise r.error(f"a {kind} needs {key}", key)
+    centre = r.numbers("centre", 3)
+    if centre is None:
+        raise r.error("is required", "centre")
+    axis = r.numbers("axis", 3, (0.0, 0.0, 1.0))
+    try:
+        material = Material(r.text("material", "diffuse"), r.numbers("colour", 3), r.number("roughness", 0.0),
+                            r.number("fresnel", 0.04))
+        if kind == "sphere":
+            return Quadric.sphere(centre, r.number("radius", positive=True), material)
+        if kind == "ellipsoid":
+            return Quadric.ellipsoid(centre, r.numbers("radii", 3), axis, material)
+        maker = Quadric.cylinder if kind == "cylinder" else Quadric.paraboloid
+        return maker(centre, r.number("radius", positive=True), r.number("height", positive=True), axis, material)
+    except ValueError as exc:
+        raise r.error(str(exc)) from None

@@ -1,0 +1,149 @@
+"""Frames of a terrain with quadrics and an environment map: :class:`ObjectScene`.
+
+>>> scene = ObjectScene(Heightfield(hm), quadrics, environment=Environment(cube, rotation=0.0))
+>>> frame = scene.frame(camera, sun, FrameSettings())     # TerrainScene's passes, plus:
+
+=========  =================================================================================
+pass       what the objects add (kernels/quadric.cl, kernels/reflect.cl)
+=========  =================================================================================
+gbuffer    the quadrics cast and depth-merged into the terrain's G-buffer (object ids kept)
+normals    the objects' own normals put into the smooth shading normals
+shadows    quadric shadows on everything, terrain and quadric shadows on the objects
+compose    compose reads the albedo weighted for reflection; the reflections are added after
+=========  =================================================================================
+
+:class:`ObjectScene` is a :class:`~oclshade.frames.TerrainScene`: the same caching (the
+objects and the environment are fixed per scene, like the heights), the same settings.
+With an environment shown as the background, ``lighting.background`` should be black
+(:func:`render_scene` does that).  :func:`render_scene` renders a
+:class:`~oclshade.scene.description.SceneDescription` (a scene file).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Sequence
+
+import numpy as np
+import pyopencl as cl
+
+from ..camera import Camera, frame_heightmap, map_bounds
+from ..compose import Lighting, compose
+from ..envmap.cube import CubeMap
+from ..envmap.files import load_cube
+from ..envmap.reflect import Reflections
+from ..frames import AOSettings, Frame, FrameSettings, TerrainScene
+from ..heightmap import Heightmap
+from ..io import read_dem
+from ..quadrics import ObjectIds, Quadric, QuadricCaster
+from ..runtime import Runtime
+from ..sun import Sun
+from ..terrain import Heightfield
+from .description import SceneDescription, SceneError
+
+
+@dataclass(frozen=True)
+class Environment:
+    """An environment map for reflections (and the background): see
+    :class:`oclshade.envmap.reflect.Reflections` for the arguments."""
+
+    cube: CubeMap
+    rotation: float = 0.0
+    intensity: float = 1.0
+    background: bool = True
+
+
+class ObjectScene(TerrainScene):
+    """A heightfield with quadrics standing on it, and optionally an environment they reflect."""
+
+    def __init__(self, heightfield: Heightfield, quadrics: Sequence[Quadric] = (),
+                 environment: Environment | None = None, device: str | int | Runtime | None = None,
+                 caching: bool = True, uber: bool = False):
+        """``uber``: reflection programs with every feature compiled in (benchmarks only)."""
+        super().__init__(heightfield, device, caching)
+        self.quadrics = list(quadrics)
+        self.caster = (QuadricCaster(self.quadrics, heightfield.heightmap, self.runtime,
+                                     heights=self.renderer.pyramid.heights) if self.quadrics else None)
+        self.reflections = None
+        if environment is not None:
+            self.reflections = Reflections(environment.cube.to_device(self.runtime),
+                                           [q.material for q in self.quadrics], environment.rotation,
+                                           environment.intensity, environment.background, uber)
+        self.ids: ObjectIds | None = None
+        self._objects = None                    # the quadrics' own G-buffer, reused frame to frame
+
+    def _run(self, name: str, camera: Camera, sun: Sun, settings: FrameSettings, lighting: Lighting) -> object:
+        if name == "compose":
+            return self._compose(camera, settings, lighting)
+        out = super()._run(name, camera, sun, settings, lighting)
+        gbuf = out if name == "gbuffer" else self._out["gbuffer"]
+        if self.caster is not None:
+            if name == "gbuffer":
+                self._objects = self.caster.cast(camera, self._objects)
+                self.ids = self.caster.merge(self._objects, gbuf, self._clear_ids(gbuf.shape))
+            elif name == "normals":
+                self.caster.object_normals(gbuf, self.ids, out)
+            elif name == "shadows":
+                self.caster.shadow(camera, gbuf, self.ids, sun, out, *settings.shadow_k)
+        elif name == "gbuffer":
+            self._clear_ids(gbuf.shape)
+        return out
+
+    def _clear_ids(self, shape: tuple[int, int]) -> ObjectIds:
+        """Object ids of the frame's size, all 0 (the buffer reused while the size holds)."""
+        n = shape[0] * shape[1]
+        if self.ids is None or self.ids.shape != shape:
+            self.ids = ObjectIds(self.runtime.empty(4 * n, "object ids"), shape)
+        cl.enqueue_fill_buffer(self.runtime.queue, self.ids.buffer, np.int32(0), 0, 4 * n)
+        return self.ids
+
+    def _compose(self, camera: Camera, settings: FrameSettings, lighting: Lighting) -> np.ndarray:
+        gbuf, refl = self._out["gbuffer"], self.reflections
+        shown = refl.weights(gbuf, self.ids, camera) if refl is not None else gbuf
+        image = compose(shown, camera, lighting, shadow=self._out["shadows"], ao=self._out["ao"], device=self.runtime,
+                        normal=self._out["normals"], ssaa=settings.ssaa)
+        return refl.apply(image, gbuf, self.ids, camera, settings.ssaa) if refl is not None else image
+
+
+def scene_camera(desc: SceneDescription, heightmap: Heightmap) -> Camera:
+    """The description's camera; near and far enclose the map and every quadric."""
+    spec = desc.camera
+    width, height = spec.size
+    if spec.position is None:
+        camera = frame_heightmap(heightmap, width, height, azimuth=spec.view[0], elevation=spec.view[1], fov=spec.fov)
+    else:
+        camera = Camera(np.array(spec.position), np.array(spec.look_at), width, height, fov=spec.fov)
+    lo, hi = map_bounds(heightmap)
+    corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+    reach = np.linalg.norm(corners - camera.position, axis=1).max()
+    for q in desc.quadrics:
+        centre, radius = q.bound
+        reach = max(reach, float(np.linalg.norm(centre - camera.position)) + radius)
+    far = max(camera.far, 1.02 * reach) if spec.position is None else 1.02 * reach
+    near = camera.near if spec.position is None else 1e-4 * far
+    return replace(camera, near=min(near, 0.5 * far), far=far)
+
+
+def load_heightmap(desc: SceneDescription) -> Heightmap:
+    t = desc.terrain
+    raster = read_dem(t.dem, cellsize=t.cellsize, nodata=t.nodata)
+    if t.cellsize is None and not {33550, 34264} & raster.georef.keys():
+        raise SceneError(f"{desc.path}: [terrain] dem {t.dem} does not record its cell size; give cellsize = ...")
+    return Heightmap.from_array(raster.heights, cellsize=(raster.dx, raster.dy), z_factor=t.z_factor)
+
+
+def render_scene(desc: SceneDescription, device: str | int | Runtime | None = None,
+                 uber: bool = False) -> tuple[Frame, ObjectScene, Camera]:
+    """Render a scene description: (the frame, the scene that made it, its camera)."""
+    heightmap = load_heightmap(desc)
+    environment = None
+    if desc.environment is not None:
+        e = desc.environment
+        environment = Environment(load_cube(e.file, e.layout, e.size, device), e.rotation, e.intensity, e.background)
+    scene = ObjectScene(Heightfield(heightmap, desc.terrain.radius), desc.quadrics, environment, device, uber=uber)
+    camera = scene_camera(desc, heightmap)
+    r = desc.render
+    lighting = Lighting(sun=desc.sun, background=(0.0, 0.0, 0.0)) if environment and environment.background \
+        else Lighting(sun=desc.sun)
+    ao = AOSettings(radius=r.ao * max(heightmap.dx, heightmap.dy)) if r.ao > 0 else None
+    settings = FrameSettings(shadows=r.shadows, ao=ao, lighting=lighting, ssaa=r.ssaa)
+    return scene.frame(camera, desc.sun, settings), scene, camera
