@@ -12,7 +12,8 @@
  *   - screen-space ambient occlusion with its blurs (kernels/ssao.cl);
  *   - the final frame (kernels/compose.cl);
  *   - sunshine over time: per-cell sums over many suns (kernels/sunshine.cl);
- *   - horizon angles and sky-view factor sums (kernels/horizon.cl).
+ *   - horizon angles and sky-view factor sums (kernels/horizon.cl);
+ *   - cube-map environment maps: seam border, lat-long <-> cube (kernels/envmap.cl).
  * Results are bit-identical to the Python host's on the same device; the
  * host-side maths (sun rays, cameras, SSAO sample tables, coarse grids) is
  * ported from the Python host operation by operation.  Conventions (north-up
@@ -157,8 +158,8 @@ typedef enum oclshade_method {
 typedef struct oclshade oclshade;   /* opaque library handle */
 
 /* An in-memory kernel source: name as in `#include "name"` and the file list
- * (common.h, pyramid.cl, shadow.cl, terrain.cl, ssao.cl, compose.cl, sunshine.cl, horizon.cl),
- * text NUL-terminated. */
+ * (common.h, pyramid.cl, shadow.cl, terrain.cl, ssao.cl, compose.cl, sunshine.cl, horizon.cl,
+ * cubemap.h, envmap.cl), text NUL-terminated. */
 typedef struct oclshade_source {
     const char *name;
     const char *text;
@@ -186,7 +187,8 @@ static inline oclshade_field oclshade_field_of(cl_mem buffer)
 /* ------------------------------------------------------------------ handle */
 
 /* Create a handle for (context, device).  kernel_dir: a directory holding
- * common.h, pyramid.cl, shadow.cl, terrain.cl, ssao.cl, compose.cl, sunshine.cl and horizon.cl, or
+ * common.h, pyramid.cl, shadow.cl, terrain.cl, ssao.cl, compose.cl, sunshine.cl, horizon.cl,
+ * cubemap.h and envmap.cl, or
  * NULL for the copy built into the library.  The context and device are
  * retained until oclshade_destroy.  Sources are read here; programs are built
  * on first use (or oclshade_prepare).
@@ -225,7 +227,8 @@ const char *oclshade_status_name(oclshade_status status);
 const char *oclshade_version(void);
 
 /* The source text the handle builds for a program file ("pyramid.cl", "shadow.cl",
- * "terrain.cl", "ssao.cl", "compose.cl", "sunshine.cl", "horizon.cl"), includes expanded (byte-identical to the Python
+ * "terrain.cl", "ssao.cl", "compose.cl", "sunshine.cl", "horizon.cl", "envmap.cl"), includes
+ * expanded (byte-identical to the Python
  * host's oclshade.runtime.kernel_source), or NULL for another name or a failed handle.
  * Owned by the handle.  For logs, offline compilers and users building the kernels
  * themselves. */
@@ -795,6 +798,46 @@ oclshade_status oclshade_enqueue_horizon(oclshade *lib, cl_command_queue queue,
                                          const oclshade_horizon_params *params,
                                          cl_uint num_events_in_wait_list, const cl_event *event_wait_list,
                                          cl_event *event);
+
+/* ----------------------------------------------------------- environment maps */
+
+/* A cube map on the device in the bordered layout of kernels/cubemap.h: 6 faces of (N + 2) x
+ * (N + 2) float4 texels (rgb, a unused) back to back, face f at f (N + 2)^2, texel (i, j),
+ * i, j in -1..N, at (i + 1)(N + 2) + j + 1; rows and columns -1 and N are the one-texel
+ * border copied across the seams.  Lat-long maps: height x width float4 texels, longitude
+ * across, latitude down (kernels/envmap.cl).  oclshade/envmap/cube.py. */
+typedef struct oclshade_envmap_params {
+    cl_mem cube;                /* >= 96 (face + 2)^2 bytes */
+    int face;                   /* N, 1..8192 */
+    oclshade_field latlong;     /* height x width float4: read by latlong_to_cube, written by cube_to_latlong */
+    int height, width;          /* 1..32768 each (width >= 2 to read one) */
+    cl_mem scratch;             /* >= oclshade_envmap_scratch_size (a packed copy of a pitched latlong) */
+} oclshade_envmap_params;
+
+void oclshade_envmap_params_init(oclshade_envmap_params *params);
+/* Scratch bytes of oclshade_enqueue_latlong_to_cube and oclshade_enqueue_cube_to_latlong
+ * (0 for a lat-long field packed at offset 0, or none). */
+oclshade_status oclshade_envmap_scratch_size(oclshade *lib, const oclshade_envmap_params *params, size_t *bytes);
+/* cube_border over (N + 2, 4, 6) work-items: the border of a cube whose face interiors are
+ * filled (DeviceCubeMap.fill_border).  cube is read and written. */
+oclshade_status oclshade_enqueue_cube_border(oclshade *lib, cl_command_queue queue,
+                                             const oclshade_envmap_params *params,
+                                             cl_uint num_events_in_wait_list, const cl_event *event_wait_list,
+                                             cl_event *event);
+/* latlong_to_cube (each face texel the lat-long map's bilinear sample in its centre's
+ * direction; global size (N, N) rounded up to the local size, x 6 faces), then cube_border:
+ * oclshade.envmap.latlong_to_cube on an RGBA map (the Python host's a = 0). */
+oclshade_status oclshade_enqueue_latlong_to_cube(oclshade *lib, cl_command_queue queue,
+                                                 const oclshade_envmap_params *params,
+                                                 cl_uint num_events_in_wait_list, const cl_event *event_wait_list,
+                                                 cl_event *event);
+/* cube_to_latlong over (width, height): each texel the bordered cube's seam-continuous
+ * bilinear sample in its centre's direction (DeviceCubeMap.to_latlong, before the host drops
+ * the a channel). */
+oclshade_status oclshade_enqueue_cube_to_latlong(oclshade *lib, cl_command_queue queue,
+                                                 const oclshade_envmap_params *params,
+                                                 cl_uint num_events_in_wait_list, const cl_event *event_wait_list,
+                                                 cl_event *event);
 
 #ifdef __cplusplus
 }

@@ -11,7 +11,7 @@ extern const oclshade_source oclshade_embedded_sources[];
 extern const size_t oclshade_embedded_source_count;
 
 const char *const OCLS_PROGRAM_FILES[N_PROGRAM_FILES] = {"pyramid.cl", "shadow.cl", "terrain.cl", "ssao.cl",
-                                                         "compose.cl", "sunshine.cl", "horizon.cl"};
+                                                         "compose.cl", "sunshine.cl", "horizon.cl", "envmap.cl"};
 /* ------------------------------------------------------------------ threads */
 
 #if defined(_WIN32)

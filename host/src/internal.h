@@ -14,6 +14,7 @@
  * compose.c     the final frame
  * sunshine.c    sums over many suns; zeroing of accumulators
  * horizon.c     horizon angles and sky-view factor sums
+ * envmap.c      cube maps: seam border, lat-long <-> cube
  */
 #ifndef OCLSHADE_INTERNAL_H
 #define OCLSHADE_INTERNAL_H
@@ -82,9 +83,9 @@ typedef struct program_entry {
     struct program_entry *next;
 } program_entry;
 
-#define N_PROGRAM_FILES 7
+#define N_PROGRAM_FILES 8
 extern const char *const OCLS_PROGRAM_FILES[N_PROGRAM_FILES];   /* pyramid, shadow, terrain, ssao, compose,
-                                                                   sunshine, horizon */
+                                                                   sunshine, horizon, envmap */
 
 struct oclshade {
     cl_context context;
@@ -238,6 +239,10 @@ oclshade_status ocls_set_args(ocls_pass *ps, kernel_entry *k, const ocls_arg *ar
 /* Enqueue k over (cols, rows) work-items in groups of at most `wanted`, at most max_x wide
  * (the Python host's Runtime.grid_2d), or 1-D (rows 0: Runtime.local_size). */
 oclshade_status ocls_launch(ocls_pass *ps, kernel_entry *k, int cols, int rows, size_t wanted, size_t max_x);
+/* As ocls_launch over (cols, rows, layers) work-items (layers > 0) in groups of (grid_2d's x,
+ * y, 1); wanted 0: global size exactly (cols, rows, layers) and the driver's local size. */
+oclshade_status ocls_launch_3d(ocls_pass *ps, kernel_entry *k, int cols, int rows, int layers, size_t wanted,
+                               size_t max_x);
 /* Copies out the staged outputs, releases the views; returns st (or the first failure) and
  * the last command's event in *event. */
 oclshade_status ocls_pass_finish(ocls_pass *ps, oclshade_status st, cl_event *event);

@@ -318,21 +318,8 @@ static size_t local_size(const oclshade *lib, const kernel_entry *k, size_t want
 
 static size_t round_up(size_t n, size_t m) { return (n + m - 1) / m * m; }
 
-oclshade_status ocls_launch(ocls_pass *ps, kernel_entry *k, int cols, int rows, size_t wanted, size_t max_x)
+static oclshade_status launch(ocls_pass *ps, kernel_entry *k, cl_uint dims, const size_t *global, const size_t *local)
 {
-    const size_t ls = local_size(ps->lib, k, wanted);
-    size_t local[2], global[2];
-    cl_uint dims = 2;
-    if (rows == 0) {   /* 1-D over cols items */
-        dims = 1;
-        local[0] = ls;
-        global[0] = round_up((size_t)cols, ls);
-    } else {           /* Runtime.grid_2d */
-        local[0] = ls < max_x ? ls : max_x;
-        local[1] = ls / local[0] ? ls / local[0] : 1;
-        global[0] = round_up((size_t)cols, local[0]);
-        global[1] = round_up((size_t)rows, local[1]);
-    }
     cl_event ev = NULL;
     const cl_int err = clEnqueueNDRangeKernel(ps->queue, k->kernel, dims, NULL, global, local, chain_n(ps),
                                               chain_list(ps), &ev);
@@ -343,6 +330,29 @@ oclshade_status ocls_launch(ocls_pass *ps, kernel_entry *k, int cols, int rows, 
         return ocls_fail_cl(ps->lib, err, call);
     }
     return OCLSHADE_OK;
+}
+
+oclshade_status ocls_launch(ocls_pass *ps, kernel_entry *k, int cols, int rows, size_t wanted, size_t max_x)
+{
+    return ocls_launch_3d(ps, k, cols, rows, 0, wanted, max_x);
+}
+
+oclshade_status ocls_launch_3d(ocls_pass *ps, kernel_entry *k, int cols, int rows, int layers, size_t wanted,
+                               size_t max_x)
+{
+    size_t local[3] = {0, 1, 1}, global[3] = {(size_t)cols, (size_t)rows, (size_t)layers};
+    if (wanted == 0) return launch(ps, k, 3, global, NULL);   /* the driver's local size */
+    const size_t ls = local_size(ps->lib, k, wanted);
+    if (rows == 0) {   /* 1-D over cols items */
+        local[0] = ls;
+        global[0] = round_up((size_t)cols, ls);
+        return launch(ps, k, 1, global, local);
+    }
+    local[0] = ls < max_x ? ls : max_x;   /* Runtime.grid_2d, each layer one deep */
+    local[1] = ls / local[0] ? ls / local[0] : 1;
+    global[0] = round_up((size_t)cols, local[0]);
+    global[1] = round_up((size_t)rows, local[1]);
+    return launch(ps, k, layers > 0 ? 3 : 2, global, local);
 }
 
 oclshade_status ocls_pass_finish(ocls_pass *ps, oclshade_status st, cl_event *event)

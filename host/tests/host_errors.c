@@ -145,6 +145,7 @@ int main(int argc, char **argv)
     char *common = read_text(dir, "common.h"), *pyramid = read_text(dir, "pyramid.cl");
     char *terrain = read_text(dir, "terrain.cl"), *ssao = read_text(dir, "ssao.cl"), *compose = read_text(dir, "compose.cl");
     char *sunshine = read_text(dir, "sunshine.cl"), *horizon = read_text(dir, "horizon.cl");
+    char *cubemap = read_text(dir, "cubemap.h"), *envmap = read_text(dir, "envmap.cl");
     oclshade_source missing[2] = {{"common.h", common}, {"pyramid.cl", pyramid}};
     st = oclshade_create_from_sources(ctx, device, missing, 2, &lib);
     expect_status(lib, st, OCLSHADE_SOURCE_ERROR, "shadow.cl", "create_from_sources: shadow.cl missing");
@@ -153,10 +154,11 @@ int main(int argc, char **argv)
     /* ---- a build failure carries the compiler log */
     const char *broken = "#include \"common.h\"\n"
                          "__kernel void shadow_cells(__global float *h) { h[0] = oclshade_no_such_name; }\n";
-    oclshade_source sources[8] = {{"common.h", common}, {"pyramid.cl", pyramid}, {"shadow.cl", broken},
+    oclshade_source sources[10] = {{"common.h", common}, {"pyramid.cl", pyramid}, {"shadow.cl", broken},
                                   {"terrain.cl", terrain}, {"ssao.cl", ssao}, {"compose.cl", compose},
-                                  {"sunshine.cl", sunshine}, {"horizon.cl", horizon}};
-    st = oclshade_create_from_sources(ctx, device, sources, 8, &lib);
+                                  {"sunshine.cl", sunshine}, {"horizon.cl", horizon},
+                                   {"cubemap.h", cubemap}, {"envmap.cl", envmap}};
+    st = oclshade_create_from_sources(ctx, device, sources, 10, &lib);
     expect_status(lib, st, OCLSHADE_OK, "", "create_from_sources: broken shadow.cl is read");
     st = oclshade_prepare(lib, OCLSHADE_PAPER, OCLSHADE_OUT_MASK | OCLSHADE_OUT_SELF);
     expect_status(lib, st, OCLSHADE_BUILD_FAILED, "oclshade_no_such_name", "build failure: the log names the error");
@@ -588,6 +590,32 @@ int main(int argc, char **argv)
         clReleaseMemObject(sums); clReleaseMemObject(sums2); clReleaseMemObject(angles);
     }
 
+    /* ---- environment maps: face and lat-long sizes, the cube's size */
+    {
+        cl_mem cube = buffer(ctx, 16 * 6 * 9), ll = buffer(ctx, 16 * 8);
+        oclshade_envmap_params ep, eq;
+        oclshade_envmap_params_init(&ep);
+        ep.cube = cube; ep.face = 1;
+        ep.latlong = oclshade_field_of(ll); ep.height = 2; ep.width = 4;
+        st = oclshade_enqueue_latlong_to_cube(lib, queue, &ep, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_OK, "", "envmap: a valid call");
+        eq = ep; eq.face = 0;
+        st = oclshade_enqueue_cube_border(lib, queue, &eq, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "face must be the cube face size in 1..8192, got 0", "envmap: face 0");
+        eq = ep; eq.width = 1;
+        st = oclshade_enqueue_latlong_to_cube(lib, queue, &eq, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "must be in 1..32768 and 2..32768, got 2, 1",
+                      "envmap: a lat-long map of one column");
+        eq = ep; eq.face = 2;
+        st = oclshade_enqueue_cube_to_latlong(lib, queue, &eq, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "cube must hold at least 1536 bytes", "envmap: cube too small");
+        eq = ep; eq.latlong = oclshade_field_of(cube);
+        st = oclshade_enqueue_cube_to_latlong(lib, queue, &eq, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "overlap", "envmap: lat-long output aliases the cube");
+        clFinish(queue);
+        clReleaseMemObject(cube); clReleaseMemObject(ll);
+    }
+
     /* ---- knobs: the rule's values (compared with the Python host's by the test), errors */
     static const char *const knob_names[][2] = {
         {"pyramid", "base_lanes"}, {"pyramid", "own_builtins"}, {"shadow", "lanes"}, {"shadow", "run"},
@@ -626,7 +654,7 @@ int main(int argc, char **argv)
     clReleaseMemObject(small); clReleaseMemObject(mask); clReleaseMemObject(foreign); clReleaseMemObject(cert);
     clReleaseCommandQueue(queue); clReleaseCommandQueue(other_queue);
     clReleaseContext(ctx); clReleaseContext(other_ctx);
-    free(common); free(pyramid); free(terrain); free(ssao); free(compose); free(sunshine); free(horizon);
+    free(common); free(pyramid); free(terrain); free(ssao); free(compose); free(sunshine); free(horizon); free(cubemap); free(envmap);
     printf("%d failure(s)\n", failures);
     return failures;
 }

@@ -42,6 +42,11 @@
  *       sunshine sums over the (daylight) suns: N 0 by each sun's exact mask (shadow pass),
  *       also with pitched heights (pitched_*); N > 0 by the horizons of N grid azimuths;
  *       sun.u32, cast.u32, beam.f32 (float2 per cell).
+ *   envmap OUTDIR LATLONG.f32 H W N OH OW FACES.f32
+ *       cube_border of FACES (a bordered cube of face N): border.f32; the lat-long map
+ *       (H x W float4) resampled into a cube of face N (cube.f32, bordered) and back into an
+ *       OH x OW lat-long map (latlong.f32); checks itself that pitched lat-long fields at
+ *       offsets give the same bits.
  * Prints "ok" and exits 0 on success. */
 #include "oclshade.h"
 
@@ -862,6 +867,61 @@ static void run_sunshine(int argc, char **argv)
     free_map(&m);
 }
 
+/* ------------------------------------------------------------------ environment maps */
+
+static void run_envmap(int argc, char **argv)
+{
+    if (argc != 7) fail("usage: host_passes envmap OUTDIR LATLONG.f32 H W N OH OW FACES.f32");
+    const int h = atoi(argv[1]), w = atoi(argv[2]), n = atoi(argv[3]), oh = atoi(argv[4]), ow = atoi(argv[5]);
+    const size_t cube_bytes = 16 * 6 * (size_t)(n + 2) * (size_t)(n + 2), in_row = 16 * (size_t)w, out_row = 16 * (size_t)ow;
+    float *ll = (float *)read_file(NULL, argv[0], in_row * (size_t)h, 0);
+    float *faces = (float *)read_file(NULL, argv[6], cube_bytes, 0);
+    oclshade_envmap_params p;
+    oclshade_envmap_params_init(&p);
+    p.face = n;
+    /* the border of given faces */
+    p.cube = buffer(cube_bytes, faces);
+    CHECK(oclshade_enqueue_cube_border(lib, queue, &p, 0, NULL, NULL));
+    void *bordered = read_back(p.cube, cube_bytes);
+    write_file("border.f32", bordered, cube_bytes);
+    free(bordered);
+    release(p.cube);
+    /* lat-long -> cube -> lat-long, packed fields and then pitched ones at offsets */
+    void *first_cube = NULL, *first_ll = NULL;
+    for (int pitched = 0; pitched < 2; ++pitched) {
+        p.cube = buffer(cube_bytes, NULL);
+        p.height = h; p.width = w;
+        p.latlong = pitched ? pitched_copy(ll, h, in_row, 64, in_row + 48) : oclshade_field_of(buffer(in_row * (size_t)h, ll));
+        size_t bytes = 0;
+        CHECK(oclshade_envmap_scratch_size(lib, &p, &bytes));
+        if ((bytes != 0) != pitched) fail("envmap: scratch only for a pitched lat-long map");
+        p.scratch = scratch_of(bytes);
+        CHECK(oclshade_enqueue_latlong_to_cube(lib, queue, &p, 0, NULL, NULL));
+        release(p.latlong.buffer); release(p.scratch);
+        void *cube = read_back(p.cube, cube_bytes);
+        p.height = oh; p.width = ow;
+        void *zero = xmalloc(out_row * (size_t)oh);
+        p.latlong = pitched ? pitched_copy(zero, oh, out_row, 32, out_row + 16) : oclshade_field_of(buffer(out_row * (size_t)oh, NULL));
+        free(zero);
+        CHECK(oclshade_envmap_scratch_size(lib, &p, &bytes));
+        p.scratch = scratch_of(bytes);
+        CHECK(oclshade_enqueue_cube_to_latlong(lib, queue, &p, 0, NULL, NULL));
+        void *out = pitched ? read_pitched(&p.latlong, oh, out_row) : read_back(p.latlong.buffer, out_row * (size_t)oh);
+        release(p.latlong.buffer); release(p.scratch); release(p.cube);
+        if (!pitched) {
+            write_file("cube.f32", cube, cube_bytes);
+            write_file("latlong.f32", out, out_row * (size_t)oh);
+            first_cube = cube;
+            first_ll = out;
+        } else {
+            if (memcmp(cube, first_cube, cube_bytes) != 0) fail("envmap: a pitched lat-long input gives another cube");
+            if (memcmp(out, first_ll, out_row * (size_t)oh) != 0) fail("envmap: a pitched lat-long output differs");
+            free(cube); free(out);
+        }
+    }
+    free(first_cube); free(first_ll); free(ll); free(faces);
+}
+
 /* ------------------------------------------------------------------ main */
 
 int main(int argc, char **argv)
@@ -885,6 +945,7 @@ int main(int argc, char **argv)
     else if (strcmp(argv[1], "compose") == 0) run_compose(argc - 3, argv + 3);
     else if (strcmp(argv[1], "horizon") == 0) run_horizon(argc - 3, argv + 3);
     else if (strcmp(argv[1], "sunshine") == 0) run_sunshine(argc - 3, argv + 3);
+    else if (strcmp(argv[1], "envmap") == 0) run_envmap(argc - 3, argv + 3);
     else fail("unknown command");
     oclshade_destroy(lib);
     clReleaseCommandQueue(queue);
