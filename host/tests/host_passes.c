@@ -813,7 +813,7 @@ static void sunshine_by_horizons(const map *m, double dx, double dy, int n, int 
         double az, el;
         unsigned seconds;
         if (sscanf(suns[k], "%lf,%lf,%u", &az, &el, &seconds) != 3) fail("bad sun (AZ,EL,SECONDS)");
-        double a = fmod(az, 360.0);   /* Python's az % 360 (for az >= 0 or a < 0 not at -0) */
+        double a = fmod(az, 360.0);   /* Python's az % 360 (a tiny negative azimuth aside) */
         if (a < 0.0) a += 360.0;
         const double position = a * n / 360.0;
         int i = (int)floor(position);
