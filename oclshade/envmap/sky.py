@@ -17,8 +17,8 @@ from ..sun import Sun
 from .cube import cube_frame
 
 
-def procedural_sky(height: int, width: int, sun: Sun = Sun(135.0, 30.0), rotation: float = 0.0) -> np.ndarray:
-    """float32 (height, width, 3) linear RGB lat-long map (module doc)."""
+def procedural_sky(height: int, width: int, sun: Sun | None = Sun(135.0, 30.0), rotation: float = 0.0) -> np.ndarray:
+    """float32 (height, width, 3) linear RGB lat-long map (module doc); ``sun=None``: no disc."""
     if height < 1 or width < 2:
         raise ValueError(f"a lat-long map needs height >= 1 and width >= 2, got {height}x{width}")
     d = latlong_directions(height, width)                    # frame F
@@ -30,6 +30,6 @@ def procedural_sky(height: int, width: int, sun: Sun = Sun(135.0, 30.0), rotatio
     sky *= (1.0 + 0.15 * np.cos(8.0 * azimuth))[..., None]
     ground = np.array([0.25, 0.2, 0.15]) * (0.6 + 0.4 * np.clip(-up, 0.0, 1.0))[..., None]
     image = np.where((up >= 0.0)[..., None], sky, ground)
-    disc = world @ np.array(sun.vector()) > np.cos(np.radians(2.0))
-    image[disc] = 50.0 * np.array([1.0, 0.95, 0.85])
+    if sun is not None:
+        image[world @ np.array(sun.vector()) > np.cos(np.radians(2.0))] = 50.0 * np.array([1.0, 0.95, 0.85])
     return image.astype(np.float32)
