@@ -34,6 +34,7 @@ from . import runtime
 from .tuning import cli as tuning_cli
 from .bench import cli as bench_cli
 from .solar import cli as solar_cli
+from .tiles import cli as tiles_cli
 from .envmap import cli as envmap_cli
 from .scene import cli as scene_cli
 from .shadows import DEFAULT_K_BRIGHT, DEFAULT_K_DARK, METHODS, ShadowCaster, ShadowResult
@@ -282,6 +283,7 @@ def build_parser() -> CliParser:
     sh.add_argument("--device", metavar="SPEC",
                     help="OpenCL device: index or name substring (default: $OCLSHADE_DEVICE, else PoCL CPU)")
     sh.add_argument("--quiet", "-q", action="store_true", help="no progress bar and no summary")
+    tiles_cli.add_arguments(sh)
     add_render_parser(sub)
     add_sunshine_parser(sub)
     add_horizon_parsers(sub)
@@ -540,16 +542,22 @@ def read_input(args: argparse.Namespace, cellsize: float | tuple[float, float] |
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", InputWarning)
         raster = read_dem(args.input, cellsize=cellsize, band=args.band, nodata=args.nodata)
-        if cellsize is None and not CELL_TAGS & raster.georef.keys():
-            raise UsageError(f"INPUT {args.input!r} does not record its cell size; give --cellsize DX [DY] (metres)")
-        if cellsize is None and raster.geographic and args.scale != 1.0:
-            raise UsageError(f"-s {args.scale:g}: INPUT {args.input!r} has a geographic CRS, and its cell sizes "
-                             f"are converted to metres automatically; drop -s")
+        check_input_raster(args, raster, cellsize)
         heightmap = Heightmap.from_array(raster.heights, cellsize=(raster.dx * args.scale, raster.dy * args.scale),
                                          z_factor=args.z_factor)
     for warning in caught:
         sys.stderr.write(f"{PROG}: warning: {warning.message}\n")
     return raster, heightmap
+
+
+def check_input_raster(args: argparse.Namespace, raster: Raster,
+                       cellsize: float | tuple[float, float] | None) -> None:
+    """INPUT's cell size is known (from the file or --cellsize), and -s is not given for a geographic one."""
+    if cellsize is None and not CELL_TAGS & raster.georef.keys():
+        raise UsageError(f"INPUT {args.input!r} does not record its cell size; give --cellsize DX [DY] (metres)")
+    if cellsize is None and raster.geographic and args.scale != 1.0:
+        raise UsageError(f"-s {args.scale:g}: INPUT {args.input!r} has a geographic CRS, and its cell sizes "
+                         f"are converted to metres automatically; drop -s")
 
 
 class ProgressBar:
@@ -604,6 +612,8 @@ def run_shadow(args: argparse.Namespace) -> int:
         raise CliError(f"OUTPUT {args.output!r} is the input file; refusing to overwrite it")
     if args.preview is not None and (_same_file(args.preview, args.input) or _same_file(args.preview, args.output)):
         raise CliError(f"--preview {args.preview!r} is the input or the output file; refusing to overwrite it")
+    if tiles_cli.requested(args):
+        return tiles_cli.run(args, job)
     t0 = time.perf_counter()
     raster, heightmap = read_input(args, job.cellsize)
     if job.times:

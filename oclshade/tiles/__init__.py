@@ -3,7 +3,7 @@
 :func:`cast_tiled` traces a heightmap tile by tile with the results of
 :meth:`~oclshade.shadows.ShadowCaster.cast_many`; :func:`plan_tiles` and
 :func:`run_jobs` are the pieces for maps that are never whole in memory
-(``oclshade shadow --max-memory / --tile``); :func:`shadow_dask` (``pip install
+(``oclshade shadow --max-memory / --tile``, :mod:`oclshade.tiles.stream`); :func:`oclshade.tiles.dask_adapter.shadow_dask` (``pip install
 'oclshade[dask]'``) returns the masks of a Dask or xarray array lazily.
 Design and halo derivation: docs/scale.md.
 """

@@ -5,7 +5,7 @@ largest and smallest finite height (float64, after any z factor; -inf / +inf for
 block of nodata only), and the map's overall extrema, from which it also gives the
 base every tile's float32 heights are taken relative to (the very offset
 :class:`~oclshade.heightmap.Heightmap` computes for the whole map).  It is built in
-one pass over the map, from an array or from stripes of rows streamed in order
+one pass over the map, from an array or from stripes of any rows streamed in order
 (:meth:`ReliefGrid.accumulate`), 16 bytes a block: 256^2 blocks make a 32768^2 map's
 grid 256 KiB.
 """
@@ -60,23 +60,36 @@ class ReliefGrid:
             grid.accumulate(heights[r:r + block])
         return grid
 
+    @classmethod
+    def from_extrema(cls, shape: tuple[int, int], block: int, hi: np.ndarray, lo: np.ndarray) -> "ReliefGrid":
+        """A grid from block maxima and minima computed elsewhere (e.g. per chunk by Dask)."""
+        grid = cls(tuple(shape), block)
+        if hi.shape != grid.hi.shape or lo.shape != grid.lo.shape:
+            raise ValueError(f"block extrema of shape {hi.shape} do not fit a {shape} map in blocks of {block}")
+        grid.hi, grid.lo, grid.rows_done = np.asarray(hi, np.float64), np.asarray(lo, np.float64), shape[0]
+        return grid
+
+    @staticmethod
+    def extrema_of(heights: np.ndarray, block: int) -> np.ndarray:
+        """(block rows, block cols, 2) maxima and minima of a chunk whose origin is on the block grid."""
+        grid = ReliefGrid.of(heights, block)
+        return np.stack([grid.hi, grid.lo], axis=-1)
+
     def accumulate(self, stripe: np.ndarray) -> None:
-        """Add the next rows of the map (float64 heights, NaN = nodata), in order from row 0;
-        every stripe but the last must end on a block boundary."""
+        """Add the next rows of the map (float64 heights, NaN = nodata), in order from row 0."""
         rows, cols = self.shape
         n = stripe.shape[0]
         if stripe.ndim != 2 or stripe.shape[1] != cols or self.rows_done + n > rows:
             raise ValueError(f"stripe of shape {stripe.shape} does not continue a {rows}x{cols} map at row "
                              f"{self.rows_done}")
-        if self.rows_done % self.block:
-            raise ValueError(f"stripes must end on block boundaries ({self.block} rows); the last one ended at row "
-                             f"{self.rows_done}")
-        b = self.block
-        for r in range(0, n, b):
-            hi, lo = _block_extrema(stripe[r:r + b], b)
+        b, r = self.block, 0
+        while r < n:                                   # split at the blocks' row boundaries
             k = (self.rows_done + r) // b
+            end = min(n, (k + 1) * b - self.rows_done)
+            hi, lo = _block_extrema(stripe[r:end], b)
             self.hi[k] = np.maximum(self.hi[k], hi)
             self.lo[k] = np.minimum(self.lo[k], lo)
+            r = end
         self.rows_done += n
 
     @property

@@ -1,0 +1,171 @@
+"""File to file, never whole in memory: a DEM read a window at a time, masks written a tile at a time.
+
+:func:`shadow_stream` makes one pass over the input for the :class:`ReliefGrid`
+(stripes of rows; the whole map's base, float32 check and nodata-sentinel
+warnings, as :class:`~oclshade.heightmap.Heightmap` does them for a map in
+memory), plans the tiles within the memory budget and runs them through the
+pipeline of :func:`oclshade.tiles.run_jobs`, each tile's bands going to the
+writer as windows (:meth:`oclshade.io.RasterWriter.write_window`).
+
+Memory budget: ``max_memory`` bounds the peak resident memory of the whole
+process.  What the process already holds (interpreter, OpenCL runtime, compiled
+kernels: measured after the kernels are built), the relief pass's stripes, two
+decoded input blocks and the writer's partly filled output blocks are set
+aside; the rest is divided by the bytes a window cell costs
+(:func:`oclshade.tiles.plan.bytes_per_cell`, plus each job's bands held by the
+pipeline) to give the largest window, and the tile size follows
+(:func:`~oclshade.tiles.plan.auto_tile_size`).
+"""
+from __future__ import annotations
+
+import math
+import os
+import resource
+import warnings
+from dataclasses import dataclass
+from typing import Callable, Sequence
+
+import numpy as np
+
+from ..heightmap import NODATA_SENTINELS, InputWarning, check_float32
+from ..io import DemWindows, RasterWriter
+from ..runtime import get_runtime
+from ..shadows import ShadowCaster, ShadowResult
+from ..sun import Sun
+from .halo import Window
+from .plan import TileJob, TilePlan, auto_tile_size, bytes_per_cell, plan_tiles
+from .relief import DEFAULT_BLOCK, ReliefGrid
+from .run import TileHeightmap, Tracing, run_jobs
+
+RELIEF_STRIPE_BYTES = 32 << 20      # float64 bytes per stripe of the relief pass
+
+
+def rss_bytes() -> int:
+    """The process's resident memory now (Linux /proc; else its peak so far)."""
+    try:
+        with open("/proc/self/statm") as fh:
+            return int(fh.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+    except (OSError, ValueError, IndexError):
+        return peak_rss_bytes()
+
+
+def peak_rss_bytes() -> int:
+    """The process's peak resident memory so far (Linux: VmHWM, which, unlike getrusage's
+    ru_maxrss, does not carry a parent's peak across fork and exec)."""
+    try:
+        with open("/proc/self/status") as fh:
+            for line in fh:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return peak if os.uname().sysname == "Darwin" else peak * 1024
+
+
+def relief_pass(windows: DemWindows, z_factor: float = 1.0, block: int = DEFAULT_BLOCK) -> ReliefGrid:
+    """The relief grid of a windowed DEM in one pass of row stripes; warns (InputWarning) of
+    undeclared nodata sentinels as :meth:`Heightmap.from_array` does."""
+    rows, cols = windows.shape
+    grid = ReliefGrid((rows, cols), block)
+    step = max(1, min(rows, RELIEF_STRIPE_BYTES // (8 * cols)))
+    counts = dict.fromkeys(NODATA_SENTINELS, 0)
+    for r in range(0, rows, step):
+        stripe = windows.read(r, min(r + step, rows), 0, cols)
+        if z_factor != 1.0:
+            stripe *= z_factor
+        for value in NODATA_SENTINELS:
+            near = 1e-7 * abs(value)
+            counts[value] += int(np.count_nonzero(np.abs(stripe - value) <= near))
+        grid.accumulate(stripe)
+    for value, count in counts.items():
+        if count:
+            warnings.warn(f"heights: {count} cell(s) equal {value:.8g}, a common nodata value, but it is not "
+                          f"declared as nodata; if those cells are holes, declare it (--nodata {value:.8g} "
+                          f"or nodata={value:.8g})", InputWarning, stacklevel=2)
+    return grid
+
+
+def check_relief(grid: ReliefGrid, dx: float, dy: float) -> None:
+    """Refuse heights the float32 kernels cannot hold, as Heightmap does for a map in memory."""
+    lo, hi = grid.extrema
+    if not math.isnan(lo):
+        try:
+            check_float32(np.array([lo, hi]), lo, hi, dx, dy)
+        except ValueError as exc:
+            raise ValueError(str(exc).split(": 1 cell(s)")[0] + "; if the extreme is a nodata value, declare it "
+                             "(--nodata VALUE or nodata=)") from None
+
+
+@dataclass
+class StreamRun:
+    """What :func:`shadow_stream` did."""
+
+    plan: TilePlan
+    relief: ReliefGrid
+    max_window_cells: int | None
+    baseline_bytes: int              # resident memory before the tiles (runtime and kernels built)
+
+
+def memory_plan(budget: int, baseline: int, cols: int, segment_bytes: int, bands_per_job: int, itemsize: int,
+                outputs: Sequence[str], out_block: int) -> int:
+    """The largest window (cells) a budget of ``budget`` bytes of resident memory allows (see the
+    module docstring); raises ValueError naming what does not fit."""
+    reserved = baseline + min(RELIEF_STRIPE_BYTES, 12 * cols * DEFAULT_BLOCK) + 2 * segment_bytes + \
+        out_block * cols * bands_per_job * itemsize
+    per_cell = bytes_per_cell(outputs) + 2 * bands_per_job * itemsize
+    cells = (budget - reserved) // per_cell
+    if cells < 64 * 64:
+        raise ValueError(f"a memory budget of {budget / 2**20:.0f} MiB leaves no room for a tile: the process holds "
+                         f"{baseline / 2**20:.0f} MiB before any tile, the reads and the output's block row "
+                         f"{(reserved - baseline) / 2**20:.0f} MiB, and a window cell costs {per_cell} bytes")
+    return int(cells)
+
+
+def shadow_stream(windows: DemWindows, writer: RasterWriter, suns: Sequence[Sun], *,
+                  bands: Callable[[ShadowResult], list[np.ndarray]], dx: float, dy: float, z_factor: float = 1.0,
+                  method: str = "exact", outputs: Sequence[str] = ("mask",), k_dark: float = 0.25,
+                  k_bright: float = 0.65, tile_size: int | None = None, max_memory: int | None = None,
+                  device=None, overlap: bool = True, out_block: int = 512,
+                  progress: Callable[[int, int], None] | None = None) -> StreamRun:
+    """Shadows of a windowed DEM into a writer, tile by tile (see the module docstring).
+    ``bands(result)``: a sun's output bands (written as bands k * n .. k * n + n - 1 for sun
+    k); ``outputs``: what the tiles compute; ``out_block``: the output's block height (its
+    partly filled blocks are budgeted)."""
+    rt = get_runtime(device)
+    relief = relief_pass(windows, z_factor)
+    check_relief(relief, dx, dy)
+    base = relief.base
+    tracing = Tracing(tuple(suns), method, tuple(outputs), k_dark, k_bright, dx, dy, base, rt)
+    per_sun = len(bands(_blank_result(suns[0], tracing.outputs)))
+    probe = TileHeightmap(np.zeros((2, 2)), dx, dy, 0.0)
+    ShadowCaster(probe, rt, cache=False).warm_up(method, tracing.outputs)   # kernels built before the baseline
+    baseline = rss_bytes()
+    rows, cols = relief.shape
+    cells = None
+    if max_memory is not None:
+        itemsize = writer.dtype.itemsize
+        cells = memory_plan(max_memory, baseline, cols, windows.segment_bytes, len(suns) * per_sun, itemsize,
+                            tracing.outputs, out_block)
+    size = tile_size or auto_tile_size(relief, suns, dx, dy, cells or 4096 * 4096)
+    plan = plan_tiles(relief, suns, dx, dy, size, cells)
+
+    def read(window: Window) -> np.ndarray:
+        heights = windows.read(window.r0, window.r1, window.c0, window.c1)
+        if z_factor != 1.0:
+            heights *= z_factor
+        return heights
+
+    def write(job: TileJob, results: list[ShadowResult]) -> None:
+        for k, res in zip(job.suns, results):
+            for i, band in enumerate(bands(res)):
+                writer.write_window(k * per_sun + i, job.tile.r0, job.tile.c0, band)
+
+    run_jobs(plan.jobs, read, write, tracing, overlap=overlap, progress=progress)
+    return StreamRun(plan, relief, cells, baseline)
+
+
+def _blank_result(sun: Sun, outputs: tuple[str, ...]) -> ShadowResult:
+    one = np.zeros((1, 1), np.uint8)
+    return ShadowResult(sun, one if "mask" in outputs else None, one if "self" in outputs else None,
+                        np.ones((1, 1), np.float32) if "coefficient" in outputs else None)
