@@ -26,7 +26,11 @@ Cases (``family/variant``) and what one timed run is:
 * ``horizons``: ``HorizonCaster(..., cache=False).horizons([37])`` (exact horizon
   angles, one azimuth, the band copied to the host) on the canyon of a quarter of
   the masks' side (a horizon ray walks until nothing further can be higher: a
-  horizon band costs tens of masks).
+  horizon band costs tens of masks);
+* ``sunshine/masks``: ``SunshineCaster(..., analyse=False).accumulate`` of the
+  :data:`SUNSHINE_SUNS` (a day's path, 600 s each) over the masks' map, hours and
+  cast fraction: a mask per sun traced and summed on the device, the sums copied
+  to the host.
 
 Work model, per case (``nbytes`` and ``flops`` of :class:`Case`): the traffic
 and arithmetic the case cannot avoid, so the roofline time derived from them
@@ -58,11 +62,14 @@ compose                   56 P read + 4 P written +        40 P (Lambert, sky, t
                           8 P copy
 horizons                  4 N heights + 4 N angles +       30 N (the start patch of each ray)
                           8 N copy (N: cells of its map)
+sunshine/masks            S (4 N heights + 2 N mask        S (20 N + 12 N) (each mask's start patch
+                          written and read + 16 N sums     test; gradient, facing test and sums;
+                          read and written) + 16 N copy    S: the number of suns)
 ========================  ===============================  ====================================
 
 ``exact`` cases must give the same bits on every device (their results equal
 the float64 reference by construction): the pyramid (min / max only) and the
-``exact`` masks, the horizons.  The other cases are compared too, for information.
+``exact`` masks, the horizons, the sunshine sums of exact masks (integer seconds).  The other cases are compared too, for information.
 """
 from __future__ import annotations
 
@@ -85,10 +92,11 @@ from ..screen_shadows import ScreenShadowCaster
 from ..shadows import METHODS as SHADOW_METHODS, ShadowCaster
 from ..ssao import DEFAULT_FEATURES, DEFAULT_M, PAPER_M, PAPER_RECIPE, SSAO, AOFeatures, AOInputs
 from ..sun import Sun
+from ..sunshine import SunshineCaster
 from ..synthetic import canyon_crater
 from ..terrain import METHODS as TERRAIN_METHODS, DeviceGBuffer, Heightfield, TerrainRenderer
 
-FAMILIES = ("pyramid", "masks", "render", "pixel_shadows", "ssao", "compose", "horizons")
+FAMILIES = ("pyramid", "masks", "render", "pixel_shadows", "ssao", "compose", "horizons", "sunshine")
 PIXEL_SHADOW_METHODS = ("exact", "maxmip")
 CELL_M = 30.0
 RELIEF_M = 1500.0
@@ -96,6 +104,9 @@ MASK_SUN = Sun(37.0, 20.0)
 LOW_SUN = Sun(37.0, 10.0)
 VIEW = (200.0, 35.0)      # frame_heightmap azimuth, elevation
 AO_RADIUS_CELLS = 4.0
+#: the sunshine case's suns: a day's path, east to west
+SUNSHINE_SUNS = tuple(Sun(az, el) for az, el in ((70.0, 5.0), (90.0, 20.0), (120.0, 40.0), (160.0, 55.0),
+                                                (200.0, 55.0), (240.0, 40.0), (270.0, 20.0), (290.0, 5.0)))
 
 
 @dataclass(frozen=True)
@@ -385,6 +396,20 @@ def _horizons(w: Workload) -> Case:
                 30.0 * n, terrain_digest(side), run, lambda: [state["angles"]])
 
 
+def _sunshine(w: Workload) -> Case:
+    caster = SunshineCaster(w.heightmap, w.rt, analyse=False)
+    caster.shadows.pyramid
+    state: dict = {}
+
+    def run() -> None:
+        state["maps"] = caster.accumulate(SUNSHINE_SUNS, 600, ("hours", "fraction"))
+
+    n, s = w.cells, len(SUNSHINE_SUNS)
+    return Case(f"sunshine hours and cast fraction by exact masks, {_map_label(w.sizes.map_side)}, {s} suns",
+                "cells", n, s * 22.0 * n + 16.0 * n, s * 32.0 * n, terrain_digest(w.sizes.map_side), run,
+                lambda: [state["maps"].hours, state["maps"].fraction])
+
+
 SPECS: tuple[CaseSpec, ...] = (
     CaseSpec("pyramid", "pyramid", True, _pyramid),
     *(CaseSpec(f"masks/{m}", "masks", m == "exact", _mask(m)) for m in SHADOW_METHODS),
@@ -394,4 +419,5 @@ SPECS: tuple[CaseSpec, ...] = (
     CaseSpec("ssao/paper", "ssao", False, _ssao("paper", PAPER_RECIPE, PAPER_M)),
     CaseSpec("compose", "compose", False, _compose),
     CaseSpec("horizons", "horizons", True, _horizons),
+    CaseSpec("sunshine/masks", "sunshine", True, _sunshine),
 )
