@@ -19,6 +19,10 @@ Sections (``--only`` picks some):
   (c) 8 sharp mirrors with their specialised programs (REFLECT) against programs with
   every feature compiled in (REFLECT FRESNEL ROUGH, switched off by the materials'
   parameters: the same image) - what paper 002's specialisation saves.
+* ``generate``: cube maps generated from a mirror sphere's centre (six terrain renders with
+  shadows and AO): the time of one generation at 256^2 and 512^2 faces, and a 24-frame
+  sun path (fixed camera; the sun moves 3 degrees of azimuth per frame) with the maps
+  regenerated every frame, every 6th, or once: the amortisation of paper 002's case 3.
 * ``mitsuba``: a perfect mirror sphere lit by the same environment map (generated sky, no
   sun disc), same camera, rendered by Mitsuba 3 (``scalar_rgb``, path tracer, box filter,
   ``--spp`` multi-jittered samples per pixel) and by oclshade (``--ssaa`` x ``--ssaa``
@@ -48,7 +52,7 @@ sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(REPO / "bench"))
 from shadow_masks import metadata  # noqa: E402
 
-SECTIONS = ("times", "unused", "mitsuba", "errors")
+SECTIONS = ("times", "unused", "generate", "mitsuba", "errors")
 DATA = REPO.parent / "shared" / "data" / "envmaps"
 _T0 = time.perf_counter()
 
@@ -164,6 +168,30 @@ def run_unused(args, field, camera) -> dict:
         lambda: frame_ms(special, camera)[1]["compose"], lambda: frame_ms(uber, camera)[1]["compose"], args.reps)
     for name, r in out.items():
         log(f"unused: {name}: {r['cost_percent']:+.1f} %")
+    return out
+
+
+def run_generate(args, field, camera) -> dict:
+    from oclshade.scene import Environment, ObjectScene
+    mirror = spheres(field, 1, ("mirror",))
+    out = {"faces": [], "path": []}
+    for size in args.gen_faces:
+        scene = ObjectScene(field, mirror, Environment(generate=1, size=size))
+        scene.frame(camera, (135.0, 30.0), settings())                    # warm-up: builds
+        ms = [scene.frame(camera, (135.0, 30.0), settings()).ms["generate"] for _ in range(args.reps)]
+        out["faces"].append({"face": size, "generate_ms": statistics.median(ms), "all_ms": ms})
+        log(f"generate: {size}^2 faces: {out['faces'][-1]['generate_ms']:.0f} ms")
+    for every in (1, 6, "once"):
+        scene = ObjectScene(field, mirror, Environment(generate=every, size=args.gen_faces[0]))
+        scene.frame(camera, (100.0, 30.0), settings())                    # warm-up: builds
+        scene = ObjectScene(field, mirror, Environment(generate=every, size=args.gen_faces[0]))
+        t0 = time.perf_counter()
+        for k in range(24):
+            scene.frame(camera, (135.0 + 3.0 * k, 30.0), settings())
+        total = 1e3 * (time.perf_counter() - t0)
+        out["path"].append({"every": every, "generations": scene.generations, "total_ms": total,
+                            "per_frame_ms": total / 24})
+        log(f"generate: every {every}: {total / 24:.0f} ms per frame")
     return out
 
 
@@ -318,6 +346,16 @@ def markdown(res: dict) -> str:
         lines += ["", "Rows 1-2: the system with the feature available and unused (no launch, no upload); "
                   "rows 3-4: an uber-program (every feature compiled in, switched at run time) against the "
                   "specialised one: what paper 002's static specialisation saves.", ""]
+    if "generate" in res:
+        g = res["generate"]
+        lines += ["## Generated cube maps (a mirror sphere's centre)", "",
+                  "| face | one generation ms |", "|---|---|"]
+        lines += [f"| {r['face']}^2 | {r['generate_ms']:.0f} |" for r in g["faces"]]
+        lines += ["", f"24-frame sun path, {g['faces'][0]['face']}^2 faces, camera fixed:", "",
+                  "| regenerated | generations | ms per frame |", "|---|---|---|"]
+        lines += [f"| {'every frame' if r['every'] == 1 else ('once' if r['every'] == 'once' else 'every ' + str(r['every']) + ' frames')} "
+                  f"| {r['generations']} | {r['per_frame_ms']:.0f} |" for r in g["path"]]
+        lines.append("")
     if "mitsuba" in res:
         r = res["mitsuba"]
         lines += ["## Independent check: a perfect mirror sphere against Mitsuba 3", ""]
@@ -360,6 +398,7 @@ def main(argv: list[str] | None = None) -> int:
     args.objects = (1, 8) if q else (1, 8, 64)
     args.mitsuba_size, args.ssaa, args.spp = (32, 4, 64) if q else (128, 8, 256)
     args.scenes = 2 if q else 40
+    args.gen_faces = (16, 32) if q else (256, 512)
     from oclshade.camera import frame_heightmap
     res = {"meta": metadata(sys.argv if argv is None else ["bench/reflections.py", *argv]),
            "config": {"size": list(args.size), "cells": args.cells, "face": args.face, "reps": args.reps,
@@ -371,6 +410,10 @@ def main(argv: list[str] | None = None) -> int:
             res["times"] = run_times(args, field, camera)
         if "unused" in only:
             res["unused"] = run_unused(args, field, camera)
+    if "generate" in only:
+        field = terrain(args.cells)
+        camera = frame_heightmap(field.heightmap, *args.size, azimuth=200.0, elevation=30.0)
+        res["generate"] = run_generate(args, field, camera)
     if "mitsuba" in only:
         res["mitsuba"] = run_mitsuba(args)
     if "errors" in only:

@@ -37,7 +37,7 @@
  *     __global const int *object          object id per sample (index + 1, 0 none)
  *     __global const float4 *mat          3 float4 per object: (colour rgb, F0),
  *                                         (tan of the cone's half-angle, group, 0, 0),
- *                                         (reflection tint rgb, 0)
+ *                                         (reflection tint rgb, index of its cube map)
  *     int group                           the material group this program serves
  *     float4 cam                          as for reflect_apply
  *     __global float4 *albedo_out         written on the group's samples only
@@ -47,7 +47,10 @@
  *     float4 cam                          (sx, sy, orthographic ? 1 : 0, 0): pixel-ray slopes
  *     float4 v2w0..2                      rows of the view -> world rotation (xyz)
  *     float4 w2c0..2                      rows of the world -> cube-map rotation (xyz)
- *     __global const float4 *cube         bordered cube map (cubemap.h), n_cube x n_cube faces
+ *     __global const float4 *cube         bordered cube maps (cubemap.h) of n_cube x n_cube faces
+ *                                         back to back, 6 (n_cube + 2)^2 float4 each: an object
+ *                                         reads the one its mat row gives (a map generated from
+ *                                         its centre, or 0: the scene's), BACKGROUND map 0
  *     float intensity                     scale of the environment's values
  *     __global float4 *acc                n pixels, linear rgb; the host zeroes it per frame
  *     global size >= n (1-D)
@@ -138,6 +141,7 @@ __kernel void reflect_apply(const int width, const int height, const int ssaa, _
             const float3 n = normal[p].xyz, u = eye_to(position[p].xyz, cam);
             const float3 r = u - 2.0f * dot(n, u) * n;                         /* view space */
             const float3 rc = to_cube(r, v2w0, v2w1, v2w2, w2c0, w2c1, w2c2);
+            __global const float4 *own = cube + (int)mat[3 * obj - 1].w * 6 * (n_cube + 2) * (n_cube + 2);
 @IF ROUGH;
             /* a cone around rc: tangent frame (Duff et al. 2017), 16 points of a Vogel spiral */
             const float cone = mat[3 * obj - 2].x;
@@ -150,14 +154,14 @@ __kernel void reflect_apply(const int width, const int height, const int ssaa, _
                 for (int s = 0; s < OCLS_CONE_SAMPLES; ++s) {
                     const float rad = cone * sqrt(((float)s + 0.5f) / (float)OCLS_CONE_SAMPLES);
                     const float phi = (float)s * OCLS_GOLDEN_ANGLE;
-                    env += ocls_cube_sample(cube, n_cube, d + rad * (cos(phi) * t1 + sin(phi) * t2)).xyz;
+                    env += ocls_cube_sample(own, n_cube, d + rad * (cos(phi) * t1 + sin(phi) * t2)).xyz;
                 }
                 env = env / (float)OCLS_CONE_SAMPLES;
             } else {
-                env = ocls_cube_sample(cube, n_cube, rc).xyz;
+                env = ocls_cube_sample(own, n_cube, rc).xyz;
             }
 @ELSE;
-            const float3 env = ocls_cube_sample(cube, n_cube, rc).xyz;
+            const float3 env = ocls_cube_sample(own, n_cube, rc).xyz;
 @ENDIF;
 @IF FRESNEL;
             sum += schlick(mat[3 * obj - 3].w, -dot(u, n)) * mat[3 * obj - 1].xyz * env;

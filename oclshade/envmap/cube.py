@@ -98,33 +98,46 @@ class CubeMap:
 
 @dataclass
 class DeviceCubeMap:
-    """A cube map on the device in the bordered layout of kernels/cubemap.h."""
+    """Cube maps on the device in the bordered layout of kernels/cubemap.h: ``count`` of
+    them back to back in ``buffer`` (one, unless made by :func:`stack_cubes`)."""
 
     runtime: Runtime
     size: int
     buffer: cl.Buffer
+    count: int = 1
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes of one bordered cube map."""
+        return 16 * 6 * (self.size + 2) ** 2
 
     def fill_border(self) -> None:
+        if self.count != 1:
+            raise ValueError("fill the borders of each cube map before stacking them")
         rt, n = self.runtime, self.size
         k = rt.kernel("envmap.cl", "cube_border")
         k.set_args(self.buffer, np.int32(n))
         cl.enqueue_nd_range_kernel(rt.queue, k, (n + 2, 4, 6), None)
 
     def bordered(self) -> np.ndarray:
-        """The bordered faces (6, N + 2, N + 2, 4) on the host."""
+        """The bordered faces (6 count, N + 2, N + 2, 4) on the host."""
         n = self.size
-        out = np.empty((6, n + 2, n + 2, 4), np.float32)
+        out = np.empty((6 * self.count, n + 2, n + 2, 4), np.float32)
         cl.enqueue_copy(self.runtime.queue, out, self.buffer)
         self.runtime.queue.finish()
         return out
 
     def to_host(self) -> CubeMap:
+        if self.count != 1:
+            raise ValueError(f"this buffer holds {self.count} cube maps; to_host reads one")
         return CubeMap(self.bordered()[:, 1:-1, 1:-1, :3])
 
     def to_latlong(self, height: int, width: int) -> np.ndarray:
         for name, v in (("height", height), ("width", width)):
             if not isinstance(v, (int, np.integer)) or isinstance(v, bool) or not 1 <= v <= 4 * MAX_FACE:
                 raise ValueError(f"lat-long {name} must be an integer in 1..{4 * MAX_FACE}, got {v!r}")
+        if self.count != 1:
+            raise ValueError(f"this buffer holds {self.count} cube maps; to_latlong reads one")
         rt = self.runtime
         out = rt.empty(16 * height * width, "lat-long map")
         k = rt.kernel("envmap.cl", "cube_to_latlong")
@@ -156,3 +169,18 @@ def latlong_to_cube(image: np.ndarray, size: int | None = None,
     cl.enqueue_nd_range_kernel(rt.queue, k, (gx, gy, 6), (lx, ly, 1))
     dev.fill_border()
     return dev
+
+
+def stack_cubes(cubes: list[DeviceCubeMap]) -> DeviceCubeMap:
+    """One buffer holding the given cube maps (same device and face size) back to back, in
+    order: what kernels/reflect.cl reads when objects have maps of their own."""
+    if not cubes or len({(c.runtime, c.size) for c in cubes}) != 1:
+        raise ValueError("stack_cubes takes one or more cube maps of one device and one face size")
+    rt, first = cubes[0].runtime, cubes[0]
+    out = DeviceCubeMap(rt, first.size, rt.empty(first.nbytes * sum(c.count for c in cubes), "cube maps"),
+                        sum(c.count for c in cubes))
+    offset = 0
+    for c in cubes:
+        cl.enqueue_copy(rt.queue, out.buffer, c.buffer, byte_count=c.nbytes * c.count, dst_offset=offset)
+        offset += c.nbytes * c.count
+    return out

@@ -65,7 +65,8 @@ def _flip(face: np.ndarray, how: str) -> np.ndarray:
     return face[:, ::-1] if how == "lr" else face[::-1]
 
 
-def _srgb_to_linear(c: np.ndarray) -> np.ndarray:
+def srgb_to_linear(c: np.ndarray) -> np.ndarray:
+    """8-bit-style sRGB values in [0, 1] to linear light (IEC 61966-2-1)."""
     return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
 
 
@@ -122,7 +123,7 @@ def _read_png(p: Path) -> np.ndarray:
             img = img.convert("RGBA" if "A" in img.mode else "RGB")
         arr = np.asarray(img)
     scale = 65535.0 if arr.dtype == np.uint16 else 255.0
-    return _srgb_to_linear(arr[..., :3].astype(np.float64) / scale).astype(np.float32)
+    return srgb_to_linear(arr[..., :3].astype(np.float64) / scale).astype(np.float32)
 
 
 def _write_image(path: Path, rgb: np.ndarray, envmap: str | None) -> None:

@@ -54,9 +54,16 @@ class Reflections:
     ``intensity`` scales the map's values; ``background``: empty samples show the map."""
 
     def __init__(self, cube: DeviceCubeMap, materials: Sequence[Material], rotation: float = 0.0,
-                 intensity: float = 1.0, background: bool = True, uber: bool = False):
+                 intensity: float = 1.0, background: bool = True, uber: bool = False,
+                 cube_of: Sequence[int] | None = None):
+        """``cube_of``: per object, the index of its map in ``cube`` (:func:`stack_cubes`;
+        default 0 for all); the background reads map 0."""
         if not isinstance(cube, DeviceCubeMap):
             raise TypeError(f"cube must be a DeviceCubeMap (CubeMap.to_device), got {type(cube).__name__}")
+        cube_of = [0] * len(materials) if cube_of is None else list(cube_of)
+        if len(cube_of) != len(materials) or not all(isinstance(k, int) and 0 <= k < cube.count for k in cube_of):
+            raise ValueError(f"cube_of must give each of the {len(materials)} objects a map index in "
+                             f"0..{cube.count - 1}, got {cube_of!r}")
         if not np.isfinite(intensity) or intensity < 0.0:
             raise ValueError(f"intensity must be a finite number >= 0, got {intensity!r}")
         self.cube, self.runtime = cube, cube.runtime
@@ -72,7 +79,7 @@ class Reflections:
             group = vectors.index(m.conditions) if m.conditions else -1
             f0 = m.fresnel if m.kind == "glossy" else 1.0             # a mirror is F = 1 (uber builds)
             tint = m.colour if m.kind == "mirror" else (1.0, 1.0, 1.0)
-            table[k] = [(*m.colour, f0), (m.cone, group, 0.0, 0.0), (*tint, 0.0)]
+            table[k] = [(*m.colour, f0), (m.cone, group, 0.0, 0.0), (*tint, cube_of[k])]
         self._table = self.runtime.to_device(table, "material table")
         self._kernels: dict[tuple[frozenset[str], str], cl.Kernel] = {}
 

@@ -33,11 +33,13 @@ error that names it, so a typo never passes silently)::
     [environment]
     file = "envmaps/sky.exr"     # any layout oclshade.envmap reads
     layout = "latlong"           # optional: detected from the file
-    size = 256                   # cube face size for a lat-long file (default width / 4)
+    size = 256                   # cube face size for a lat-long file (default width / 4), or of
+                                 #   generated maps without a file (default 128)
     rotation = 0.0               # degrees about world up (oclshade.envmap.cube_frame)
     intensity = 1.0
     background = true            # empty pixels show the map
-    # generate = "once" | N      # not implemented (docs/reflections.md)
+    generate = "once"            # or N: maps rendered from each reflective object's centre
+                                 #   (oclshade.scene.generate), on the first frame or every N
 
     [[quadric]]
     kind = "sphere"              # sphere: radius; ellipsoid: radii = [a, b, c];
@@ -115,12 +117,13 @@ class RenderSpec:
 
 @dataclass(frozen=True)
 class EnvironmentSpec:
-    file: Path
+    file: Path | None
     layout: str | None = None
     size: int | None = None
     rotation: float = 0.0
     intensity: float = 1.0
     background: bool = True
+    generate: str | int | None = None
 
 
 @dataclass(frozen=True)
@@ -269,14 +272,17 @@ def _render(r: _Reader) -> RenderSpec:
 
 
 def _environment(r: _Reader) -> EnvironmentSpec:
-    if "generate" in r.table:
-        raise r.error("generated cube maps (\"once\" | N) are not implemented yet; give file = \"...\" "
-                      "(docs/reflections.md, 'Not done')", "generate")
+    generate = r.table.get("generate")
+    if generate is not None and generate != "once" and (isinstance(generate, bool) or not isinstance(generate, int)
+                                                        or generate < 1):
+        raise r.error(f"must be \"once\" or a number of frames >= 1, got {generate!r}", "generate")
+    if generate is None and "file" not in r.table:
+        raise r.error("needs file = \"...\", generate = \"once\" | N, or both")
     intensity = r.number("intensity", 1.0)
     if intensity < 0:
         raise r.error(f"must be >= 0, got {intensity}", "intensity")
-    return EnvironmentSpec(r.file("file"), r.text("layout"), r.integer("size", None), r.number("rotation", 0.0),
-                           intensity, r.boolean("background", True))
+    return EnvironmentSpec(r.file("file") if "file" in r.table else None, r.text("layout"), r.integer("size", None),
+                           r.number("rotation", 0.0), intensity, r.boolean("background", True), generate)
 
 
 def _quadric(r: _Reader) -> Quadric:

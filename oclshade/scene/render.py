@@ -6,6 +6,8 @@
 =========  =================================================================================
 pass       what the objects add (kernels/quadric.cl, kernels/reflect.cl)
 =========  =================================================================================
+generate   with ``Environment(generate=...)``: a cube map from each reflective object's
+           centre (:mod:`oclshade.scene.generate`), on the first frame or every N frames
 gbuffer    the quadrics cast and depth-merged into the terrain's G-buffer (object ids kept)
 normals    the objects' own normals put into the smooth shading normals
 shadows    quadric shadows on everything, terrain and quadric shadows on the objects
@@ -20,6 +22,7 @@ With an environment shown as the background, ``lighting.background`` should be b
 """
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, replace
 from typing import Sequence
 
@@ -28,7 +31,7 @@ import pyopencl as cl
 
 from ..camera import Camera, frame_heightmap, map_bounds
 from ..compose import Lighting, compose
-from ..envmap.cube import CubeMap
+from ..envmap.cube import CubeMap, stack_cubes
 from ..envmap.files import load_cube
 from ..envmap.reflect import Reflections
 from ..frames import AOSettings, Frame, FrameSettings, TerrainScene
@@ -36,20 +39,35 @@ from ..heightmap import Heightmap
 from ..io import read_dem
 from ..quadrics import ObjectIds, Quadric, QuadricCaster
 from ..runtime import Runtime
-from ..sun import Sun
+from ..sun import Sun, SunLike
 from ..terrain import Heightfield
 from .description import SceneDescription, SceneError
+from .generate import generate_cube
 
 
 @dataclass(frozen=True)
 class Environment:
-    """An environment map for reflections (and the background): see
-    :class:`oclshade.envmap.reflect.Reflections` for the arguments."""
+    """An environment for reflections: a map (``cube``, the sky and the background; see
+    :class:`oclshade.envmap.reflect.Reflections` for the other arguments) and/or maps
+    generated from each reflective object's centre (``generate``: ``"once"``, on the first
+    frame, or every N frames; :mod:`oclshade.scene.generate`) of ``size`` x ``size`` faces
+    (the map's face size when there is a map)."""
 
-    cube: CubeMap
+    cube: CubeMap | None = None
     rotation: float = 0.0
     intensity: float = 1.0
     background: bool = True
+    generate: str | int | None = None
+    size: int = 128
+
+    def __post_init__(self) -> None:
+        g = self.generate
+        if g is not None and g != "once" and (not isinstance(g, int) or isinstance(g, bool) or g < 1):
+            raise ValueError(f"generate must be 'once' or a number of frames >= 1, got {g!r}")
+        if self.cube is None and g is None:
+            raise ValueError("an environment needs a cube map, generate = 'once' | N, or both")
+        if not isinstance(self.size, int) or not 1 <= self.size <= 4096:
+            raise ValueError(f"size (generated faces) must be an integer in 1..4096, got {self.size!r}")
 
 
 class ObjectScene(TerrainScene):
@@ -61,15 +79,67 @@ class ObjectScene(TerrainScene):
         """``uber``: reflection programs with every feature compiled in (benchmarks only)."""
         super().__init__(heightfield, device, caching)
         self.quadrics = list(quadrics)
+        self.environment, self.uber = environment, uber
         self.caster = (QuadricCaster(self.quadrics, heightfield.heightmap, self.runtime,
                                      heights=self.renderer.pyramid.heights) if self.quadrics else None)
-        self.reflections = None
-        if environment is not None:
-            self.reflections = Reflections(environment.cube.to_device(self.runtime),
-                                           [q.material for q in self.quadrics], environment.rotation,
-                                           environment.intensity, environment.background, uber)
+        self.reflections: Reflections | None = None
+        self._file_map = None if environment is None or environment.cube is None else \
+            environment.cube.to_device(self.runtime)
+        if self._file_map is not None:
+            self._reflect_with(self._file_map, None)
         self.ids: ObjectIds | None = None
         self._objects = None                    # the quadrics' own G-buffer, reused frame to frame
+        self._face_scene: ObjectScene | None = None
+        self.frames_rendered = 0
+        self.generations = 0                    # how many times the objects' maps were generated
+
+    def _reflect_with(self, cubes, cube_of: list[int] | None) -> None:
+        env = self.environment
+        self.reflections = Reflections(cubes, [q.material for q in self.quadrics], env.rotation, env.intensity,
+                                       env.background and self._file_map is not None, self.uber, cube_of)
+
+    def frame(self, camera: Camera, sun: SunLike, settings: FrameSettings = FrameSettings()) -> Frame:
+        """As :meth:`TerrainScene.frame`; with ``environment.generate``, the objects' maps are
+        rendered first on the first frame and, for N, every N-th frame after it (the compose
+        pass then runs again; ``ran`` starts with ``"generate"`` and ``ms`` has its time)."""
+        env, generated_ms = self.environment, None
+        if env is not None and env.generate is not None and any(q.material.conditions for q in self.quadrics):
+            n = self.frames_rendered
+            if n == 0 or (env.generate != "once" and n % env.generate == 0):
+                t0 = time.perf_counter()
+                self._generate(sun, settings)
+                generated_ms = 1e3 * (time.perf_counter() - t0)
+                self._keys.pop("compose", None)
+        self.frames_rendered += 1
+        frame = super().frame(camera, sun, settings)
+        if generated_ms is not None:
+            frame.ran, frame.ms = ("generate",) + frame.ran, {"generate": generated_ms, **frame.ms}
+        return frame
+
+    def _generate(self, sun: SunLike, settings: FrameSettings) -> None:
+        """A cube map from the centre of every reflective object (the terrain and the sky only)."""
+        env = self.environment
+        if self._face_scene is None:
+            sky = None if env.cube is None else Environment(env.cube, env.rotation, env.intensity)
+            self._face_scene = ObjectScene(self.renderer.field, (), sky, self.runtime)
+        lighting = settings.lighting if env.cube is None else replace(settings.lighting, background=(0.0, 0.0, 0.0))
+        faces = replace(settings, ssaa=1, lighting=lighting)
+        size = env.size if self._file_map is None else self._file_map.size
+        lo, hi = map_bounds(self.renderer.field.heightmap)
+        corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+        maps = [] if self._file_map is None else [self._file_map]
+        cube_of = []
+        for q in self.quadrics:
+            if not q.material.conditions:
+                cube_of.append(0)
+                continue
+            centre, radius = q.bound
+            far = 1.05 * float(np.linalg.norm(corners - q.centre, axis=1).max()) + radius
+            cube_of.append(len(maps))
+            maps.append(generate_cube(self._face_scene, q.centre, size, sun, faces, env.rotation,
+                                      near=min(0.5 * radius, 1e-3 * far), far=far).to_device(self.runtime))
+        self._reflect_with(stack_cubes(maps), cube_of)
+        self.generations += 1
 
     def _run(self, name: str, camera: Camera, sun: Sun, settings: FrameSettings, lighting: Lighting) -> object:
         if name == "compose":
@@ -138,12 +208,14 @@ def render_scene(desc: SceneDescription, device: str | int | Runtime | None = No
     environment = None
     if desc.environment is not None:
         e = desc.environment
-        environment = Environment(load_cube(e.file, e.layout, e.size, device), e.rotation, e.intensity, e.background)
+        cube = None if e.file is None else load_cube(e.file, e.layout, e.size, device)
+        environment = Environment(cube, e.rotation, e.intensity, e.background, e.generate,
+                                  e.size if cube is None and e.size is not None else 128)
     scene = ObjectScene(Heightfield(heightmap, desc.terrain.radius), desc.quadrics, environment, device, uber=uber)
     camera = scene_camera(desc, heightmap)
     r = desc.render
-    lighting = Lighting(sun=desc.sun, background=(0.0, 0.0, 0.0)) if environment and environment.background \
-        else Lighting(sun=desc.sun)
+    shown = environment is not None and environment.cube is not None and environment.background
+    lighting = Lighting(sun=desc.sun, background=(0.0, 0.0, 0.0)) if shown else Lighting(sun=desc.sun)
     ao = AOSettings(radius=r.ao * max(heightmap.dx, heightmap.dy)) if r.ao > 0 else None
     settings = FrameSettings(shadows=r.shadows, ao=ao, lighting=lighting, ssaa=r.ssaa)
     return scene.frame(camera, desc.sun, settings), scene, camera
