@@ -26,9 +26,10 @@ from the aspect ratio (2:1 latlong, 1:6 cube, 4:3 hcross, 3:4 vcross).
 
 Images: ``.exr`` (float channels R, G, B, or the interleaved RGBA of OpenEXR's own
 environment maps; half or float), ``.hdr`` / ``.pic`` (Radiance RGBE, :mod:`.hdr`), ``.png``
-(8- or 16-bit sRGB, decoded to linear).  Writing ``.png`` encodes linear values clamped to
-[0, 1] as 8-bit sRGB (lossy: use EXR or HDR for radiance above 1).  Every file is written to
-a temporary name beside the target and renamed into place.
+(sRGB, decoded to linear; Pillow reads a 16-bit RGB PNG at 8 bits, so it is 8-bit here).
+Writing ``.png`` encodes linear values clamped to [0, 1] as 8-bit sRGB (lossy: use EXR or
+HDR for radiance above 1).  Every file is written to a temporary name beside the target and
+renamed into place.
 """
 from __future__ import annotations
 
@@ -122,8 +123,7 @@ def _read_png(p: Path) -> np.ndarray:
         if img.mode not in ("RGB", "RGBA"):
             img = img.convert("RGBA" if "A" in img.mode else "RGB")
         arr = np.asarray(img)
-    scale = 65535.0 if arr.dtype == np.uint16 else 255.0
-    return srgb_to_linear(arr[..., :3].astype(np.float64) / scale).astype(np.float32)
+    return srgb_to_linear(arr[..., :3].astype(np.float64) / 255.0).astype(np.float32)
 
 
 def _write_image(path: Path, rgb: np.ndarray, envmap: str | None) -> None:
