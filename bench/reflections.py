@@ -23,6 +23,13 @@ Sections (``--only`` picks some):
   shadows and AO): the time of one generation at 256^2 and 512^2 faces, and a 24-frame
   sun path (fixed camera; the sun moves 3 degrees of azimuth per frame) with the maps
   regenerated every frame, every 6th, or once: the amortisation of paper 002's case 3.
+* ``parallax``: the error of a map generated from a mirror sphere's centre C.  A sample of
+  the sphere at P (seen by a camera) reflects along R; the truth is the terrain point H hit
+  by P + t R (ray-cast by the terrain caster: a 1 x 1 camera at P looking along R), while
+  the map shows what lies along R from C.  The parallax is the angle between R and H - C
+  (the direction the map would have to be read in), in degrees and in texels of a 256^2
+  face (90 degrees / 256 per texel), over up to 200 sphere samples whose reflection meets
+  the terrain, by radius and by height of the sphere's bottom above the ground.
 * ``mitsuba``: a perfect mirror sphere lit by the same environment map (generated sky, no
   sun disc), same camera, rendered by Mitsuba 3 (``scalar_rgb``, path tracer, box filter,
   ``--spp`` multi-jittered samples per pixel) and by oclshade (``--ssaa`` x ``--ssaa``
@@ -52,7 +59,7 @@ sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(REPO / "bench"))
 from shadow_masks import metadata  # noqa: E402
 
-SECTIONS = ("times", "unused", "generate", "mitsuba", "errors")
+SECTIONS = ("times", "unused", "generate", "parallax", "mitsuba", "errors")
 DATA = REPO.parent / "shared" / "data" / "envmaps"
 _T0 = time.perf_counter()
 
@@ -192,6 +199,50 @@ def run_generate(args, field, camera) -> dict:
         out["path"].append({"every": every, "generations": scene.generations, "total_ms": total,
                             "per_frame_ms": total / 24})
         log(f"generate: every {every}: {total / 24:.0f} ms per frame")
+    return out
+
+
+def run_parallax(args, field) -> list[dict]:
+    from oclshade.camera import Camera
+    from oclshade.envmap.materials import Material
+    from oclshade.quadrics import Quadric, QuadricCaster
+    from oclshade.reference.envmap import reflect
+    from oclshade.terrain import TerrainRenderer
+    hm = field.heightmap
+    renderer = TerrainRenderer(field)
+    rows, cols = hm.shape
+    x0, y0 = 0.5 * (cols - 1) * hm.dx, -0.5 * (rows - 1) * hm.dy
+    ground = float(hm.heights[rows // 2, cols // 2])
+    extent = float(np.hypot(cols * hm.dx, rows * hm.dy))
+    rng = np.random.default_rng(0)
+    out = []
+    for radius in args.parallax_radii:
+        for height in args.parallax_heights:
+            centre = np.array([x0, y0, ground + height + radius])
+            eye = centre + 6.0 * radius * np.array([-0.5, -0.8, 0.35]) / np.linalg.norm([-0.5, -0.8, 0.35])
+            cam = Camera(eye, centre, 48, 48, fov=25.0, near=0.01 * radius, far=10.0 * radius)
+            caster = QuadricCaster([Quadric.sphere(centre, radius, Material("mirror"))], device=renderer.runtime)
+            g = caster.cast(cam)[0].to_host()
+            hit = np.argwhere(g.hit)
+            hit = hit[rng.permutation(len(hit))[:args.parallax_rays]]
+            angles = []
+            for r, c in hit:
+                p_view, n_view = g.position[r, c, :3].astype(float), g.normal[r, c, :3].astype(float)
+                u = p_view / np.linalg.norm(p_view)
+                ray = reflect(u, n_view) @ cam.rotation                     # view -> world
+                p = p_view @ cam.rotation + cam.position
+                probe = Camera(p, p + ray, 1, 1, fov=1.0, near=1e-3 * radius, far=2.0 * extent)
+                t = renderer.render(probe).depth[0, 0]
+                if not np.isfinite(t):
+                    continue                                                # the sky: no parallax
+                h = p + t * ray / np.linalg.norm(ray)
+                cosine = np.dot(h - centre, ray) / (np.linalg.norm(h - centre) * np.linalg.norm(ray))
+                angles.append(np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0))))
+            a = np.array(angles) if angles else np.array([np.nan])
+            out.append({"radius": radius, "height": height, "rays": len(angles),
+                        "median_deg": float(np.median(a)), "p95_deg": float(np.percentile(a, 95)),
+                        "max_deg": float(np.max(a)), "median_texels_256": float(np.median(a) / (90.0 / 256))})
+            log(f"parallax: r {radius} h {height}: median {out[-1]['median_deg']:.2f} deg over {len(angles)} rays")
     return out
 
 
@@ -356,6 +407,15 @@ def markdown(res: dict) -> str:
         lines += [f"| {'every frame' if r['every'] == 1 else ('once' if r['every'] == 'once' else 'every ' + str(r['every']) + ' frames')} "
                   f"| {r['generations']} | {r['per_frame_ms']:.0f} |" for r in g["path"]]
         lines.append("")
+    if "parallax" in res:
+        lines += ["## Parallax of a map generated from the sphere's centre", "",
+                  "Angle between the reflection direction R and the direction from the centre to the terrain "
+                  "point R really meets (from the sphere's surface); texels of a 256^2 face.", "",
+                  "| radius m | bottom above ground m | rays on terrain | median deg | p95 deg | max deg | median texels |",
+                  "|---|---|---|---|---|---|---|"]
+        lines += [f"| {r['radius']:g} | {r['height']:g} | {r['rays']} | {r['median_deg']:.2f} | {r['p95_deg']:.2f} | "
+                  f"{r['max_deg']:.2f} | {r['median_texels_256']:.1f} |" for r in res["parallax"]]
+        lines.append("")
     if "mitsuba" in res:
         r = res["mitsuba"]
         lines += ["## Independent check: a perfect mirror sphere against Mitsuba 3", ""]
@@ -399,6 +459,9 @@ def main(argv: list[str] | None = None) -> int:
     args.mitsuba_size, args.ssaa, args.spp = (32, 4, 64) if q else (128, 8, 256)
     args.scenes = 2 if q else 40
     args.gen_faces = (16, 32) if q else (256, 512)
+    args.parallax_radii = (30.0, 300.0) if q else (10.0, 50.0, 200.0)
+    args.parallax_heights = (10.0,) if q else (5.0, 50.0, 500.0)
+    args.parallax_rays = 12 if q else 200
     from oclshade.camera import frame_heightmap
     res = {"meta": metadata(sys.argv if argv is None else ["bench/reflections.py", *argv]),
            "config": {"size": list(args.size), "cells": args.cells, "face": args.face, "reps": args.reps,
@@ -414,6 +477,8 @@ def main(argv: list[str] | None = None) -> int:
         field = terrain(args.cells)
         camera = frame_heightmap(field.heightmap, *args.size, azimuth=200.0, elevation=30.0)
         res["generate"] = run_generate(args, field, camera)
+    if "parallax" in only:
+        res["parallax"] = run_parallax(args, terrain(args.cells))
     if "mitsuba" in only:
         res["mitsuba"] = run_mitsuba(args)
     if "errors" in only:
