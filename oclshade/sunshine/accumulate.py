@@ -8,8 +8,11 @@ Per daylight sun (elevation > 0; the others are skipped) the exact cast-shadow
 mask is traced into a device buffer (:meth:`ShadowCaster.masks_on_device`)
 and ``sunshine_masks`` adds the sun's contribution to per-cell sums on the
 device: no mask crosses to the host, and memory does not grow with the suns.
+The horizon route (``method="horizons"``) compares each sun instead with the
+horizon angles (:class:`oclshade.horizon.HorizonCaster`, left on the device)
+interpolated between the grid azimuths around it (``sunshine_horizons``).
 Definitions (direct sun, cast shadow, incidence) in kernels/sunshine.cl and
-docs/solar.md; float64 twin :func:`oclshade.reference.sunshine`.
+docs/solar.md; float64 twin :func:`oclshade.reference.sunshine_sums`.
 """
 from __future__ import annotations
 
