@@ -132,11 +132,13 @@
  *     __global float *coef     eq. (1) as for shadow_cells; 1 on empty pixels
  *     __global uchar *lod_out  the level q used; 255 = empty
  *   Per pixel: the ray starts on the level-q surface at (u, v) / 2^q (bilinear,
- *   see bilinear_at) and is traced by trace() in the units of the level-q grid
+ *   see pixel_ray) and is traced by trace() in the units of the level-q grid
  *   (ray.xy / 2^q, the same w): at q = 0 exactly the heightmap-space
- *   definition from a real start point; at q > 0 the finest test is on the
- *   level-q grid (approximate: a smoothed surface), the hierarchy above it the
- *   extrema of the heightmap.  -D OCLS_STATS as for shadow_cells.
+ *   definition from a real start point (positions and heights relative to the
+ *   start patch's corner and nearest sample, the first patches within one cell
+ *   tested on f carried from the start: see Ray); at q > 0 the finest test is
+ *   on the level-q grid (approximate: a smoothed surface), the hierarchy above
+ *   it the extrema of the heightmap.  -D OCLS_STATS as for shadow_cells.
  *
  * Levels.  trace() runs on a base grid h of level q (the heightmap for q = 0,
  * a level-q grid of shadow_pixels otherwise), whose patches are the level-q
@@ -181,19 +183,41 @@
 #endif
 
 /* A sun ray in the units of one level-q grid (see "Levels" above): it starts
- * at (x0, y0) (column, row; any real point, integers for the cell entry) at
- * height z0; ix, iy = 1/ux, 1/uy (0 when the ray does not move along that
- * axis); on_row / on_col: the ray runs exactly along a grid row / column
- * (it does not move along that axis and starts on the line), where it sees
- * the linear profile between the samples of that line. */
+ * at column xb + x0, row yb + y0 (any real point; integers for the cell
+ * entry) at height hb + z0; ix, iy = 1/ux, 1/uy (0 when the ray does not move
+ * along that axis); on_row / on_col: the ray runs exactly along a grid row /
+ * column (it does not move along that axis and starts on the line), where it
+ * sees the linear profile between the samples of that line.
+ *
+ * Bases (xb, yb, hb): every position is taken relative to the integer column
+ * and row (xb, yb) and every height relative to hb before it meets the ray, so
+ * rounding scales with the distance and the height differences the ray
+ * actually travels, not with the map's coordinates or its relief.  A cell ray
+ * has bases 0 (its operations are those of the plain formulas, bit for bit);
+ * a pixel ray starts at a real point: bases its start patch's corner and the
+ * sample nearest to it (pixel_ray).
+ *
+ * Near start (t < t_near, pixel rays only; cell rays have t_near = 0): the
+ * first patches are tested on f(t) = S(t) - z(t) carried from patch to patch
+ * in the relative form of the start patch's test (f(0) = 0, then f at each
+ * exit from the slope and curvature of f along the segment), not from the
+ * heights: a start a hair's breadth off a grid line would otherwise compare
+ * two independently rounded heights (error a few ulps of them) at a distance
+ * of a hair's breadth, and flip its verdict (the false shadows of issue 17).
+ * t_near = one cell of the major axis: the ray crosses at most one grid line
+ * of each axis before it, so at most 3 patches carry; beyond it heights are
+ * compared directly (error divided by t >= one cell).  The traversal stays on
+ * the finest level while near. */
 typedef struct {
-    float x0, y0, z0, ux, uy, w, ix, iy;
-    int on_row, on_col;
+    float x0, y0, z0, ux, uy, w, ix, iy, hb, t_near;
+    int xb, yb, on_row, on_col;
 } Ray;
 
-OCLS_INLINE Ray make_ray(float x0, float y0, float z0, float ux, float uy, float w)
+OCLS_INLINE Ray make_ray_based(int xb, int yb, float hb, float x0, float y0, float z0, float ux, float uy,
+                               float w, float t_near)
 {
     Ray r;
+    r.xb = xb; r.yb = yb; r.hb = hb; r.t_near = t_near;
     r.x0 = x0; r.y0 = y0; r.z0 = z0; r.ux = ux; r.uy = uy; r.w = w;
     r.ix = OCLS_SX(ux) != 0 ? 1.0f / ux : 0.0f;
     r.iy = OCLS_SY(uy) != 0 ? 1.0f / uy : 0.0f;
@@ -202,31 +226,42 @@ OCLS_INLINE Ray make_ray(float x0, float y0, float z0, float ux, float uy, float
     return r;
 }
 
+/* The ray of a cell: bases 0, no near start. */
+OCLS_INLINE Ray make_ray(float x0, float y0, float z0, float ux, float uy, float w)
+{
+    return make_ray_based(0, 0, 0.0f, x0, y0, z0, ux, uy, w, 0.0f);
+}
+
 /* Exact test of the ray against one patch (or grid-line segment) between ray
  * parameters t_in and t_out.  Returns 1 iff the surface rises strictly above
  * the ray on the segment.  first: the segment starts at the ray's origin,
  * where surface and ray meet: there f(t) = t (a + b t) and the test is on the
- * linear a + b t, which is exact even for t -> 0. */
+ * linear a + b t, which is exact even for t -> 0.  near: f(t_in) is *f (the
+ * value carried from the previous patch, see Ray) instead of the heights'
+ * difference, unless *f is NaN (after a hole).  *f gets f(t_out) (NaN in a
+ * hole). */
 OCLS_INLINE int patch_hits(__global const float *h, int H, int W, int pr, int pc, const Ray *ray,
-                           float t_in, float t_out, int first)
+                           float t_in, float t_out, int first, int near, float *f)
 {
-    const float ux = ray->ux, uy = ray->uy, w = ray->w;
-    const float fx = (ray->x0 + ux * t_in) - (float)pc;  /* local coords at entry */
-    const float fy = (ray->y0 + uy * t_in) - (float)pr;
+    const float ux = ray->ux, uy = ray->uy, w = ray->w, hb = ray->hb;
+    const float fx = (ray->x0 + ux * t_in) - (float)(pc - ray->xb);  /* local coords at entry */
+    const float fy = (ray->y0 + uy * t_in) - (float)(pr - ray->yb);
     const float len = t_out - t_in;
+    const float carried = *f;
     float s_a, s1, s2;
-    if (ray->on_row) {             /* along row y0 */
-        const int y0 = (int)ray->y0;
+    *f = NAN;
+    if (ray->on_row) {             /* along row yb + y0 */
+        const int y0 = ray->yb + (int)ray->y0;
         const float a = ocls_sample(h, H, W, y0, pc), b = ocls_sample(h, H, W, y0, pc + 1);
         if (isnan(a) || isnan(b)) return 0;
-        s_a = a + (b - a) * fx;
+        s_a = (a - hb) + (b - a) * fx;
         s1 = (b - a) * ux;
         s2 = 0.0f;
-    } else if (ray->on_col) {      /* along column x0 */
-        const int x0 = (int)ray->x0;
+    } else if (ray->on_col) {      /* along column xb + x0 */
+        const int x0 = ray->xb + (int)ray->x0;
         const float a = ocls_sample(h, H, W, pr, x0), b = ocls_sample(h, H, W, pr + 1, x0);
         if (isnan(a) || isnan(b)) return 0;
-        s_a = a + (b - a) * fy;
+        s_a = (a - hb) + (b - a) * fy;
         s1 = (b - a) * uy;
         s2 = 0.0f;
     } else {
@@ -240,16 +275,20 @@ OCLS_INLINE int patch_hits(__global const float *h, int H, int W, int pr, int pc
         }
         if (isnan(h00) || isnan(h01) || isnan(h10) || isnan(h11)) return 0;
         const float ex = h01 - h00, ey = h10 - h00, k = (h00 - h01) - (h10 - h11);
-        s_a = h00 + ex * fx + ey * fy + k * (fx * fy);
+        s_a = (h00 - hb) + ex * fx + ey * fy + k * (fx * fy);
         s1 = (ex + k * fy) * ux + (ey + k * fx) * uy;
         s2 = k * (ux * uy);
     }
     /* f(tau) = S(t_in + tau) - z(t_in + tau) = f_a + a tau + s2 tau^2, tau in [0, len] */
     const float a = s1 - w;
-    if (first) return (a > 0.0f) || (a + s2 * len > 0.0f);
-    const float f_a = s_a - (ray->z0 + w * t_in);
+    if (first) {
+        *f = (a + s2 * len) * len;
+        return (a > 0.0f) || (a + s2 * len > 0.0f);
+    }
+    const float f_a = near && !isnan(carried) ? carried : s_a - (ray->z0 + w * t_in);
     if (f_a > 0.0f) return 1;
     const float f_b = f_a + (a + s2 * len) * len;
+    *f = f_b;
     if (f_b > 0.0f) return 1;
     if (s2 < 0.0f) {
         const float tau = -a / (2.0f * s2);
@@ -264,8 +303,10 @@ OCLS_INLINE int patch_hits(__global const float *h, int H, int W, int pr, int pc
  * incrementally, so error does not accumulate along the ray. */
 OCLS_INLINE float tile_exit(const Ray *ray, int r0, int c0, int size, int *via_x, int *via_y)
 {
-    const float tx = OCLS_SX(ray->ux) != 0 ? (float)((OCLS_SX(ray->ux) > 0 ? c0 + size : c0) - ray->x0) * ray->ix : INFINITY;
-    const float ty = OCLS_SY(ray->uy) != 0 ? (float)((OCLS_SY(ray->uy) > 0 ? r0 + size : r0) - ray->y0) * ray->iy : INFINITY;
+    const float tx = OCLS_SX(ray->ux) != 0 ? ((float)((OCLS_SX(ray->ux) > 0 ? c0 + size : c0) - ray->xb) - ray->x0) * ray->ix
+                                           : INFINITY;
+    const float ty = OCLS_SY(ray->uy) != 0 ? ((float)((OCLS_SY(ray->uy) > 0 ? r0 + size : r0) - ray->yb) - ray->y0) * ray->iy
+                                           : INFINITY;
     /* a ray through a patch corner within rounding is a corner pass (both
      * sides at once), so every device and the float64 reference agree on it */
     const int corner = OCLS_SX(ray->ux) != 0 && OCLS_SY(ray->uy) != 0 && fabs(tx - ty) <= OCLS_CORNER_EPS * fmax(tx, ty);
@@ -275,11 +316,12 @@ OCLS_INLINE float tile_exit(const Ray *ray, int r0, int c0, int size, int *via_x
 }
 
 /* Patch index (along one axis) the ray occupies just after parameter t,
- * clamped to [lo, hi]: floor for a forward step, ceil - 1 for a backward one. */
-OCLS_INLINE int patch_along(float p0, float u, int sign, float t, int lo, int hi)
+ * clamped to [lo, hi]: floor for a forward step, ceil - 1 for a backward one
+ * (p0 relative to the integer base). */
+OCLS_INLINE int patch_along(int base, float p0, float u, int sign, float t, int lo, int hi)
 {
     const float p = p0 + u * t;
-    const int idx = sign > 0 ? ocls_floor_int(p) : ocls_ceil_int(p) - 1;
+    const int idx = base + (sign > 0 ? ocls_floor_int(p) : ocls_ceil_int(p) - 1);
     return clamp(idx, lo, hi);
 }
 
@@ -289,9 +331,9 @@ OCLS_INLINE void step_out(int *pr, int *pc, const Ray *ray, float t, int r0, int
                      int via_x, int via_y)
 {
     if (via_x) *pc = OCLS_SX(ray->ux) > 0 ? c0 + size : c0 - 1;
-    else if (OCLS_SX(ray->ux) != 0) *pc = patch_along(ray->x0, ray->ux, OCLS_SX(ray->ux), t, c0, c0 + size - 1);
+    else if (OCLS_SX(ray->ux) != 0) *pc = patch_along(ray->xb, ray->x0, ray->ux, OCLS_SX(ray->ux), t, c0, c0 + size - 1);
     if (via_y) *pr = OCLS_SY(ray->uy) > 0 ? r0 + size : r0 - 1;
-    else if (OCLS_SY(ray->uy) != 0) *pr = patch_along(ray->y0, ray->uy, OCLS_SY(ray->uy), t, r0, r0 + size - 1);
+    else if (OCLS_SY(ray->uy) != 0) *pr = patch_along(ray->yb, ray->y0, ray->uy, OCLS_SY(ray->uy), t, r0, r0 + size - 1);
 }
 
 OCLS_INLINE int patch_valid(__global const float *h, int H, int W, int pr, int pc)
@@ -302,9 +344,9 @@ OCLS_INLINE int patch_valid(__global const float *h, int H, int W, int pr, int p
 
 /* Corner pass out of a hole patch (pr, pc): the ray touches the two side
  * neighbours only at the corner sample; it occludes if a side neighbour is a
- * valid patch and the sample is above the ray. */
+ * valid patch and the sample is above the ray (z, relative to the height hb). */
 OCLS_INLINE int corner_hits(__global const float *h, int H, int W, int pr, int pc, float ux, float uy,
-                       float z)
+                            float hb, float z)
 {
     const int vr = OCLS_SY(uy) > 0 ? pr + 1 : pr, vc = OCLS_SX(ux) > 0 ? pc + 1 : pc;
     const int br = pr, bc = OCLS_SX(ux) > 0 ? pc + 1 : pc - 1;      /* east/west neighbour */
@@ -312,7 +354,7 @@ OCLS_INLINE int corner_hits(__global const float *h, int H, int W, int pr, int p
     const int Hp = max(H - 1, 1), Wp = max(W - 1, 1);
     const int b_ok = bc >= 0 && bc < Wp && patch_valid(h, H, W, br, bc);
     const int c_ok = cr >= 0 && cr < Hp && patch_valid(h, H, W, cr, cc);
-    return (b_ok || c_ok) && ocls_sample(h, H, W, vr, vc) > z;
+    return (b_ok || c_ok) && ocls_sample(h, H, W, vr, vc) - hb > z;
 }
 
 /* Extrema of the level-l tile holding patch (pr, pc), both counted from the
@@ -331,9 +373,9 @@ OCLS_INLINE int start_patch(int H, int W, const Ray *ray, int *pr, int *pc)
 {
     const int Hp = max(H - 1, 1), Wp = max(W - 1, 1);
     const int sx = OCLS_SX(ray->ux), sy = OCLS_SY(ray->uy);
-    const int fc = ocls_floor_int(ray->x0), fr = ocls_floor_int(ray->y0);
-    *pc = sx < 0 ? ocls_ceil_int(ray->x0) - 1 : (sx > 0 ? fc : min(fc, Wp - 1));
-    *pr = sy < 0 ? ocls_ceil_int(ray->y0) - 1 : (sy > 0 ? fr : min(fr, Hp - 1));
+    const int fc = ray->xb + ocls_floor_int(ray->x0), fr = ray->yb + ocls_floor_int(ray->y0);
+    *pc = sx < 0 ? ray->xb + ocls_ceil_int(ray->x0) - 1 : (sx > 0 ? fc : min(fc, Wp - 1));
+    *pr = sy < 0 ? ray->yb + ocls_ceil_int(ray->y0) - 1 : (sy > 0 ? fr : min(fr, Hp - 1));
     return *pc >= 0 && *pc < Wp && *pr >= 0 && *pr < Hp;
 }
 
@@ -348,7 +390,7 @@ OCLS_INLINE int trace(__global const float *h, int H, int W, __global const floa
                       const Ray *ray, uint *steps)
 {
     const int Hp = max(H - 1, 1), Wp = max(W - 1, 1), top = nlev - 1 - q;
-    const float x0 = ray->x0, y0 = ray->y0, z0 = ray->z0, ux = ray->ux, uy = ray->uy, w = ray->w;
+    const float x0 = ray->x0, y0 = ray->y0, z0 = ray->z0, ux = ray->ux, uy = ray->uy, w = ray->w, hb = ray->hb;
     int pr, pc, via_x, via_y;
     if (!start_patch(H, W, ray, &pr, &pc)) return 0;
     /* initialisation: leave the start texel */
@@ -362,17 +404,17 @@ OCLS_INLINE int trace(__global const float *h, int H, int W, __global const floa
         const float t_out = tile_exit(ray, r0, c0, size, &via_x, &via_y);
         const float z_out = z0 + w * t_out;
         const float2 e = l > 0 ? ext_at(ext, lvl_off, q, Wp, l, pr, pc) : (float2)(0.0f, 0.0f);
-        if (l > 0 && e.y >= z_out) return 1;          /* min test at the exit point */
+        if (l > 0 && e.y - hb >= z_out) return 1;     /* min test at the exit point */
         int reaches;
         if (l == 0) {                                  /* bilinear height at P_s */
             const float tm = 0.5f * (t + t_out);
-            const float fx = (x0 + ux * tm) - (float)pc, fy = (y0 + uy * tm) - (float)pr;
+            const float fx = (x0 + ux * tm) - (float)(pc - ray->xb), fy = (y0 + uy * tm) - (float)(pr - ray->yb);
             const float h00 = ocls_sample(h, H, W, pr, pc), h01 = ocls_sample(h, H, W, pr, pc + 1);
             const float h10 = ocls_sample(h, H, W, pr + 1, pc), h11 = ocls_sample(h, H, W, pr + 1, pc + 1);
             const float hs = (h00 * (1.0f - fx) + h01 * fx) * (1.0f - fy) + (h10 * (1.0f - fx) + h11 * fx) * fy;
-            reaches = hs >= z0 + w * tm;               /* NaN (hole) compares false */
+            reaches = hs - hb >= z0 + w * tm;          /* NaN (hole) compares false */
         } else {
-            reaches = e.x >= z_out;                    /* max test at the exit point */
+            reaches = e.x - hb >= z_out;               /* max test at the exit point */
         }
         if (reaches) {
             if (l == 0) return 1;
@@ -392,28 +434,29 @@ OCLS_INLINE int trace(__global const float *h, int H, int W, __global const floa
                       const Ray *ray, uint *steps)
 {
     const int Hp = max(H - 1, 1), Wp = max(W - 1, 1), top = nlev - 1 - q;
-    const float z0 = ray->z0, w = ray->w;
+    const float z0 = ray->z0, w = ray->w, hb = ray->hb, z_max = z_top - hb;
     int pr, pc, via_x, via_y;
     if (!start_patch(H, W, ray, &pr, &pc)) return 0;
-    float t = 0.0f;
+    float t = 0.0f, f = 0.0f;                          /* f: f(t) carried while near (see Ray) */
     int l = 0;
     for (int it = 0; it < OCLS_MAX_ITERATIONS; ++it) {
         OCLS_COUNT(q + l);
         const int size = 1 << l, r0 = (pr >> l) << l, c0 = (pc >> l) << l;
         const float t_out = tile_exit(ray, r0, c0, size, &via_x, &via_y);
         const float z_in = z0 + w * t;                 /* lowest ray point in the tile */
-        if (z_in >= z_top) return 0;
+        const int near = t < ray->t_near;
+        if (!near && z_in >= z_max) return 0;          /* (near: f is carried, see Ray) */
 #ifdef OCLS_CERT
         if (t >= t_lim) return 0;                      /* the tile certificate covers the rest */
 #endif
 #if OCLS_METHOD == OCLS_DDA
-        if (patch_hits(h, H, W, pr, pc, ray, t, t_out, t == 0.0f)) return 1;
+        if (patch_hits(h, H, W, pr, pc, ray, t, t_out, t == 0.0f, near, &f)) return 1;
         if (via_x && via_y && !patch_valid(h, H, W, pr, pc) &&
-            corner_hits(h, H, W, pr, pc, ray->ux, ray->uy, z0 + w * t_out)) return 1;
+            corner_hits(h, H, W, pr, pc, ray->ux, ray->uy, hb, z0 + w * t_out)) return 1;
 #else
         if (l > 0) {
             const float2 e = ext_at(ext, lvl_off, q, Wp, l, pr, pc);
-            if (z_in < e.x) {                          /* the tile may reach the ray */
+            if (z_in < e.x - hb) {                     /* the tile may reach the ray */
 #if OCLS_METHOD == OCLS_EXACT
                 /* min early exit (Algo 3).  Provably inert at q = 0: the ray
                  * enters this tile at a point P of its boundary where the
@@ -423,15 +466,15 @@ OCLS_INLINE int trace(__global const float *h, int H, int W, __global const floa
                  * tests are approximate: per-pixel rays at q > 0, whose finest
                  * test is on the smoother mip surface while the extrema bound
                  * the heightmap (a valley floor below a cliff tile). */
-                if (z0 + w * t_out < e.y) return 1;
+                if (z0 + w * t_out < e.y - hb) return 1;
 #endif
                 l -= 1;                                /* descend; (pr, pc) stays inside */
                 continue;
             }
         } else {                                       /* level q: the finest test */
-            if (patch_hits(h, H, W, pr, pc, ray, t, t_out, t == 0.0f)) return 1;
+            if (patch_hits(h, H, W, pr, pc, ray, t, t_out, t == 0.0f, near, &f)) return 1;
             if (via_x && via_y && !patch_valid(h, H, W, pr, pc) &&
-                corner_hits(h, H, W, pr, pc, ray->ux, ray->uy, z0 + w * t_out)) return 1;
+                corner_hits(h, H, W, pr, pc, ray->ux, ray->uy, hb, z0 + w * t_out)) return 1;
         }
 #endif
         const int opr = pr, opc = pc;
@@ -439,9 +482,9 @@ OCLS_INLINE int trace(__global const float *h, int H, int W, __global const floa
         t = t_out;
         if (pr < 0 || pr >= Hp || pc < 0 || pc >= Wp) return 0;
 #if OCLS_METHOD != OCLS_DDA
-        /* climb one level if the ray has just entered that level's tile too */
+        /* climb one level if the ray has just entered that level's tile too (not while near) */
         const int diff = (pr ^ opr) | (pc ^ opc);
-        l = min(min(31 - (int)clz(diff), top), l + 1);
+        l = t_out < ray->t_near ? 0 : min(min(31 - (int)clz(diff), top), l + 1);
 #endif
     }
     return 0;
@@ -812,7 +855,7 @@ OCLS_INLINE ocls_intv packet_step(__global const float *h, int H, int W, float4 
         OCLS_VSTORE(hole_corner, 0, hc); OCLS_VSTORE(shadow, 0, sh); OCLS_VSTORE(Z0 + w * t_out, 0, zo);
         OCLS_VSTORE(PR, 0, pr); OCLS_VSTORE(PC, 0, pc);
         for (int k = 0; k < OCLS_LANES; ++k)
-            if (hc[k]) sh[k] = -corner_hits(h, H, W, pr[k], pc[k], ux, uy, zo[k]);
+            if (hc[k]) sh[k] = -corner_hits(h, H, W, pr[k], pc[k], ux, uy, 0.0f, zo[k]);
         shadow = OCLS_VLOAD(0, sh);
     }
     /* step_out, then climb; a reaching tile is descended instead */
@@ -1020,16 +1063,21 @@ OCLS_INLINE float lerp_skip(float a, float b, float f)
     return f == 0.0f ? a : (f == 1.0f ? b : a + (b - a) * f);
 }
 
-/* Bilinear height of grid g (Hg x Wg) at (x, y) inside it; a sample of
- * weight exactly 0 does not count, so a point on a grid line sees that line
- * only.  NaN inside a hole patch. */
-OCLS_INLINE float bilinear_at(__global const float *g, int Hg, int Wg, float x, float y)
+/* The ray of a pixel whose surface point is (x, y) (column, row) inside grid
+ * g (Hg x Wg), its direction (ux, uy, w) in g's units: bases (see Ray) the
+ * corner (c, r) of the patch holding the point (x - c, y - r exact) and hb,
+ * the sample of largest bilinear weight (not NaN when the point is not in a
+ * hole); the start height relative to hb is the bilinear interpolation of the
+ * samples minus hb (a sample of weight exactly 0 does not count, so a point
+ * on a grid line sees that line only).  Its z0 is NaN inside a hole patch. */
+OCLS_INLINE Ray pixel_ray(__global const float *g, int Hg, int Wg, float x, float y, float ux, float uy, float w)
 {
     const int c = clamp(ocls_floor_int(x), 0, max(Wg - 2, 0)), r = clamp(ocls_floor_int(y), 0, max(Hg - 2, 0));
     const float fx = x - (float)c, fy = y - (float)r;
-    const float a = lerp_skip(ocls_sample(g, Hg, Wg, r, c), ocls_sample(g, Hg, Wg, r, c + 1), fx);
-    const float b = lerp_skip(ocls_sample(g, Hg, Wg, r + 1, c), ocls_sample(g, Hg, Wg, r + 1, c + 1), fx);
-    return lerp_skip(a, b, fy);
+    const float hb = ocls_sample(g, Hg, Wg, r + (fy > 0.5f), c + (fx > 0.5f));
+    const float a = lerp_skip(ocls_sample(g, Hg, Wg, r, c) - hb, ocls_sample(g, Hg, Wg, r, c + 1) - hb, fx);
+    const float b = lerp_skip(ocls_sample(g, Hg, Wg, r + 1, c) - hb, ocls_sample(g, Hg, Wg, r + 1, c + 1) - hb, fx);
+    return make_ray_based(c, r, hb, fx, fy, lerp_skip(a, b, fy), ux, uy, w, 1.0f / fmax(fabs(ux), fabs(uy)));
 }
 
 __kernel void shadow_pixels(__global const float *h, __global const float *coarse,
@@ -1061,16 +1109,13 @@ __kernel void shadow_pixels(__global const float *h, __global const float *coars
         const int Hq = q == 0 ? H : ocls_level_extent(Hp, q) + 1, Wq = q == 0 ? W : ocls_level_extent(Wp, q) + 1;
         __global const float *g = q == 0 ? h : coarse + coarse_off[q];
         const float scale = 1.0f / (float)(1 << q);    /* exact: a power of two */
-        const float x0 = p.x * scale, y0 = p.y * scale;
-        const float z0 = bilinear_at(g, Hq, Wq, x0, y0);
-        valid = !isnan(z0);
+        const Ray rr = pixel_ray(g, Hq, Wq, p.x * scale, p.y * scale, ray.x * scale, ray.y * scale, ray.z);
+        valid = !isnan(rr.z0);
 #if defined(OCLS_OUT_MASK) || defined(OCLS_OUT_COEF)
         if (valid) {
             if (mode == 2) shadow = 1;
-            else if (mode == 0) {
-                const Ray rr = make_ray(x0, y0, z0, ray.x * scale, ray.y * scale, ray.z);
+            else if (mode == 0)
                 shadow = trace(g, Hq, Wq, ext, lvl_off, nlev, q, ext[lvl_off[top]].x, INFINITY, &rr, steps);
-            }
         }
 #endif
     }

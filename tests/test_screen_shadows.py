@@ -48,7 +48,8 @@ def random_points(rng: np.random.Generator, shape: tuple[int, int], n: int = 40 
 
 def assert_pixels_exact(hm: Heightmap, sun: Sun, gb: GBuffer, caster: ScreenShadowCaster | None = None,
                         methods=EXACT_METHODS) -> int:
-    """q = 0: every exact method equals the float64 reference but for counted ties; returns the ties."""
+    """q = 0: every exact method equals the float64 reference but for counted ties; returns the
+    most tied mismatches of a method."""
     caster = caster or ScreenShadowCaster(hm)
     expected = ref.pixel_shadows(hm, sun, gb.uv, gb.hit)
     ties = expected.ties()
@@ -58,7 +59,9 @@ def assert_pixels_exact(hm: Heightmap, sun: Sun, gb: GBuffer, caster: ScreenShad
         differ = res.flag != expected.mask
         bad, tied = int((differ & ~ties).sum()), int((differ & ties).sum())
         assert bad == 0, f"{method}: {bad} pixels differ from the reference at {sun} on {hm.shape}"
-        assert tied <= max(3, res.flag.size // 50), f"{method}: {tied} tied mismatches is too many"
+        # ties are exact coincidences (integer DEMs, axis-aligned suns over plateaus) or tested
+        # values within the kernel's rounding bound: a few, never a share of the frame
+        assert tied <= max(3, res.flag.size // 200), f"{method}: {tied} tied mismatches is too many"
         assert np.array_equal(res.flag == 255, expected.mask == 255)
         assert (res.lod[res.flag != 255] == 0).all() and (res.lod[res.flag == 255] == 255).all()
         dark = 0.25 + (0.65 - 0.25) * max(math.sin(math.radians(sun.elevation)), 0.0)
@@ -114,6 +117,128 @@ def test_pixels_on_samples_equal_the_heightmap_mask():
         for method in ("exact", "paper", "maxmip", "dda"):
             cells = ShadowCaster(hm).cast(sun, method).mask
             assert np.array_equal(caster.shade(gbuffer(uv), sun, method, Q0).flag, cells), (sun, method)
+
+
+# ----------------------------------------------------------------------------- near grid lines
+def near_grid_points(rng: np.random.Generator, shape: tuple[int, int], n: int) -> np.ndarray:
+    """uv points a hair's breadth from grid lines and corners: on them, 1 ulp off, and
+    1e-7 .. 1e-2 cell off either side (where a float32 start height and the height at the
+    next patch's entry, each rounded, used to flip the verdict)."""
+    rows, cols = shape
+    uv = rng.random((n, 2)) * [cols - 1, rows - 1]
+    kind = rng.integers(0, 3, n)                       # 0: column line, 1: row line, 2: corner
+    for axis in (0, 1):
+        pick = (kind == axis) | (kind == 2)
+        off = rng.choice([0.0, 1e-7, 1e-6, 1e-5, 1e-4, 1e-3, 1e-2], pick.sum()) * rng.choice([-1, 1], pick.sum())
+        uv[pick, axis] = np.round(uv[pick, axis]) + off
+    uv = uv.astype(np.float32)
+    ulp = rng.random(n) < 0.25
+    toward = np.where(rng.random(n) < 0.5, np.float32(-np.inf), np.float32(np.inf))
+    uv[ulp, 0] = np.nextafter(np.round(uv[ulp, 0]), toward[ulp])
+    uv[..., 0] = np.clip(uv[..., 0], 0, cols - 1)
+    uv[..., 1] = np.clip(uv[..., 1], 0, rows - 1)
+    return uv.reshape(-1, 100, 2)
+
+
+def near_grid_maps() -> dict[str, Heightmap]:
+    holes = canyon_crater(60, seed=6).astype(np.float64)
+    holes[20:23, 30:36] = np.nan
+    holes[40, :] = np.nan
+    return {"canyon, 30 m cells": Heightmap.from_array(canyon_crater(96, seed=3), 30.0),
+            "long strip, 10 m cells (columns up to 2048)": Heightmap.from_array(canyon_crater(24, 2049, seed=4), 10.0),
+            "steep, 1 m cells": Heightmap.from_array(canyon_crater(64, seed=5) * 3.0, 1.0),
+            "holes, 20 m cells": Heightmap.from_array(holes, 20.0)}
+
+
+NEAR_GRID_SUNS = [Sun(0.0, 5.0), Sun(90.0, 2.0), Sun(270.0, 1.0), Sun(135.0, 8.0), Sun(250.0, 4.0),
+                  Sun(313.0, 20.0), Sun(17.0, 1.5)]
+
+
+def test_q0_exact_at_points_near_grid_lines():
+    """Issue 17: at q = 0 the kernel said shadow at surface points within 1e-3 cell of a
+    grid line where the float64 twin says lit by far more than any rounding (margins down
+    to -40): the start height and the height at the next patch's entry, a hair's breadth
+    apart, were each rounded to a few ulps.  Now every verdict agrees but for counted ties,
+    and ties are rare (the tie band is the kernel's error bound at each tested point)."""
+    rng = np.random.default_rng(0)
+    tests = ties = 0
+    for name, hm in near_grid_maps().items():
+        caster = ScreenShadowCaster(hm)
+        gb = gbuffer(near_grid_points(rng, hm.shape, 4000))
+        for sun in NEAR_GRID_SUNS:
+            expected = ref.pixel_shadows(hm, sun, gb.uv, gb.hit)
+            valid = expected.mask != 255
+            tie = expected.ties() & valid
+            got = caster.shade(gb, sun, "exact", Q0).flag
+            bad = (got != expected.mask) & valid & ~tie
+            assert not bad.any(), (name, sun, int(bad.sum()), gb.uv[bad][:3], expected.margin[bad][:3])
+            tests += int(valid.sum())
+            ties += int(tie.sum())
+    assert tests > 100_000 and ties <= 1e-4 * tests, (tests, ties)
+
+
+def test_reference_tie_band_is_the_kernels_error_not_a_blanket():
+    """The tie band follows the kernel's rounding at each tested point: a start 1 ulp off a
+    grid line whose margin is clearly negative is no tie (the old blanket band, scaled by
+    one cell over the distance to the line, excused it), and margin_lo <= margin <= margin_hi
+    everywhere, with the band far below the margins it separates."""
+    hm = Heightmap.from_array(canyon_crater(96, seed=3), 30.0)
+    rng = np.random.default_rng(1)
+    uv = near_grid_points(rng, hm.shape, 3000)
+    expected = ref.pixel_shadows(hm, Sun(135.0, 8.0), uv, np.ones(uv.shape[:2], bool))
+    valid = expected.mask != 255
+    lo, m, hi = expected.margin_lo[valid], expected.margin[valid], expected.margin_hi[valid]
+    assert (lo <= m).all() and (m <= hi).all()
+    seen = np.isfinite(m)                              # (a ray that sees no surface has -inf everywhere)
+    width = hi[seen] - lo[seen]
+    assert width.size > 2000 and np.median(width) < 1e-5 and np.percentile(width, 99) < 1e-3
+    one_ulp = (np.abs(uv[..., 0] - np.round(uv[..., 0])) < 1e-4)[valid]
+    clear = one_ulp & (m < -1e-3)
+    assert clear.sum() > 50 and not expected.ties()[valid][clear].any()
+
+
+def close_camera(hm: Heightmap, azimuth: float, elevation: float, distance: float, size=(96, 72),
+                 fov: float = 40.0) -> "Camera":
+    """A pinhole camera ``distance`` metres from the map's centre sample, looking at it."""
+    from oclshade.camera import Camera
+
+    rows, cols = hm.shape
+    i, j = (rows - 1) // 2, (cols - 1) // 2
+    centre = np.array([j * hm.dx, -i * hm.dy, float(hm.heights[i, j])])
+    az, el = math.radians(azimuth), math.radians(elevation)
+    eye = centre + distance * np.array([math.sin(az) * math.cos(el), math.cos(az) * math.cos(el), math.sin(el)])
+    return Camera(eye, centre, size[0], size[1], fov=fov, near=0.5, far=1e6)
+
+
+def test_q0_exact_on_rendered_close_ups_axis_aligned_and_grazing():
+    """Real renders (TerrainRenderer) whose pixels crowd grid lines: a close-up at a few
+    pixels per cell, one at ~20 pixels per cell, a camera looking straight down along the
+    grid axes; axis-aligned and grazing suns (1-4 degrees)."""
+    from oclshade.terrain import Heightfield, TerrainRenderer
+
+    field = Heightfield.from_array(canyon_crater(96, seed=3), 30.0)
+    hm = field.heightmap
+    renderer = TerrainRenderer(field)
+    caster = ScreenShadowCaster(hm, device=renderer.runtime)
+    views = {"few pixels per cell": close_camera(hm, 200.0, 35.0, 1500.0),
+             "many pixels per cell": close_camera(hm, 250.0, 30.0, 150.0),
+             "straight down, axis-aligned": close_camera(hm, 180.0, 89.99, 900.0)}
+    suns = [Sun(0.0, 3.0), Sun(90.0, 1.0), Sun(180.0, 10.0), Sun(250.0, 4.0), Sun(135.0, 2.0)]
+    tests = ties = 0
+    for name, camera in views.items():
+        gb = renderer.render(camera)
+        assert gb.hit.mean() > 0.9, name
+        for sun in suns:
+            expected = ref.pixel_shadows(hm, sun, gb.uv, gb.hit)
+            valid = expected.mask != 255
+            tie = expected.ties() & valid
+            for method in EXACT_METHODS:
+                got = caster.shade(gb, sun, method, Q0).flag
+                bad = (got != expected.mask) & valid & ~tie
+                assert not bad.any(), (name, sun, method, gb.uv[bad][:3], expected.margin[bad][:3])
+            tests += int(valid.sum())
+            ties += int(tie.sum())
+    assert ties <= 1e-4 * tests, (tests, ties)
 
 
 # ----------------------------------------------------------------------------- Algo 1

@@ -15,11 +15,15 @@ where ``|m|`` is within its rounding, :func:`tie_tolerance`; such cells are
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..heightmap import Heightmap
 from ..sun import Sun
+
+if TYPE_CHECKING:
+    from .screen_shadows import Rounding
 
 FLOAT32_EPS = float(np.finfo(np.float32).eps)
 CORNER_SNAP = 1e-12   # relative gap |tx - ty| / t under which a ray passes through a corner
@@ -131,39 +135,64 @@ def start_patches(hm: Heightmap, ux: float, uy: float, x0: np.ndarray,
     return pr, pc
 
 
-def walk_rays(hm: Heightmap, sun: Sun, x0: np.ndarray, y0: np.ndarray,
-              z0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def walk_rays(hm: Heightmap, sun: Sun, x0: np.ndarray, y0: np.ndarray, z0: np.ndarray,
+              heights: np.ndarray | None = None, curvature: float = 0.0,
+              rounding: Rounding | None = None) -> tuple[np.ndarray, ...]:
     """Margins and corner grazes of sun rays from the surface points (x0, y0, z0).
 
     x0 (column) and y0 (row) are continuous sample coordinates, any real
     point of the map (integers for the cells themselves); z0 finite, the
     surface height there.  A ray that does not move along an axis and starts
     on a grid line of that axis sees the linear profile of that line (kernel:
-    Ray.on_row / on_col).  Returns (margin, graze) as in :class:`ReferenceShadows`.
+    Ray.on_row / on_col).  ``heights``: the surface (default ``hm.heights``).
+    ``curvature``: c per square metre, the Earth's drop of the terrain below
+    the ray at distance t being c t^2 (the ray z0 + w t + c t^2 over the flat
+    map; 0: a flat Earth).  Returns (margin, graze) as in
+    :class:`ReferenceShadows`.
+
+    ``rounding``: a bound of the float32 kernel's error per tested point
+    (:class:`Rounding`); then also (margin_lo, margin_hi): the margins with every
+    tested value of f = S - z lowered / raised by its bound.  A float32
+    kernel says shadow only if margin_hi > 0 and lit only if margin_lo <= 0.
     """
-    h = hm.heights
+    h = hm.heights if heights is None else heights
     hp, wp = hm.patch_shape
     ux, uy, w = sun.ray(hm.dx, hm.dy)
+    c = float(curvature)
     gmax = np.nanmax(h)
     tol = tie_tolerance(hm, sun)
-    margin = np.full(x0.shape, -np.inf)
-    graze = np.zeros(x0.shape, bool)
+    n = x0.size
+    margin = np.full(n, -np.inf)
+    graze = np.zeros(n, bool)
+    lo_out, hi_out = np.full(n, -np.inf), np.full(n, -np.inf)
     pr, pc = start_patches(hm, ux, uy, x0, y0)
     on_row = np.full(x0.shape, uy == 0) & (y0 == np.floor(y0))
     on_col = np.full(x0.shape, ux == 0) & (x0 == np.floor(x0)) & ~on_row
     line_r, line_c = y0.astype(np.int64), x0.astype(np.int64)   # used only on a line
-    idx = np.arange(x0.size)
-    t = np.zeros(idx.size)
-    best = np.full(idx.size, -np.inf)
+    idx = np.arange(n)
+    t = np.zeros(n)
+    best = np.full(n, -np.inf)
+    lo, hi = best.copy(), best.copy()
+    carry = np.zeros(n)                  # rounding: error bound of f carried while near
+    carried = np.ones(n, bool)           # ... and whether the kernel has a carried f
+    sliver = np.zeros(n, bool)           # ... and whether this segment follows a near corner pass
     while idx.size:
-        inside = (pr >= 0) & (pr < hp) & (pc >= 0) & (pc < wp) & (z0 + w * t < gmax) & (best <= tol)
+        z_t = z0 + (w + c * t) * t       # the ray's height
+        if rounding is None:
+            going = (z_t < gmax) & (best <= tol)
+        else:
+            going = (z_t < gmax + rounding.top_error(idx, t, gmax)) & (lo <= 0)
+        inside = (pr >= 0) & (pr < hp) & (pc >= 0) & (pc < wp) & going
         if not inside.all():
-            margin[idx[~inside]] = best[~inside]
+            done = ~inside
+            margin[idx[done]], lo_out[idx[done]], hi_out[idx[done]] = best[done], lo[done], hi[done]
             keep = np.flatnonzero(inside)
-            idx, pr, pc, x0, y0, z0, t, best, on_row, on_col, line_r, line_c = (
-                a[keep] for a in (idx, pr, pc, x0, y0, z0, t, best, on_row, on_col, line_r, line_c))
+            idx, pr, pc, x0, y0, z0, t, best, lo, hi, carry, carried, sliver, on_row, on_col, line_r, line_c = (
+                a[keep] for a in (idx, pr, pc, x0, y0, z0, t, best, lo, hi, carry, carried, sliver, on_row, on_col,
+                                  line_r, line_c))
             if not idx.size:
                 break
+            z_t = z_t[keep]
         with np.errstate(divide="ignore"):
             tx = np.full(idx.size, np.inf) if ux == 0 else ((pc + (ux > 0)) - x0) / ux
             ty = np.full(idx.size, np.inf) if uy == 0 else ((pr + (uy > 0)) - y0) / uy
@@ -182,26 +211,56 @@ def walk_rays(hm: Heightmap, sun: Sun, x0: np.ndarray, y0: np.ndarray,
         s_a = h00 + ex * fx + ey * fy + k * fx * fy
         s1 = (ex + k * fy) * ux + (ey + k * fx) * uy
         s2 = k * ux * uy
-        for line, (a0, a1, f, u) in (
-                (on_row, (_sample(h, line_r, pc), _sample(h, line_r, pc + 1), fx, ux)),
-                (on_col, (_sample(h, pr, line_c), _sample(h, pr + 1, line_c), fy, uy))):
+        corner0 = h00
+        spans = (np.maximum(np.abs(ex), np.abs(h11 - h10)), np.maximum(np.abs(ey), np.abs(h11 - h01)), np.abs(k))
+        for line, axis, (a0, a1, f, u) in (
+                (on_row, 0, (_sample(h, line_r, pc), _sample(h, line_r, pc + 1), fx, ux)),
+                (on_col, 1, (_sample(h, pr, line_c), _sample(h, pr + 1, line_c), fy, uy))):
             if line.any():
                 valid = np.where(line, ~(np.isnan(a0) | np.isnan(a1)), valid)
                 s_a = np.where(line, a0 + (a1 - a0) * f, s_a)
                 s1 = np.where(line, (a1 - a0) * u, s1)
                 s2 = np.where(line, 0.0, s2)
-        seg = _segment_margin(s_a - (z0 + w * t), s1 - w, s2, t, t_out - t, t == 0)
+                corner0 = np.where(line, a0, corner0)
+                spans = tuple(np.where(line, np.abs(a1 - a0) if i == axis else 0.0, sp) for i, sp in enumerate(spans))
+        # f(t + tau) = S - z0 - w (t + tau) - c (t + tau)^2 = f_a + a tau + b tau^2 on [0, t_out - t]
+        f_a, a, b, length, first = s_a - z_t, s1 - w - 2.0 * c * t, s2 - c, t_out - t, t == 0
+        seg = _segment_margin(f_a, a, b, t, length, first)
         best = np.where(valid, np.maximum(best, seg), best)
+        if rounding is not None:
+            e_first, e0, e1 = rounding.segment(idx, t, length, first, carry, carried, f_a, a, b, corner0, spans)
+            seg_lo = np.where(first, seg - e_first, _segment_margin(f_a - e0, a - e1, b, t, length, first))
+            seg_hi = np.where(first, seg + e_first, _segment_margin(f_a + e0, a + e1, b, t, length, first))
+            # the segment after a near corner pass may be a sliver the kernel skips: no lower bound from it
+            lo = np.where(valid & ~sliver, np.maximum(lo, seg_lo), lo)
+            hi = np.where(valid, np.maximum(hi, seg_hi), hi)
+            carry = np.where(first, length * e_first + rounding.u * np.abs(f_a + (a + b * length) * length),
+                             e0 + e1 * length)
+            carried = valid
         via_x, via_y = tx <= ty, ty <= tx
         if ux != 0 and uy != 0:
             # the corner the ray leaves by (or passes near) and its side neighbours
             vr, vc = pr + (uy > 0), pc + (ux > 0)
-            f_v = (_sample(h, vr, vc) - (z0 + w * t_out)) / t_out
+            z_out = z0 + (w + c * t_out) * t_out
+            v = _sample(h, vr, vc)
+            f_v = (v - z_out) / t_out
             sides = (_patch_valid(h, hp, wp, pr, pc + (1 if ux > 0 else -1)) |
                      _patch_valid(h, hp, wp, pr + (1 if uy > 0 else -1), pc))
             corner = via_x & via_y & ~valid & sides
-            best = np.where(corner, np.maximum(best, np.nan_to_num(f_v, nan=-np.inf)), best)
-            near = (~snap) & (gap <= CORNER_TIE) & sides & (f_v > -tol)
+            f_v0 = np.nan_to_num(f_v, nan=-np.inf)
+            best = np.where(corner, np.maximum(best, f_v0), best)
+            if rounding is None:
+                near = (~snap) & (gap <= CORNER_TIE) & sides & (f_v > -tol)
+            else:
+                e_c = rounding.corner(idx, t_out, v) / t_out
+                lo = np.where(corner, np.maximum(lo, f_v0 - e_c), lo)
+                hi = np.where(corner, np.maximum(hi, f_v0 + e_c), hi)
+                # a corner pass the kernel may decide otherwise: it may test a side patch's sliver
+                # (up to the corner's f plus what the sliver adds) or skip the one walked here
+                bound = f_v + e_c + rounding.sliver(t_out)
+                near = (gap <= rounding.corner_gap) & sides & (bound > 0)
+                hi = np.where(near, np.maximum(hi, bound), hi)
+                sliver = near & ~snap
             graze[idx[near]] = True
         # step to the next patch (kernel: step_out at level 0)
         if ux != 0:
@@ -209,7 +268,9 @@ def walk_rays(hm: Heightmap, sun: Sun, x0: np.ndarray, y0: np.ndarray,
         if uy != 0:
             pr = np.where(via_y, pr + (1 if uy > 0 else -1), pr)
         t = t_out
-    return margin, graze
+    if rounding is None:
+        return margin, graze
+    return margin, graze, lo_out, hi_out
 
 
 def _self_shadow(hm: Heightmap, sun: Sun, ii: np.ndarray, jj: np.ndarray) -> np.ndarray:
