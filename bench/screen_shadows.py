@@ -1,27 +1,36 @@
 #!/usr/bin/env python
-"""Per-pixel shadow pass over a G-buffer: paper 000 Fig. 8 reproduced (time against sun
-elevation for each level of detail) with the error of each setting, in one run.
+"""Per-pixel shadow pass over a G-buffer: q = 0 against the float64 twin, the error of q
+against its time, and paper 000 Fig. 8 (time against sun elevation per level), in one run.
 
-    python bench/screen_shadows.py                       # 1920x1080, canyon 2048^2 + Puget 2048^2
+    python bench/screen_shadows.py                       # canyon 2048^2 + Puget 2048^2
     python bench/screen_shadows.py --quick --out /tmp/b  # tiny sizes (the smoke test)
 
-G-buffer (``--view``): ``rendered`` (default) by the terrain ray caster
-(oclshade.terrain, camera ``frame_heightmap``: the whole map seen from the
-south-south-west, 35 degrees up); or ``plane``, a perspective view
-(``plane_view``) of the map's mid-height plane by a camera south-west of the
-map looking north-east and down, uv / uv_grad / position filled per pixel
-without a renderer (every pixel of the plane is a terrain point of the map).
+Three parts per dataset, each a section of screen_shadows.md:
 
-For every dataset and every sun elevation 0..90 (``--step``) at azimuth
-``--azimuth`` it times the pass (min / median of ``--reps``, kernel enqueue
-to finish, G-buffer resident on the device, outputs flag + coefficient) for
-q forced to 0, 1, 2, 3, automatic q (Algo 1, n_a_max 16) and automatic q
-with LOD bias +1 with ``exact``,
-and for q = 0 and automatic q with ``maxmip`` and ``dda``; error = percent
-of map pixels whose shadow flag differs from q = 0 exact at the same sun.
-At low sun it also counts traversal steps per pixel by pyramid level
-(exact against maxmip: the min early exit).  Writes screen_shadows.json /
-.md / .png to ``--out``.
+* **q = 0 against the float64 twin** (``--twin-views``, default five: straight down
+  with the grid axes, oblique, low, and close-ups at a few and at many pixels per
+  cell, all rendered by oclshade.terrain.TerrainRenderer at ``--twin-size``; ten suns
+  :data:`TWIN_SUNS`, axis-aligned and grazing among them): every pixel's q = 0
+  verdict (``exact``) against :func:`oclshade.reference.pixel_shadows`;
+  disagreements (ties apart) and ties, a tie being a pixel whose margin_lo <= 0 <
+  margin_hi (the twin's walk with every tested value moved by the kernel's float32
+  error bound, :class:`oclshade.reference.screen_shadows.Rounding`), and the band's
+  width (margin_hi - margin_lo, median and 99th percentile).
+* **Error against time for q** (``--sizes`` x ``--views`` top / oblique / low x
+  ``--q-elevations``): for q forced to 0, 1, 2, 3 and automatic q (Algo 1, n_a_max 16)
+  with LOD bias 0, -1, +1: time (min of ``--reps``, G-buffer resident), traversal
+  steps per map pixel, and the error as the share of the shadowed pixels (q = 0
+  exact is the truth) that the setting misses and adds.
+* **Time against sun elevation** (paper 000 Fig. 8) on the main view (``--view``,
+  ``--width`` x ``--height``): every elevation 0..90 (``--step``) at ``--azimuth``,
+  the settings above with ``exact`` and q = 0 / automatic with ``maxmip`` and
+  ``dda``; steps per level at low sun; the whole-map heightmap-space mask's time.
+
+G-buffer of the main view: ``rendered`` (default; ``frame_heightmap`` from
+``--camera-azimuth`` / ``--camera-elevation``) or ``plane``, a perspective view of
+the map's mid-height plane (``plane_view``, no renderer).  Writes
+screen_shadows.json / .md / .png to ``--out``; timings are for the machine that ran
+it (recorded in the report).
 """
 from __future__ import annotations
 
@@ -36,10 +45,11 @@ from pathlib import Path
 import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))          # the source tree (its kernels), not an installed copy
 sys.path.insert(0, str(REPO / "bench"))
 from shadow_masks import DEFAULT_DATA, Skip, load_dataset, metadata  # noqa: E402
 
-SETTINGS = ("q0", "q1", "q2", "q3", "auto", "auto+1")
+SETTINGS = ("q0", "q1", "q2", "q3", "auto", "auto-1", "auto+1")
 EXTRA_METHODS = ("maxmip", "dda")
 EXTRA_SETTINGS = ("q0", "auto")
 _T0 = time.perf_counter()
@@ -50,8 +60,8 @@ def log(msg: str) -> None:
 
 
 def lod_options(setting: str):
+    """q0..q3: forced level; auto: Algo 1 (n_a_max 16); auto+1 / auto-1: Algo 1 with LOD bias +1 / -1."""
     from oclshade.screen_shadows import LodOptions
-    """q0..q3: forced level; auto: Algo 1 (n_a_max 16); auto+1: Algo 1 with LOD bias +1."""
     if setting.startswith("auto"):
         return LodOptions(bias=int(setting[4:] or 0))
     return LodOptions(force_q=int(setting[1:]))
@@ -96,18 +106,62 @@ def plane_view(hm, width: int, height: int, vfov_deg: float = 45.0, pitch_deg: f
 
 
 def make_view(hm, args) -> tuple:
-    """The G-buffer the pass runs on and a description of it."""
+    """The G-buffer the Fig. 8 sweep runs on and a description of it."""
     if args.view == "plane":
         return plane_view(hm, args.width, args.height), "plane_view (perspective view of the map's mid plane)"
-    from oclshade.camera import frame_heightmap
-    from oclshade.terrain import Heightfield, TerrainRenderer
-    camera = frame_heightmap(hm, args.width, args.height, azimuth=args.camera_azimuth,
-                             elevation=args.camera_elevation)
     t0 = time.perf_counter()
-    gb = TerrainRenderer(Heightfield(hm)).render(camera)
+    gb = render(hm, camera_for(hm, "oblique", args.width, args.height, args))
     return gb, (f"rendered by oclshade.terrain.TerrainRenderer (bisect), camera "
                 f"frame_heightmap(azimuth={args.camera_azimuth:g}, elevation={args.camera_elevation:g}), "
                 f"render + copy {1e3 * (time.perf_counter() - t0):.0f} ms")
+
+
+#: views of the q table and the twin check: name -> how the camera is placed
+VIEWS = {
+    "top": "frame_heightmap from straight above (elevation 89.99, camera azimuth 180: the grid axes along the screen's)",
+    "oblique": "frame_heightmap(--camera-azimuth, --camera-elevation)",
+    "low": "frame_heightmap(--camera-azimuth, 12)",
+    "close-few": "a pinhole 50 degrees above the steepest sample of the map's central half (so that shadows "
+                 "fall in view), at the distance that gives 3 pixels per cell",
+    "close-many": "the same at 20 pixels per cell",
+}
+#: suns of the twin check (azimuth, elevation): axis-aligned and grazing (1-4 degrees) among them
+TWIN_SUNS = ((0.0, 3.0), (90.0, 1.0), (180.0, 10.0), (270.0, 2.0), (250.0, 4.0), (135.0, 8.0), (37.0, 20.0),
+             (300.0, 15.0), (45.0, 45.0), (200.0, 60.0))
+
+
+def camera_for(hm, view: str, width: int, height: int, args):
+    """The camera of a named view (:data:`VIEWS`)."""
+    from oclshade.camera import Camera, frame_heightmap
+    if view == "top":
+        return frame_heightmap(hm, width, height, 180.0, 89.99)
+    if view in ("oblique", "low"):
+        return frame_heightmap(hm, width, height, args.camera_azimuth, args.camera_elevation if view == "oblique" else 12.0)
+    per_cell = {"close-few": 3.0, "close-many": 20.0}[view]
+    fov = 40.0
+    half_width = math.tan(math.radians(fov) / 2.0) * width / height
+    distance = width * min(hm.dx, hm.dy) / (2.0 * half_width * per_cell)
+    i, j = steepest_central_sample(hm)
+    centre = np.array([j * hm.dx, -i * hm.dy, float(hm.heights[i, j])])
+    az, el = math.radians(args.camera_azimuth), math.radians(50.0)
+    eye = centre + distance * np.array([math.sin(az) * math.cos(el), math.cos(az) * math.cos(el), math.sin(el)])
+    return Camera(eye, centre, width, height, fov=fov, near=0.1, far=1e7)
+
+
+def steepest_central_sample(hm) -> tuple[int, int]:
+    """(row, col) of the largest gradient magnitude among the samples of the map's central half."""
+    rows, cols = hm.shape
+    h = np.where(np.isfinite(hm.heights), hm.heights, np.nanmin(hm.heights))
+    gy, gx = np.gradient(h, hm.dy, hm.dx) if min(rows, cols) > 1 else (np.zeros_like(h), np.zeros_like(h))
+    r0, c0 = rows // 4, cols // 4
+    mag = np.hypot(gx, gy)[r0:rows - r0 or rows, c0:cols - c0 or cols]
+    i, j = np.unravel_index(np.argmax(mag), mag.shape)
+    return int(i + r0), int(j + c0)
+
+
+def render(hm, camera):
+    from oclshade.terrain import Heightfield, TerrainRenderer
+    return TerrainRenderer(Heightfield(hm)).render(camera)
 
 
 # ----------------------------------------------------------------------------- measuring
@@ -133,6 +187,16 @@ def _flag(caster, buf, shape) -> np.ndarray:
     return a
 
 
+def shadow_error(flag: np.ndarray, truth: np.ndarray, hit: np.ndarray) -> dict:
+    """The error of a flag image against q = 0 exact, as shares of the pixels q = 0 shadows:
+    missed (shadowed there, lit here), added (lit there, shadowed here), their sum."""
+    shadowed = int(((truth == 1) & hit).sum())
+    missed = int(((truth == 1) & (flag == 0) & hit).sum())
+    added = int(((truth == 0) & (flag == 1) & hit).sum())
+    pct = (lambda n: 100.0 * n / shadowed) if shadowed else (lambda n: 0.0 if n == 0 else math.inf)
+    return {"shadowed_px": shadowed, "missed_pct": pct(missed), "added_pct": pct(added), "error_pct": pct(missed + added)}
+
+
 def bench_dataset(name: str, args: argparse.Namespace) -> dict:
     from oclshade.heightmap import Heightmap
     from oclshade.screen_shadows import PixelBuffers, ScreenShadowCaster
@@ -143,25 +207,42 @@ def bench_dataset(name: str, args: argparse.Namespace) -> dict:
         return {"name": name, "skipped": str(e)}
     hm = Heightmap.from_array(data["heights"], (data["dx"], data["dy"]))
     log(f"{name}: {hm.shape}, G-buffer {args.width}x{args.height}")
-    gb, view = make_view(hm, args)
     caster = ScreenShadowCaster(hm)
     t0 = time.perf_counter()
     caster.coarse
     caster.runtime.queue.finish()
     prep_ms = (time.perf_counter() - t0) * 1e3
+    for m in ("exact", *EXTRA_METHODS):                 # compile every variant before timing
+        caster.warm_up(m)
+    res = {"name": name, "skipped": None, "shape": list(hm.shape), "cell_m": [hm.dx, hm.dy],
+           "source": data["source"], "prep_ms": prep_ms, "levels": caster.pyramid.levels}
+    res["twin"] = twin_check(caster, hm, args)
+    res["q_table"] = q_table(caster, hm, args)
+    gb, res["view"] = make_view(hm, args)
     dev = PixelBuffers.upload(gb, caster.runtime)
     hit = gb.hit
     lod = caster.shade(dev, (args.azimuth, 45.0), lod=lod_options("auto"), outputs="lod").lod
-    q_hist = {int(k): int(v) for k, v in zip(*np.unique(lod[hit], return_counts=True))}
-    res = {"name": name, "skipped": None, "shape": list(hm.shape), "cell_m": [hm.dx, hm.dy], "view": view,
-           "source": data["source"], "prep_ms": prep_ms, "hit_pixels": int(hit.sum()),
-           "auto_q_histogram": q_hist, "levels": caster.pyramid.levels, "suns": []}
-    for m in ("exact", *EXTRA_METHODS):                 # compile every variant before timing
-        caster.warm_up(m)
-    # high sun first: dda gets slower as the sun sinks and stops once over --dda-limit-ms
+    res["auto_q_histogram"] = {int(k): int(v) for k, v in zip(*np.unique(lod[hit], return_counts=True))}
+    res["hit_pixels"] = int(hit.sum())
+    res["suns"] = fig8_sweep(caster, gb, dev, args, name)
+    res["cells"] = time_cells(hm, args)
+    res["steps"] = {}
+    for elev in args.steps_elevations:
+        for method in ("exact", "maxmip"):
+            for setting in ("q0", "q1", "q2", "auto"):
+                counts = caster.step_counts(dev, (args.azimuth, elev), method, lod_options(setting))
+                res["steps"][f"{elev:g}/{method}/{setting}"] = (counts / max(int(hit.sum()), 1)).tolist()
+    return res
+
+
+def fig8_sweep(caster, gb, dev, args, name: str) -> list[dict]:
+    """Every setting at every sun elevation on the main view (high sun first: dda gets slower
+    as the sun sinks and stops once over --dda-limit-ms)."""
+    hit = gb.hit
     elevations = [float(e) for e in np.arange(0.0, 90.0 + 1e-9, args.step)][::-1]
     out: dict = {}
     skip_dda = False
+    suns = []
     for elev in elevations:
         sun = (args.azimuth, elev)
         entry = {"elevation": elev, "runs": {}}
@@ -174,47 +255,74 @@ def bench_dataset(name: str, args: argparse.Namespace) -> dict:
                 flag = _flag(caster, out["flag"], gb.shape)
                 if base is None:
                     base = flag
-                diff = float((flag[hit] != base[hit]).mean() * 100.0) if hit.any() else 0.0
-                entry["runs"][f"{method}/{setting}"] = {"time_ms": t, "error_pct": diff,
+                entry["runs"][f"{method}/{setting}"] = {"time_ms": t, **shadow_error(flag, base, hit),
                                                         "shadow_pct": float((flag[hit] == 1).mean() * 100.0)}
                 if method == "dda" and t["min"] > args.dda_limit_ms:
                     skip_dda = True                      # dda at lower suns only gets slower
-        res["suns"].insert(0, entry)
+        suns.insert(0, entry)
         log(f"{name} elev {elev:4.1f}: " + ", ".join(f"{k} {v['time_ms']['min']:.0f} ms/{v['error_pct']:.2f}%"
                                                     for k, v in entry["runs"].items()))
-    res["reference"] = check_reference(caster, hm, gb, dev, args)
-    res["cells"] = time_cells(hm, args)
-    res["steps"] = {}
-    for elev in args.steps_elevations:
-        for method in ("exact", "maxmip"):
-            for setting in ("q0", "q1", "q2", "auto"):
-                counts = caster.step_counts(dev, (args.azimuth, elev), method, lod_options(setting))
-                res["steps"][f"{elev:g}/{method}/{setting}"] = (counts / max(int(hit.sum()), 1)).tolist()
-    return res
+    return suns
 
 
-def check_reference(caster, hm, gb, dev, args) -> list[dict]:
-    """q = 0 exact against the float64 reference on a random sample of map pixels."""
+def twin_check(caster, hm, args) -> list[dict]:
+    """q = 0 (exact) against the float64 twin on every pixel of every twin view and sun."""
     from oclshade import reference as ref
     from oclshade.sun import Sun
-    rng = np.random.default_rng(0)
-    idx = np.flatnonzero(gb.hit)
-    pick = np.sort(rng.choice(idx, min(args.ref_pixels, idx.size), replace=False))
-    uv = gb.uv.reshape(-1, 2)[pick][None]
     out = []
-    for elev in args.ref_elevations:
-        sun = Sun(args.azimuth, elev)
-        flag = caster.shade(dev, sun, "exact", lod_options("q0")).flag.ravel()[pick][None]
-        t0 = time.perf_counter()
-        expected = ref.pixel_shadows(hm, sun, uv, np.ones(uv.shape[:2], bool))
-        ref_s = time.perf_counter() - t0
-        differ = flag != expected.mask
-        ties = expected.ties()
-        out.append({"elevation": elev, "pixels": int(pick.size), "mismatches": int(differ.sum()),
-                    "tied": int((differ & ties).sum()), "non_tie": int((differ & ~ties).sum()),
-                    "reference_s": ref_s})
-        log(f"reference at {elev:g} deg: {out[-1]}")
+    for view in args.twin_views:
+        gb = render(hm, camera_for(hm, view, *args.twin_size, args))
+        for az, el in args.twin_suns:
+            sun = Sun(az, el)
+            flag = caster.shade(gb, sun, "exact", lod_options("q0")).flag
+            t0 = time.perf_counter()
+            expected = ref.pixel_shadows(hm, sun, gb.uv, gb.hit)
+            valid = expected.mask != 255
+            ties = expected.ties() & valid
+            differ = (flag != expected.mask) & valid
+            seen = valid & np.isfinite(expected.margin)
+            width = (expected.margin_hi - expected.margin_lo)[seen]
+            row = {"view": view, "sun": [az, el], "tests": int(valid.sum()), "shadowed": int((expected.mask == 1).sum()),
+                   "disagreements": int((differ & ~ties).sum()), "tied_mismatches": int((differ & ties).sum()),
+                   "ties": int(ties.sum()), "corner_grazes": int((expected.graze & valid).sum()),
+                   "band_median": float(np.median(width)) if width.size else 0.0,
+                   "band_p99": float(np.percentile(width, 99)) if width.size else 0.0,
+                   "reference_s": time.perf_counter() - t0}
+            out.append(row)
+            log(f"twin {view} sun {az:g}/{el:g}: {row['tests']} tests, {row['disagreements']} disagreements, "
+                f"{row['ties']} ties ({row['reference_s']:.1f} s)")
     return out
+
+
+def q_table(caster, hm, args) -> list[dict]:
+    """Time, steps and error (of the shadowed pixels) of every setting, per size, view and sun."""
+    from oclshade.screen_shadows import PixelBuffers
+    rows = []
+    for width, height in args.sizes:
+        for view in args.views:
+            gb = render(hm, camera_for(hm, view, width, height, args))
+            dev = PixelBuffers.upload(gb, caster.runtime)
+            hit = gb.hit
+            lod = caster.shade(dev, (args.azimuth, 45.0), lod=lod_options("auto"), outputs="lod").lod
+            hist = {int(k): int(v) for k, v in zip(*np.unique(lod[hit], return_counts=True))}
+            out: dict = {}
+            for elev in args.q_elevations:
+                sun = (args.azimuth, elev)
+                row = {"size": [width, height], "view": view, "elevation": elev, "hit_pixels": int(hit.sum()),
+                       "auto_q_histogram": hist, "runs": {}}
+                base = None
+                for setting in SETTINGS:
+                    t, out = _time_pass(caster, dev, sun, "exact", lod_options(setting), args.reps, out)
+                    flag = _flag(caster, out["flag"], gb.shape)
+                    base = flag if base is None else base
+                    steps = caster.step_counts(dev, sun, "exact", lod_options(setting))
+                    row["runs"][setting] = {"time_ms": t, "steps_per_pixel": float(steps.sum()) / max(int(hit.sum()), 1),
+                                            **shadow_error(flag, base, hit)}
+                row["shadowed_pct"] = 100.0 * row["runs"]["q0"]["shadowed_px"] / max(int(hit.sum()), 1)
+                rows.append(row)
+                log(f"q table {width}x{height} {view} elev {elev:g}: " + ", ".join(
+                    f"{k} {v['time_ms']['min']:.0f} ms/{v['error_pct']:.2f}%" for k, v in row["runs"].items()))
+    return rows
 
 
 def time_cells(hm, args) -> list[dict]:
@@ -224,7 +332,7 @@ def time_cells(hm, args) -> list[dict]:
     caster.warm_up()
     caster.cast((args.azimuth, 45.0))                  # first launch outside the timing
     out = []
-    for elev in args.ref_elevations:
+    for elev in args.steps_elevations:
         samples = []
         for _ in range(args.reps):
             t0 = time.perf_counter()
@@ -250,6 +358,14 @@ def summary(ds: dict, must_elev: float) -> dict:
     out["maxmip_over_exact_low_sun"] = {
         f"{s['elevation']:g}/{setting}": s["runs"][f"maxmip/{setting}"]["time_ms"]["min"] /
         s["runs"][f"exact/{setting}"]["time_ms"]["min"] for s in low for setting in EXTRA_SETTINGS}
+    twin = ds["twin"]
+    tests = sum(r["tests"] for r in twin)
+    out["twin"] = {"views": len({r["view"] for r in twin}), "suns": len({tuple(r["sun"]) for r in twin}),
+                   "tests": tests, "disagreements": sum(r["disagreements"] for r in twin),
+                   "ties": sum(r["ties"] for r in twin),
+                   "ties_pct": 100.0 * sum(r["ties"] for r in twin) / max(tests, 1)}
+    out["q_error_max"] = {setting: max((r["runs"][setting]["error_pct"] for r in ds["q_table"]), default=0.0)
+                          for setting in SETTINGS}
     return out
 
 
@@ -261,33 +377,78 @@ def _run_keys(ds: dict) -> list[str]:
     return list(keys)
 
 
+def _twin_section(ds: dict) -> list[str]:
+    sm = ds["summary"]["twin"]
+    lines = ["### q = 0 against the float64 twin", "",
+             f"Every map pixel of {sm['views']} views x {sm['suns']} suns: `ScreenShadowCaster.shade` (exact, q = 0) "
+             "against `oclshade.reference.pixel_shadows`.  **Tie band**: per pixel, the twin's walk repeated with "
+             "every value of f = S - z the kernel tests (a patch's entry, exit and tangent point; a start patch's "
+             "linear test) moved down / up by a bound of the kernel's float32 error in that value, derived from the "
+             "operations it performs (`oclshade.reference.screen_shadows.Rounding`: relative positions, heights "
+             "relative to the start's nearest sample, f carried from the start within one cell); a tie is a pixel "
+             "whose lowered margin is <= 0 and raised margin > 0.  Band = margin_hi - margin_lo (tangent units).", "",
+             f"**Total: {sm['tests']} tests, {sm['disagreements']} disagreements, {sm['ties']} ties "
+             f"({sm['ties_pct']:.5f} %).**", "",
+             "| view | sun az/el | tests | shadowed | disagreements | ties | tied mismatches | corner grazes | "
+             "band median | band p99 | twin s |", "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    for r in ds["twin"]:
+        lines.append(f"| {r['view']} | {r['sun'][0]:g}/{r['sun'][1]:g} | {r['tests']} | {r['shadowed']} | "
+                     f"{r['disagreements']} | {r['ties']} | {r['tied_mismatches']} | {r['corner_grazes']} | "
+                     f"{r['band_median']:.1e} | {r['band_p99']:.1e} | {r['reference_s']:.1f} |")
+    lines += ["", "Views: " + "; ".join(f"{v}: {VIEWS[v]}" for v in dict.fromkeys(r["view"] for r in ds["twin"])), ""]
+    return lines
+
+
+def _q_section(ds: dict) -> list[str]:
+    lines = ["### Error against time for q", "",
+             "Error = share of the pixels q = 0 exact shadows that a setting misses + adds (missed / added in the "
+             "JSON); time = wall min of the pass (G-buffer resident); steps = traversal iterations per map pixel "
+             "(a measure of work that does not depend on the machine's load).  Cells: time ms / steps / error %.", "",
+             "| size | view | sun elev | shadowed | " + " | ".join(SETTINGS) + " |",
+             "|---|---|---:|---:|" + "---:|" * len(SETTINGS)]
+    for r in ds["q_table"]:
+        cells = [f"{v['time_ms']['min']:.0f} / {v['steps_per_pixel']:.1f} / {v['error_pct']:.2f} %"
+                 for v in (r["runs"][k] for k in SETTINGS)]
+        lines.append(f"| {r['size'][0]}x{r['size'][1]} | {r['view']} | {r['elevation']:g} | {r['shadowed_pct']:.1f} % | "
+                     + " | ".join(cells) + " |")
+    worst = ds["summary"]["q_error_max"]
+    lines += ["", "Largest error per setting: " + ", ".join(f"{k} {v:.2f} %" for k, v in worst.items()), "",
+              "Automatic q histograms (pixels per level, sun at 45 degrees): " + "; ".join(
+                  f"{r['size'][0]}x{r['size'][1]} {r['view']}: {r['auto_q_histogram']}"
+                  for r in ds["q_table"] if r["elevation"] == ds["q_table"][0]["elevation"]), ""]
+    return lines
+
+
 def write_markdown(path: Path, result: dict) -> None:
     meta, cfg = result["meta"], result["config"]
-    lines = ["# Per-pixel shadow pass over a G-buffer (paper 000 Fig. 8)", "",
+    lines = ["# Per-pixel shadow pass over a G-buffer (paper 000)", "",
              f"- date: {meta['date']}; command: `{meta['command']}`",
              f"- CPU: {meta['cpu']}, {meta['cores']} cores; device: {meta['device']} ({meta['compute_units']} compute units)",
              f"- PoCL {meta['pocl_version']} ({meta['platform_version']}); numpy {meta['numpy']}, pyopencl {meta['pyopencl']}",
-             f"- G-buffer {cfg['width']}x{cfg['height']} (view per dataset below), sun azimuth "
-             f"{cfg['azimuth']:g}; time = enqueue..finish of `ScreenShadowCaster.shade_to_device` (flag + "
-             f"coefficient, G-buffer resident), min of {cfg['reps']}; error = % of map pixels whose shadow flag "
-             "differs from q = 0 exact at the same sun; table cells: wall min / CPU min / error", ""]
+             f"- sun azimuth {cfg['azimuth']:g} (q table and Fig. 8); times: enqueue..finish of "
+             f"`ScreenShadowCaster.shade_to_device` (flag + coefficient, G-buffer resident), min of {cfg['reps']}", ""]
     for ds in result["datasets"]:
         lines += [f"## {ds['name']}", ""]
         if ds["skipped"]:
             lines += [f"skipped: {ds['skipped']}", ""]
             continue
         sm = ds["summary"]
-        lines += [f"{ds['source']}; G-buffer {ds['view']}; {ds['shape'][0]}x{ds['shape'][1]}, cells {ds['cell_m'][0]:.2f} x "
-                  f"{ds['cell_m'][1]:.2f} m; {ds['hit_pixels']} map pixels; level grids + pyramids "
-                  f"{ds['prep_ms']:.0f} ms; automatic q histogram (pixels per level): {ds['auto_q_histogram']}", ""]
+        lines += [f"{ds['source']}; {ds['shape'][0]}x{ds['shape'][1]}, cells {ds['cell_m'][0]:.2f} x "
+                  f"{ds['cell_m'][1]:.2f} m; level grids + pyramids {ds['prep_ms']:.0f} ms", ""]
+        lines += _twin_section(ds)
+        lines += _q_section(ds)
+        lines += ["### Time against sun elevation (paper 000 Fig. 8)", "",
+                  f"G-buffer {cfg['width']}x{cfg['height']} {ds['view']}; {ds['hit_pixels']} map pixels; automatic q "
+                  f"histogram (pixels per level): {ds['auto_q_histogram']}", ""]
         if "auto_ms_at_must" in sm:
             lines.append(f"- automatic q at {cfg['must_elevation']:g} deg: **{sm['auto_ms_at_must']:.0f} ms** wall (min), "
                          f"{sm['auto_cpu_ms_at_must']:.0f} ms CPU = {sm['auto_cpu_ms_at_must'] / meta['cores']:.0f} ms "
-                         f"on {meta['cores']} idle cores; error {sm['auto_error_pct_at_must']:.2f} %")
+                         f"on {meta['cores']} idle cores; error {sm['auto_error_pct_at_must']:.2f} % of the shadowed pixels")
         lines.append(f"- automatic q error over all elevations: mean {sm['auto_error_pct_mean']:.2f} %, "
-                     f"max {sm['auto_error_pct_max']:.2f} %")
+                     f"max {sm['auto_error_pct_max']:.2f} % of the shadowed pixels")
         ratios = ", ".join(f"{k}: {v:.2f}x" for k, v in sm["maxmip_over_exact_low_sun"].items())
-        lines += [f"- maxmip / exact time at low sun (elevation/setting): {ratios}", ""]
+        lines += [f"- maxmip / exact time at low sun (elevation/setting): {ratios}", "",
+                  "Cells: wall min / CPU min / error (% of the shadowed pixels, missed + added)", ""]
         keys = _run_keys(ds)
         lines += ["| elev | " + " | ".join(keys) + " |", "|---:|" + "---:|" * len(keys)]
         for s in ds["suns"]:
@@ -297,15 +458,10 @@ def write_markdown(path: Path, result: dict) -> None:
                 cells.append("-" if r is None else
                              f"{r['time_ms']['min']:.0f} / {r['time_ms']['cpu_min']:.0f} ms / {r['error_pct']:.2f} %")
             lines.append(f"| {s['elevation']:g} | " + " | ".join(cells) + " |")
-        lines += ["", "q = 0 exact against the float64 reference `oclshade.reference.pixel_shadows` on random map "
-                  "pixels, and the heightmap-space exact mask of the whole map (`ShadowCaster.cast`, wall min) at "
-                  "the same sun:", "", "| elev | pixels | mismatches | of which ties | non-tie | reference s | "
-                  "whole-map mask ms |", "|---:|---:|---:|---:|---:|---:|---:|"]
-        for r, cc in zip(ds["reference"], ds["cells"]):
-            lines.append(f"| {r['elevation']:g} | {r['pixels']} | {r['mismatches']} | {r['tied']} | {r['non_tie']} "
-                         f"| {r['reference_s']:.1f} | {cc['time_ms_min']:.0f} |")
-        lines += ["", "Traversal steps per map pixel by pyramid level (level 0 first):", "",
-                  "| sun elev / method / setting | total | by level |", "|---|---:|---|"]
+        lines += ["", "The heightmap-space exact mask of the whole map (`ShadowCaster.cast`, wall min): " + ", ".join(
+            f"{c['elevation']:g} deg {c['time_ms_min']:.0f} ms" for c in ds["cells"]), "",
+            "Traversal steps per map pixel by pyramid level (level 0 first):", "",
+            "| sun elev / method / setting | total | by level |", "|---|---:|---|"]
         for k, v in ds["steps"].items():
             lines.append(f"| {k} | {sum(v):.1f} | {' '.join(f'{x:.2f}' for x in v)} |")
         lines.append("")
@@ -324,33 +480,44 @@ def write_plot(path: Path, result: dict) -> None:
         ax, ax2 = axes[0][col], axes[1][col]
         for key in _run_keys(ds):
             t = [s["runs"][key]["time_ms"]["cpu_min"] / cores if key in s["runs"] else np.nan for s in ds["suns"]]
-            e = [s["runs"][key]["error_pct"] if key in s["runs"] else np.nan for s in ds["suns"]]
-            style = "-o" if key.startswith("exact") else "--"
-            ax.plot(el, t, style, ms=3, label=key)
-            ax2.plot(el, e, style, ms=3, label=key)
+            ax.plot(el, t, "-o" if key.startswith("exact") else "--", ms=3, label=key)
         ax.set_yscale("log")
-        ax.set_title(f"{ds['name']} {ds['shape'][0]}x{ds['shape'][1]}: shadow pass time", fontsize=10)
+        ax.set_title(f"{ds['name']} {ds['shape'][0]}x{ds['shape'][1]}: shadow pass time (Fig. 8)", fontsize=10)
         ax.set_xlabel("sun elevation (deg)")
         ax.set_ylabel(f"process CPU ms / {cores} cores (min)")
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7)
-        sm = ds["summary"]
-        ax2.set_title(f"error vs q=0 exact (automatic q: mean {sm['auto_error_pct_mean']:.2f} %, "
-                      f"max {sm['auto_error_pct_max']:.2f} %)", fontsize=9)
-        ax2.set_xlabel("sun elevation (deg)")
-        ax2.set_ylabel("% of map pixels with another flag")
+        for i, setting in enumerate(SETTINGS):
+            pts = [(r["runs"][setting]["steps_per_pixel"], r["runs"][setting]["error_pct"]) for r in ds["q_table"]]
+            if pts:
+                x, y = zip(*pts)
+                ax2.scatter(x, np.maximum(y, 1e-3), s=12, label=setting, marker="os^v<>D"[i % 7])
+        ax2.set_yscale("log")
+        ax2.set_title("q table: error against work (every size, view and sun; 0 drawn at 1e-3)", fontsize=9)
+        ax2.set_xlabel("traversal steps per map pixel")
+        ax2.set_ylabel("% of the shadowed pixels missed + added")
         ax2.grid(alpha=0.3)
-    fig.suptitle(f"Per-pixel shadows, G-buffer {result['config']['width']}x{result['config']['height']}, "
-                 f"{result['meta']['device']} (shared machine: CPU time / cores estimates the wall time on idle "
-                 "cores; wall times in the .md)", fontsize=9)
+        ax2.legend(fontsize=7)
+    fig.suptitle(f"Per-pixel shadows, {result['meta']['device']} (shared machine: CPU time / cores estimates the "
+                 "wall time on idle cores; wall times in the .md)", fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
 
+def _size(text: str) -> tuple[int, int]:
+    w, h = text.lower().split("x")
+    return int(w), int(h)
+
+
+def _floats(text: str) -> list[float]:
+    return [float(x) for x in text.split(",") if x]
+
+
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
-    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    p.add_argument("--quick", action="store_true", help="tiny sizes: 256^2 canyon, 192x108, step 30, 1 rep")
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0].replace("\n", " "))
+    p.add_argument("--quick", action="store_true",
+                   help="tiny sizes: 256^2 canyon, 192x108, step 30, 1 rep, q table at 10 deg, twin 96x54 x 3 suns")
     p.add_argument("--datasets", default="canyon,puget", help="comma list of canyon, puget, srtm_* (shadow_masks names)")
     p.add_argument("--data", type=Path, default=DEFAULT_DATA)
     p.add_argument("--out", type=Path, default=REPO / "bench" / "results")
@@ -366,13 +533,24 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     p.add_argument("--reps", type=int, default=3)
     p.add_argument("--must-elevation", type=float, default=10.0)
     p.add_argument("--dda-limit-ms", type=float, default=4000.0, help="stop timing dda once a pass exceeds this")
-    p.add_argument("--ref-pixels", type=int, default=20000, help="map pixels checked against the float64 reference")
-    p.add_argument("--ref-elevations", type=lambda s: [float(x) for x in s.split(",") if x], default=[5.0, 10.0, 30.0])
-    p.add_argument("--steps-elevations", type=lambda s: [float(x) for x in s.split(",") if x], default=[5.0, 10.0])
+    p.add_argument("--sizes", type=lambda s: [_size(x) for x in s.split(",") if x], default=[(480, 270), (1920, 1080)],
+                   help="G-buffer sizes of the q table, e.g. 480x270,1920x1080")
+    p.add_argument("--views", type=lambda s: [x for x in s.split(",") if x], default=["top", "oblique", "low"],
+                   help=f"views of the q table ({', '.join(VIEWS)})")
+    p.add_argument("--q-elevations", type=_floats, default=[3.0, 5.0, 10.0, 20.0, 40.0])
+    p.add_argument("--twin-views", type=lambda s: [x for x in s.split(",") if x], default=list(VIEWS))
+    p.add_argument("--twin-size", type=_size, default=(480, 270))
+    p.add_argument("--twin-suns", type=lambda s: [tuple(_floats(x.replace("/", ","))) for x in s.split(";") if x],
+                   default=list(TWIN_SUNS), help="az/el;az/el;...")
+    p.add_argument("--steps-elevations", type=_floats, default=[5.0, 10.0])
     args = p.parse_args(argv)
     if args.quick:
         args.size, args.width, args.height, args.step, args.reps = 256, 192, 108, 30.0, 1
-        args.steps_elevations, args.ref_elevations, args.ref_pixels = [10.0], [10.0], 2000
+        args.steps_elevations, args.sizes, args.q_elevations = [10.0], [(192, 108)], [10.0]
+        args.twin_size, args.twin_suns = (96, 54), list(TWIN_SUNS[:3])
+    bad = [v for v in (*args.views, *args.twin_views) if v not in VIEWS]
+    if bad:
+        p.error(f"unknown view(s) {', '.join(bad)}; expected some of {', '.join(VIEWS)}")
     return args
 
 
