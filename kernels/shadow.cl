@@ -25,7 +25,7 @@
  *                  global size (ceil(W / run), H).
  *   -D options OCLS_METHOD, OCLS_OUT_MASK, OCLS_OUT_SELF (cells only),
  *   OCLS_OUT_COEF, OCLS_OUT_LOD (pixels only), OCLS_STATS, OCLS_CERT (cells
- *   only, with OCLS_CERT_K / _D0 / _SUB / _SPAN).
+ *   only, with OCLS_CERT_K / _D0 / _SUB / _SPAN), OCLS_CURVATURE (both).
  *
  * Geometry (all methods).  Sample (i, j) sits at x = j (east), y = i (south)
  * in cell units; the surface is bilinear over patches (see pyramid.cl).  The
@@ -41,6 +41,17 @@
  * reference snaps within 1e-12 and counts rays passing between the two as
  * ties, so az 45 with dx == dy is decided alike everywhere) moves diagonally; leaving a hole patch that way it tests the corner sample when
  * a side neighbour is a valid patch (the only surface it touches there).
+ *
+ * Curvature (-D OCLS_CURVATURE): the Earth's surface drops by c t^2 below the
+ * cell's tangent plane at horizontal distance t (c = (1 - k) / (2 R), R the
+ * radius, k the refraction coefficient: r.horizon's and HORAYZON's model), so
+ * over the flat map the ray becomes z(t) = z0 + w t + c t^2 and a patch's
+ * f(t) = S - z keeps its quadratic form (slope less 2 c t, curvature less c).
+ * The traversal stays exact: z still rises with t, so a tile's lowest ray
+ * point is its entry (the max test) and its highest its exit (the min early
+ * exit), the global-max exit holds, and the far-field certificates, which
+ * bound S - w t, bound S - w t - c t^2 too.  Without the option the plain
+ * line is compiled and c is not read.
  *
  * Methods (-D OCLS_METHOD=...):
  *   OCLS_EXACT (1)  Algo 3 made conservative: a tile is skipped only when the
@@ -89,9 +100,11 @@
  *                                    (level 0 is the heightmap itself, see pyramid.cl)
  *     __global const int    *lvl_off offset (in float2) of level l in ext at [l], [0] unused
  *     int nlev                       number of levels counting level 0 (>= 2)
- *     float4 ray     (ux, uy, w, 0) as above, each rounded to float32 with
+ *     float4 ray     (ux, uy, w, c) as above, each rounded to float32 with
  *                    subnormals flushed to 0; sin/cos exact at multiples of
  *                    90 degrees (oclshade/sun.py Sun.ray, C: oclshade_sun_for);
+ *                    c the curvature drop per square metre, read only with
+ *                    -D OCLS_CURVATURE (the hosts pass 0 otherwise);
  *                    ignored (the hosts pass 0s) when mode != 0
  *     float4 sunvec  unit vector to the sun (east, north, up, 0)
  *     float2 cell    (dx, dy) in metres
@@ -164,6 +177,19 @@
 #define OCLS_CORNER_EPS (4.0f * FLT_EPSILON)
 #define OCLS_STATS_LEVELS 32
 
+/* Earth curvature (-D OCLS_CURVATURE; see "Curvature" above): the ray's height
+ * over the flat map z(t) = z0 + w t + c t^2, its slope at t and the curvature
+ * of f = S - z; without the option the plain line, and c is never read. */
+#ifdef OCLS_CURVATURE
+#define OCLS_RAY_Z(z0, w, c, t) ((z0) + ((w) + (c) * (t)) * (t))
+#define OCLS_RAY_SLOPE(w, c, t) ((w) + 2.0f * (c) * (t))
+#define OCLS_BEND(s2, c) ((s2) - (c))
+#else
+#define OCLS_RAY_Z(z0, w, c, t) ((z0) + (w) * (t))
+#define OCLS_RAY_SLOPE(w, c, t) (w)
+#define OCLS_BEND(s2, c) (s2)
+#endif
+
 /* Direction signs of the sun ray (-1, 0, 1).  (Specialising builds per
  * direction octant with -D constants was measured: no gain on PoCL.) */
 #define OCLS_SX(u) ((u) > 0.0f ? 1 : ((u) < 0.0f ? -1 : 0))
@@ -209,16 +235,16 @@
  * compared directly (error divided by t >= one cell).  The traversal stays on
  * the finest level while near. */
 typedef struct {
-    float x0, y0, z0, ux, uy, w, ix, iy, hb, t_near;
+    float x0, y0, z0, ux, uy, w, c, ix, iy, hb, t_near;
     int xb, yb, on_row, on_col;
 } Ray;
 
 OCLS_INLINE Ray make_ray_based(int xb, int yb, float hb, float x0, float y0, float z0, float ux, float uy,
-                               float w, float t_near)
+                               float w, float c, float t_near)
 {
     Ray r;
     r.xb = xb; r.yb = yb; r.hb = hb; r.t_near = t_near;
-    r.x0 = x0; r.y0 = y0; r.z0 = z0; r.ux = ux; r.uy = uy; r.w = w;
+    r.x0 = x0; r.y0 = y0; r.z0 = z0; r.ux = ux; r.uy = uy; r.w = w; r.c = c;
     r.ix = OCLS_SX(ux) != 0 ? 1.0f / ux : 0.0f;
     r.iy = OCLS_SY(uy) != 0 ? 1.0f / uy : 0.0f;
     r.on_row = OCLS_SY(uy) == 0 && y0 == (float)ocls_floor_int(y0);
@@ -226,10 +252,10 @@ OCLS_INLINE Ray make_ray_based(int xb, int yb, float hb, float x0, float y0, flo
     return r;
 }
 
-/* The ray of a cell: bases 0, no near start. */
-OCLS_INLINE Ray make_ray(float x0, float y0, float z0, float ux, float uy, float w)
+/* The ray of a cell: bases 0, no near start; ray = (ux, uy, w, c). */
+OCLS_INLINE Ray make_ray(float x0, float y0, float z0, float4 ray)
 {
-    return make_ray_based(0, 0, 0.0f, x0, y0, z0, ux, uy, w, 0.0f);
+    return make_ray_based(0, 0, 0.0f, x0, y0, z0, ray.x, ray.y, ray.z, ray.w, 0.0f);
 }
 
 /* Exact test of the ray against one patch (or grid-line segment) between ray
@@ -279,20 +305,20 @@ OCLS_INLINE int patch_hits(__global const float *h, int H, int W, int pr, int pc
         s1 = (ex + k * fy) * ux + (ey + k * fx) * uy;
         s2 = k * (ux * uy);
     }
-    /* f(tau) = S(t_in + tau) - z(t_in + tau) = f_a + a tau + s2 tau^2, tau in [0, len] */
-    const float a = s1 - w;
+    /* f(tau) = S(t_in + tau) - z(t_in + tau) = f_a + a tau + b tau^2, tau in [0, len] */
+    const float a = s1 - OCLS_RAY_SLOPE(w, ray->c, t_in), b = OCLS_BEND(s2, ray->c);
     if (first) {
-        *f = (a + s2 * len) * len;
-        return (a > 0.0f) || (a + s2 * len > 0.0f);
+        *f = (a + b * len) * len;
+        return (a > 0.0f) || (a + b * len > 0.0f);
     }
-    const float f_a = near && !isnan(carried) ? carried : s_a - (ray->z0 + w * t_in);
+    const float f_a = near && !isnan(carried) ? carried : s_a - OCLS_RAY_Z(ray->z0, w, ray->c, t_in);
     if (f_a > 0.0f) return 1;
-    const float f_b = f_a + (a + s2 * len) * len;
+    const float f_b = f_a + (a + b * len) * len;
     *f = f_b;
     if (f_b > 0.0f) return 1;
-    if (s2 < 0.0f) {
-        const float tau = -a / (2.0f * s2);
-        if (tau > 0.0f && tau < len && f_a - (a * a) / (4.0f * s2) > 0.0f) return 1;
+    if (b < 0.0f) {
+        const float tau = -a / (2.0f * b);
+        if (tau > 0.0f && tau < len && f_a - (a * a) / (4.0f * b) > 0.0f) return 1;
     }
     return 0;
 }
@@ -391,6 +417,7 @@ OCLS_INLINE int trace(__global const float *h, int H, int W, __global const floa
 {
     const int Hp = max(H - 1, 1), Wp = max(W - 1, 1), top = nlev - 1 - q;
     const float x0 = ray->x0, y0 = ray->y0, z0 = ray->z0, ux = ray->ux, uy = ray->uy, w = ray->w, hb = ray->hb;
+    const float c = ray->c;
     int pr, pc, via_x, via_y;
     if (!start_patch(H, W, ray, &pr, &pc)) return 0;
     /* initialisation: leave the start texel */
@@ -402,7 +429,7 @@ OCLS_INLINE int trace(__global const float *h, int H, int W, __global const floa
         OCLS_COUNT(q + l);
         const int size = 1 << l, r0 = (pr >> l) << l, c0 = (pc >> l) << l;
         const float t_out = tile_exit(ray, r0, c0, size, &via_x, &via_y);
-        const float z_out = z0 + w * t_out;
+        const float z_out = OCLS_RAY_Z(z0, w, c, t_out);
         const float2 e = l > 0 ? ext_at(ext, lvl_off, q, Wp, l, pr, pc) : (float2)(0.0f, 0.0f);
         if (l > 0 && e.y - hb >= z_out) return 1;     /* min test at the exit point */
         int reaches;
@@ -412,7 +439,7 @@ OCLS_INLINE int trace(__global const float *h, int H, int W, __global const floa
             const float h00 = ocls_sample(h, H, W, pr, pc), h01 = ocls_sample(h, H, W, pr, pc + 1);
             const float h10 = ocls_sample(h, H, W, pr + 1, pc), h11 = ocls_sample(h, H, W, pr + 1, pc + 1);
             const float hs = (h00 * (1.0f - fx) + h01 * fx) * (1.0f - fy) + (h10 * (1.0f - fx) + h11 * fx) * fy;
-            reaches = hs - hb >= z0 + w * tm;          /* NaN (hole) compares false */
+            reaches = hs - hb >= OCLS_RAY_Z(z0, w, c, tm);  /* NaN (hole) compares false */
         } else {
             reaches = e.x - hb >= z_out;               /* max test at the exit point */
         }
@@ -434,7 +461,7 @@ OCLS_INLINE int trace(__global const float *h, int H, int W, __global const floa
                       const Ray *ray, uint *steps)
 {
     const int Hp = max(H - 1, 1), Wp = max(W - 1, 1), top = nlev - 1 - q;
-    const float z0 = ray->z0, w = ray->w, hb = ray->hb, z_max = z_top - hb;
+    const float z0 = ray->z0, w = ray->w, c = ray->c, hb = ray->hb, z_max = z_top - hb;
     int pr, pc, via_x, via_y;
     if (!start_patch(H, W, ray, &pr, &pc)) return 0;
     float t = 0.0f, f = 0.0f;                          /* f: f(t) carried while near (see Ray) */
@@ -443,7 +470,7 @@ OCLS_INLINE int trace(__global const float *h, int H, int W, __global const floa
         OCLS_COUNT(q + l);
         const int size = 1 << l, r0 = (pr >> l) << l, c0 = (pc >> l) << l;
         const float t_out = tile_exit(ray, r0, c0, size, &via_x, &via_y);
-        const float z_in = z0 + w * t;                 /* lowest ray point in the tile */
+        const float z_in = OCLS_RAY_Z(z0, w, c, t);    /* lowest ray point in the tile (z rises) */
         const int near = t < ray->t_near;
         if (!near && z_in >= z_max) return 0;          /* (near: f is carried, see Ray) */
 #ifdef OCLS_CERT
@@ -452,7 +479,7 @@ OCLS_INLINE int trace(__global const float *h, int H, int W, __global const floa
 #if OCLS_METHOD == OCLS_DDA
         if (patch_hits(h, H, W, pr, pc, ray, t, t_out, t == 0.0f, near, &f)) return 1;
         if (via_x && via_y && !patch_valid(h, H, W, pr, pc) &&
-            corner_hits(h, H, W, pr, pc, ray->ux, ray->uy, hb, z0 + w * t_out)) return 1;
+            corner_hits(h, H, W, pr, pc, ray->ux, ray->uy, hb, OCLS_RAY_Z(z0, w, c, t_out))) return 1;
 #else
         if (l > 0) {
             const float2 e = ext_at(ext, lvl_off, q, Wp, l, pr, pc);
@@ -466,7 +493,7 @@ OCLS_INLINE int trace(__global const float *h, int H, int W, __global const floa
                  * tests are approximate: per-pixel rays at q > 0, whose finest
                  * test is on the smoother mip surface while the extrema bound
                  * the heightmap (a valley floor below a cliff tile). */
-                if (z0 + w * t_out < e.y - hb) return 1;
+                if (OCLS_RAY_Z(z0, w, c, t_out) < e.y - hb) return 1;
 #endif
                 l -= 1;                                /* descend; (pr, pc) stays inside */
                 continue;
@@ -474,7 +501,7 @@ OCLS_INLINE int trace(__global const float *h, int H, int W, __global const floa
         } else {                                       /* level q: the finest test */
             if (patch_hits(h, H, W, pr, pc, ray, t, t_out, t == 0.0f, near, &f)) return 1;
             if (via_x && via_y && !patch_valid(h, H, W, pr, pc) &&
-                corner_hits(h, H, W, pr, pc, ray->ux, ray->uy, hb, z0 + w * t_out)) return 1;
+                corner_hits(h, H, W, pr, pc, ray->ux, ray->uy, hb, OCLS_RAY_Z(z0, w, c, t_out))) return 1;
         }
 #endif
         const int opr = pr, opc = pc;
@@ -637,7 +664,7 @@ OCLS_INLINE int cell_shadow(__global const float *h, int H, int W, __global cons
                             __global const float *cert, int i, int j, float z0, uint *steps)
 {
     if (mode != 0) return mode == 2;
-    const Ray r = make_ray((float)j, (float)i, z0, ray.x, ray.y, ray.z);
+    const Ray r = make_ray((float)j, (float)i, z0, ray);
     return trace(h, H, W, ext, lvl_off, nlev, 0, ext[lvl_off[nlev - 1]].x,
                  cert_limit(cert, W, i, j, z0, ray), &r, steps);
 }
@@ -810,7 +837,7 @@ OCLS_INLINE ocls_intv packet_step(__global const float *h, int H, int W, float4 
                               ocls_floatv h01, ocls_floatv h10, ocls_floatv h11, ocls_intv *shadow_out)
 {
     const int Hp = H - 1, Wp = W - 1;
-    const float ux = ray.x, uy = ray.y, w = ray.z, ix = 1.0f / ux, iy = 1.0f / uy;
+    const float ux = ray.x, uy = ray.y, w = ray.z, c = ray.w, ix = 1.0f / ux, iy = 1.0f / uy;
     const int east = ux > 0.0f, south = uy > 0.0f;
     const ocls_floatv X0 = p->x0, Z0 = p->z0, T = p->t;
     const ocls_intv PR = p->pr, PC = p->pc, L = p->l;
@@ -822,14 +849,15 @@ OCLS_INLINE ocls_intv packet_step(__global const float *h, int H, int W, float4 
     const ocls_intv via_x = corner | (tx < ty), via_y = corner | (ty < tx);
     const ocls_floatv t_out = fmin(tx, ty);
     /* lit: above the global max, past the certificate's limit, or out of iterations */
-    ocls_intv lit = (Z0 + w * T >= z_top) | (p->it >= OCLS_MAX_ITERATIONS);
+    const ocls_floatv z_in = OCLS_RAY_Z(Z0, w, c, T), z_out = OCLS_RAY_Z(Z0, w, c, t_out);
+    ocls_intv lit = (z_in >= z_top) | (p->it >= OCLS_MAX_ITERATIONS);
 #ifdef OCLS_CERT
     lit |= T >= p->t_lim;
 #endif
     /* levels >= 1: the extrema test */
-    const ocls_intv reach = (L > 0) & (Z0 + w * T < emax);
+    const ocls_intv reach = (L > 0) & (z_in < emax);
 #if OCLS_METHOD == OCLS_EXACT
-    const ocls_intv min_hit = reach & (Z0 + w * t_out < emin);
+    const ocls_intv min_hit = reach & (z_out < emin);
 #else
     const ocls_intv min_hit = (ocls_intv)(0);
 #endif
@@ -840,19 +868,19 @@ OCLS_INLINE ocls_intv packet_step(__global const float *h, int H, int W, float4 
     const ocls_floatv ex = h01 - h00, ey = h10 - h00, kk = (h00 - h01) - (h10 - h11);
     const ocls_floatv s_a = h00 + ex * fx + ey * fy + kk * (fx * fy);
     const ocls_floatv s1 = (ex + kk * fy) * ux + (ey + kk * fx) * uy;
-    const ocls_floatv s2 = kk * (ux * uy);
-    const ocls_floatv a = s1 - w, slope_b = a + s2 * len;
-    const ocls_floatv f_a = s_a - (Z0 + w * T);
+    const ocls_floatv b = OCLS_BEND(kk * (ux * uy), c);
+    const ocls_floatv a = s1 - OCLS_RAY_SLOPE(w, c, T), slope_b = a + b * len;
+    const ocls_floatv f_a = s_a - z_in;
     const ocls_floatv f_b = f_a + slope_b * len;
-    const ocls_floatv tau = -a / (2.0f * s2);
-    const ocls_intv inner = (s2 < 0.0f) & (tau > 0.0f) & (tau < len) & (f_a - (a * a) / (4.0f * s2) > 0.0f);
+    const ocls_floatv tau = -a / (2.0f * b);
+    const ocls_intv inner = (b < 0.0f) & (tau > 0.0f) & (tau < len) & (f_a - (a * a) / (4.0f * b) > 0.0f);
     const ocls_intv hit = valid & select((f_a > 0.0f) | (f_b > 0.0f) | inner, (a > 0.0f) | (slope_b > 0.0f), T == 0.0f);
     ocls_intv shadow = act & ~lit & (min_hit | ((L == 0) & hit));
     const ocls_intv hole_corner = act & ~lit & (L == 0) & ~valid & via_x & via_y;
     if (any(hole_corner)) {                            /* rare: corner_hits per lane */
         int hc[OCLS_LANES], sh[OCLS_LANES], pr[OCLS_LANES], pc[OCLS_LANES];
         float zo[OCLS_LANES];
-        OCLS_VSTORE(hole_corner, 0, hc); OCLS_VSTORE(shadow, 0, sh); OCLS_VSTORE(Z0 + w * t_out, 0, zo);
+        OCLS_VSTORE(hole_corner, 0, hc); OCLS_VSTORE(shadow, 0, sh); OCLS_VSTORE(z_out, 0, zo);
         OCLS_VSTORE(PR, 0, pr); OCLS_VSTORE(PC, 0, pc);
         for (int k = 0; k < OCLS_LANES; ++k)
             if (hc[k]) sh[k] = -corner_hits(h, H, W, pr[k], pc[k], ux, uy, 0.0f, zo[k]);
@@ -1064,20 +1092,21 @@ OCLS_INLINE float lerp_skip(float a, float b, float f)
 }
 
 /* The ray of a pixel whose surface point is (x, y) (column, row) inside grid
- * g (Hg x Wg), its direction (ux, uy, w) in g's units: bases (see Ray) the
+ * g (Hg x Wg), ray = (ux, uy, w, c) in g's units: bases (see Ray) the
  * corner (c, r) of the patch holding the point (x - c, y - r exact) and hb,
  * the sample of largest bilinear weight (not NaN when the point is not in a
  * hole); the start height relative to hb is the bilinear interpolation of the
  * samples minus hb (a sample of weight exactly 0 does not count, so a point
  * on a grid line sees that line only).  Its z0 is NaN inside a hole patch. */
-OCLS_INLINE Ray pixel_ray(__global const float *g, int Hg, int Wg, float x, float y, float ux, float uy, float w)
+OCLS_INLINE Ray pixel_ray(__global const float *g, int Hg, int Wg, float x, float y, float4 ray)
 {
     const int c = clamp(ocls_floor_int(x), 0, max(Wg - 2, 0)), r = clamp(ocls_floor_int(y), 0, max(Hg - 2, 0));
     const float fx = x - (float)c, fy = y - (float)r;
     const float hb = ocls_sample(g, Hg, Wg, r + (fy > 0.5f), c + (fx > 0.5f));
     const float a = lerp_skip(ocls_sample(g, Hg, Wg, r, c) - hb, ocls_sample(g, Hg, Wg, r, c + 1) - hb, fx);
     const float b = lerp_skip(ocls_sample(g, Hg, Wg, r + 1, c) - hb, ocls_sample(g, Hg, Wg, r + 1, c + 1) - hb, fx);
-    return make_ray_based(c, r, hb, fx, fy, lerp_skip(a, b, fy), ux, uy, w, 1.0f / fmax(fabs(ux), fabs(uy)));
+    return make_ray_based(c, r, hb, fx, fy, lerp_skip(a, b, fy), ray.x, ray.y, ray.z, ray.w,
+                          1.0f / fmax(fabs(ray.x), fabs(ray.y)));
 }
 
 __kernel void shadow_pixels(__global const float *h, __global const float *coarse,
@@ -1109,7 +1138,7 @@ __kernel void shadow_pixels(__global const float *h, __global const float *coars
         const int Hq = q == 0 ? H : ocls_level_extent(Hp, q) + 1, Wq = q == 0 ? W : ocls_level_extent(Wp, q) + 1;
         __global const float *g = q == 0 ? h : coarse + coarse_off[q];
         const float scale = 1.0f / (float)(1 << q);    /* exact: a power of two */
-        const Ray rr = pixel_ray(g, Hq, Wq, p.x * scale, p.y * scale, ray.x * scale, ray.y * scale, ray.z);
+        const Ray rr = pixel_ray(g, Hq, Wq, p.x * scale, p.y * scale, (float4)(ray.x * scale, ray.y * scale, ray.z, ray.w));
         valid = !isnan(rr.z0);
 #if defined(OCLS_OUT_MASK) || defined(OCLS_OUT_COEF)
         if (valid) {

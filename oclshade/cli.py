@@ -37,6 +37,7 @@ from .solar import cli as solar_cli
 from .tiles import cli as tiles_cli
 from .envmap import cli as envmap_cli
 from .scene import cli as scene_cli
+from .horizon import EARTH_RADIUS, Curvature
 from .shadows import DEFAULT_K_BRIGHT, DEFAULT_K_DARK, METHODS, ShadowCaster, ShadowResult
 from .ssao import DEFAULT_M
 from .sun import DEFAULT_AZIMUTH, DEFAULT_ELEVATION, Sun
@@ -239,12 +240,17 @@ formats: by OUTPUT's extension: .tif/.tiff (GeoTIFF: georeferencing of the input
   PNG (OUTPUT or --preview) gets a world file (.pgw) and its CRS in PNG.aux.xml.
   Bands are written as each sun finishes: memory does not grow with the suns.
 
+curvature: --curvature lowers terrain at distance d from a cell, along its ray, by
+  (1 - k) d^2 / (2 R) (R = --radius, k = --refraction), as r.horizon and HORAYZON
+  do; the result stays exact (the float64 reference has the same drop).
+
 examples:
   oclshade shadow dem.tif shadow.tif -az 315 -alt 20 --preview shadow.png
   oclshade shadow dem.npy mask.npy --cellsize 30 -alt 10
   oclshade shadow srtm.hgt day.tif --sun 90,10 --sun 180,45 --sun 270,10
   oclshade shadow dem.tif year.tif --suns positions.csv --output coefficient
   oclshade shadow dem.tif day.tif --suns positions.csv --of COG --co COMPRESS=ZSTD
+  oclshade shadow srtm.hgt.zip dusk.tif -az 280 -alt 1 --curvature --refraction 0.13
 """
 
 
@@ -280,6 +286,7 @@ def build_parser() -> CliParser:
     sh.add_argument("--k-bright", type=_unit, default=DEFAULT_K_BRIGHT, metavar="K",
                     help=f"eq. (1) k_bright, shadow brightness with the sun at the zenith (default {DEFAULT_K_BRIGHT:g})")
     sh.add_argument("--preview", metavar="PNG", help="also write a hillshade PNG with the first sun's shadows")
+    add_curvature_arguments(sh)
     sh.add_argument("--device", metavar="SPEC",
                     help="OpenCL device: index or name substring (default: $OCLSHADE_DEVICE, else PoCL CPU)")
     sh.add_argument("--quiet", "-q", action="store_true", help="no progress bar and no summary")
@@ -291,6 +298,24 @@ def build_parser() -> CliParser:
     solar_cli.add_parser(sub)
     envmap_cli.add_parser(sub)
     return parser
+
+
+def add_curvature_arguments(parser: argparse.ArgumentParser) -> None:
+    """--curvature [--radius R] [--refraction K] (shadow)."""
+    parser.add_argument("--curvature", action="store_true", help="lower distant terrain by the Earth's curvature")
+    parser.add_argument("--radius", type=_positive, default=None, metavar="METRES",
+                        help=f"Earth radius of --curvature (default {EARTH_RADIUS:g})")
+    parser.add_argument("--refraction", type=_refraction, default=None, metavar="K",
+                        help="refraction coefficient of --curvature, in [0, 1) (default 0)")
+
+
+def curvature_argument(args: argparse.Namespace) -> Curvature | None:
+    """The Curvature of --curvature / --radius / --refraction, or None; raises UsageError."""
+    if not args.curvature:
+        if args.radius is not None or args.refraction is not None:
+            raise UsageError("--radius and --refraction go with --curvature")
+        return None
+    return Curvature(args.radius or EARTH_RADIUS, args.refraction or 0.0)
 
 
 def add_grid_arguments(parser: argparse.ArgumentParser) -> None:
@@ -475,6 +500,7 @@ class ShadowJob:
     dtype: np.dtype                 # of the output bands
     options: dict[str, str]         # GeoTIFF creation options (--co)
     cog: bool                       # --of COG
+    curvature: Curvature | None = None   # --curvature
 
 
 def _extension(path: str) -> str:
@@ -515,7 +541,10 @@ def check_shadow_args(args: argparse.Namespace) -> ShadowJob:
         raise UsageError(f"PNG output holds one band; {len(suns) + len(times)} suns need .tif, .exr or .npy")
     dtype = np.dtype(np.uint8 if outputs in (("mask",), ("self",)) else np.float32)
     options, cog = creation_options(args, dtype)
-    return ShadowJob(suns, times, outputs, cellsize, dtype, options, cog)
+    curvature = curvature_argument(args)
+    if curvature is not None and tiles_cli.requested(args):
+        raise UsageError("--curvature does not work with tiled runs (--tile, --max-memory, --workers) yet")
+    return ShadowJob(suns, times, outputs, cellsize, dtype, options, cog, curvature)
 
 
 def creation_options(args: argparse.Namespace, dtype: np.dtype) -> tuple[dict[str, str], bool]:
@@ -634,7 +663,8 @@ def run_shadow(args: argparse.Namespace) -> int:
         out = stack.enter_context(RasterWriter(
             args.output, (len(names), rows, cols), job.dtype, like=raster,
             nodata=255.0 if job.dtype == np.uint8 else math.nan, band_names=names, options=job.options, cog=job.cog))
-        caster = ShadowCaster(heightmap, device=args.device, cache=False)   # one run: no result is reused
+        caster = ShadowCaster(heightmap, device=args.device, cache=False,   # one run: no result is reused
+                              curvature=job.curvature)
         show_bar = not args.quiet and len(job.suns) > 1
         t1 = time.perf_counter()
         for res in caster.iter_many(job.suns, method=args.method, outputs=("mask", *job.outputs),
@@ -651,7 +681,9 @@ def run_shadow(args: argparse.Namespace) -> int:
             if writer is not None:
                 writer.finish()
     if not args.quiet:
-        print(f"{PROG}: {cols}x{rows} cells, {len(job.suns)} sun(s), method {args.method}, "
+        bent = "" if job.curvature is None else \
+            f", curvature R {job.curvature.radius:g} m k {job.curvature.refraction:g}"
+        print(f"{PROG}: {cols}x{rows} cells, {len(job.suns)} sun(s), method {args.method}{bent}, "
               f"device {caster.runtime.label}: pyramid + shadows {t2 - t1:.2f} s "
               f"(total {time.perf_counter() - t0:.2f} s), {100 * shadow / max(shadow + lit, 1):.1f}% of cells "
               f"in cast shadow -> {args.output}", file=sys.stderr)

@@ -45,8 +45,10 @@ Inputs: a :class:`~oclshade.gbuffer.GBuffer` (host arrays), a rendered
 :class:`oclshade.terrain.DeviceGBuffer`, or :class:`PixelBuffers` wrapping
 existing ``pyopencl`` buffers of the same layout (no host round trip in the
 last two); only ``position`` (w = hit), ``uv`` and ``uv_grad`` are read.
-The heightmap is flat: a :class:`~oclshade.terrain.Heightfield` on a sphere
-(``radius``) is shadowed as if its base were flat.
+The heightmap is flat unless ``curvature`` lowers distant terrain along each
+sun ray (the Earth's drop from the pixel's surface point, as the masks do); a
+:class:`~oclshade.terrain.Heightfield` on a sphere (``radius``) is otherwise
+shadowed as if its base were flat.
 """
 from __future__ import annotations
 
@@ -61,7 +63,9 @@ from .heightmap import Heightmap
 from .pyramid import ExtremaPyramid, build_extrema_pyramid, build_mip_pyramid, level_offsets
 from . import tuning
 from .runtime import Runtime, get_runtime
-from .shadows import DEFAULT_K_BRIGHT, DEFAULT_K_DARK, ShadowFeatures, check_coefficients, check_method
+from .horizon.caster import Curvature
+from .shadows import (DEFAULT_K_BRIGHT, DEFAULT_K_DARK, ShadowFeatures, check_coefficients, check_curvature,
+                      check_method, curvature_coefficient)
 from .shadows import check_outputs as check_shadow_outputs
 from .sun import Sun, SunLike, as_sun
 from .terrain import DeviceGBuffer
@@ -101,12 +105,13 @@ class PixelShadowFeatures:
     outputs: tuple[str, ...] = ("flag", "coefficient")
     stats: bool = False
     own_builtins: bool = False   # inline built-ins (kernels/common.h; tuning knob)
+    curvature: bool = False      # Earth curvature along the rays (-D OCLS_CURVATURE)
 
     def defines(self) -> dict[str, object]:
         # the flag is the heightmap-space mask's define; self-shadow is not a pixel output
         cells = ShadowFeatures(self.method, tuple({"flag": "mask"}.get(o, o) for o in self.outputs
                                                   if o != "lod"), self.stats,
-                               own_builtins=self.own_builtins).defines()
+                               own_builtins=self.own_builtins, curvature=self.curvature).defines()
         return {**cells, "OCLS_OUT_SELF": False, "OCLS_OUT_LOD": "lod" in self.outputs}
 
 
@@ -189,11 +194,14 @@ class ScreenShadowCaster:
 
     def __init__(self, heightmap: Heightmap, pyramid: ExtremaPyramid | None = None,
                  device: str | int | Runtime | None = None, group: int | None = None,
-                 own_builtins: int | None = None):
+                 own_builtins: int | None = None, curvature: Curvature | None = None):
         """``group`` (work-group size) and ``own_builtins`` (inline built-ins, kernels/common.h):
         the ``screen_shadows`` family's tuning knobs (:data:`TUNING`; None: the device's tuning
-        entry; same results for every value)."""
+        entry; same results for every value).  ``curvature``: None for a flat Earth, or an
+        :class:`oclshade.horizon.Curvature`: terrain at distance d from a pixel's surface point
+        drops by (1 - k) d^2 / (2 R) below its sun ray (as :class:`oclshade.ShadowCaster`)."""
         self.heightmap = heightmap
+        self.curvature = check_curvature(curvature)
         self.runtime = pyramid.runtime if pyramid is not None else get_runtime(device)
         given = {k: v for k, v in (("group", group), ("own_builtins", own_builtins)) if v is not None}
         knobs = {**tuning.settings(self.runtime, "screen_shadows").values, **TUNING.check(given, partial=True)}
@@ -277,7 +285,8 @@ class ScreenShadowCaster:
         return {name: bufs[name] for name in outs}
 
     def _features(self, method: str, outs: tuple[str, ...], stats: bool = False) -> PixelShadowFeatures:
-        return PixelShadowFeatures(method, outs, stats, own_builtins=self.own_builtins)
+        return PixelShadowFeatures(method, outs, stats, own_builtins=self.own_builtins,
+                                   curvature=self.curvature is not None)
 
     def step_counts(self, gbuffer: GBufferLike, sun: SunLike, method: str = "exact",
                     lod: LodOptions = LodOptions(), band_pixels: int = 1 << 19) -> np.ndarray:
@@ -323,7 +332,7 @@ class ScreenShadowCaster:
         force = -1 if lod.force_q is None else int(lod.force_q)
         return (pyr.heights, grids, grid_offsets, np.int32(rows), np.int32(cols), pyr.buffer, pyr.offsets,
                 np.int32(pyr.levels), gb.position, gb.uv, gb.uv_grad, np.int32(width), np.int32(height),
-                np.array([ux, uy, w, 0.0], np.float32), np.array([s[0], s[1], s[2], 0.0], np.float32),
+                np.array([ux, uy, w, curvature_coefficient(self.curvature)], np.float32), np.array([s[0], s[1], s[2], 0.0], np.float32),
                 np.array([k_dark, k_bright], np.float32), np.int32(mode),
                 np.array([force, lod.bias, lod.n_a_max, 0], np.int32))
 

@@ -23,6 +23,7 @@ from .heightmap import Heightmap
 from . import cache as _cache
 from . import tuning
 from .analysis import SceneAnalysis, slope_fronts
+from .horizon.caster import Curvature
 from .pyramid import ExtremaPyramid, build_extrema_pyramid
 from .runtime import Runtime, get_runtime
 from .sun import Sun, SunLike, as_sun, as_suns
@@ -57,6 +58,17 @@ def check_outputs(outputs: str | Sequence[str], allowed: tuple[str, ...] = OUTPU
     return tuple(o for o in allowed if o in items)
 
 
+def check_curvature(curvature: Curvature | None) -> Curvature | None:
+    if curvature is not None and not isinstance(curvature, Curvature):
+        raise TypeError(f"curvature must be None or an oclshade.horizon.Curvature, got {curvature!r}")
+    return curvature
+
+
+def curvature_coefficient(curvature: Curvature | None) -> float:
+    """The drop per square metre the kernels use (float32), 0 for a flat Earth."""
+    return 0.0 if curvature is None else curvature.coefficient
+
+
 def check_coefficients(k_dark: float, k_bright: float) -> tuple[float, float]:
     for name, v in (("k_dark", k_dark), ("k_bright", k_bright)):
         if not 0.0 <= float(v) <= 1.0:
@@ -76,6 +88,7 @@ class ShadowFeatures:
     run: int = 1024            # cells per work-item of the packet kernel (tuning knob)
     own_builtins: bool = False  # inline built-ins (kernels/common.h; tuning knob)
     cert_tile: int = CERT_TILE  # cells per side of a certificate tile (tuning knob)
+    curvature: bool = False    # Earth curvature along the rays (the drop per m^2 rides in the ray's 4th value)
 
     @property
     def certified(self) -> bool:
@@ -103,6 +116,7 @@ class ShadowFeatures:
             "OCLS_OUT_SELF": "self" in self.outputs,
             "OCLS_OUT_COEF": "coefficient" in self.outputs,
             "OCLS_OWN_BUILTINS": self.own_builtins,
+            "OCLS_CURVATURE": self.curvature,
         }
 
 
@@ -133,12 +147,18 @@ class ShadowCaster:
     work-item; ``run``, cells per packet work-item; ``cert_tile``, certificate
     tile size; ``group``, work-group size; ``own_builtins``), any subset; the rest, or all when None, from the device's tuning
     entry (:func:`oclshade.tuning.settings`).  Results never depend on them.
+    curvature: None for a flat Earth (default), or a :class:`oclshade.horizon.Curvature`:
+    terrain at horizontal distance d from a cell drops by (1 - k) d^2 / (2 R) below its ray
+    (r.horizon's and HORAYZON's model; ``Curvature()`` is the mean Earth radius, no
+    refraction).  The traversal stays exact: the ray over the flat map becomes the parabola
+    z0 + w t + c t^2, still rising, so a tile's lowest ray point is still its entry.
     """
 
     def __init__(self, heightmap: Heightmap, device: str | int | Runtime | None = None, *,
                  cache: bool | None = None, analyse: bool = True, certificates: bool = True,
-                 knobs: Mapping[str, int] | None = None):
+                 knobs: Mapping[str, int] | None = None, curvature: Curvature | None = None):
         self.heightmap = heightmap
+        self.curvature = check_curvature(curvature)
         self.runtime = get_runtime(device)
         self.cache = cache
         self.analyse = analyse
@@ -240,7 +260,7 @@ class ShadowCaster:
         hm = self.heightmap
         coef = (k_dark, k_bright) if "coefficient" in outs else None
         return (_cache.heights_digest(hm), hm.dx, hm.dy, sun.azimuth, sun.elevation, method, outs, coef,
-                self.runtime.device.int_ptr)
+                curvature_coefficient(self.curvature), self.runtime.device.int_ptr)
 
     def masks_on_device(self, suns: Iterable[SunLike], method: str = "exact") -> Iterator[tuple[Sun, cl.Buffer]]:
         """Each sun's cast-shadow mask left on the device for a kernel that reads it next on
@@ -320,7 +340,7 @@ class ShadowCaster:
     def _features(self, method: str, outs: tuple[str, ...]) -> ShadowFeatures:
         return ShadowFeatures(method, outs, certificate=self.certificates, lanes=self.knobs["lanes"],
                               run=self.knobs["run"], own_builtins=bool(self.knobs["own_builtins"]),
-                              cert_tile=self.knobs["cert_tile"])
+                              cert_tile=self.knobs["cert_tile"], curvature=self.curvature is not None)
 
     def step_counts(self, sun: SunLike, method: str = "exact", band_cells: int = 1 << 19) -> np.ndarray:
         """Traversal iterations per pyramid level, summed over all cells (a profiling build).
@@ -332,7 +352,7 @@ class ShadowCaster:
         rt, pyr = self.runtime, self.pyramid
         rows, cols = self.heightmap.shape
         features = ShadowFeatures(check_method(method), ("mask",), True, self.certificates,
-                                  cert_tile=self.knobs["cert_tile"])
+                                  cert_tile=self.knobs["cert_tile"], curvature=self.curvature is not None)
         kernel = rt.kernel("shadow.cl", "shadow_cells", features.defines())
         mask = rt.empty(rows * cols, "shadow mask")
         cert = self._certifier(features)(as_sun(sun))   # kept referenced while the kernel runs
@@ -388,7 +408,8 @@ class ShadowCaster:
         s = sun.vector()
         rows, cols = hm.shape
         return (pyr.heights, np.int32(rows), np.int32(cols), pyr.buffer, pyr.offsets, np.int32(pyr.levels),
-                np.array([ux, uy, w, 0.0], np.float32), np.array([s[0], s[1], s[2], 0.0], np.float32),
+                np.array([ux, uy, w, curvature_coefficient(self.curvature)], np.float32),
+                np.array([s[0], s[1], s[2], 0.0], np.float32),
                 np.array([hm.dx, hm.dy], np.float32), np.array([k_dark, k_bright], np.float32), np.int32(mode))
 
 
@@ -430,11 +451,12 @@ def cast_shadows(heights: object, cellsize: float | tuple[float, float] = 1.0,
                  outputs: str | Sequence[str] = ("mask",), z_factor: float = 1.0,
                  nodata: float | None = None, k_dark: float = DEFAULT_K_DARK,
                  k_bright: float = DEFAULT_K_BRIGHT,
-                 device: str | int | Runtime | None = None, cache: bool | None = None) -> ShadowResult:
+                 device: str | int | Runtime | None = None, cache: bool | None = None,
+                 curvature: Curvature | None = None) -> ShadowResult:
     """One-call API: shadow outputs of a 2-D height array for one sun (pyramid and result
     reused from the process-wide caches when the same heights come again)."""
     hm = Heightmap.from_array(heights, cellsize, z_factor=z_factor, nodata=nodata)
-    return ShadowCaster(hm, device, cache=cache).cast(sun, method, outputs, k_dark, k_bright)
+    return ShadowCaster(hm, device, cache=cache, curvature=curvature).cast(sun, method, outputs, k_dark, k_bright)
 
 
 def _smoke(rt: Runtime, knobs: tuning.Values) -> None:

@@ -43,12 +43,13 @@ class ReferenceShadows:
             return (np.abs(self.margin) <= tolerance) | self.graze
 
 
-def tie_tolerance(hm: Heightmap, sun: Sun) -> float:
+def tie_tolerance(hm: Heightmap, sun: Sun, curvature: float = 0.0) -> float:
     """Bound on |margin| within which float32 arithmetic may flip the decision.
 
     The kernel's height differences carry an error of a few ulps of the
-    relief, its ray heights a few ulps of w t; divided by t >= one cell this is
-    eps * (relief / cell + w + steepest slope), times a safety factor.
+    relief, its ray heights a few ulps of w t (and of the curvature drop
+    c t^2, t up to the map's diagonal); divided by t >= one cell this is
+    eps * (relief / cell + w + steepest slope + c diagonal), times a safety factor.
     """
     h = hm.heights
     finite = h[np.isfinite(h)]
@@ -60,7 +61,8 @@ def tie_tolerance(hm: Heightmap, sun: Sun) -> float:
     steps = [np.abs(np.diff(h, axis=a)) / d for a, d in ((1, hm.dx), (0, hm.dy)) if h.shape[a] > 1]
     finite_steps = [s[np.isfinite(s)] for s in steps]
     slope = max((float(s.max()) for s in finite_steps if s.size), default=0.0)
-    return 64.0 * FLOAT32_EPS * (relief / d + (w if np.isfinite(w) else 0.0) + slope)
+    diagonal = float(np.hypot(h.shape[0] * hm.dy, h.shape[1] * hm.dx))
+    return 64.0 * FLOAT32_EPS * (relief / d + (w if np.isfinite(w) else 0.0) + slope + curvature * diagonal)
 
 
 def _sample(h: np.ndarray, r: np.ndarray, c: np.ndarray) -> np.ndarray:
@@ -90,12 +92,15 @@ def _segment_margin(f_a, a, b, t_in, length, first):
     return best
 
 
-def cast_shadows(hm: Heightmap, sun: Sun, window: tuple[slice, slice] | None = None) -> ReferenceShadows:
+def cast_shadows(hm: Heightmap, sun: Sun, window: tuple[slice, slice] | None = None,
+                 curvature: float = 0.0) -> ReferenceShadows:
     """Float64 cast-shadow mask and margins of the cells in ``window`` (default all).
 
     Rays cross the whole map whatever the window.  Definitions as in
     kernels/shadow.cl; sun at or below the horizon: all shadowed; at the
-    zenith: nothing cast.
+    zenith: nothing cast.  ``curvature``: the Earth's drop per square metre
+    (the kernel's float32 value, :attr:`oclshade.horizon.Curvature.coefficient`):
+    the margin is then sup (S - z0 - w t - c t^2) / t.
     """
     h = hm.heights
     rows, cols = h.shape
@@ -112,7 +117,8 @@ def cast_shadows(hm: Heightmap, sun: Sun, window: tuple[slice, slice] | None = N
         margin[~np.isnan(z0)] = np.inf
     elif not sun.at_zenith:
         ok = np.flatnonzero(~np.isnan(z0))
-        margin[ok], graze[ok] = walk_rays(hm, sun, jj[ok].astype(np.float64), ii[ok].astype(np.float64), z0[ok])
+        margin[ok], graze[ok] = walk_rays(hm, sun, jj[ok].astype(np.float64), ii[ok].astype(np.float64), z0[ok],
+                                          curvature=curvature)
     mask = np.where(np.isnan(margin), 255, margin > 0).astype(np.uint8)
     return ReferenceShadows(mask.reshape(out_shape), margin.reshape(out_shape),
                             selfs.reshape(out_shape), graze.reshape(out_shape))
@@ -160,7 +166,7 @@ def walk_rays(hm: Heightmap, sun: Sun, x0: np.ndarray, y0: np.ndarray, z0: np.nd
     ux, uy, w = sun.ray(hm.dx, hm.dy)
     c = float(curvature)
     gmax = np.nanmax(h)
-    tol = tie_tolerance(hm, sun)
+    tol = tie_tolerance(hm, sun, c)
     n = x0.size
     margin = np.full(n, -np.inf)
     graze = np.zeros(n, bool)
