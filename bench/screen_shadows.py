@@ -118,7 +118,8 @@ def make_view(hm, args) -> tuple:
 
 #: views of the q table and the twin check: name -> how the camera is placed
 VIEWS = {
-    "top": "frame_heightmap from straight above (elevation 89.99, camera azimuth 180: the grid axes along the screen's)",
+    "top": "frame_heightmap from straight above (elevation 89.99, camera azimuth 180: the grid axes along the "
+           "screen's)",
     "oblique": "frame_heightmap(--camera-azimuth, --camera-elevation)",
     "low": "frame_heightmap(--camera-azimuth, 12)",
     "close-few": "a pinhole 50 degrees above the steepest sample of the map's central half (so that shadows "
@@ -136,7 +137,8 @@ def camera_for(hm, view: str, width: int, height: int, args):
     if view == "top":
         return frame_heightmap(hm, width, height, 180.0, 89.99)
     if view in ("oblique", "low"):
-        return frame_heightmap(hm, width, height, args.camera_azimuth, args.camera_elevation if view == "oblique" else 12.0)
+        elevation = args.camera_elevation if view == "oblique" else 12.0
+        return frame_heightmap(hm, width, height, args.camera_azimuth, elevation)
     per_cell = {"close-few": 3.0, "close-many": 20.0}[view]
     fov = 40.0
     half_width = math.tan(math.radians(fov) / 2.0) * width / height
@@ -194,7 +196,8 @@ def shadow_error(flag: np.ndarray, truth: np.ndarray, hit: np.ndarray) -> dict:
     missed = int(((truth == 1) & (flag == 0) & hit).sum())
     added = int(((truth == 0) & (flag == 1) & hit).sum())
     pct = (lambda n: 100.0 * n / shadowed) if shadowed else (lambda n: 0.0 if n == 0 else math.inf)
-    return {"shadowed_px": shadowed, "missed_pct": pct(missed), "added_pct": pct(added), "error_pct": pct(missed + added)}
+    return {"shadowed_px": shadowed, "missed_pct": pct(missed), "added_pct": pct(added),
+            "error_pct": pct(missed + added)}
 
 
 def bench_dataset(name: str, args: argparse.Namespace) -> dict:
@@ -282,7 +285,8 @@ def twin_check(caster, hm, args) -> list[dict]:
             differ = (flag != expected.mask) & valid
             seen = valid & np.isfinite(expected.margin)
             width = (expected.margin_hi - expected.margin_lo)[seen]
-            row = {"view": view, "sun": [az, el], "tests": int(valid.sum()), "shadowed": int((expected.mask == 1).sum()),
+            row = {"view": view, "sun": [az, el], "tests": int(valid.sum()),
+                   "shadowed": int((expected.mask == 1).sum()),
                    "disagreements": int((differ & ~ties).sum()), "tied_mismatches": int((differ & ties).sum()),
                    "ties": int(ties.sum()), "corner_grazes": int((expected.graze & valid).sum()),
                    "band_median": float(np.median(width)) if width.size else 0.0,
@@ -316,7 +320,8 @@ def q_table(caster, hm, args) -> list[dict]:
                     flag = _flag(caster, out["flag"], gb.shape)
                     base = flag if base is None else base
                     steps = caster.step_counts(dev, sun, "exact", lod_options(setting))
-                    row["runs"][setting] = {"time_ms": t, "steps_per_pixel": float(steps.sum()) / max(int(hit.sum()), 1),
+                    row["runs"][setting] = {"time_ms": t,
+                                            "steps_per_pixel": float(steps.sum()) / max(int(hit.sum()), 1),
                                             **shadow_error(flag, base, hit)}
                 row["shadowed_pct"] = 100.0 * row["runs"]["q0"]["shadowed_px"] / max(int(hit.sum()), 1)
                 rows.append(row)
@@ -409,8 +414,8 @@ def _q_section(ds: dict) -> list[str]:
     for r in ds["q_table"]:
         cells = [f"{v['time_ms']['min']:.0f} / {v['steps_per_pixel']:.1f} / {v['error_pct']:.2f} %"
                  for v in (r["runs"][k] for k in SETTINGS)]
-        lines.append(f"| {r['size'][0]}x{r['size'][1]} | {r['view']} | {r['elevation']:g} | {r['shadowed_pct']:.1f} % | "
-                     + " | ".join(cells) + " |")
+        lines.append(f"| {r['size'][0]}x{r['size'][1]} | {r['view']} | {r['elevation']:g} | "
+                     f"{r['shadowed_pct']:.1f} % | " + " | ".join(cells) + " |")
     worst = ds["summary"]["q_error_max"]
     lines += ["", "Largest error per setting: " + ", ".join(f"{k} {v:.2f} %" for k, v in worst.items()), "",
               "Automatic q histograms (pixels per level, sun at 45 degrees): " + "; ".join(

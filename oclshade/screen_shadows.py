@@ -332,7 +332,8 @@ class ScreenShadowCaster:
         force = -1 if lod.force_q is None else int(lod.force_q)
         return (pyr.heights, grids, grid_offsets, np.int32(rows), np.int32(cols), pyr.buffer, pyr.offsets,
                 np.int32(pyr.levels), gb.position, gb.uv, gb.uv_grad, np.int32(width), np.int32(height),
-                np.array([ux, uy, w, curvature_coefficient(self.curvature)], np.float32), np.array([s[0], s[1], s[2], 0.0], np.float32),
+                np.array([ux, uy, w, curvature_coefficient(self.curvature)], np.float32),
+                np.array([s[0], s[1], s[2], 0.0], np.float32),
                 np.array([k_dark, k_bright], np.float32), np.int32(mode),
                 np.array([force, lod.bias, lod.n_a_max, 0], np.int32))
 
