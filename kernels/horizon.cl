@@ -6,6 +6,17 @@
  * twin: oclshade.reference.horizon_tangents; definitions, exactness and
  * error: docs/methods.md "Horizons and sky-view factor".
  *
+ * ABI summary (details under "ABI" below):
+ *   horizon_cells  one work-item per cell, global size (W, H) rounded up to
+ *                  any local size (the tuning knob `group`); arguments: the
+ *                  H*W float32 relative heights (row-major, NaN = nodata), H,
+ *                  W, the extrema pyramid (float2 levels 1..nlev-1 back to
+ *                  back, int level offsets, nlev), the float4 ray (ux, uy, c,
+ *                  0) of one azimuth, then the outputs angle (float, H*W,
+ *                  degrees) and svf (float2 (sum, compensation), H*W).
+ *   -D options OCLS_OUT_ANGLE, OCLS_OUT_SVF=1|2 (cosine | solid-angle sky-view
+ *   term), OCLS_CURVATURE (read c), OCLS_OWN_BUILTINS (common.h); no others.
+ *
  * Geometry (as shadow.cl).  Sample (i, j) sits at x = j (east), y = i
  * (south) in cell units; the surface is bilinear over patches (pyramid.cl).
  * The ray of cell (i, j) at one azimuth starts at the surface point
