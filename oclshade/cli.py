@@ -301,7 +301,7 @@ def build_parser() -> CliParser:
 
 
 def add_curvature_arguments(parser: argparse.ArgumentParser) -> None:
-    """--curvature [--radius R] [--refraction K] (shadow)."""
+    """--curvature [--radius R] [--refraction K] (shadow, horizon, svf)."""
     parser.add_argument("--curvature", action="store_true", help="lower distant terrain by the Earth's curvature")
     parser.add_argument("--radius", type=_positive, default=None, metavar="METRES",
                         help=f"Earth radius of --curvature (default {EARTH_RADIUS:g})")
@@ -977,7 +977,7 @@ def _refraction(text: str) -> float:
 
 def add_horizon_parsers(sub) -> None:
     """``oclshade horizon`` and ``oclshade svf``: the same input, curvature and output options."""
-    from .horizon import EARTH_RADIUS, SVF_DEFINITIONS
+    from .horizon import SVF_DEFINITIONS
 
     helps = {"horizon": ("horizon angles of a DEM, one band per azimuth",
                          "Horizon angles of a DEM: per cell and azimuth, the elevation angle of the highest terrain."),
@@ -993,11 +993,7 @@ def add_horizon_parsers(sub) -> None:
         if name == "svf":
             p.add_argument("--definition", default="cosine", choices=SVF_DEFINITIONS,
                            help="cosine (default): 1 - mean sin^2 h; solid-angle: 1 - mean sin h (RVT)")
-        p.add_argument("--curvature", action="store_true", help="lower distant terrain by the Earth's curvature")
-        p.add_argument("--radius", type=_positive, default=None, metavar="METRES",
-                       help=f"Earth radius of --curvature (default {EARTH_RADIUS:g})")
-        p.add_argument("--refraction", type=_refraction, default=None, metavar="K",
-                       help="refraction coefficient of --curvature, in [0, 1) (default 0)")
+        add_curvature_arguments(p)
         add_grid_arguments(p)
         add_input_arguments(p)
         add_tiff_arguments(p)
@@ -1008,13 +1004,11 @@ def add_horizon_parsers(sub) -> None:
 
 def run_horizon(args: argparse.Namespace) -> int:
     """``oclshade horizon`` (N bands of angles, streamed) and ``oclshade svf`` (one band)."""
-    from .horizon import EARTH_RADIUS, Curvature, HorizonCaster, azimuth_grid
+    from .horizon import HorizonCaster, azimuth_grid
 
     if _extension(args.output) not in (".tif", ".tiff", ".exr", ".npy"):
         raise UsageError(f"OUTPUT {args.output!r}: expected .tif, .tiff, .exr or .npy (float32 bands)")
-    if not args.curvature and (args.radius is not None or args.refraction is not None):
-        raise UsageError("--radius and --refraction go with --curvature")
-    curvature = Curvature(args.radius or EARTH_RADIUS, args.refraction or 0.0) if args.curvature else None
+    curvature = curvature_argument(args)
     cellsize = cellsize_argument(args)
     options, cog = creation_options(args, np.dtype(np.float32))
     if _same_file(args.output, args.input):

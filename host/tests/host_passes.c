@@ -61,44 +61,7 @@ static cl_context ctx;
 static cl_device_id device;
 static cl_command_queue queue;
 
-#define CHECK(call)                                                                                   \
-    do {                                                                                              \
-        oclshade_status st_ = (call);                                                                 \
-        if (st_ != OCLSHADE_OK) {                                                                     \
-            fprintf(stderr, "%s:%d: %s -> %s: %s\n", __FILE__, __LINE__, #call,                     \
-                    oclshade_status_name(st_), oclshade_last_error(lib));                            \
-            exit(1);                                                                                  \
-        }                                                                                             \
-    } while (0)
-#define CLCHECK(call)                                                                                 \
-    do {                                                                                              \
-        cl_int e_ = (call);                                                                           \
-        if (e_ != CL_SUCCESS) {                                                                       \
-            fprintf(stderr, "%s:%d: %s -> OpenCL error %d\n", __FILE__, __LINE__, #call, (int)e_);   \
-            exit(1);                                                                                  \
-        }                                                                                             \
-    } while (0)
-
-static void fail(const char *what)
-{
-    fprintf(stderr, "%s\n", what);
-    exit(1);
-}
-
-static void *xmalloc(size_t n)
-{
-    void *p = calloc(n ? n : 1, 1);
-    if (p == NULL) fail("out of memory");
-    return p;
-}
-
-static void write_file(const char *name, const void *data, size_t n)
-{
-    char path[4096];
-    snprintf(path, sizeof path, "%s/%s", outdir, name);
-    FILE *f = fopen(path, "wb");
-    if (f == NULL || fwrite(data, 1, n, f) != n || fclose(f) != 0) fail(path);
-}
+#include "host_test_util.h"
 
 /* The bytes (exactly n of them) of dir/name (dir NULL: name is the path), or NULL when the
  * file does not exist and is optional. */

@@ -34,43 +34,9 @@ static oclshade *lib;
 static const oclshade_tuning ALT_TUNINGS[] = {{4, 16, 16}, {0, 1024, 256}};
 #define N_ALT_TUNINGS (sizeof ALT_TUNINGS / sizeof ALT_TUNINGS[0])
 
-#define CHECK(call)                                                                                   \
-    do {                                                                                              \
-        oclshade_status st_ = (call);                                                                 \
-        if (st_ != OCLSHADE_OK) {                                                                     \
-            fprintf(stderr, "%s:%d: %s -> %s: %s\n", __FILE__, __LINE__, #call,                     \
-                    oclshade_status_name(st_), oclshade_last_error(lib));                            \
-            exit(1);                                                                                  \
-        }                                                                                             \
-    } while (0)
-#define CLCHECK(call)                                                                                 \
-    do {                                                                                              \
-        cl_int e_ = (call);                                                                           \
-        if (e_ != CL_SUCCESS) {                                                                       \
-            fprintf(stderr, "%s:%d: %s -> OpenCL error %d\n", __FILE__, __LINE__, #call, (int)e_);   \
-            exit(1);                                                                                  \
-        }                                                                                             \
-    } while (0)
-
 static const char *outdir;
 
-static void write_file(const char *name, const void *data, size_t n)
-{
-    char path[4096];
-    snprintf(path, sizeof path, "%s/%s", outdir, name);
-    FILE *f = fopen(path, "wb");
-    if (f == NULL || fwrite(data, 1, n, f) != n || fclose(f) != 0) {
-        fprintf(stderr, "cannot write %s\n", path);
-        exit(1);
-    }
-}
-
-static void *xmalloc(size_t n)
-{
-    void *p = malloc(n ? n : 1);
-    if (p == NULL) { fprintf(stderr, "out of memory\n"); exit(1); }
-    return p;
-}
+#include "host_test_util.h"
 
 static cl_mem buffer(cl_context ctx, cl_mem_flags flags, size_t n, void *host)
 {

@@ -279,17 +279,29 @@ def walk_rays(hm: Heightmap, sun: Sun, x0: np.ndarray, y0: np.ndarray, z0: np.nd
     return margin, graze, lo_out, hi_out
 
 
-def _self_shadow(hm: Heightmap, sun: Sun, ii: np.ndarray, jj: np.ndarray) -> np.ndarray:
+def surface_gradient(hm: Heightmap) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(dz/d(east), dz/d(south)) per sample: central differences, one-sided next to holes
+    and at the edges, 0 along an axis with neither neighbour (kernels/common.h ocls_gradient);
+    and per axis whether a neighbour was there (where not, the gradient is an exact 0)."""
     h = hm.heights
-    hc = h[ii, jj]
-    he, hw = _sample(h, ii, jj + 1), _sample(h, ii, jj - 1)
-    hs, hn = _sample(h, ii + 1, jj), _sample(h, ii - 1, jj)
+    pad = np.pad(h, 1, constant_values=np.nan)
 
-    def grad(plus, minus, d):
-        return np.where(~np.isnan(plus) & ~np.isnan(minus), (plus - minus) / (2 * d),
-                        np.where(~np.isnan(plus), (plus - hc) / d, np.where(~np.isnan(minus), (hc - minus) / d, 0.0)))
+    def along(plus: np.ndarray, minus: np.ndarray, d: float) -> tuple[np.ndarray, np.ndarray]:
+        has_plus, has_minus = ~np.isnan(plus), ~np.isnan(minus)
+        with np.errstate(invalid="ignore"):
+            g = np.where(has_plus & has_minus, (plus - minus) / (2.0 * d),
+                         np.where(has_plus, (plus - h) / d, np.where(has_minus, (h - minus) / d, 0.0)))
+        return g, has_plus | has_minus
 
-    gx, gy = grad(he, hw, hm.dx), grad(hs, hn, hm.dy)
+    gx, has_x = along(pad[1:-1, 2:], pad[1:-1, :-2], hm.dx)
+    gy, has_y = along(pad[2:, 1:-1], pad[:-2, 1:-1], hm.dy)
+    return gx, gy, has_x, has_y
+
+
+def _self_shadow(hm: Heightmap, sun: Sun, ii: np.ndarray, jj: np.ndarray) -> np.ndarray:
+    hc = hm.heights[ii, jj]
+    gx, gy, _, _ = surface_gradient(hm)
+    gx, gy = gx[ii, jj], gy[ii, jj]
     sx, sy, sz = sun.vector()
     flag = (sz - gx * sx + gy * sy) <= 0
     if sun.below_horizon:

@@ -18,7 +18,7 @@ import numpy as np
 
 from ..heightmap import Heightmap
 from ..sun import Sun
-from .shadows import FLOAT32_EPS, cast_shadows, tie_tolerance
+from .shadows import FLOAT32_EPS, cast_shadows, surface_gradient, tie_tolerance
 
 
 @dataclass
@@ -38,25 +38,6 @@ class ReferenceSunshine:
     def fraction(self) -> np.ndarray:
         return self.cast_seconds / self.daylight_seconds if self.daylight_seconds else np.full_like(
             self.cast_seconds, np.nan)
-
-
-def surface_gradient(hm: Heightmap) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """(dz/d(east), dz/d(south)) per sample: central differences, one-sided next to holes
-    and at the edges, 0 along an axis with neither neighbour (kernels/common.h ocls_gradient);
-    and per axis whether a neighbour was there (where not, the gradient is an exact 0)."""
-    h = hm.heights
-    pad = np.pad(h, 1, constant_values=np.nan)
-
-    def along(plus: np.ndarray, minus: np.ndarray, d: float) -> tuple[np.ndarray, np.ndarray]:
-        has_plus, has_minus = ~np.isnan(plus), ~np.isnan(minus)
-        with np.errstate(invalid="ignore"):
-            g = np.where(has_plus & has_minus, (plus - minus) / (2.0 * d),
-                         np.where(has_plus, (plus - h) / d, np.where(has_minus, (h - minus) / d, 0.0)))
-        return g, has_plus | has_minus
-
-    gx, has_x = along(pad[1:-1, 2:], pad[1:-1, :-2], hm.dx)
-    gy, has_y = along(pad[2:, 1:-1], pad[:-2, 1:-1], hm.dy)
-    return gx, gy, has_x, has_y
 
 
 def gradient_error(hm: Heightmap) -> tuple[np.ndarray, np.ndarray]:
