@@ -35,7 +35,8 @@ MAX_QUADRICS = 4096
 
 @dataclass
 class ObjectIds:
-    """Per-pixel object ids on the device (int32: quadric index + 1, 0 none)."""
+    """Per-pixel object ids on the device (int32: quadric index + 1, -(mesh index + 1) for
+    meshes (oclshade.meshes), 0 none)."""
 
     buffer: cl.Buffer
     shape: tuple[int, int]
