@@ -63,7 +63,7 @@ def lod_options(setting: str):
     """q0..q3: forced level; auto: Algo 1 (n_a_max 16); auto+1 / auto-1: Algo 1 with LOD bias +1 / -1."""
     from oclshade.screen_shadows import LodOptions
     if setting.startswith("auto"):
-        return LodOptions(bias=int(setting[4:] or 0))
+        return LodOptions.automatic(bias=int(setting[4:] or 0))
     return LodOptions(force_q=int(setting[1:]))
 
 

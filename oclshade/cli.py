@@ -432,6 +432,16 @@ def _floats(text: str, count: int, what: str) -> tuple[float, ...]:
     return tuple(_number(p.strip(), what) for p in parts)
 
 
+def _shadow_level(text: str):
+    """``--shadow-level``: a fixed level q >= 0 or ``auto`` (Algo 1)."""
+    from .screen_shadows import LodOptions
+    if text == "auto":
+        return LodOptions.automatic()
+    if text.isdigit():
+        return LodOptions(force_q=int(text))
+    raise argparse.ArgumentTypeError(f"expected a level 0, 1, 2, ... or 'auto', got {text!r}")
+
+
 def _fov(text: str) -> float:
     value = _number(text, "fov")
     if not 0.0 < value < 180.0:
@@ -473,6 +483,9 @@ def add_render_parser(sub) -> None:
                     help="leave out the per-pixel cast shadows (paper 000; on by default)")
     rd.add_argument("--shadow-method", default="exact", choices=METHODS,
                     help="per-pixel shadow traversal (default exact)")
+    rd.add_argument("--shadow-level", type=_shadow_level, default=None, metavar="Q|auto",
+                    help="level of detail of the per-pixel shadows: 0 (default) is exact; a level above 0 or "
+                         "'auto' (paper 000's Algo 1) is faster and misses narrow shadows (docs/methods.md)")
     rd.add_argument("--ao", type=_positive, nargs="?", const=4.0, default=None, metavar="CELLS",
                     help="screen-space ambient occlusion (paper 001) of radius CELLS cells (default 4)")
     rd.add_argument("--ao-samples", type=_ao_samples, default=DEFAULT_M, metavar="M",
@@ -728,6 +741,7 @@ def run_render(args: argparse.Namespace) -> int:
     from .camera import Camera, frame_heightmap
     from .compose import Lighting
     from .frames import AOSettings, FrameSettings, TerrainScene
+    from .screen_shadows import LodOptions
     from .terrain import Heightfield
 
     if scene_cli.is_scene(args.input):
@@ -783,6 +797,7 @@ def run_render(args: argparse.Namespace) -> int:
         ao = None if args.ao is None else AOSettings(radius=args.ao * max(heightmap.dx, heightmap.dy),
                                                      m=args.ao_samples)
         settings = FrameSettings(caster=args.method, shadows=not args.no_shadows, shadow_method=args.shadow_method,
+                                 lod=args.shadow_level or LodOptions(),
                                  ao=ao, lighting=Lighting(sun=args.sun), ssaa=args.ssaa)
         t1 = time.perf_counter()
         frame = scene.frame(camera, args.sun, settings)

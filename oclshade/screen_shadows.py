@@ -1,26 +1,27 @@
 """Per-pixel terrain shadows over a G-buffer (paper 000 in screen space: Algo 1, 2, 3, eq. 1).
 
 >>> caster = ScreenShadowCaster(Heightmap.from_array(dem, cellsize=30.0))
->>> res = caster.shade(gbuffer, Sun(315, 10))          # automatic LOD (Algo 1)
+>>> res = caster.shade(gbuffer, Sun(315, 10))          # exact (q = 0)
+>>> fast = caster.shade(gbuffer, Sun(315, 10), lod=LodOptions.automatic())   # Algo 1
 >>> res.flag          # uint8 (height, width): 1 cast shadow, 0 lit, 255 empty
 >>> res.coefficient   # float32: eq. (1), 1 = lit (and on empty pixels)
 
-For every pixel that sees terrain, Algo 1 picks the minimal level of detail q
-from the pixel's heightmap-coordinate derivatives (the G-buffer's
-``uv_grad``); the sun ray starts on the level-q surface at the pixel's (u, v)
-and is traced through the extrema pyramid from level q (Algo 3), with the
-same exact / paper / maxmip / dda variants and the very same traversal code
+For every pixel that sees terrain, a level of detail q is chosen (0, a fixed
+level, or with automatic q Algo 1's minimal level from the pixel's
+heightmap-coordinate derivatives, the G-buffer's ``uv_grad``); the sun ray
+starts on the level-q surface at the pixel's (u, v) and is traced through the
+extrema pyramid from level q (Algo 3), with the same exact / paper / maxmip / dda variants and the very same traversal code
 as the heightmap-space masks (kernels/shadow.cl: ``shadow_cells`` and
 ``shadow_pixels`` call one ``trace``).
 
 At q = 0 the pass is exact: equal to :func:`oclshade.reference.pixel_shadows`
 but for float32 ties, which are rare (a tie is a pixel whose verdict the
 kernel's own rounding, bounded at every value it tests, could flip: well under
-0.01 % of the tests in ``bench/screen_shadows.py``).  Force it with
-``LodOptions(force_q=0)``.
+0.01 % of the tests in ``bench/screen_shadows.py``).  It is the default
+(``LodOptions()``, ``force_q=0``; ``oclshade render --shadow-level 0``).
 
-Level q > 0 is approximate by design, and automatic q (Algo 1, the default)
-is a **speed setting, not an exact mode**.  Its surface is the mean mip pyramid
+Level q > 0 is approximate by design, and automatic q (Algo 1,
+``LodOptions.automatic()``, ``--shadow-level auto``) is a **speed setting, not an exact mode**.  Its surface is the mean mip pyramid
 (:func:`oclshade.pyramid.build_mip_pyramid`) at level q, positioned where its
 samples belong (level-q sample j is the mean of level-0 samples 2^q j ..
 2^q j + 2^q - 1, centred at 2^q j + (2^q - 1) / 2), resampled bilinearly
@@ -81,12 +82,15 @@ def check_outputs(outputs: str | Sequence[str]) -> tuple[str, ...]:
 
 @dataclass(frozen=True)
 class LodOptions:
-    """Algo 1 settings: n_a_max caps the anisotropy compensation, bias is added to q
-    before clamping, force_q (0..L) replaces Algo 1 by a fixed level."""
+    """The level q of the per-pixel pass.  ``force_q`` 0 (the default) is the exact
+    pass; a fixed level 1..L or None (Algo 1 picks q per pixel: automatic, a speed
+    setting with the error in the module doc) trade exactness for time.  Algo 1's
+    settings, with ``force_q=None`` only: n_a_max caps the anisotropy compensation,
+    bias is added to q before clamping."""
 
     n_a_max: int = DEFAULT_N_A_MAX
     bias: int = 0
-    force_q: int | None = None
+    force_q: int | None = 0
 
     def __post_init__(self) -> None:
         if not isinstance(self.n_a_max, (int, np.integer)) or not 1 <= self.n_a_max <= 256:
@@ -95,6 +99,14 @@ class LodOptions:
             raise ValueError(f"bias must be an integer in [-64, 64], got {self.bias!r}")
         if self.force_q is not None and (not isinstance(self.force_q, (int, np.integer)) or self.force_q < 0):
             raise ValueError(f"force_q must be None or a level >= 0, got {self.force_q!r}")
+        if self.force_q is not None and (self.bias != 0 or self.n_a_max != DEFAULT_N_A_MAX):
+            raise ValueError(f"bias and n_a_max apply to automatic q: give force_q=None with them, got "
+                             f"force_q={self.force_q!r}")
+
+    @classmethod
+    def automatic(cls, n_a_max: int = DEFAULT_N_A_MAX, bias: int = 0) -> "LodOptions":
+        """Algo 1 picks q per pixel (a speed setting, not exact)."""
+        return cls(n_a_max=n_a_max, bias=bias, force_q=None)
 
 
 @dataclass(frozen=True)
@@ -319,7 +331,7 @@ class ScreenShadowCaster:
         if not isinstance(lod, LodOptions):
             raise TypeError(f"lod must be a LodOptions, got {type(lod).__name__}")
         if lod.force_q is not None and lod.force_q > self.top_level:
-            raise ValueError(f"force_q must be in [0, {self.top_level}] for this heightmap "
+            raise ValueError(f"the shadow level q (force_q) must be in [0, {self.top_level}] for this heightmap "
                              f"({pyr.levels} levels), got {lod.force_q}")
         grids, grid_offsets = self.coarse
         ux, uy, w = sun.ray(hm.dx, hm.dy)

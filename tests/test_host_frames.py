@@ -293,11 +293,11 @@ def pixels_case(host: dict, tmp_path: Path, hm: Heightmap, cam: Camera, sun: tup
 
 
 @pytest.mark.parametrize("method, lod, sun", [
-    ("exact", LodOptions(), (200.0, 12.0)),
+    ("exact", LodOptions.automatic(), (200.0, 12.0)),
     ("exact", LodOptions(force_q=0), (135.0, 8.0)),
-    ("maxmip", LodOptions(bias=1, n_a_max=4), (300.0, 15.0)),
+    ("maxmip", LodOptions.automatic(bias=1, n_a_max=4), (300.0, 15.0)),
     ("paper", LodOptions(force_q=2), (45.0, 10.0)),
-    ("dda", LodOptions(bias=-1), (90.0, 6.0)),
+    ("dda", LodOptions.automatic(bias=-1), (90.0, 6.0)),
 ])
 def test_pixel_shadows_random(host: dict, tmp_path: Path, method: str, lod: LodOptions, sun) -> None:
     hm = random_map()

@@ -270,7 +270,7 @@ def test_algo1_hand_made_cases(grad, n_a_max, bias, top, q):
     assert caster.top_level == top
     uv = np.full((1, 1, 2), n / 3.0, np.float32)
     res = caster.shade(gbuffer(uv, np.array(grad, np.float32).reshape(1, 1, 4)), (10.0, 30.0),
-                       lod=LodOptions(n_a_max=n_a_max, bias=bias), outputs="lod")
+                       lod=LodOptions.automatic(n_a_max=n_a_max, bias=bias), outputs="lod")
     assert res.lod[0, 0] == q
 
 
@@ -283,7 +283,7 @@ def test_algo1_kernel_equals_formula_on_random_derivatives():
     grad = (rng.normal(size=(64, 64, 4)) * scale).astype(np.float32)
     grad[::7, :, 2:] *= 1e-3                              # strongly anisotropic rows
     uv = np.full((64, 64, 2), 100.5, np.float32)
-    for opts in (LodOptions(), LodOptions(n_a_max=4, bias=1), LodOptions(n_a_max=1, bias=-1)):
+    for opts in (LodOptions.automatic(), LodOptions.automatic(n_a_max=4, bias=1), LodOptions.automatic(n_a_max=1, bias=-1)):
         got = caster.shade(gbuffer(uv, grad), (10.0, 30.0), lod=opts, outputs="lod").lod
         want = ref.minimal_lod(grad, caster.top_level, opts.n_a_max, opts.bias)
         # float32 rounding can only matter where the floor's argument is within 1e-4 of an integer
@@ -490,7 +490,7 @@ def test_foreign_gbuffer_made_by_the_reference_caster():
     assert hit.mean() > 0.2
     caster = ScreenShadowCaster(hm)
     assert_pixels_exact(hm, sun, gb, caster)
-    auto = caster.shade(gb, sun, outputs="lod").lod
+    auto = caster.shade(gb, sun, lod=LodOptions.automatic(), outputs="lod").lod
     np.testing.assert_array_equal(auto[hit], ref.minimal_lod(gb.uv_grad[hit], caster.top_level))
 
 

@@ -596,7 +596,7 @@ typedef struct oclshade_pixel_shadow_params {
     int width, height;          /* pixels */
     double azimuth, elevation;
     oclshade_method method;
-    int force_q;                /* -1: Algo 1 picks q per pixel; else a fixed level 0..levels-1 */
+    int force_q;                /* 0: exact (default); a fixed level 1..levels-1; -1: Algo 1 picks q */
     int bias;                   /* added to Algo 1's q, |bias| <= 64 */
     int n_a_max;                /* anisotropy cap, 1..256 */
     double k_dark, k_bright;
@@ -606,7 +606,7 @@ typedef struct oclshade_pixel_shadow_params {
     cl_mem scratch;
 } oclshade_pixel_shadow_params;
 
-/* Defaults: exact, Algo 1 (force_q -1, bias 0, n_a_max 16), sun (315, 45), k 0.25 / 0.65. */
+/* Defaults: exact, q = 0 (force_q 0; -1: Algo 1 with bias 0, n_a_max 16), sun (315, 45), k 0.25 / 0.65. */
 void oclshade_pixel_shadow_params_init(oclshade_pixel_shadow_params *params);
 oclshade_status oclshade_pixel_shadows_scratch_size(oclshade *lib, const oclshade_pixel_shadow_params *params,
                                                     size_t *bytes);

@@ -16,7 +16,7 @@ void oclshade_pixel_shadow_params_init(oclshade_pixel_shadow_params *p)
     p->azimuth = 315.0;
     p->elevation = 45.0;
     p->method = OCLSHADE_EXACT;
-    p->force_q = -1;
+    p->force_q = 0;    /* exact; -1: Algo 1 (automatic q, a speed setting) */
     p->n_a_max = 16;   /* LodOptions() */
     p->k_dark = OCLSHADE_DEFAULT_K_DARK;
     p->k_bright = OCLSHADE_DEFAULT_K_BRIGHT;
