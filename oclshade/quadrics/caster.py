@@ -97,11 +97,6 @@ class QuadricCaster:
         qf, qi = self.tables(camera)
         return self.runtime.to_device(qf, "quadric table"), self.runtime.to_device(qi, "quadric kinds")
 
-    def _uv_rows(self, camera: Camera) -> list[np.ndarray]:
-        """Rows of view -> (u, v, z - offset) (zeros without a heightmap)."""
-        if self.heightmap is None:
-            return [np.zeros(4, np.float32)] * 3
-        return _rows(heightmap_from_world(self.heightmap) @ np.linalg.inv(camera.view))
 
     # --- passes --------------------------------------------------------------------------
     def cast(self, camera: Camera, out: tuple[DeviceGBuffer, ObjectIds] | None = None
@@ -116,7 +111,7 @@ class QuadricCaster:
             out = (gbuf, ObjectIds(rt.empty(4 * n, "object ids"), shape))
         gbuf, ids = out
         sx, sy = camera.scale
-        hm0, hm1, _ = self._uv_rows(camera)
+        hm0, hm1, _ = heightmap_rows(camera, self.heightmap)
         kernel = rt.kernel("quadric.cl", "quadric_cast", {"OCLS_ORTHO": camera.projection == "orthographic"})
         tables = self._tables_on_device(camera)       # held until enqueued (a released buffer is freed at once)
         kernel.set_args(np.int32(len(self.quadrics)), *tables,
@@ -131,26 +126,11 @@ class QuadricCaster:
         """Depth-merge ``objects`` (from :meth:`cast`) into the G-buffer ``into`` in place: the
         nearest hit wins per pixel (a tie keeps ``into``).  ``ids``: the object ids of ``into``
         (None: a terrain G-buffer, all 0); returns them, updated."""
-        rt = self.runtime
-        src, src_ids = objects
-        if src.shape != into.shape:
-            raise ValueError(f"G-buffers differ in size: {src.shape} and {into.shape}")
-        n = into.shape[0] * into.shape[1]
-        if ids is None:
-            ids = ObjectIds(rt.empty(4 * n, "object ids"), into.shape)
-            cl.enqueue_fill_buffer(rt.queue, ids.buffer, np.int32(0), 0, 4 * n)
-        kernel = rt.kernel("quadric.cl", "gbuffer_merge")
-        kernel.set_args(np.int32(n), *(src.buffers[k] for k in CHANNELS), src_ids.buffer,
-                        *(into.buffers[k] for k in CHANNELS), ids.buffer)
-        self._launch(kernel, n)
-        return ids
+        return merge_gbuffers(self.runtime, objects, into, ids)
 
     def object_normals(self, gbuffer: DeviceGBuffer, ids: ObjectIds, shading: cl.Buffer) -> None:
         """Put the objects' own normals into a shading-normal buffer (in place)."""
-        n = gbuffer.shape[0] * gbuffer.shape[1]
-        kernel = self.runtime.kernel("quadric.cl", "object_normals")
-        kernel.set_args(np.int32(n), ids.buffer, gbuffer.buffers["normal"], shading)
-        self._launch(kernel, n)
+        object_normals(self.runtime, gbuffer, ids, shading)
 
     def shadow(self, camera: Camera, gbuffer: DeviceGBuffer, ids: ObjectIds, sun: SunLike, coefficient: cl.Buffer,
                k_dark: float = 0.0, k_bright: float = 0.0) -> None:
@@ -158,25 +138,70 @@ class QuadricCaster:
         place: see the module doc.  A shadowed pixel gets paper 000's eq. (1),
         k_dark + (k_bright - k_dark) max(sin elevation, 0)."""
         rt = self.runtime
-        sun = as_sun(sun)
         n = gbuffer.shape[0] * gbuffer.shape[1]
         tables = self._tables_on_device(camera)
-        s_view = camera.rotation @ np.array(sun.vector())
-        kshadow = k_dark + (k_bright - k_dark) * max(math.sin(math.radians(sun.elevation)), 0.0)
-        hm = self.heightmap
-        rows, cols = hm.shape if hm is not None else (0, 0)
-        ray = sun.ray(hm.dx, hm.dy) if hm is not None and not sun.below_horizon else (0.0, 0.0, 0.0)
-        zmax = 0.0 if hm is None else float(np.nanmax(hm.relative32)) if np.isfinite(hm.relative32).any() else 0.0
         kernel = rt.kernel("quadric.cl", "quadric_shadow")
         kernel.set_args(np.int32(n), np.int32(len(self.quadrics)), *tables, gbuffer.buffers["position"], ids.buffer,
-                        np.array([*s_view, 1.0 if sun.below_horizon else 0.0], np.float32), self.heights,
-                        np.int32(rows), np.int32(cols), np.float32(zmax), *self._uv_rows(camera),
-                        np.array([*ray, 0.0], np.float32), np.float32(kshadow), coefficient)
-        self._launch(kernel, n)
+                        *terrain_shadow_args(camera, self.heightmap, self.heights, sun, k_dark, k_bright),
+                        coefficient)
+        launch_1d(rt, kernel, n)
 
-    def _launch(self, kernel: cl.Kernel, n: int) -> None:
-        local = self.runtime.local_size(kernel, 64)
-        cl.enqueue_nd_range_kernel(self.runtime.queue, kernel, (-(-n // local) * local,), (local,))
+
+def heightmap_rows(camera: Camera, heightmap: Heightmap | None) -> list[np.ndarray]:
+    """Rows of the affine map view -> (u, v, z - offset) of the heightmap (zeros without one)."""
+    if heightmap is None:
+        return [np.zeros(4, np.float32)] * 3
+    return _rows(heightmap_from_world(heightmap) @ np.linalg.inv(camera.view))
+
+
+def terrain_shadow_args(camera: Camera, heightmap: Heightmap | None, heights: cl.Buffer, sun: SunLike,
+                        k_dark: float, k_bright: float) -> list:
+    """The kernel arguments (sun, h, H, W, zmax, hm0, hm1, hm2, ray, kshadow) that every object
+    pass shading its pixels against the terrain takes (kernels/terrain_ray.h; quadric_shadow,
+    mesh.cl's mesh_terrain_shadow): sun = view-space vector to the sun, w = 1 when it is at or
+    below the horizon; kshadow = paper 000's eq. (1)."""
+    sun = as_sun(sun)
+    s_view = camera.rotation @ np.array(sun.vector())
+    kshadow = k_dark + (k_bright - k_dark) * max(math.sin(math.radians(sun.elevation)), 0.0)
+    hm = heightmap
+    rows, cols = hm.shape if hm is not None else (0, 0)
+    ray = sun.ray(hm.dx, hm.dy) if hm is not None and not sun.below_horizon else (0.0, 0.0, 0.0)
+    zmax = 0.0 if hm is None else float(np.nanmax(hm.relative32)) if np.isfinite(hm.relative32).any() else 0.0
+    return [np.array([*s_view, 1.0 if sun.below_horizon else 0.0], np.float32), heights, np.int32(rows),
+            np.int32(cols), np.float32(zmax), *heightmap_rows(camera, hm), np.array([*ray, 0.0], np.float32),
+            np.float32(kshadow)]
+
+
+def merge_gbuffers(runtime: Runtime, objects: tuple[DeviceGBuffer, ObjectIds], into: DeviceGBuffer,
+                   ids: ObjectIds | None = None) -> ObjectIds:
+    """Depth-merge an object G-buffer and its ids into ``into`` (QuadricCaster.merge; any kind
+    of object: kernels/quadric.cl gbuffer_merge)."""
+    src, src_ids = objects
+    if src.shape != into.shape:
+        raise ValueError(f"G-buffers differ in size: {src.shape} and {into.shape}")
+    n = into.shape[0] * into.shape[1]
+    if ids is None:
+        ids = ObjectIds(runtime.empty(4 * n, "object ids"), into.shape)
+        cl.enqueue_fill_buffer(runtime.queue, ids.buffer, np.int32(0), 0, 4 * n)
+    kernel = runtime.kernel("quadric.cl", "gbuffer_merge")
+    kernel.set_args(np.int32(n), *(src.buffers[k] for k in CHANNELS), src_ids.buffer,
+                    *(into.buffers[k] for k in CHANNELS), ids.buffer)
+    launch_1d(runtime, kernel, n)
+    return ids
+
+
+def object_normals(runtime: Runtime, gbuffer: DeviceGBuffer, ids: ObjectIds, shading: cl.Buffer) -> None:
+    """Every object pixel's (id != 0: quadrics and meshes) own normal into a shading-normal buffer."""
+    n = gbuffer.shape[0] * gbuffer.shape[1]
+    kernel = runtime.kernel("quadric.cl", "object_normals")
+    kernel.set_args(np.int32(n), ids.buffer, gbuffer.buffers["normal"], shading)
+    launch_1d(runtime, kernel, n)
+
+
+def launch_1d(runtime: Runtime, kernel: cl.Kernel, n: int) -> None:
+    """One work-item per i < n, local size up to 64."""
+    local = runtime.local_size(kernel, 64)
+    cl.enqueue_nd_range_kernel(runtime.queue, kernel, (-(-n // local) * local,), (local,))
 
 
 def screen_rect(camera: Camera, centre_view: np.ndarray, radius: float) -> list[int]:
