@@ -47,7 +47,8 @@ def _run(cmd: list[str], **kw) -> subprocess.CompletedProcess:
     return subprocess.run(cmd, capture_output=True, text=True, timeout=240, **kw)
 
 
-PROGRAMS = ("pyramid.cl", "shadow.cl", "terrain.cl", "ssao.cl", "compose.cl", "sunshine.cl", "horizon.cl", "envmap.cl")
+PROGRAMS = ("pyramid.cl", "shadow.cl", "terrain.cl", "ssao.cl", "compose.cl", "sunshine.cl", "horizon.cl", "envmap.cl",
+            "quadric.cl", "reflect.cl")
 
 
 def build_env(tmp_path_factory) -> dict:

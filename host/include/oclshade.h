@@ -396,9 +396,14 @@ typedef struct oclshade_shadow_params {
     oclshade_field self_shadow; /* rows x cols uchar: 1 sun at/below the tangent plane, 0 not, 255 nodata */
     oclshade_field coefficient; /* rows x cols float32: 1 lit, else k_dark + (k_bright - k_dark) sin(elev); NaN nodata */
     cl_mem scratch;             /* >= oclshade_shadows_scratch_size bytes, or NULL when that is 0 */
+    int origin_row, origin_col; /* the map's first cell in a larger map it is a window of (0, 0: a whole
+                                   map); >= 0, origin + size <= 2^30.  The kernels form the larger
+                                   map's coordinates, so a window holding every cell that can shade
+                                   a cell decides it bit for bit as the larger map does (Python:
+                                   ShadowCaster(origin=...), oclshade.tiles) */
 } oclshade_shadow_params;
 
-/* Defaults: no buffers, 0 x 0, dx = dy = 1, sun (315, 45) as gdaldem,
+/* Defaults: no buffers, 0 x 0, origin (0, 0), dx = dy = 1, sun (315, 45) as gdaldem,
  * OCLSHADE_EXACT, k_dark 0.25, k_bright 0.65. */
 void oclshade_shadow_params_init(oclshade_shadow_params *params);
 
@@ -838,6 +843,176 @@ oclshade_status oclshade_enqueue_cube_to_latlong(oclshade *lib, cl_command_queue
                                                  const oclshade_envmap_params *params,
                                                  cl_uint num_events_in_wait_list, const cl_event *event_wait_list,
                                                  cl_event *event);
+
+/* ----------------------------------------------------------- quadrics (kernels/quadric.cl) */
+
+/* Paper 004's objects on the terrain: quadrics ray-cast in closed form into a G-buffer,
+ * depth-merged with the terrain's, their normals put into the shading normals, their shadows
+ * (oclshade/quadrics/caster.py QuadricCaster; docs/reflections.md). */
+typedef enum oclshade_quadric_kind {
+    OCLSHADE_SPHERE = 0,        /* radii (r, r, r) */
+    OCLSHADE_ELLIPSOID = 1,     /* radii (a, b, c) along the local x, y, z axes */
+    OCLSHADE_CYLINDER = 2,      /* radii (r, r, height / 2); centre: the middle of its axis; closed by flat caps */
+    OCLSHADE_PARABOLOID = 3     /* radii (r, r, height); centre: the vertex of the open bowl */
+} oclshade_quadric_kind;
+
+/* One quadric in the world (x east, y north, z up; metres): oclshade.quadrics.Quadric. */
+typedef struct oclshade_quadric {
+    oclshade_quadric_kind kind;
+    double centre[3];
+    double radii[3];            /* positive; a sphere's three equal */
+    double axis[3];             /* local z, non-zero (local x: east made perpendicular to it) */
+    double colour[3];           /* linear albedo (the material colour), written to the G-buffer */
+} oclshade_quadric;
+
+#define OCLSHADE_MAX_QUADRICS 4096
+
+/* The per-camera tables of kernels/quadric.cl (QuadricCaster.tables), host only, reentrant:
+ * qf 5 float4 per quadric (rows of M = S^-1 R^T in view space with -(M c), albedo, the
+ * view-space bounding sphere), qi 2 int4 (kind code, screen rectangle).  You upload them
+ * (count * 80 and count * 32 bytes) for the cast and shadow calls of this camera.  Computed
+ * in float64 as the Python host does (see README "Exactness"). */
+oclshade_status oclshade_quadric_tables(const oclshade_quadric *quadrics, int count, const oclshade_camera *camera,
+                                        cl_float4 *qf, cl_int4 *qi);
+
+/* A G-buffer with object ids (width x height each; layouts of oclshade/gbuffer.py). */
+typedef struct oclshade_object_gbuffer {
+    oclshade_field position, normal;   /* float4 */
+    oclshade_field uv;                 /* float2 */
+    oclshade_field uv_grad;            /* float4 */
+    oclshade_field depth;              /* float */
+    oclshade_field albedo;             /* float4 */
+    oclshade_field object;             /* int32: quadric index + 1, 0 none (a terrain G-buffer: all 0) */
+} oclshade_object_gbuffer;
+
+/* One params struct for the four quadric calls; each reads the members its comment names. */
+typedef struct oclshade_quadric_params {
+    oclshade_camera camera;            /* all: the frame (width x height); cast and shadow: the view */
+    int count;                         /* cast, shadow: quadrics, 1..OCLSHADE_MAX_QUADRICS */
+    cl_mem qf, qi;                     /* cast, shadow: oclshade_quadric_tables for this camera, uploaded */
+    /* the terrain (cast: the uv of hits; shadow: the sun rays of object pixels); heights.buffer
+     * NULL: no terrain (uv 0, no terrain test) */
+    oclshade_field heights;            /* rows x cols relative float32 heights, NaN = hole */
+    int rows, cols;
+    double dx, dy, offset;             /* cell sizes; offset of oclshade_relative_heights */
+    float hmax;                        /* shadow: oclshade_height_range's hi (0 when no height is finite) */
+    oclshade_object_gbuffer objects;   /* cast: written; merge: read (the source) */
+    oclshade_object_gbuffer gbuffer;   /* merge: read and written (nearest wins; a tie keeps it);
+                                          normals: normal, object read; shadow: position, object read */
+    oclshade_field shading;            /* normals: float4 shading normals, read and written */
+    double azimuth, elevation;         /* shadow: the sun (degrees) */
+    double k_dark, k_bright;           /* shadow: paper 000 eq. (1) for shadowed pixels, in [0, 1] */
+    oclshade_field coefficient;        /* shadow: float per pixel, the terrain shadow pass's, read and written */
+    cl_mem scratch;                    /* >= oclshade_quadric_scratch_size (packed copies of pitched fields) */
+} oclshade_quadric_params;
+
+void oclshade_quadric_params_init(oclshade_quadric_params *params);
+/* Scratch of the largest of the four calls for these parameters (0 when every field is packed
+ * at offset 0). */
+oclshade_status oclshade_quadric_scratch_size(oclshade *lib, const oclshade_quadric_params *params, size_t *bytes);
+/* quadric_cast over (width, height) (-D OCLS_ORTHO for an orthographic camera): the objects'
+ * own G-buffer and ids (QuadricCaster.cast). */
+oclshade_status oclshade_enqueue_quadric_cast(oclshade *lib, cl_command_queue queue,
+                                              const oclshade_quadric_params *params,
+                                              cl_uint num_events_in_wait_list, const cl_event *event_wait_list,
+                                              cl_event *event);
+/* gbuffer_merge: objects over gbuffer where nearer (QuadricCaster.merge with given ids). */
+oclshade_status oclshade_enqueue_gbuffer_merge(oclshade *lib, cl_command_queue queue,
+                                               const oclshade_quadric_params *params,
+                                               cl_uint num_events_in_wait_list, const cl_event *event_wait_list,
+                                               cl_event *event);
+/* object_normals: shading = gbuffer.normal on object pixels (QuadricCaster.object_normals). */
+oclshade_status oclshade_enqueue_object_normals(oclshade *lib, cl_command_queue queue,
+                                                const oclshade_quadric_params *params,
+                                                cl_uint num_events_in_wait_list, const cl_event *event_wait_list,
+                                                cl_event *event);
+/* quadric_shadow after the terrain's per-pixel shadow pass (QuadricCaster.shadow): terrain
+ * pixels whose sun ray meets a quadric and object pixels in shadow get eq. (1), lit object
+ * pixels 1. */
+oclshade_status oclshade_enqueue_quadric_shadow(oclshade *lib, cl_command_queue queue,
+                                                const oclshade_quadric_params *params,
+                                                cl_uint num_events_in_wait_list, const cl_event *event_wait_list,
+                                                cl_event *event);
+
+/* ----------------------------------------------------------- reflections (kernels/reflect.cl) */
+
+/* Paper 002's static optimiser: source written in the @IF meta-language resolved for a
+ * condition vector ("REFLECT FRESNEL", names separated by blanks), oclshade.specialize.specialize.
+ * out (size bytes, may be NULL with 0) gets the text NUL-terminated; *needed the bytes of the
+ * whole text with its NUL (call once with size 0 to size out).  OCLSHADE_SOURCE_ERROR with the
+ * Python host's message ("line N: ...") in error (error_size bytes, may be NULL) on malformed
+ * source or conditions.  Host only, reentrant. */
+oclshade_status oclshade_specialize(const char *source, const char *conditions, char *out, size_t size,
+                                    size_t *needed, char *error, size_t error_size);
+
+typedef enum oclshade_material_kind {
+    OCLSHADE_DIFFUSE = 0,       /* colour x diffuse light; no reflection */
+    OCLSHADE_MIRROR = 1,        /* colour x E (REFLECT) */
+    OCLSHADE_GLOSSY = 2         /* (1 - F) colour x diffuse + F E, Schlick F (REFLECT FRESNEL) */
+} oclshade_material_kind;
+
+/* oclshade.envmap.materials.Material, with the index of the cube map its object reflects. */
+typedef struct oclshade_material {
+    oclshade_material_kind kind;
+    double colour[3];           /* linear RGB in [0, 1] (the Python defaults are per kind: set it) */
+    double roughness;           /* [0, 1] (mirror, glossy): > 0 adds ROUGH, a cone of roughness x 45 degrees */
+    double fresnel;             /* F0 in [0, 1] (glossy) */
+    int cube;                   /* index of its map in the stacked cube buffer (0: the scene's) */
+} oclshade_material;
+
+#define OCLSHADE_MAX_GROUPS 8
+/* The material groups of a scene: one program per distinct condition vector (Reflections). */
+typedef struct oclshade_reflect_groups {
+    int count;                                  /* distinct vectors of the reflective materials */
+    char vector[OCLSHADE_MAX_GROUPS][32];       /* sorted names ("FRESNEL REFLECT"), groups in the Python order */
+} oclshade_reflect_groups;
+
+/* The material table of reflect.cl (3 float4 per object; you upload count * 48 bytes) and the
+ * groups, as oclshade.envmap.reflect.Reflections builds them; host only, reentrant.  A table
+ * row's group indexes groups->vector (-1: diffuse). */
+oclshade_status oclshade_reflect_tables(const oclshade_material *materials, int count, oclshade_reflect_groups *groups,
+                                        cl_float4 *table);
+
+typedef struct oclshade_reflect_params {
+    /* the G-buffer samples, (height * ssaa) x (width * ssaa) each */
+    oclshade_field position, normal, albedo;   /* float4 (the merged G-buffer) */
+    oclshade_field object;                     /* int32 object ids */
+    int width, height, ssaa;                   /* the frame, samples per pixel along each axis (1..8) */
+    oclshade_camera camera;                    /* the samples' camera ((height ssaa) x (width ssaa) pixels) */
+    int objects;                               /* rows of the material table, >= 1 */
+    cl_mem materials;                          /* oclshade_reflect_tables' table, uploaded */
+    oclshade_reflect_groups groups;            /* oclshade_reflect_tables' groups (count 0: no reflective object) */
+    cl_mem cube;                               /* bordered cube maps (cubemap.h) back to back */
+    int face, cubes;                           /* their face size and number (>= 1) */
+    double rotation;                           /* the environment's, degrees (oclshade.envmap.cube_frame) */
+    double intensity;                          /* scale of the map's values, >= 0 */
+    int background;                            /* empty samples show map 0 (the BACKGROUND program) */
+    oclshade_field weighted;                   /* weights: float4 samples, written: the albedo compose reads */
+    cl_mem acc;                                /* apply: width x height float4, written; finish: read */
+    oclshade_field frame;                      /* finish: compose's width x height uchar4 sRGB, read */
+    oclshade_field image;                      /* finish: width x height uchar4, written */
+    cl_mem scratch;                            /* >= oclshade_reflect_scratch_size */
+} oclshade_reflect_params;
+
+void oclshade_reflect_params_init(oclshade_reflect_params *params);
+oclshade_status oclshade_reflect_scratch_size(oclshade *lib, const oclshade_reflect_params *params, size_t *bytes);
+/* Reflections.weights: weighted = albedo, then reflect_weights of each group's specialised
+ * program (0 on mirror samples, (1 - F) albedo on glossy ones). */
+oclshade_status oclshade_enqueue_reflect_weights(oclshade *lib, cl_command_queue queue,
+                                                 const oclshade_reflect_params *params,
+                                                 cl_uint num_events_in_wait_list, const cl_event *event_wait_list,
+                                                 cl_event *event);
+/* Reflections.accumulate: acc = 0, then reflect_apply of each group's program and, with
+ * background, of the BACKGROUND program: the reflections per pixel in linear light. */
+oclshade_status oclshade_enqueue_reflect_apply(oclshade *lib, cl_command_queue queue,
+                                               const oclshade_reflect_params *params,
+                                               cl_uint num_events_in_wait_list, const cl_event *event_wait_list,
+                                               cl_event *event);
+/* reflect_finish: image = compose's frame + acc in linear light, 8-bit sRGB (Reflections.apply). */
+oclshade_status oclshade_enqueue_reflect_finish(oclshade *lib, cl_command_queue queue,
+                                                const oclshade_reflect_params *params,
+                                                cl_uint num_events_in_wait_list, const cl_event *event_wait_list,
+                                                cl_event *event);
 
 #ifdef __cplusplus
 }

@@ -11,7 +11,8 @@ extern const oclshade_source oclshade_embedded_sources[];
 extern const size_t oclshade_embedded_source_count;
 
 const char *const OCLS_PROGRAM_FILES[N_PROGRAM_FILES] = {"pyramid.cl", "shadow.cl", "terrain.cl", "ssao.cl",
-                                                         "compose.cl", "sunshine.cl", "horizon.cl", "envmap.cl"};
+                                                         "compose.cl", "sunshine.cl", "horizon.cl", "envmap.cl",
+                                                         "quadric.cl", "reflect.cl"};
 /* ------------------------------------------------------------------ threads */
 
 #if defined(_WIN32)
@@ -231,6 +232,7 @@ void oclshade_destroy(oclshade *lib)
         }
         clReleaseProgram(p->program);
         free(p->options);
+        free(p->variant);
         free(p);
     }
     for (err_slot *s = lib->errors, *sn; s != NULL; s = sn) {
@@ -304,11 +306,34 @@ size_t ocls_options(const ocls_defines *d, char *buf, size_t size)
 
 /* ------------------------------------------------------------------ program cache */
 
-static oclshade_status build(oclshade *lib, const char *file, const char *options, cl_program *out)
+/* The source of file, specialised for a condition vector when variant is not NULL (malloc'd
+ * into *owned then). */
+static oclshade_status variant_source(oclshade *lib, const char *file, const char *variant, const char **source,
+                                      char **owned)
+{
+    *source = ocls_source(lib, file);
+    *owned = NULL;
+    if (variant == NULL) return OCLSHADE_OK;
+    char message[512];
+    size_t n = 0;
+    if (!ocls_specialize(*source, variant, NULL, 0, &n, message, sizeof message))
+        return ocls_fail(lib, OCLSHADE_SOURCE_ERROR, 0, "%s for the condition vector \"%s\": %s", file, variant, message);
+    if ((*owned = (char *)malloc(n)) == NULL) return ocls_fail(lib, OCLSHADE_OUT_OF_MEMORY, 0, "out of memory");
+    ocls_specialize(*source, variant, *owned, n, &n, message, sizeof message);
+    *source = *owned;
+    return OCLSHADE_OK;
+}
+
+static oclshade_status build(oclshade *lib, const char *file, const char *variant, const char *options,
+                             cl_program *out)
 {
     cl_int err;
-    const char *source = ocls_source(lib, file);
+    const char *source;
+    char *owned;
+    oclshade_status vst = variant_source(lib, file, variant, &source, &owned);
+    if (vst != OCLSHADE_OK) return vst;
     cl_program prog = clCreateProgramWithSource(lib->context, 1, &source, NULL, &err);
+    free(owned);
     if (err != CL_SUCCESS) return ocls_fail_cl(lib, err, "clCreateProgramWithSource");
     err = clBuildProgram(prog, 1, &lib->device, options, NULL, NULL);
     if (err != CL_SUCCESS) {
@@ -323,8 +348,9 @@ static oclshade_status build(oclshade *lib, const char *file, const char *option
         }
         clReleaseProgram(prog);
         oclshade_status st = ocls_fail(lib, OCLSHADE_BUILD_FAILED, err,
-                                       "OpenCL build of %s failed with options %s: %s (%d)\n--- compiler log ---\n%s",
-                                       file, options, ocls_cl_error_name(err), (int)err, log ? log : "(no log)");
+                                       "OpenCL build of %s%s%s%s failed with options %s: %s (%d)\n--- compiler log ---\n%s",
+                                       file, variant ? " [" : "", variant ? variant : "", variant ? "]" : "", options,
+                                       ocls_cl_error_name(err), (int)err, log ? log : "(no log)");
         free(log);
         return st;
     }
@@ -333,30 +359,40 @@ static oclshade_status build(oclshade *lib, const char *file, const char *option
 }
 
 /* Called with the lock held. */
-static oclshade_status program_for(oclshade *lib, const char *file, const ocls_defines *d, program_entry **out)
+static oclshade_status program_for(oclshade *lib, const char *file, const ocls_defines *d, const char *variant,
+                                   program_entry **out)
 {
     char options[1024];
     if (ocls_options(d, options, sizeof options) > sizeof options)
         return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "build options of %s longer than %lu bytes", file,
                          (unsigned long)sizeof options);
     for (program_entry *p = lib->programs; p != NULL; p = p->next)
-        if (p->file == file && strcmp(p->options, options) == 0) { *out = p; return OCLSHADE_OK; }
+        if (p->file == file && strcmp(p->options, options) == 0 &&
+            (p->variant == NULL ? variant == NULL : variant != NULL && strcmp(p->variant, variant) == 0)) {
+            *out = p;
+            return OCLSHADE_OK;
+        }
     program_entry *p = (program_entry *)calloc(1, sizeof *p);
     char *copy = (char *)malloc(strlen(options) + 1);
-    if (p == NULL || copy == NULL) {
+    char *vcopy = variant ? (char *)malloc(strlen(variant) + 1) : NULL;
+    if (p == NULL || copy == NULL || (variant != NULL && vcopy == NULL)) {
         free(p);
         free(copy);
+        free(vcopy);
         return ocls_fail(lib, OCLSHADE_OUT_OF_MEMORY, 0, "out of memory");
     }
     strcpy(copy, options);
-    oclshade_status st = build(lib, file, options, &p->program);
+    if (vcopy) strcpy(vcopy, variant);
+    oclshade_status st = build(lib, file, variant, options, &p->program);
     if (st != OCLSHADE_OK) {
         free(p);
         free(copy);
+        free(vcopy);
         return st;
     }
     p->file = file;
     p->options = copy;
+    p->variant = vcopy;
     p->next = lib->programs;
     lib->programs = p;
     *out = p;
@@ -366,11 +402,17 @@ static oclshade_status program_for(oclshade *lib, const char *file, const ocls_d
 oclshade_status ocls_kernel(ocls_pass *ps, const char *file, const ocls_defines *d, const char *name,
                             kernel_entry **out)
 {
+    return ocls_kernel_variant(ps, file, d, NULL, name, out);
+}
+
+oclshade_status ocls_kernel_variant(ocls_pass *ps, const char *file, const ocls_defines *d, const char *conditions,
+                                    const char *name, kernel_entry **out)
+{
     oclshade *lib = ps->lib;
     for (int i = 0; i < N_PROGRAM_FILES; ++i)   /* the static name: the cache compares pointers */
         if (strcmp(file, OCLS_PROGRAM_FILES[i]) == 0) file = OCLS_PROGRAM_FILES[i];
     program_entry *p = NULL;
-    oclshade_status st = program_for(lib, file, d, &p);
+    oclshade_status st = program_for(lib, file, d, conditions, &p);
     if (st != OCLSHADE_OK) return st;
     for (kernel_entry *k = p->kernels; k != NULL; k = k->next)
         if (strcmp(k->name, name) == 0) { *out = k; return OCLSHADE_OK; }

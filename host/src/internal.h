@@ -15,6 +15,9 @@
  * sunshine.c    sums over many suns; zeroing of accumulators
  * horizon.c     horizon angles and sky-view factor sums
  * envmap.c      cube maps: seam border, lat-long <-> cube
+ * specialize.c  paper 002's @IF meta-language (reflect.cl's variants)
+ * quadrics.c    quadrics: tables, G-buffer, depth merge, object normals, shadows
+ * reflect.c     environment reflections around compose (specialised reflect.cl)
  */
 #ifndef OCLSHADE_INTERNAL_H
 #define OCLSHADE_INTERNAL_H
@@ -78,14 +81,15 @@ typedef struct kernel_entry {
 typedef struct program_entry {
     const char *file;            /* one of PROGRAM_FILES (static) */
     char *options;
+    char *variant;               /* the condition vector its source was specialised for (NULL: none) */
     cl_program program;
     kernel_entry *kernels;
     struct program_entry *next;
 } program_entry;
 
-#define N_PROGRAM_FILES 8
+#define N_PROGRAM_FILES 10
 extern const char *const OCLS_PROGRAM_FILES[N_PROGRAM_FILES];   /* pyramid, shadow, terrain, ssao, compose,
-                                                                   sunshine, horizon, envmap */
+                                                                   sunshine, horizon, envmap, quadric, reflect */
 
 struct oclshade {
     cl_context context;
@@ -226,12 +230,19 @@ oclshade_status ocls_bind_out(ocls_pass *ps, const oclshade_field *f, int rows, 
 oclshade_status ocls_upload(ocls_pass *ps, cl_mem mem, size_t offset, const void *data, size_t bytes,
                             const char *what);
 
+/* Copy the first `bytes` of src to dst (run mode; between the parent buffers), chained. */
+oclshade_status ocls_copy(ocls_pass *ps, cl_mem src, cl_mem dst, size_t bytes, const char *name);
+
 /* Zero the first `bytes` of mem (clEnqueueFillBuffer), chained. */
 oclshade_status ocls_zero(ocls_pass *ps, cl_mem mem, size_t bytes, const char *what);
 
 /* A kernel of a program variant (built on first use; run mode only). */
 oclshade_status ocls_kernel(ocls_pass *ps, const char *file, const ocls_defines *d, const char *name,
                             kernel_entry **out);
+/* As ocls_kernel, of the file's source specialised for a condition vector first (paper 002's
+ * @IF language, ocls_specialize; conditions NULL: the source as it is). */
+oclshade_status ocls_kernel_variant(ocls_pass *ps, const char *file, const ocls_defines *d, const char *conditions,
+                                    const char *name, kernel_entry **out);
 /* Kernel arguments: {size, pointer to the value}. */
 typedef struct ocls_arg { size_t size; const void *value; } ocls_arg;
 #define OCLS_ARG(v) {sizeof(v), &(v)}
@@ -255,6 +266,14 @@ oclshade_status ocls_enqueue(oclshade *lib, cl_command_queue q, cl_mem scratch, 
                              cl_event *event);
 /* The scratch bytes an entry needs (the plan of its body). */
 oclshade_status ocls_plan(oclshade *lib, ocls_body body, const void *params, size_t *bytes);
+
+/* ------------------------------------------------------------------ @IF meta-language */
+
+/* oclshade.specialize.specialize(source, conditions): the text into out (at most size bytes,
+ * NUL-terminated when size > 0), *needed the bytes of the whole text with its NUL.  Returns 1,
+ * or 0 with the message ("line N: ...") in error on malformed source or conditions. */
+int ocls_specialize(const char *source, const char *conditions, char *out, size_t size, size_t *needed,
+                    char *error, size_t error_size);
 
 /* ------------------------------------------------------------------ shared maths */
 

@@ -246,6 +246,25 @@ oclshade_status ocls_bind_out(ocls_pass *ps, const oclshade_field *f, int rows, 
     return OCLSHADE_OK;
 }
 
+oclshade_status ocls_copy(ocls_pass *ps, cl_mem src, cl_mem dst, size_t bytes, const char *name)
+{
+    if (!ps->run) return OCLSHADE_OK;
+    cl_mem src_root, dst_root;
+    size_t src_base, dst_base;
+    cl_int err = root_of(src, &src_root, &src_base);
+    if (err == CL_SUCCESS) err = root_of(dst, &dst_root, &dst_base);
+    if (err != CL_SUCCESS) return ocls_fail_cl(ps->lib, err, "clGetMemObjectInfo(CL_MEM_ASSOCIATED_MEMOBJECT)");
+    cl_event ev = NULL;
+    err = clEnqueueCopyBuffer(ps->queue, src_root, dst_root, src_base, dst_base, bytes, chain_n(ps), chain_list(ps), &ev);
+    chain_next(ps, err, ev);
+    if (err != CL_SUCCESS) {
+        char call[96];
+        snprintf(call, sizeof call, "clEnqueueCopyBuffer(%s)", name);
+        return ocls_fail_cl(ps->lib, err, call);
+    }
+    return OCLSHADE_OK;
+}
+
 oclshade_status ocls_upload(ocls_pass *ps, cl_mem mem, size_t offset, const void *data, size_t bytes, const char *what)
 {
     if (!ps->run) return OCLSHADE_OK;

@@ -146,6 +146,7 @@ int main(int argc, char **argv)
     char *terrain = read_text(dir, "terrain.cl"), *ssao = read_text(dir, "ssao.cl"), *compose = read_text(dir, "compose.cl");
     char *sunshine = read_text(dir, "sunshine.cl"), *horizon = read_text(dir, "horizon.cl");
     char *cubemap = read_text(dir, "cubemap.h"), *envmap = read_text(dir, "envmap.cl");
+    char *quadric = read_text(dir, "quadric.cl"), *reflect = read_text(dir, "reflect.cl");
     oclshade_source missing[2] = {{"common.h", common}, {"pyramid.cl", pyramid}};
     st = oclshade_create_from_sources(ctx, device, missing, 2, &lib);
     expect_status(lib, st, OCLSHADE_SOURCE_ERROR, "shadow.cl", "create_from_sources: shadow.cl missing");
@@ -154,11 +155,12 @@ int main(int argc, char **argv)
     /* ---- a build failure carries the compiler log */
     const char *broken = "#include \"common.h\"\n"
                          "__kernel void shadow_cells(__global float *h) { h[0] = oclshade_no_such_name; }\n";
-    oclshade_source sources[10] = {{"common.h", common}, {"pyramid.cl", pyramid}, {"shadow.cl", broken},
+    oclshade_source sources[12] = {{"common.h", common}, {"pyramid.cl", pyramid}, {"shadow.cl", broken},
                                   {"terrain.cl", terrain}, {"ssao.cl", ssao}, {"compose.cl", compose},
                                   {"sunshine.cl", sunshine}, {"horizon.cl", horizon},
-                                   {"cubemap.h", cubemap}, {"envmap.cl", envmap}};
-    st = oclshade_create_from_sources(ctx, device, sources, 10, &lib);
+                                   {"cubemap.h", cubemap}, {"envmap.cl", envmap},
+                                   {"quadric.cl", quadric}, {"reflect.cl", reflect}};
+    st = oclshade_create_from_sources(ctx, device, sources, 12, &lib);
     expect_status(lib, st, OCLSHADE_OK, "", "create_from_sources: broken shadow.cl is read");
     st = oclshade_prepare(lib, OCLSHADE_PAPER, OCLSHADE_OUT_MASK | OCLSHADE_OUT_SELF);
     expect_status(lib, st, OCLSHADE_BUILD_FAILED, "oclshade_no_such_name", "build failure: the log names the error");
@@ -655,6 +657,7 @@ int main(int argc, char **argv)
     clReleaseCommandQueue(queue); clReleaseCommandQueue(other_queue);
     clReleaseContext(ctx); clReleaseContext(other_ctx);
     free(common); free(pyramid); free(terrain); free(ssao); free(compose); free(sunshine); free(horizon); free(cubemap); free(envmap);
+    free(quadric); free(reflect);
     printf("%d failure(s)\n", failures);
     return failures;
 }
