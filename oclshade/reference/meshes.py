@@ -105,10 +105,13 @@ def band(mesh: TriangleMesh, camera: Camera, distance: np.ndarray) -> np.ndarray
     return BAND * U32 * (reach + float(np.linalg.norm(camera.position - origin)) + distance)
 
 
-def near_edges(meshes: Sequence[TriangleMesh], camera: Camera) -> np.ndarray:
+def near_edges(meshes: Sequence[TriangleMesh], camera: Camera, pixels: np.ndarray | None = None) -> np.ndarray:
     """Bool (H, W): the pixel's float64 ray passes within :func:`band` of an edge of some
-    triangle (its closest approach to the edge segment, t >= 0)."""
+    triangle (its closest approach to the edge segment, t >= 0); only the ``pixels`` (bool
+    (H, W)) are tested when given, the others read False."""
     o, d = world_rays(camera)
+    keep = np.ones(len(o), bool) if pixels is None else np.asarray(pixels, bool).reshape(-1)
+    o, d = o[keep], d[keep]
     dlen = np.linalg.norm(d, axis=1)
     u = d / dlen[:, None]
     out = np.zeros(len(o), bool)
@@ -131,4 +134,6 @@ def near_edges(meshes: Sequence[TriangleMesh], camera: Camera) -> np.ndarray:
             tq = np.maximum(np.einsum("rk,rek->re", u[sl], q - o[sl, None, :]), 0.0)
             gap = np.linalg.norm(o[sl, None, :] + tq[..., None] * u[sl, None, :] - q, axis=2)
             out[sl] |= (gap <= band(mesh, camera, tq)).any(axis=1)
-    return out.reshape(camera.height, camera.width)
+    full = np.zeros(keep.shape, bool)
+    full[keep] = out
+    return full.reshape(camera.height, camera.width)
