@@ -361,7 +361,9 @@ outputs (by OUTPUT's extension):
   .exr  the G-buffer (oclshade/gbuffer.py), float32 channels:
         position.x/y/z/w (view space, w = 1 hit), normal.x/y/z, uv.u/v,
         uv_grad.dudc/dvdc/dudr/dvdr, Z (linear depth, +inf where empty), R/G/B/A (albedo)
-  --gbuffer FILE.exr writes the G-buffer as well when OUTPUT is a PNG.
+  --gbuffer FILE.exr writes the G-buffer as well when OUTPUT is a PNG; for a scene file
+        with mirror or glossy objects it adds reflection.x/y/z: the view-space reflection
+        direction R = U - 2 (N.U) N on those objects' pixels, 0 elsewhere.
 
 camera: automatic by default (the map from --view AZ,EL, default 200,30: from the
   south-south-west, 30 degrees down; it fills the frame, up to --crop of the map left

@@ -21,6 +21,9 @@ FILE_KEYS = {"size": "[camera] size", "camera": "[camera] position / look_at", "
              "z_factor": "[terrain] z_factor", "cellsize": "[terrain] cellsize", "nodata": "[terrain] nodata"}
 #: the options that apply to a scene file as to a DEM
 SCENE_OPTIONS = {"input", "output", "gbuffer", "device", "quiet", "command"}
+#: the G-buffer channels a scene with reflective objects (mirror, glossy) adds after the
+#: standard ones: the view-space reflection direction R = U - 2 (N.U) N, 0 where no reflection
+REFLECTION_NAMES = ["reflection.x", "reflection.y", "reflection.z"]
 
 
 def is_scene(path: str) -> bool:
@@ -32,6 +35,24 @@ def _render_defaults() -> dict[str, object]:
     parser = build_parser()
     sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction)).choices["render"]
     return {a.dest: a.default for a in sub._actions if a.dest != "help"}
+
+
+def reflection_bands(gbuf, ids: np.ndarray, reflective: list[bool], camera) -> list[np.ndarray]:
+    """The channels :data:`REFLECTION_NAMES`: R = U - 2 (N.U) N in view space (U the unit
+    vector from the eye to the pixel's point, (0, 0, -1) for an orthographic camera; N the
+    G-buffer normal) on the pixels of objects whose material reflects (``reflective[k]`` for
+    object id k + 1), 0 elsewhere (terrain, empty, diffuse objects).  Float64, then float32."""
+    on = np.array([False, *reflective])[ids]
+    p = gbuf.position[..., :3].astype(np.float64)
+    n = gbuf.normal[..., :3].astype(np.float64)
+    if camera.projection == "orthographic":
+        u = np.broadcast_to(np.array([0.0, 0.0, -1.0]), p.shape)
+    else:
+        length = np.linalg.norm(p, axis=-1, keepdims=True)
+        u = np.divide(p, length, out=np.zeros_like(p), where=length > 0.0)
+    r = u - 2.0 * np.sum(n * u, axis=-1, keepdims=True) * n
+    r[~on] = 0.0
+    return [r[..., k].astype(np.float32) for k in range(3)]
 
 
 def run(args: argparse.Namespace) -> int:
@@ -56,18 +77,24 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(f"[render] ssaa = {desc.render.ssaa} makes the PNG only: the G-buffer has one sample per "
                          "pixel (set ssaa = 1, or leave out --gbuffer)")
     width, height = desc.camera.size
+    reflective = [q.material.kind != "diffuse" for q in desc.quadrics]
+    names = GBUFFER_NAMES + (REFLECTION_NAMES if any(reflective) else [])
     with contextlib.ExitStack() as stack:
         image = stack.enter_context(RasterWriter(args.output, (3, height, width), np.uint8))
         gbuffer = None if args.gbuffer is None else stack.enter_context(
-            RasterWriter(args.gbuffer, (len(GBUFFER_NAMES), height, width), np.float32, band_names=GBUFFER_NAMES))
+            RasterWriter(args.gbuffer, (len(names), height, width), np.float32, band_names=names))
         try:
-            frame, scene, _ = render_scene(desc, args.device)
+            frame, scene, camera = render_scene(desc, args.device)
         except OSError as exc:
             raise CliError(str(exc)) from None
         for c in range(3):
             image.write(frame.image[..., c])
         if gbuffer is not None:
-            for band in gbuffer_bands(frame.gbuffer.to_host())[0]:
+            host = frame.gbuffer.to_host()
+            bands = gbuffer_bands(host)[0]
+            if any(reflective):
+                bands += reflection_bands(host, scene.ids.to_host(scene.runtime), reflective, camera)
+            for band in bands:
                 gbuffer.write(band)
             gbuffer.finish()
         image.finish()
