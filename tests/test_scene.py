@@ -85,7 +85,7 @@ def test_load_scene_reads_every_section(scene_dir):
 
 @pytest.mark.parametrize("text, message", [
     ("[terrain]\ndem = 'd.npy'\ncolor = 1\n", "[terrain]: unknown key 'color'"),
-    ("[terrain]\ndem = 'd.npy'\n[[mesh]]\nfile = 'x.obj'\n", "[[mesh]] arrives with issue 20"),
+    ("[terrain]\ndem = 'd.npy'\n[[mesh]]\nfile = 'x.obj'\n", "[[mesh]] 1 file: mesh file"),
     ("[camera]\nfov = 30\n", "a [terrain] section with dem"),
     ("[terrain]\ndem = 'd.npy'\n[sun]\nelevation = 95\n", "elevation must be in [-90, 90]"),
     ("[terrain]\ndem = 'd.npy'\n[camera]\nposition = [0, 0, 1]\n", "position and look_at go together"),

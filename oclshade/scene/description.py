@@ -49,7 +49,17 @@ error that names it, so a typo never passes silently)::
     material = "mirror"          # diffuse (default), mirror, glossy
     colour = [0.9, 0.9, 0.9]     # linear RGB; roughness, fresnel: see Material
 
-Meshes (issue 20) can join as ``[[mesh]]`` tables with the same material keys.
+    [[mesh]]                     # triangle meshes (issue 20; oclshade.meshes, docs/meshes.md)
+    file = "bunny.obj"           # OBJ, PLY, or another format trimesh reads
+    up = "z"                     # the file's up axis: "z" or "y" (turned to z-up)
+    translate = [x, y, z]        # placed: scaled, turned rotate_z degrees counter-clockwise
+    scale = 1.0                  #   (seen from above), then moved by translate
+    rotate_z = 0.0
+    cast_shadows = true
+    colour = [0.8, 0.8, 0.8]     # linear RGB albedo (times the texture's where there is one)
+    texture = "bark.png"         # optional; needs uvs in the file; alpha < alpha_cutoff: cut out
+    alpha_cutoff = 0.5
+    normal_map = "bark_n.png"    # optional tangent-space normal map; needs uvs
 """
 from __future__ import annotations
 
@@ -66,10 +76,12 @@ else:                                   # pragma: no cover - Python 3.10
     import tomli as tomllib
 
 from ..envmap.materials import Material
+from ..meshes.load import UPS, load_mesh, load_normal_map, load_texture
+from ..meshes.mesh import MeshSurface, TriangleMesh
 from ..quadrics.objects import Quadric
 from ..sun import DEFAULT_AZIMUTH, DEFAULT_ELEVATION, Sun
 
-SECTIONS = ("terrain", "camera", "sun", "render", "environment", "quadric")
+SECTIONS = ("terrain", "camera", "sun", "render", "environment", "quadric", "mesh")
 MATERIAL_KEYS = ("material", "colour", "roughness", "fresnel")
 _KEYS = {
     "terrain": ("dem", "cellsize", "z_factor", "nodata", "radius"),
@@ -78,6 +90,8 @@ _KEYS = {
     "render": ("ssaa", "shadows", "ao"),
     "environment": ("file", "layout", "size", "rotation", "intensity", "background", "generate"),
     "quadric": ("kind", "centre", "radius", "radii", "height", "axis") + MATERIAL_KEYS,
+    "mesh": ("file", "up", "translate", "scale", "rotate_z", "cast_shadows", "colour", "texture", "alpha_cutoff",
+             "normal_map"),
 }
 #: which size keys each quadric kind takes
 _SHAPE_KEYS = {"sphere": ("radius",), "ellipsoid": ("radii",), "cylinder": ("radius", "height"),
@@ -135,6 +149,7 @@ class SceneDescription:
     render: RenderSpec = RenderSpec()
     environment: EnvironmentSpec | None = None
     quadrics: tuple[Quadric, ...] = field(default_factory=tuple)
+    meshes: tuple[TriangleMesh, ...] = field(default_factory=tuple)
 
 
 class _Reader:
@@ -212,21 +227,24 @@ def load_scene(path: str | os.PathLike) -> SceneDescription:
         raise SceneError(f"{path}: not valid TOML: {exc}") from None
     for key in doc:
         if key not in SECTIONS:
-            raise SceneError(f"{path}: unknown section [{key}]; expected {', '.join(SECTIONS)}"
-                             + (" ([[mesh]] arrives with issue 20)" if key == "mesh" else ""))
+            raise SceneError(f"{path}: unknown section [{key}]; expected {', '.join(SECTIONS)}")
     if "terrain" not in doc:
         raise SceneError(f"{path}: a [terrain] section with dem = \"...\" is required")
-    sections = {name: _Reader(path, f"[{name}]", doc.get(name, {})) for name in SECTIONS if name != "quadric"}
+    sections = {name: _Reader(path, f"[{name}]", doc.get(name, {})) for name in SECTIONS
+                if name not in ("quadric", "mesh")}
     for name, reader in sections.items():
         reader.check_keys(_KEYS[name])
-    quadric_list = doc.get("quadric", [])
-    if not isinstance(quadric_list, list):
-        raise SceneError(f"{path}: quadrics are an array of tables: write [[quadric]]")
+    tables = {}
+    for name, plural in (("quadric", "quadrics"), ("mesh", "meshes")):
+        tables[name] = doc.get(name, [])
+        if not isinstance(tables[name], list):
+            raise SceneError(f"{path}: {plural} are an array of tables: write [[{name}]]")
     return SceneDescription(
         path=path, terrain=_terrain(sections["terrain"]), camera=_camera(sections["camera"]),
         sun=_sun(sections["sun"]), render=_render(sections["render"]),
         environment=_environment(sections["environment"]) if "environment" in doc else None,
-        quadrics=tuple(_quadric(_Reader(path, f"[[quadric]] {k + 1}", t)) for k, t in enumerate(quadric_list)))
+        quadrics=tuple(_quadric(_Reader(path, f"[[quadric]] {k + 1}", t)) for k, t in enumerate(tables["quadric"])),
+        meshes=tuple(_mesh(_Reader(path, f"[[mesh]] {k + 1}", t)) for k, t in enumerate(tables["mesh"])))
 
 
 def _terrain(r: _Reader) -> TerrainSpec:
@@ -309,5 +327,34 @@ def _quadric(r: _Reader) -> Quadric:
             return Quadric.ellipsoid(centre, r.numbers("radii", 3), axis, material)
         maker = Quadric.cylinder if kind == "cylinder" else Quadric.paraboloid
         return maker(centre, r.number("radius", positive=True), r.number("height", positive=True), axis, material)
+    except ValueError as exc:
+        raise r.error(str(exc)) from None
+
+
+def _mesh(r: _Reader) -> TriangleMesh:
+    r.check_keys(_KEYS["mesh"])
+    file = r.file("file")
+    up = r.text("up", "z")
+    if up not in UPS:
+        raise r.error(f"must be one of {', '.join(repr(u) for u in UPS)}, got {up!r}", "up")
+    images = {}
+    for key, loader in (("texture", load_texture), ("normal_map", load_normal_map)):
+        if key in r.table:
+            where = r.file(key)
+            try:
+                images[key] = loader(where)
+            except (OSError, ValueError) as exc:
+                raise r.error(str(exc), key) from None
+    try:
+        surface = MeshSurface(r.numbers("colour", 3, (0.8, 0.8, 0.8)), images.get("texture"), images.get("normal_map"),
+                              r.number("alpha_cutoff", 0.5))
+        mesh = load_mesh(file, up, cast_shadows=r.boolean("cast_shadows", True), surface=surface)
+    except FileNotFoundError as exc:
+        raise r.error(str(exc), "file") from None
+    except ValueError as exc:
+        raise r.error(str(exc)) from None
+    try:
+        return mesh.placed(r.numbers("translate", 3, (0.0, 0.0, 0.0)), r.number("scale", 1.0, positive=True),
+                           r.number("rotate_z", 0.0))
     except ValueError as exc:
         raise r.error(str(exc)) from None

@@ -1,16 +1,21 @@
-"""Frames of a terrain with quadrics and an environment map: :class:`ObjectScene`.
+"""Frames of a terrain with quadrics, triangle meshes and an environment map: :class:`ObjectScene`.
 
->>> scene = ObjectScene(Heightfield(hm), quadrics, environment=Environment(cube, rotation=0.0))
+>>> scene = ObjectScene(Heightfield(hm), quadrics, environment=Environment(cube, rotation=0.0),
+...                     meshes=[load_mesh("bunny.obj").placed((500, -800, 240), 40.0)])
 >>> frame = scene.frame(camera, sun, FrameSettings())     # TerrainScene's passes, plus:
 
 =========  =================================================================================
-pass       what the objects add (kernels/quadric.cl, kernels/reflect.cl)
+pass       what the objects add (kernels/quadric.cl, mesh.cl, reflect.cl)
 =========  =================================================================================
 generate   with ``Environment(generate=...)``: a cube map from each reflective object's
            centre (:mod:`oclshade.scene.generate`), on the first frame or every N frames
-gbuffer    the quadrics cast and depth-merged into the terrain's G-buffer (object ids kept)
+           (the maps show the terrain and the sky, not the meshes)
+gbuffer    the quadrics, then the meshes, cast and depth-merged into the terrain's G-buffer
+           (object ids kept: quadric k + 1, mesh -(k + 1))
 normals    the objects' own normals put into the smooth shading normals
-shadows    quadric shadows on everything, terrain and quadric shadows on the objects
+shadows    the terrain's exact shadows on mesh pixels (MeshCaster.shadow), then quadric
+           shadows on everything and terrain and quadric shadows on the quadrics (the meshes'
+           own shadows, shadow volumes: oclshade.meshes.shadow_volumes, are not wired yet)
 compose    compose reads the albedo weighted for reflection; the reflections are added after
 =========  =================================================================================
 
@@ -37,7 +42,9 @@ from ..envmap.reflect import Reflections
 from ..frames import AOSettings, Frame, FrameSettings, TerrainScene
 from ..heightmap import Heightmap
 from ..io import read_dem
+from ..meshes import MeshCaster, TriangleMesh
 from ..quadrics import ObjectIds, Quadric, QuadricCaster
+from ..quadrics.caster import object_normals
 from ..runtime import Runtime
 from ..sun import Sun, SunLike
 from ..terrain import Heightfield
@@ -71,17 +78,22 @@ class Environment:
 
 
 class ObjectScene(TerrainScene):
-    """A heightfield with quadrics standing on it, and optionally an environment they reflect."""
+    """A heightfield with quadrics and triangle meshes standing on it, and optionally an
+    environment the quadrics reflect."""
 
     def __init__(self, heightfield: Heightfield, quadrics: Sequence[Quadric] = (),
                  environment: Environment | None = None, device: str | int | Runtime | None = None,
-                 caching: bool = True, uber: bool = False):
-        """``uber``: reflection programs with every feature compiled in (benchmarks only)."""
+                 caching: bool = True, uber: bool = False, meshes: Sequence[TriangleMesh] = ()):
+        """``uber``: reflection programs with every feature compiled in (benchmarks only);
+        ``meshes``: :class:`oclshade.meshes.TriangleMesh` objects in world coordinates."""
         super().__init__(heightfield, device, caching)
-        self.quadrics = list(quadrics)
+        self.quadrics, self.meshes = list(quadrics), list(meshes)
         self.environment, self.uber = environment, uber
         self.caster = (QuadricCaster(self.quadrics, heightfield.heightmap, self.runtime,
                                      heights=self.renderer.pyramid.heights) if self.quadrics else None)
+        self.mesh_caster = (MeshCaster(self.meshes, heightfield.heightmap, self.runtime,
+                                       heights=self.renderer.pyramid.heights) if self.meshes else None)
+        self._mesh_objects = None               # the meshes' own G-buffer, reused frame to frame
         self.reflections: Reflections | None = None
         self._file_map = None if environment is None or environment.cube is None else \
             environment.cube.to_device(self.runtime)
@@ -146,16 +158,21 @@ class ObjectScene(TerrainScene):
             return self._compose(camera, settings, lighting)
         out = super()._run(name, camera, sun, settings, lighting)
         gbuf = out if name == "gbuffer" else self._out["gbuffer"]
-        if self.caster is not None:
-            if name == "gbuffer":
+        if name == "gbuffer":
+            ids = self._clear_ids(gbuf.shape)
+            if self.caster is not None:
                 self._objects = self.caster.cast(camera, self._objects)
-                self.ids = self.caster.merge(self._objects, gbuf, self._clear_ids(gbuf.shape))
-            elif name == "normals":
-                self.caster.object_normals(gbuf, self.ids, out)
-            elif name == "shadows":
+                self.caster.merge(self._objects, gbuf, ids)
+            if self.mesh_caster is not None:
+                self._mesh_objects = self.mesh_caster.cast(camera, self._mesh_objects)
+                self.mesh_caster.merge(self._mesh_objects, gbuf, ids)
+        elif name == "normals" and (self.caster is not None or self.mesh_caster is not None):
+            object_normals(self.runtime, gbuf, self.ids, out)
+        elif name == "shadows":
+            if self.mesh_caster is not None:
+                self.mesh_caster.shadow(camera, gbuf, self.ids, sun, out, *settings.shadow_k)
+            if self.caster is not None:
                 self.caster.shadow(camera, gbuf, self.ids, sun, out, *settings.shadow_k)
-        elif name == "gbuffer":
-            self._clear_ids(gbuf.shape)
         return out
 
     def _clear_ids(self, shape: tuple[int, int]) -> ObjectIds:
@@ -175,7 +192,7 @@ class ObjectScene(TerrainScene):
 
 
 def scene_camera(desc: SceneDescription, heightmap: Heightmap) -> Camera:
-    """The description's camera; near and far enclose the map and every quadric."""
+    """The description's camera; near and far enclose the map, every quadric and every mesh."""
     spec = desc.camera
     width, height = spec.size
     if spec.position is None:
@@ -188,6 +205,8 @@ def scene_camera(desc: SceneDescription, heightmap: Heightmap) -> Camera:
     for q in desc.quadrics:
         centre, radius = q.bound
         reach = max(reach, float(np.linalg.norm(centre - camera.position)) + radius)
+    for m in desc.meshes:
+        reach = max(reach, float(np.linalg.norm(m.vertices - camera.position, axis=1).max()))
     far = max(camera.far, 1.02 * reach) if spec.position is None else 1.02 * reach
     near = camera.near if spec.position is None else 1e-4 * far
     return replace(camera, near=min(near, 0.5 * far), far=far)
@@ -211,7 +230,8 @@ def render_scene(desc: SceneDescription, device: str | int | Runtime | None = No
         cube = None if e.file is None else load_cube(e.file, e.layout, e.size, device)
         environment = Environment(cube, e.rotation, e.intensity, e.background, e.generate,
                                   e.size if cube is None and e.size is not None else 128)
-    scene = ObjectScene(Heightfield(heightmap, desc.terrain.radius), desc.quadrics, environment, device, uber=uber)
+    scene = ObjectScene(Heightfield(heightmap, desc.terrain.radius), desc.quadrics, environment, device, uber=uber,
+                        meshes=desc.meshes)
     camera = scene_camera(desc, heightmap)
     r = desc.render
     shown = environment is not None and environment.cube is not None and environment.background
