@@ -31,7 +31,9 @@
  * ABI
  *   Per mesh k (nm of them), host-filled:
  *     __global const float4 *mf  3 float4: camera position relative to the mesh origin (xyz);
- *                                colour (linear rgb, w = alpha cutoff); reserved (0)
+ *                                colour (linear rgb, w = alpha cutoff); screen rectangle
+ *                                (x0, y0, x1, y1) as whole numbers: only pixels x0 <= x < x1,
+ *                                y0 <= y < y1 may see the mesh (conservative; mesh_cast only)
  *     __global const int4 *mi    3 int4: (root node, flags, 0, 0) flags bit 0 texture, bit 1
  *                                normal map, bit 2 casts shadows; texture (first texel, w, h,
  *                                0); normal map (first texel, w, h, 0)
@@ -68,7 +70,8 @@
  *                           t_lo = 64 FLT_EPSILON (|p_view| + |camera - origin|): the
  *                           float32 rounding of the surface point, no self-hits; else 0.
  *     global size >= n (1-D).
- *   -D OCLS_ORTHO: orthographic camera.  Build with -cl-std=CL1.2, no fast-math.
+ *   -D OCLS_ORTHO: orthographic camera.  -D OCLS_OWN_BUILTINS: common.h's inline fmin, fmax,
+ *   fabs (the same results; faster on PyPI PoCL 3.0).  Build with -cl-std=CL1.2, no fast-math.
  */
 #include "common.h"
 #include "terrain_ray.h"
@@ -97,8 +100,8 @@ OCLS_INLINE Ray make_ray(float3 o, float3 d)
     /* a zero component gets a huge finite inverse: (lo - o) * inv stays a number (no 0 * inf) */
     r.inv = (float3)(1.0f / (d.x != 0.0f ? d.x : 1e-30f), 1.0f / (d.y != 0.0f ? d.y : 1e-30f),
                      1.0f / (d.z != 0.0f ? d.z : 1e-30f));
-    const float3 a = fabs(d);
-    r.kz = a.x > a.y ? (a.x > a.z ? 0 : 2) : (a.y > a.z ? 1 : 2);
+    const float ax = fabs(d.x), ay = fabs(d.y), az = fabs(d.z);
+    r.kz = ax > ay ? (ax > az ? 0 : 2) : (ay > az ? 1 : 2);
     r.kx = r.kz == 2 ? 0 : r.kz + 1;
     r.ky = r.kx == 2 ? 0 : r.kx + 1;
     if (axis_of(d, r.kz) < 0.0f) { const int s = r.kx; r.kx = r.ky; r.ky = s; }
@@ -113,9 +116,8 @@ OCLS_INLINE Ray make_ray(float3 o, float3 d)
 OCLS_INLINE float box_entry(__global const float4 *box, int j, const Ray *r, float t_lo, float t_hi)
 {
     const float3 t0 = (box[2 * j].xyz - r->o) * r->inv, t1 = (box[2 * j + 1].xyz - r->o) * r->inv;
-    const float3 a = fmin(t0, t1), b = fmax(t0, t1);
-    const float tmin = fmax(fmax(a.x, a.y), fmax(a.z, t_lo));
-    const float tmax = fmin(fmin(b.x, b.y), b.z) * OCLS_SLAB_GROW;
+    const float tmin = fmax(fmax(fmin(t0.x, t1.x), fmin(t0.y, t1.y)), fmax(fmin(t0.z, t1.z), t_lo));
+    const float tmax = fmin(fmin(fmax(t0.x, t1.x), fmax(t0.y, t1.y)), fmax(t0.z, t1.z)) * OCLS_SLAB_GROW;
     return tmin <= fmin(tmax, t_hi) ? tmin : INFINITY;
 }
 
@@ -225,6 +227,8 @@ __kernel void mesh_cast(const int nm, __global const float4 *mf, __global const 
     int hit = -1, mesh = -1;
     float3 bary = (float3)(0.0f);
     for (int k = 0; k < nm; ++k) {
+        const float4 rect = mf[3 * k + 2];
+        if ((float)x < rect.x || (float)x >= rect.z || (float)y < rect.y || (float)y >= rect.w) continue;
         const int4 m0 = mi[3 * k];
         const Ray r = make_ray(mf[3 * k].xyz + ow, dw);
         float3 b;

@@ -325,6 +325,15 @@ def test_shadow_rays_match_a_float64_shadow():
     assert not MeshCaster([square]).shadow_mask(camera, empty, sun).any()
 
 
+def test_own_builtins_change_nothing():
+    rng = np.random.default_rng(11)
+    meshes = [random_mesh(rng), random_mesh(rng)]
+    camera = look_at_mesh(meshes[0], rng)
+    a = MeshCaster(meshes, own_builtins=True).cast(camera)[0].to_host()
+    b = MeshCaster(meshes, own_builtins=False).cast(camera)[0].to_host()
+    assert a.hit.any() and all(np.array_equal(getattr(a, k), getattr(b, k)) for k in CHANNELS)
+
+
 def test_caster_arguments_are_checked():
     with pytest.raises(ValueError, match="TriangleMesh"):
         MeshCaster([])

@@ -25,7 +25,8 @@ import pyopencl as cl
 from ..camera import Camera
 from ..gbuffer import CHANNELS
 from ..heightmap import Heightmap
-from ..quadrics.caster import ObjectIds, launch_1d, merge_gbuffers, object_normals, terrain_shadow_args
+from ..quadrics.caster import (ObjectIds, launch_1d, merge_gbuffers, object_normals, screen_rect,
+                               terrain_shadow_args)
 from ..runtime import Runtime, get_runtime
 from ..sun import SunLike, as_sun
 from ..terrain import DeviceGBuffer
@@ -125,9 +126,12 @@ class MeshCaster:
     """Triangle meshes (and optionally the terrain they stand on, for shadows) on one device."""
 
     def __init__(self, meshes: Sequence[TriangleMesh], heightmap: Heightmap | None = None,
-                 device: str | int | Runtime | None = None, heights: cl.Buffer | None = None):
+                 device: str | int | Runtime | None = None, heights: cl.Buffer | None = None,
+                 own_builtins: bool = True):
         """``heights``: the terrain's relative float32 heights already on the device (the ray
-        caster's ``pyramid.heights``), else uploaded from ``heightmap`` when shadows need them."""
+        caster's ``pyramid.heights``), else uploaded from ``heightmap`` when shadows need them.
+        ``own_builtins``: kernels/common.h's inline fmin / fmax / fabs (OCLS_OWN_BUILTINS; the
+        same frames either way: PyPI PoCL 3.0 on a Zen 3 cast twice as fast with them)."""
         meshes = list(meshes)
         if not meshes or not all(isinstance(m, TriangleMesh) for m in meshes):
             raise ValueError("meshes must be one or more oclshade.meshes.TriangleMesh objects")
@@ -136,8 +140,10 @@ class MeshCaster:
         self.meshes, self.heightmap = meshes, heightmap
         self.runtime = rt = get_runtime(device)
         self._heights = heights
+        self._defines = {"OCLS_OWN_BUILTINS": bool(own_builtins)}
         t = _flatten(meshes)
         self.origins = t.origins
+        self.reach = [float(np.linalg.norm(m.vertices - o, axis=1).max()) for m, o in zip(meshes, t.origins)]
         self._mi = t.mi
         self._buffers = [rt.to_device(a, f"mesh {name}") for name, a in
                          (("BVH boxes", t.box), ("BVH nodes", t.info), ("triangles", t.tri),
@@ -153,11 +159,14 @@ class MeshCaster:
         return self._heights
 
     def table(self, camera: Camera) -> np.ndarray:
-        """mf of kernels/mesh.cl: per mesh (camera - origin, colour + cutoff, 0), float32 (nm, 3, 4)."""
+        """mf of kernels/mesh.cl: per mesh (camera - origin, colour + cutoff, screen rectangle),
+        float32 (nm, 3, 4)."""
         mf = np.zeros((len(self.meshes), 3, 4), np.float32)
-        for k, (mesh, origin) in enumerate(zip(self.meshes, self.origins)):
+        rot = camera.rotation
+        for k, (mesh, origin, reach) in enumerate(zip(self.meshes, self.origins, self.reach)):
             mf[k, 0, :3] = camera.position - origin                  # float64 difference, rounded once
             mf[k, 1] = (*mesh.surface.colour, mesh.surface.alpha_cutoff)
+            mf[k, 2] = screen_rect(camera, rot @ (origin - camera.position), reach)
         return mf
 
     def _mf(self, camera: Camera) -> cl.Buffer:
@@ -177,7 +186,7 @@ class MeshCaster:
         gbuf, ids = out
         sx, sy = camera.scale
         rot = camera.rotation
-        kernel = rt.kernel("mesh.cl", "mesh_cast", {"OCLS_ORTHO": camera.projection == "orthographic"})
+        kernel = rt.kernel("mesh.cl", "mesh_cast", {**self._defines, "OCLS_ORTHO": camera.projection == "orthographic"})
         mf = self._mf(camera)              # held until enqueued (a released buffer is freed at once)
         kernel.set_args(np.int32(len(self.meshes)), mf, self._mi_buffer, *self._buffers,
                         np.array([sx, sy, camera.near, camera.far], np.float32),
@@ -203,7 +212,7 @@ class MeshCaster:
         kernels/terrain_ray.h, as for quadric pixels), else 1.  Run it after the terrain's
         shadow pass and before the quadrics' and the meshes' own shadows, which only darken."""
         n = gbuffer.shape[0] * gbuffer.shape[1]
-        kernel = self.runtime.kernel("mesh.cl", "mesh_terrain_shadow")
+        kernel = self.runtime.kernel("mesh.cl", "mesh_terrain_shadow", self._defines)
         kernel.set_args(np.int32(n), gbuffer.buffers["position"], ids.buffer,
                         *terrain_shadow_args(camera, self.heightmap, self.heights, sun, k_dark, k_bright),
                         coefficient)
@@ -217,7 +226,7 @@ class MeshCaster:
         rt = self.runtime
         n = gbuffer.shape[0] * gbuffer.shape[1]
         out = rt.empty(4 * n, "mesh shadow rays") if out is None else out
-        kernel = rt.kernel("mesh.cl", "mesh_shadow_rays")
+        kernel = rt.kernel("mesh.cl", "mesh_shadow_rays", self._defines)
         box, info, tri, tvtx, _, _, vuv, texel = self._buffers
         mf = self._mf(camera)
         kernel.set_args(np.int32(n), np.int32(len(self.meshes)), mf, self._mi_buffer, box, info, tri, tvtx, vuv,
