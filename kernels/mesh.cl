@@ -63,12 +63,15 @@
  *     kshadow if the terrain hides the sun from it (or sun.w != 0: the sun at or below the
  *     horizon), else 1; other pixels are left alone.  global size >= n (1-D).
  *   mesh_shadow_rays(n, nm, mf, mi, box, info, tri, tvtx, vuv, texel, position, vw0, vw1, vw2,
- *                    sun, hidden)
- *     float4 sun            world unit vector to the sun (xyz)
- *     __global int *hidden  1 where a hit pixel's ray toward the sun meets a triangle of a
- *                           mesh with flag bit 2 (alpha cut-outs honoured) past
- *                           t_lo = 64 FLT_EPSILON (|p_view| + |camera - origin|): the
- *                           float32 rounding of the surface point, no self-hits; else 0.
+ *                    light, hidden)
+ *     __global const float4 *light  per mesh: w = 0 a directional light, xyz the world unit
+ *                           vector to it (the sun); w = 1 a point light, xyz its position
+ *                           relative to the mesh origin (float64 difference rounded once)
+ *     __global int *hidden  1 where a hit pixel's ray toward the light meets a triangle of a
+ *                           mesh with flag bit 2 (alpha cut-outs honoured) further than
+ *                           64 FLT_EPSILON (|p_view| + |camera - origin|) metres (the float32
+ *                           rounding of the surface point: no self-hits) and, for a point
+ *                           light, before the light; else 0.
  *     global size >= n (1-D).
  *   -D OCLS_ORTHO: orthographic camera.  -D OCLS_OWN_BUILTINS: common.h's inline fmin, fmax,
  *   fabs (the same results; faster on PyPI PoCL 3.0).  Build with -cl-std=CL1.2, no fast-math.
@@ -289,8 +292,8 @@ __kernel void mesh_shadow_rays(const int n, const int nm, __global const float4 
                                __global const float4 *box, __global const int2 *info, __global const float4 *tri,
                                __global const int4 *tvtx, __global const float2 *vuv,
                                __global const float4 *texel, __global const float4 *position,
-                               const float4 vw0, const float4 vw1, const float4 vw2, const float4 sun,
-                               __global int *hidden)
+                               const float4 vw0, const float4 vw1, const float4 vw2,
+                               __global const float4 *light, __global int *hidden)
 {
     const int i = get_global_id(0);
     if (i >= n) return;
@@ -301,13 +304,17 @@ __kernel void mesh_shadow_rays(const int n, const int nm, __global const float4 
         for (int k = 0; k < nm && !blocked; ++k) {
             const int4 m0 = mi[3 * k];
             if (!(m0.y & OCLS_CASTS)) continue;
-            const float3 c = mf[3 * k].xyz;
-            const Ray r = make_ray(c + pw, sun.xyz);
-            const float t_lo = 64.0f * FLT_EPSILON * (length(pv.xyz) + length(c));
+            const float3 c = mf[3 * k].xyz, p = c + pw;
+            const float4 l = light[k];
+            const float3 dir = l.w == 0.0f ? l.xyz : l.xyz - p;
+            const float reach = sqrt(dot(dir, dir));
+            if (!(reach > 0.0f)) continue;
+            const Ray r = make_ray(p, dir);
+            const float t_lo = 64.0f * FLT_EPSILON * (length(pv.xyz) + length(c)) / reach;
             float t;
             float3 b;
             blocked = trace(box, info, tri, tvtx, vuv, texel, m0.x, m0.y & OCLS_TEXTURE, mi[3 * k + 1],
-                            mf[3 * k + 1].w, &r, t_lo, INFINITY, 1, &t, &b) >= 0;
+                            mf[3 * k + 1].w, &r, t_lo, l.w == 0.0f ? INFINITY : 1.0f, 1, &t, &b) >= 0;
         }
     }
     hidden[i] = blocked;

@@ -76,14 +76,17 @@ def random_mesh(rng: np.random.Generator) -> TriangleMesh:
 
 
 def look_at_mesh(mesh: TriangleMesh, rng: np.random.Generator, size=(40, 30)) -> Camera:
+    """A perspective (70 %) or orthographic camera looking at the mesh from outside its bound."""
     lo, hi = mesh.bounds
     centre, radius = 0.5 * (lo + hi), 0.5 * float(np.linalg.norm(hi - lo))
     direction = rng.normal(size=3)
     direction /= np.linalg.norm(direction)
     distance = radius * rng.uniform(1.5, 6)
     target = centre + rng.normal(size=3) * 0.2 * radius
+    ortho = rng.random() < 0.3
     return Camera(centre + distance * direction, target, *size, fov=float(rng.uniform(20, 70)),
-                  near=0.01 * radius, far=distance + 4 * radius)
+                  near=0.01 * radius, far=distance + 4 * radius, projection="orthographic" if ortho else "perspective",
+                  ortho_height=float(rng.uniform(0.5, 3)) * radius)
 
 
 def compare(meshes, camera, gbuf) -> dict:
@@ -318,6 +321,16 @@ def test_shadow_rays_match_a_float64_shadow():
     inside = np.abs(hit).max(axis=1)
     sure = np.abs(inside - 2.0) > 1e-4
     assert np.array_equal(hidden[sure], inside[sure] < 2.0) and hidden.any()
+    # a point light L 10 m above the square (z = 13): the ray from a ground point w crosses
+    # the square's plane z = 3 at w + 3/13 (L - w)
+    light = type("Point", (), {"position": np.array([0.5, -0.3, 13.0])})()
+    hidden = MeshCaster([square]).shadow_mask(camera, gbuf, light)[0]
+    foot = (world[:, :2] - light.position[:2]) * (10.0 / 13.0) + light.position[:2]   # where it crosses z = 3
+    inside = np.abs(foot).max(axis=1)
+    sure = np.abs(inside - 2.0) > 1e-4
+    assert np.array_equal(hidden[sure], inside[sure] < 2.0) and hidden.any() and not hidden.all()
+    # the light below the square: nothing in the way
+    assert not MeshCaster([square]).shadow_mask(camera, gbuf, type("P", (), {"position": (0, 0, 2.0)})()).any()
     passive = TriangleMesh(square.vertices, square.faces, cast_shadows=False)
     assert not MeshCaster([passive]).shadow_mask(camera, gbuf, sun).any()
     empty, _, _ = fake_gbuffer(view, np.zeros(400))

@@ -6,7 +6,7 @@ any-hit shadow rays.
 >>> objects = caster.cast(camera)                    # DeviceGBuffer + object ids of the meshes
 >>> ids = caster.merge(objects, terrain_gbuffer)     # terrain_gbuffer now shows the nearest hit
 >>> caster.shadow(camera, terrain_gbuffer, ids, sun, coefficient)   # the terrain on mesh pixels
->>> hidden = caster.shadow_rays(camera, terrain_gbuffer, sun)       # int32 per pixel, 1 = a mesh hides the sun
+>>> hidden = caster.shadow_rays(camera, terrain_gbuffer, sun)       # int32 per pixel, 1 = a mesh hides the light
 
 Object ids: mesh k's pixels get -(k + 1) (quadrics keep k + 1, the terrain 0), so quadric
 reflections (ids > 0) never see mesh pixels.  G-buffer fields on mesh pixels: uv is the
@@ -218,26 +218,41 @@ class MeshCaster:
                         coefficient)
         launch_1d(self.runtime, kernel, n)
 
-    def shadow_rays(self, camera: Camera, gbuffer: DeviceGBuffer, sun: SunLike,
+    def shadow_rays(self, camera: Camera, gbuffer: DeviceGBuffer, light: object,
                     out: cl.Buffer | None = None) -> cl.Buffer:
-        """Any-hit rays through the BVHs from each hit pixel's surface point toward the sun:
+        """Any-hit rays through the BVHs from each hit pixel's surface point toward the light:
         int32 per pixel on the device, 1 where a triangle of a mesh with ``cast_shadows``
-        hides the sun (alpha cut-outs honoured), 0 lit or empty (kernels/mesh.cl)."""
+        hides it (alpha cut-outs honoured), 0 lit or empty (kernels/mesh.cl).  ``light``: a
+        sun (:class:`oclshade.sun.Sun` or (azimuth, elevation)) or a point light (an object
+        with a float64 world ``position``, as :class:`oclshade.meshes.lights.PointLight`)."""
         rt = self.runtime
         n = gbuffer.shape[0] * gbuffer.shape[1]
         out = rt.empty(4 * n, "mesh shadow rays") if out is None else out
         kernel = rt.kernel("mesh.cl", "mesh_shadow_rays", self._defines)
         box, info, tri, tvtx, _, _, vuv, texel = self._buffers
         mf = self._mf(camera)
+        lights = rt.to_device(self.light_table(light), "mesh light table")
         kernel.set_args(np.int32(n), np.int32(len(self.meshes)), mf, self._mi_buffer, box, info, tri, tvtx, vuv,
-                        texel, gbuffer.buffers["position"], *_rows(camera.rotation.T),
-                        np.array([*as_sun(sun).vector(), 0.0], np.float32), out)
+                        texel, gbuffer.buffers["position"], *_rows(camera.rotation.T), lights, out)
         launch_1d(rt, kernel, n)
         return out
 
-    def shadow_mask(self, camera: Camera, gbuffer: DeviceGBuffer, sun: SunLike) -> np.ndarray:
-        """:meth:`shadow_rays` on the host: bool (height, width), True where a mesh hides the sun."""
+    def light_table(self, light: object) -> np.ndarray:
+        """The light argument of mesh_shadow_rays, float32 (nm, 4): (sun vector, 0) or (point
+        light position - mesh origin, 1) per mesh."""
+        position = getattr(light, "position", None)
+        if position is None:
+            return np.tile(np.array([*as_sun(light).vector(), 0.0], np.float32), (len(self.meshes), 1))
+        p = np.asarray(position, np.float64).reshape(-1)
+        if p.shape != (3,) or not np.all(np.isfinite(p)):
+            raise ValueError(f"a point light's position must be 3 finite numbers, got {position!r}")
+        table = np.ones((len(self.meshes), 4))
+        table[:, :3] = p - self.origins                             # float64 difference, rounded once
+        return table.astype(np.float32)
+
+    def shadow_mask(self, camera: Camera, gbuffer: DeviceGBuffer, light: object) -> np.ndarray:
+        """:meth:`shadow_rays` on the host: bool (height, width), True where a mesh hides the light."""
         hidden = np.empty(gbuffer.shape, np.int32)
-        cl.enqueue_copy(self.runtime.queue, hidden, self.shadow_rays(camera, gbuffer, sun))
+        cl.enqueue_copy(self.runtime.queue, hidden, self.shadow_rays(camera, gbuffer, light))
         self.runtime.queue.finish()
         return hidden > 0
