@@ -2,13 +2,15 @@
 (vectorised numpy; fine for small meshes and frames), and the float32 band around triangle
 edges inside which the device may differ.
 
->>> ref = cast_meshes(meshes, camera)         # hit, depth, normal (view), mesh, face, cos
+>>> ref = cast_meshes(meshes, camera)         # hit, depth, normal (view), uv, mesh, face, cos
 >>> near = near_edges(meshes, camera)          # rays within the float32 band of an edge
 
 Rays are the kernel's (pixel centres, ``t`` = depth), from the camera position in float64.
 The intersection is Moller-Trumbore in float64, two-sided; the nearest hit in [near, far]
 wins.  Normals: the per-vertex normals interpolated by the barycentrics, turned to face the
-viewer when the triangle is seen from its back (as the kernel; no textures here).
+viewer when the triangle is seen from its back (as the kernel); uvs interpolated the same
+way; alpha cut-outs by the nearest texel as the kernel (normal maps and colours are not
+twinned: tests/test_mesh_gbuffer.py checks them in closed form).
 
 The band (docs/meshes.md "Precision").  The device's ray misses the float64 one by at most
 the float32 rounding of (a) the vertices relative to the mesh origin, u |v - origin|,
@@ -45,13 +47,26 @@ def _chunks(n_rays: int, n_tris: int, budget: int = 1 << 21):
         yield slice(a, min(a + step, n_rays))
 
 
+def texel(image: np.ndarray, uv: np.ndarray) -> np.ndarray:
+    """The nearest texel of each uv (..., 2), wrapping: column floor(frac(u) w), row
+    floor((1 - frac(v)) h), both clamped to the image (kernels/mesh.cl texel_at)."""
+    h, w = image.shape[:2]
+    fu, fv = uv[..., 0] - np.floor(uv[..., 0]), uv[..., 1] - np.floor(uv[..., 1])
+    col = np.clip(np.floor(fu * w).astype(np.int64), 0, w - 1)
+    row = np.clip(np.floor((1.0 - fv) * h).astype(np.int64), 0, h - 1)
+    return image[row, col]
+
+
 def cast_meshes(meshes: Sequence[TriangleMesh], camera: Camera) -> dict[str, np.ndarray]:
-    """Per pixel (H, W): hit (bool), depth (+inf empty), normal (view, (H, W, 3)), mesh (index,
-    -1 none), face (index, -1 none), cos (|cos| of the angle between the ray and the face)."""
+    """Per pixel (H, W): hit (bool), depth (+inf empty), normal (view, (H, W, 3)), uv (the
+    mesh's, 0 without; (H, W, 2)), mesh (index, -1 none), face (index, -1 none), cos (|cos|
+    of the angle between the ray and the face).  Alpha cut-outs as the kernel: a hit whose
+    nearest texel's alpha is below the surface's cutoff is no hit."""
     o, d = world_rays(camera)
     n = len(o)
     depth = np.full(n, np.inf)
     normal = np.zeros((n, 3))
+    uv_of = np.zeros((n, 2))
     mesh_of = np.full(n, -1)
     face_of = np.full(n, -1)
     cosine = np.zeros(n)
@@ -59,6 +74,8 @@ def cast_meshes(meshes: Sequence[TriangleMesh], camera: Camera) -> dict[str, np.
         p = mesh.vertices[mesh.faces]
         e1, e2 = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
         vn = mesh.vertex_normals[mesh.faces]
+        tuv = mesh.uvs[mesh.faces] if mesh.uvs is not None else np.zeros((len(p), 3, 2))
+        tex = mesh.surface.texture
         ng = np.cross(e1, e2)
         for sl in _chunks(n, len(p)):
             oo, dd = o[sl, None, :], d[sl, None, :]
@@ -72,6 +89,11 @@ def cast_meshes(meshes: Sequence[TriangleMesh], camera: Camera) -> dict[str, np.
             b2 = np.einsum("rtk,rtk->rt", dd, qv) * inv
             t = np.einsum("tk,rtk->rt", e2, qv) * inv
             ok &= (b1 >= 0) & (b2 >= 0) & (b1 + b2 <= 1) & (t >= camera.near) & (t <= camera.far)
+            if tex is not None:
+                r, c = np.nonzero(ok)
+                uv = (1 - b1[r, c] - b2[r, c])[:, None] * tuv[c, 0] + b1[r, c][:, None] * tuv[c, 1] \
+                    + b2[r, c][:, None] * tuv[c, 2]
+                ok[r, c] = texel(tex, uv)[:, 3] >= mesh.surface.alpha_cutoff
             t = np.where(ok, t, np.inf)
             j = np.argmin(t, axis=1)
             rows = np.arange(len(j))
@@ -89,11 +111,13 @@ def cast_meshes(meshes: Sequence[TriangleMesh], camera: Camera) -> dict[str, np.
             back = np.einsum("ij,ij->i", g, d[idx]) > 0
             nn[back] *= -1
             depth[idx], normal[idx], mesh_of[idx], face_of[idx] = tj[better], nn, k, jb
+            uv_of[idx] = (1 - w1 - w2)[:, None] * tuv[jb, 0] + w1[:, None] * tuv[jb, 1] + w2[:, None] * tuv[jb, 2]
             cosine[idx] = np.abs(np.einsum("ij,ij->i", g, d[idx])) / (
                 np.linalg.norm(g, axis=1) * np.linalg.norm(d[idx], axis=1))
     shape = (camera.height, camera.width)
     return {"hit": np.isfinite(depth).reshape(shape), "depth": depth.reshape(shape),
-            "normal": (normal @ camera.rotation.T).reshape(shape + (3,)), "mesh": mesh_of.reshape(shape),
+            "normal": (normal @ camera.rotation.T).reshape(shape + (3,)), "uv": uv_of.reshape(shape + (2,)),
+            "mesh": mesh_of.reshape(shape),
             "face": face_of.reshape(shape), "cos": cosine.reshape(shape)}
 
 
