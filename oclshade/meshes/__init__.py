@@ -4,6 +4,7 @@ from .bvh import BVH, build_bvh
 from .caster import MeshCaster
 from .load import load_mesh, load_normal_map, load_texture
 from .mesh import MeshSurface, TriangleMesh
+from .shadow_volumes import MeshShadows, PointLight  # noqa: F401  (shadow volumes, paper 003)
 
 __all__ = ["BVH", "MeshCaster", "MeshSurface", "TriangleMesh", "build_bvh", "load_mesh", "load_normal_map",
            "load_texture"]

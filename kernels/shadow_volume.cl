@@ -1,0 +1,175 @@
+/* shadow_volume.cl — mesh shadows by shadow volumes (paper 003), counted per pixel in compute.
+ * Host: oclshade/meshes/shadow_volumes.py (volumes, start count, tiles' prefix sums).
+ * Float64 twin: oclshade/reference/mesh_shadows.py (shadow rays against every triangle).
+ *
+ * Volumes.  One closed oriented triangle surface per light (paper 003 sections 3-4): light
+ * caps (the caster faces, kind 1), sides (the silhouette edges extruded away from the light,
+ * kind 0) and dark caps (the casters at the extrusion's end, reversed, kind 1).  Vertices are
+ * indexed and shared, in view space (camera-relative float32 offsets of the host's float64
+ * world positions: paper 003's "space distances" remedy), so neighbouring faces use the very
+ * same vertex values.
+ *
+ * Counting (Crow's count, paper 003 section 2).  Each hit pixel's view segment runs from its
+ * start o to its G-buffer point p; the count is w0 + the signed crossings of the volume faces
+ * (+1 entering: a face turned to the viewer, -1 leaving); p is in shadow iff the count != 0.
+ *   start o: perspective, the eye (0, 0, 0) with w0 = the eye's winding number, computed
+ *            exactly in float64 on the host (the "exact start count": the near caps' job);
+ *            orthographic, (p.x, p.y, zs) with zs above every volume vertex, w0 = 0.
+ *   caps   : crossed only where the segment is nearer than the near plane (depth < near);
+ *            beyond it the light caps are the casters themselves, opaque in the G-buffer, so
+ *            no segment crosses them before its end (z-pass as in the paper; a point on a
+ *            lit caster face is not shadowed by its own cap), and the dark caps lie beyond
+ *            every receiver (automatic extrusion length).
+ *   test   : watertight.  The line o + t d (d = p - o) meets triangle (A, B, C) iff its three
+ *            edge functions d . ((V_i - o) x (V_j - o)) have one sign.  Each edge's function is
+ *            evaluated with its vertices in index order (lower first) and negated for the
+ *            other winding, so two faces sharing an edge see exactly opposite values; an
+ *            exact 0 takes the sign of the first non-zero component of (V_i - o) x (V_j - o)
+ *            (simulation of simplicity: the line moved by (e, e^2, e^3)), so a line through an
+ *            edge or a vertex crosses exactly one of the faces around it.  All negative: the
+ *            face is turned to the viewer (+1).  The crossing counts if its parameter
+ *            t = (a . N) / (d . N) (a = A - o, N = (B - A) x (C - A)) lies in (0, t_end):
+ *            t_end = 1 for sides, the near plane's t for caps.
+ *
+ * Binning.  The frame is cut into T x T pixel tiles (TW x TH of them); each volume face goes to
+ * the tiles of its projected bounding rectangle (1 pixel of margin; the whole frame when a
+ * vertex is at or behind the eye plane of a pinhole camera); faces deeper than every hit
+ * (maxdepth) and caps deeper than near are dropped.  Two passes of sv_bin: count per tile,
+ * the host's prefix sums, fill.
+ *
+ * ABI
+ *   __global const float4 *verts  view-space vertex positions (xyz; w unused)
+ *   __global const int4 *tris     (a, b, c, kind) vertex indices, wound outwards; kind 0 side,
+ *                                 1 cap
+ *   float4 cam                    (sx, sy, near, maxdepth): pixel-ray slopes (pinhole) or half
+ *                                 extents (-D OCLS_ORTHO), the near plane, the largest depth
+ *                                 of a hit pixel
+ *   sv_bin(ntri, tris, verts, cam, IW, IH, T, TW, TH, fill, count, offset, list)
+ *     fill 0: count[t] += 1 for every tile t of each face (count zeroed by the host);
+ *     fill 1: list[offset[t] + k] = face, k = count[t]++ (count zeroed again; offset: the
+ *     exclusive prefix sums of the first pass).  global size >= ntri (1-D).
+ *   sv_count(verts, tris, offset, list, position, cam, zs, w0, IW, IH, T, TW, mask)
+ *     position   the G-buffer's view-space float4 (w = 1 hit); float zs the orthographic
+ *                start height; int w0 the eye's winding number (pinhole);
+ *     __global uchar *mask  out: 1 the light is hidden by a caster, 0 lit or empty
+ *     offset has TW*TH + 1 entries.  global size (>= IW, >= IH), any local size.
+ *   sv_apply(n, mask, kshadow, coef)
+ *     coef[i] = kshadow where mask[i] (a shadow-coefficient buffer, 1 = lit; paper 000
+ *     eq. (1)).  global size >= n (1-D).
+ *   -D OCLS_ORTHO: orthographic camera.  Build with -cl-std=CL1.2, no fast-math.
+ */
+#include "common.h"
+
+OCLS_INLINE float3 sv_cross(float3 u, float3 v)
+{
+    return (float3)(u.y * v.z - u.z * v.y, u.z * v.x - u.x * v.z, u.x * v.y - u.y * v.x);
+}
+
+OCLS_INLINE float sv_dot(float3 u, float3 v)
+{
+    return (u.x * v.x + u.y * v.y) + u.z * v.z;
+}
+
+/* sign (+1 / -1, never 0) of the edge function of edge i -> j for the line direction d */
+OCLS_INLINE int edge_sign(float3 d, int i, float3 u, int j, float3 v)
+{
+    const int flip = i > j;
+    const float3 n = flip ? sv_cross(v, u) : sv_cross(u, v);
+    const float f = sv_dot(d, n);
+    int s;
+    if (f != 0.0f) s = f > 0.0f ? 1 : -1;
+    else if (n.x != 0.0f) s = n.x > 0.0f ? 1 : -1;
+    else if (n.y != 0.0f) s = n.y > 0.0f ? 1 : -1;
+    else s = n.z < 0.0f ? -1 : 1;
+    return flip ? -s : s;
+}
+
+/* pixel column / row (continuous, pixel centres at integers) of a view-space point */
+OCLS_INLINE float2 sv_pixel(float3 v, float4 cam, int IW, int IH)
+{
+#ifdef OCLS_ORTHO
+    const float nx = v.x / cam.x, ny = v.y / cam.y;
+#else
+    const float depth = -v.z;
+    const float nx = v.x / (depth * cam.x), ny = v.y / (depth * cam.y);
+#endif
+    return (float2)(((nx + 1.0f) * (float)IW - 1.0f) * 0.5f, ((1.0f - ny) * (float)IH - 1.0f) * 0.5f);
+}
+
+/* tiles (x0, y0, x1, y1), inclusive, a face may be crossed in; x0 > x1 when none */
+OCLS_INLINE int4 face_tiles(float3 a, float3 b, float3 c, int cap, float4 cam, int IW, int IH, int T)
+{
+    const int4 none = (int4)(1, 0, 0, 0);
+    const float dmin = fmin(-a.z, fmin(-b.z, -c.z));
+    if (dmin > cam.w || (cap && dmin > cam.z)) return none;
+#ifndef OCLS_ORTHO
+    const float dmax = fmax(-a.z, fmax(-b.z, -c.z));
+    if (!(dmax > 0.0f)) return none;
+    if (!(dmin > 0.0f)) return (int4)(0, 0, (IW - 1) / T, (IH - 1) / T);
+#endif
+    const float2 pa = sv_pixel(a, cam, IW, IH), pb = sv_pixel(b, cam, IW, IH), pc = sv_pixel(c, cam, IW, IH);
+    const float lim = 4.0f * (float)max(IW, IH);
+    const float x0 = clamp(floor(fmin(pa.x, fmin(pb.x, pc.x))) - 1.0f, -lim, lim);
+    const float x1 = clamp(ceil(fmax(pa.x, fmax(pb.x, pc.x))) + 1.0f, -lim, lim);
+    const float y0 = clamp(floor(fmin(pa.y, fmin(pb.y, pc.y))) - 1.0f, -lim, lim);
+    const float y1 = clamp(ceil(fmax(pa.y, fmax(pb.y, pc.y))) + 1.0f, -lim, lim);
+    if (!(x1 >= 0.0f && y1 >= 0.0f && x0 <= (float)(IW - 1) && y0 <= (float)(IH - 1))) return none;
+    return (int4)(max((int)x0, 0) / T, max((int)y0, 0) / T, min((int)x1, IW - 1) / T, min((int)y1, IH - 1) / T);
+}
+
+__kernel void sv_bin(const int ntri, __global const int4 *tris, __global const float4 *verts, const float4 cam,
+                     const int IW, const int IH, const int T, const int TW, const int TH, const int fill,
+                     __global int *count, __global const int *offset, __global int *list)
+{
+    const int k = get_global_id(0);
+    if (k >= ntri) return;
+    const int4 f = tris[k];
+    const int4 r = face_tiles(verts[f.x].xyz, verts[f.y].xyz, verts[f.z].xyz, f.w, cam, IW, IH, T);
+    for (int ty = r.y; ty <= r.w; ++ty) {
+        for (int tx = r.x; tx <= r.z; ++tx) {
+            const int t = ty * TW + tx;
+            if (fill) list[offset[t] + atomic_inc(&count[t])] = k;
+            else atomic_inc(&count[t]);
+        }
+    }
+}
+
+__kernel void sv_count(__global const float4 *verts, __global const int4 *tris, __global const int *offset,
+                       __global const int *list, __global const float4 *position, const float4 cam,
+                       const float zs, const int w0, const int IW, const int IH, const int T, const int TW,
+                       __global uchar *mask)
+{
+    const int x = get_global_id(0), y = get_global_id(1);
+    if (x >= IW || y >= IH) return;
+    const int i = y * IW + x;
+    const float4 p = position[i];
+    if (!(p.w > 0.5f)) { mask[i] = 0; return; }
+#ifdef OCLS_ORTHO
+    const float3 o = (float3)(p.x, p.y, zs);
+    const float t_near = (zs + cam.z) / (zs - p.z);
+#else
+    const float3 o = (float3)(0.0f);
+    const float t_near = cam.z / -p.z;
+#endif
+    const float3 d = p.xyz - o;
+    const int t = (y / T) * TW + x / T;
+    int count = w0;
+    for (int k = offset[t]; k < offset[t + 1]; ++k) {
+        const int4 f = tris[list[k]];
+        const float3 a = verts[f.x].xyz - o, b = verts[f.y].xyz - o, c = verts[f.z].xyz - o;
+        const int s0 = edge_sign(d, f.x, a, f.y, b);
+        if (edge_sign(d, f.y, b, f.z, c) != s0 || edge_sign(d, f.z, c, f.x, a) != s0) continue;
+        const float3 nrm = sv_cross(b - a, c - a);
+        const float den = sv_dot(d, nrm), num = sv_dot(a, nrm);
+        const float t_end = f.w ? fmin(t_near, 1.0f) : 1.0f;
+        const int inside = den > 0.0f ? (num > 0.0f && num < t_end * den) : (num < 0.0f && num > t_end * den);
+        if (inside) count += s0 < 0 ? 1 : -1;
+    }
+    mask[i] = count != 0;
+}
+
+__kernel void sv_apply(const int n, __global const uchar *mask, const float kshadow, __global float *coef)
+{
+    const int i = get_global_id(0);
+    if (i < n && mask[i]) coef[i] = kshadow;
+}
