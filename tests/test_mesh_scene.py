@@ -11,7 +11,7 @@ from oclshade.camera import Camera
 from oclshade.cli import main
 from oclshade.frames import FrameSettings
 from oclshade.heightmap import Heightmap
-from oclshade.meshes import MeshCaster, TriangleMesh
+from oclshade.meshes import MeshCaster, MeshSurface, TriangleMesh
 from oclshade.quadrics import Quadric
 from oclshade.scene import ObjectScene, SceneError, load_scene, render_scene
 from oclshade.sun import Sun
@@ -45,10 +45,9 @@ f 4/1 5/3 8/4
 
 
 def cube(lo, size: float, cast_shadows: bool = False, colour=(0.8, 0.8, 0.8)) -> TriangleMesh:
-    from oclshade.meshes import MeshSurface
-    c = np.array([[x, y, z] for z in (0, 1) for y in (0, 1) for x in (0, 1)], float)
-    c = c[[0, 1, 3, 2, 4, 5, 7, 6]]                        # the OBJ's order
-    faces = np.array([[int(i) - 1 for i in line.split()[1:] for i in [i.split("/")[0]]]
+    """CUBE_OBJ's cube, scaled by size and moved to lo."""
+    c = np.array([[float(x) for x in line.split()[1:]] for line in CUBE_OBJ.splitlines() if line.startswith("v ")])
+    faces = np.array([[int(tok.split("/")[0]) - 1 for tok in line.split()[1:]]
                       for line in CUBE_OBJ.splitlines() if line.startswith("f ")])
     return TriangleMesh(np.asarray(lo, float) + size * c, faces, cast_shadows=cast_shadows,
                         surface=MeshSurface(colour))
