@@ -364,6 +364,11 @@ outputs (by OUTPUT's extension):
   --gbuffer FILE.exr writes the G-buffer as well when OUTPUT is a PNG; for a scene file
         with mirror or glossy objects it adds reflection.x/y/z: the view-space reflection
         direction R = U - 2 (N.U) N on those objects' pixels, 0 elsewhere.
+  shadow    (a .exr G-buffer of a frame with shadows) 1 where the light is hidden from
+        the pixel's point by any caster (terrain included), 0 lit, on hit pixels; 0 empty
+  header    view and projection: the camera's 4x4 matrices (row-major, float64, on column
+        vectors: world -> view, view -> OpenGL clip space), so any tool can rebuild world
+        positions: world = inverse(view) . (position.x, position.y, position.z, 1)
 
 camera: automatic by default (the map from --view AZ,EL, default 200,30: from the
   south-south-west, 30 degrees down; it fills the frame, up to --crop of the map left
@@ -730,13 +735,59 @@ GBUFFER_CHANNELS = {
 GBUFFER_NAMES = [name for channels in GBUFFER_CHANNELS.values() for name in channels if name is not None]
 
 
-def gbuffer_bands(gbuf) -> tuple[list[np.ndarray], list[str]]:
-    """The G-buffer as float32 EXR channels named :data:`GBUFFER_NAMES` (normal.w, always 0, is left out)."""
+def gbuffer_bands(gbuf, shadow: np.ndarray | None = None) -> tuple[list[np.ndarray], list[str]]:
+    """The G-buffer as float32 EXR channels named :data:`GBUFFER_NAMES` (normal.w, always 0, is
+    left out), then ``shadow`` when given: bool (height, width), True where the light is hidden
+    from the pixel's point by any caster; written 1 on hit pixels, 0 elsewhere."""
     bands = []
     for field, channels in GBUFFER_CHANNELS.items():
         data = getattr(gbuf, field)
         bands += [data if data.ndim == 2 else data[..., k] for k, name in enumerate(channels) if name is not None]
-    return bands, GBUFFER_NAMES
+    if shadow is None:
+        return bands, GBUFFER_NAMES
+    if shadow.shape != gbuf.shape:
+        raise ValueError(f"the shadow mask is {shadow.shape} pixels, the G-buffer {gbuf.shape}")
+    return bands + [(shadow & gbuf.hit).astype(np.float32)], GBUFFER_NAMES + [SHADOW_NAME]
+
+
+SHADOW_NAME = "shadow"
+
+
+class GBufferExr:
+    """The --gbuffer .exr writer: float32 channels and the camera's ``view`` and ``projection``
+    4x4 matrices (row-major, float64 M44d) as header attributes.  The destination is checked
+    when made (before any work); :meth:`write` writes a temporary file beside it and renames
+    it over the destination."""
+
+    def __init__(self, path: str):
+        self.path = path
+        folder = os.path.dirname(os.path.abspath(path))
+        if not os.path.isdir(folder):
+            raise CliError(f"{path}: output directory does not exist")
+        if os.path.isdir(path):
+            raise CliError(f"{path}: is a directory")
+        if not os.access(folder, os.W_OK):
+            raise CliError(f"{path}: output directory is not writable")
+
+    def write(self, bands: list[np.ndarray], names: list[str], camera) -> None:
+        import tempfile
+
+        import OpenEXR
+
+        header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage,
+                  "view": np.ascontiguousarray(camera.view, np.float64),
+                  "projection": np.ascontiguousarray(camera.projection_matrix, np.float64)}
+        channels = {name: np.ascontiguousarray(band, np.float32) for name, band in zip(names, bands)}
+        fd, tmp = tempfile.mkstemp(suffix=".exr", dir=os.path.dirname(os.path.abspath(self.path)))
+        os.close(fd)
+        try:
+            with OpenEXR.File(header, channels) as exr:
+                exr.write(tmp)
+            os.replace(tmp, self.path)
+        except BaseException:
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
+            raise
 
 
 def run_render(args: argparse.Namespace) -> int:
@@ -783,7 +834,7 @@ def run_render(args: argparse.Namespace) -> int:
                 RasterWriter(path, (count, height, width), np.float32 if names else np.uint8, band_names=names))
 
         image = writer(args.output if out_ext == ".png" else None, 3)
-        gbuffer = writer(gbuffer_path, len(GBUFFER_NAMES), GBUFFER_NAMES)
+        gbuffer = None if gbuffer_path is None else GBufferExr(gbuffer_path)
         ao_map = writer(args.ao_map, 1, ["AO"])
         field = Heightfield(heightmap, args.radius)
         if args.camera is None:
@@ -805,8 +856,11 @@ def run_render(args: argparse.Namespace) -> int:
         frame = scene.frame(camera, args.sun, settings)
         t2 = time.perf_counter()
         outputs = [(image, lambda: [frame.image[..., c] for c in range(3)]),
-                   (gbuffer, lambda: gbuffer_bands(frame.gbuffer.to_host())[0]),
                    (ao_map, lambda: [frame.ao_factor()])]
+        if gbuffer is not None:       # the shadow channel: the per-pixel pass's cast-shadow flag
+            flag = None if args.no_shadows else scene.shadow_caster.shade(
+                frame.gbuffer, args.sun, settings.shadow_method, settings.lod, "flag").flag == 1
+            gbuffer.write(*gbuffer_bands(frame.gbuffer.to_host(), flag), camera)
         for out, planes in outputs:
             for plane in planes() if out is not None else ():
                 out.write(plane)
