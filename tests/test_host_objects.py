@@ -294,3 +294,12 @@ def test_c_objects_under_valgrind_lose_nothing(host: dict, tmp_path: Path) -> No
         lost = re.search(r"definitely lost: ([\d,]+) bytes", proc.stderr)
         assert (lost is not None and lost.group(1) == "0") or "no leaks are possible" in proc.stderr, \
             proc.stderr[-4000:]
+
+
+def test_c_objects_argument_and_contract_checks(host: dict, tmp_path: Path) -> None:
+    """Every new entry point and host helper refuses bad arguments and buffers with a message
+    naming the argument and the expected value (host_objects errors: one line per check)."""
+    stdout = run_program(host, "host_objects", "errors", tmp_path)
+    lines = stdout.splitlines()
+    assert not [line for line in lines if line.startswith("FAIL")], stdout
+    assert sum(line.startswith("ok ") for line in lines) >= 23, stdout

@@ -12,6 +12,9 @@
  *       qi.i32), the cast (obj_*.bin), the merged G-buffer (mrg_*.bin), the shading normals
  *       (shading.out) and the coefficients (coef.out).  Checks itself that pitched fields at
  *       offsets give the same bits.
+ *   host_objects errors OUTDIR
+ *       the argument and contract checks of every new entry point and host helper: prints
+ *       "ok WHAT" or "FAIL WHAT: ..." per check and fails when one fails.
  *   host_objects reflect OUTDIR INDIR
  *       INDIR/reflect.txt (frame, camera, environment, materials), position.f32, normal.f32,
  *       albedo.f32, object.i32, cube.f32, frame.u8: the material table (table.f32), weighted
@@ -349,6 +352,167 @@ static void run_reflect(int argc, char **argv)
     free(ms); free(table); free(pos); free(nrm); free(alb); free(obj); free(cube); free(frame);
 }
 
+/* ------------------------------------------------------------------ argument and contract checks */
+
+static int failures;
+
+static void expect(int cond, const char *what)
+{
+    printf("%s %s\n", cond ? "ok" : "FAIL", what);
+    failures += !cond;
+}
+
+/* st must be `want` and the calling thread's message must contain `needle` */
+static void expect_status(oclshade_status st, oclshade_status want, const char *needle, const char *what)
+{
+    const char *msg = oclshade_last_error(lib);
+    if (st == want && strstr(msg, needle) != NULL) {
+        printf("ok %s\n", what);
+    } else {
+        printf("FAIL %s: got %s, want %s with \"%s\"; message: %.600s\n", what, oclshade_status_name(st),
+               oclshade_status_name(want), needle, msg);
+        ++failures;
+    }
+}
+
+static void run_errors(void)
+{
+    const int W = 8, H = 6, n = W * H;
+    oclshade_quadric q = {OCLSHADE_SPHERE, {0.0, 0.0, -20.0}, {2.0, 2.0, 2.0}, {0.0, 0.0, 1.0}, {0.5, 0.5, 0.5}};
+    oclshade_quadric_params p;
+    oclshade_quadric_params_init(&p);
+    const double pos[3] = {0.0, -30.0, 10.0}, at[3] = {0.0, 0.0, -20.0};
+    CHECK(oclshade_camera_look_at(pos, at, NULL, W, H, OCLSHADE_PERSPECTIVE, 50.0, 1.0, 1.0, 1000.0, &p.camera));
+    cl_float4 qf[5];
+    cl_int4 qi[2];
+    CHECK(oclshade_quadric_tables(&q, 1, &p.camera, qf, qi));
+    oclshade_quadric bad = q;
+    bad.radii[2] = 3.0;
+    expect_status(oclshade_quadric_tables(&bad, 1, &p.camera, qf, qi), OCLSHADE_INVALID_ARGUMENT, "",
+                  "tables: a sphere with unequal radii");
+    bad = q;
+    bad.axis[0] = bad.axis[1] = bad.axis[2] = 0.0;
+    expect_status(oclshade_quadric_tables(&bad, 1, &p.camera, qf, qi), OCLSHADE_INVALID_ARGUMENT, "",
+                  "tables: a zero axis");
+    p.count = 1;
+    p.qf = buffer(80, qf);
+    p.qi = buffer(32, qi);
+    for (int i = 0; i < 7; ++i) *gb_at(&p.objects, i) = oclshade_field_of(buffer(GB[i] * (size_t)n, NULL));
+    void *zeros = xmalloc(16 * (size_t)n);   /* a G-buffer of empty pixels: depth 0 keeps it in the merge */
+    for (int i = 0; i < 7; ++i) *gb_at(&p.gbuffer, i) = oclshade_field_of(buffer(GB[i] * (size_t)n, zeros));
+    CHECK(oclshade_enqueue_quadric_cast(lib, queue, &p, 0, NULL, NULL));
+    expect_status(oclshade_enqueue_quadric_cast(lib, queue, NULL, 0, NULL, NULL), OCLSHADE_INVALID_ARGUMENT, "params",
+                  "cast: NULL params");
+    p.count = 0;
+    expect_status(oclshade_enqueue_quadric_cast(lib, queue, &p, 0, NULL, NULL), OCLSHADE_INVALID_ARGUMENT,
+                  "count must be the number of quadrics", "cast: count 0");
+    p.count = 2;
+    expect_status(oclshade_enqueue_quadric_cast(lib, queue, &p, 0, NULL, NULL), OCLSHADE_INVALID_ARGUMENT,
+                  "qf must hold at least 160 bytes", "cast: a table too small for count");
+    p.count = 1;
+    const oclshade_field depth = p.objects.depth;
+    p.objects.depth = oclshade_field_of(buffer(4 * (size_t)n - 4, NULL));
+    expect_status(oclshade_enqueue_quadric_cast(lib, queue, &p, 0, NULL, NULL), OCLSHADE_INVALID_ARGUMENT,
+                  "objects.depth", "cast: an output field too small");
+    release(p.objects.depth.buffer);
+    p.objects.depth = depth;
+    const oclshade_field albedo = p.objects.albedo;
+    p.objects.albedo = oclshade_field_of(buffer((16 * (size_t)W + 16) * (size_t)H, NULL));
+    p.objects.albedo.row_pitch = 16 * (size_t)W + 16;
+    expect_status(oclshade_enqueue_quadric_cast(lib, queue, &p, 0, NULL, NULL), OCLSHADE_INVALID_ARGUMENT, "scratch",
+                  "cast: a pitched field needs scratch");
+    release(p.objects.albedo.buffer);
+    p.objects.albedo = albedo;
+    release(p.gbuffer.uv.buffer);
+    p.gbuffer.uv = p.objects.uv;
+    expect_status(oclshade_enqueue_gbuffer_merge(lib, queue, &p, 0, NULL, NULL), OCLSHADE_INVALID_ARGUMENT, "overlap",
+                  "merge: the source aliases the destination");
+    p.gbuffer.uv = oclshade_field_of(buffer(8 * (size_t)n, zeros));
+    CHECK(oclshade_enqueue_gbuffer_merge(lib, queue, &p, 0, NULL, NULL));
+    cl_int err;
+    p.shading = oclshade_field_of(clCreateBuffer(ctx, CL_MEM_READ_ONLY, 16 * (size_t)n, NULL, &err));
+    CLCHECK(err);
+    expect_status(oclshade_enqueue_object_normals(lib, queue, &p, 0, NULL, NULL), OCLSHADE_INVALID_ARGUMENT,
+                  "shading is written by the kernels but was created CL_MEM_READ_ONLY", "normals: read-only shading");
+    release(p.shading.buffer);
+    p.shading = oclshade_field_of(buffer(16 * (size_t)n, NULL));
+    CHECK(oclshade_enqueue_object_normals(lib, queue, &p, 0, NULL, NULL));
+    p.coefficient = oclshade_field_of(buffer(4 * (size_t)n, NULL));
+    p.azimuth = 135.0;
+    p.elevation = 95.0;
+    expect_status(oclshade_enqueue_quadric_shadow(lib, queue, &p, 0, NULL, NULL), OCLSHADE_INVALID_ARGUMENT,
+                  "elevation in [-90, 90]", "shadow: elevation 95");
+    p.elevation = 30.0;
+    p.k_dark = 1.5;
+    expect_status(oclshade_enqueue_quadric_shadow(lib, queue, &p, 0, NULL, NULL), OCLSHADE_INVALID_ARGUMENT,
+                  "k_dark and k_bright must be in [0, 1]", "shadow: k_dark 1.5");
+    p.k_dark = 0.2;
+    CHECK(oclshade_enqueue_quadric_shadow(lib, queue, &p, 0, NULL, NULL));
+    size_t bytes = 1;
+    CHECK(oclshade_quadric_scratch_size(lib, &p, &bytes));
+    expect(bytes == 0, "quadrics: no scratch for packed fields");
+
+    /* reflections */
+    oclshade_material m[2] = {{OCLSHADE_MIRROR, {1.0, 1.0, 1.0}, 0.0, 0.04, 0},
+                              {OCLSHADE_DIFFUSE, {0.5, 0.5, 0.5}, 0.2, 0.04, 0}};
+    cl_float4 table[6];
+    oclshade_reflect_params r;
+    oclshade_reflect_params_init(&r);
+    expect_status(oclshade_reflect_tables(m, 2, &r.groups, table), OCLSHADE_INVALID_ARGUMENT, "",
+                  "reflect tables: a rough diffuse material");
+    m[1].roughness = 0.0;
+    CHECK(oclshade_reflect_tables(m, 2, &r.groups, table));
+    expect(r.groups.count == 1 && strcmp(r.groups.vector[0], "REFLECT") == 0, "reflect tables: one REFLECT group");
+    r.width = W; r.height = H; r.camera = p.camera; r.objects = 2;
+    r.materials = buffer(sizeof table, table);
+    r.position = p.gbuffer.position; r.normal = p.gbuffer.normal; r.albedo = p.gbuffer.albedo; r.object = p.gbuffer.object;
+    r.weighted = oclshade_field_of(buffer(16 * (size_t)n, NULL));
+    r.face = 2; r.cubes = 1;
+    r.cube = buffer(96 * 4 * 4, NULL);
+    CHECK(oclshade_enqueue_zero(lib, queue, r.cube, 96 * 4 * 4, 0, NULL, NULL));
+    r.acc = buffer(16 * (size_t)n, NULL);
+    CHECK(oclshade_enqueue_reflect_weights(lib, queue, &r, 0, NULL, NULL));
+    CHECK(oclshade_enqueue_reflect_apply(lib, queue, &r, 0, NULL, NULL));
+    r.ssaa = 9;
+    expect_status(oclshade_enqueue_reflect_weights(lib, queue, &r, 0, NULL, NULL), OCLSHADE_INVALID_ARGUMENT,
+                  "ssaa must be in 1..8", "reflect: ssaa 9");
+    r.ssaa = 2;
+    expect_status(oclshade_enqueue_reflect_apply(lib, queue, &r, 0, NULL, NULL), OCLSHADE_INVALID_ARGUMENT,
+                  "camera must be the G-buffer's, 16 x 12 samples", "reflect: a camera of the frame, not the samples");
+    r.ssaa = 1;
+    strcpy(r.groups.vector[0], "REFLECT 2X");
+    expect_status(oclshade_enqueue_reflect_weights(lib, queue, &r, 0, NULL, NULL), OCLSHADE_INVALID_ARGUMENT,
+                  "groups.vector[0]", "reflect: a condition that is not a name");
+    strcpy(r.groups.vector[0], "REFLECT");
+    r.intensity = -1.0;
+    expect_status(oclshade_enqueue_reflect_apply(lib, queue, &r, 0, NULL, NULL), OCLSHADE_INVALID_ARGUMENT,
+                  "intensity must be a finite number >= 0", "reflect: intensity -1");
+    r.intensity = 1.0;
+    r.cubes = 2;
+    expect_status(oclshade_enqueue_reflect_apply(lib, queue, &r, 0, NULL, NULL), OCLSHADE_INVALID_ARGUMENT,
+                  "cube must hold at least 3072 bytes", "reflect: fewer maps than cubes");
+    r.cubes = 1;
+    const oclshade_field weighted = r.weighted;
+    r.weighted = r.albedo;
+    expect_status(oclshade_enqueue_reflect_weights(lib, queue, &r, 0, NULL, NULL), OCLSHADE_INVALID_ARGUMENT, "overlap",
+                  "reflect: weighted aliases albedo");
+    expect_status(oclshade_enqueue_reflect_finish(lib, queue, &r, 0, NULL, NULL), OCLSHADE_INVALID_ARGUMENT, "frame",
+                  "finish: no frame");
+
+    /* the specialiser's own errors, and a build error naming the vector */
+    char message[256];
+    size_t need;
+    expect(oclshade_specialize("a\n@IF X;\nb\n", "X", NULL, 0, &need, message, sizeof message) == OCLSHADE_SOURCE_ERROR &&
+           strstr(message, "line 2: @IF not closed") != NULL, "specialize: an @IF left open names its line");
+    expect(oclshade_specialize("x", "A-B", NULL, 0, &need, message, sizeof message) == OCLSHADE_SOURCE_ERROR &&
+           strstr(message, "'A-B'") != NULL, "specialize: a bad condition vector is named");
+    CLCHECK(clFinish(queue));
+    release(p.qf); release(p.qi); release(p.shading.buffer); release(p.coefficient.buffer);
+    for (int i = 0; i < 7; ++i) { release(gb_at(&p.objects, i)->buffer); release(gb_at(&p.gbuffer, i)->buffer); }
+    release(r.materials); release(weighted.buffer); release(r.cube); release(r.acc);
+    free(zeros);
+}
+
 /* ------------------------------------------------------------------ main */
 
 int main(int argc, char **argv)
@@ -367,10 +531,15 @@ int main(int argc, char **argv)
     if (strcmp(argv[1], "specialize") == 0) run_specialize(argc - 3, argv + 3);
     else if (strcmp(argv[1], "quadrics") == 0) run_quadrics(argc - 3, argv + 3);
     else if (strcmp(argv[1], "reflect") == 0) run_reflect(argc - 3, argv + 3);
+    else if (strcmp(argv[1], "errors") == 0) run_errors();
     else fail("unknown command");
     oclshade_destroy(lib);
     clReleaseCommandQueue(queue);
     clReleaseContext(ctx);
+    if (failures) {
+        printf("%d failure(s)\n", failures);
+        return 1;
+    }
     printf("ok\n");
     return 0;
 }
