@@ -1029,6 +1029,10 @@ output: float32 bands, NaN = nodata; .tif/.tiff (georeferencing of the input kep
            share of an isotropic sky's irradiance on a horizontal surface;
            solid-angle: 1 - mean sin h, the visible share of the hemisphere (Zaksek
            et al. 2011, RVT)
+  sunlit   one band per sun: the share of the sun's disc the cell sees (soft shadows;
+           1 = the whole disc, 0 = none), from its exact horizons at --columns azimuths
+           across the disc (a uniform disc of angular radius --disc-radius); error
+           against 256 strips in docs/methods.md "Soft shadows"
   --curvature lowers terrain at distance d by (1 - k) d^2 / (2 R) (R = --radius,
   k = --refraction), as r.horizon and HORAYZON do.
 
@@ -1036,7 +1040,21 @@ examples:
   oclshade horizon dem.tif horizons.tif --azimuths 64
   oclshade horizon srtm.hgt.zip far.tif --azimuths 16 --curvature --refraction 0.13
   oclshade svf dem.tif svf.tif --azimuths 32 --definition solid-angle
+  oclshade sunlit dem.tif dusk.tif --sun 280,2 --sun 285,1
 """
+
+
+def _disc_radius(text: str) -> float:
+    value = _number(text, "disc radius")
+    if not 0.0 < value <= 5.0:
+        raise argparse.ArgumentTypeError(f"must be in (0, 5] degrees (the sun: about 0.27), got {text}")
+    return value
+
+
+def _columns(text: str) -> int:
+    if not text.isdigit() or not 1 <= int(text) <= 1024:
+        raise argparse.ArgumentTypeError(f"expected an integer 1..1024, got {text!r}")
+    return int(text)
 
 
 def _refraction(text: str) -> float:
@@ -1048,19 +1066,30 @@ def _refraction(text: str) -> float:
 
 def add_horizon_parsers(sub) -> None:
     """``oclshade horizon`` and ``oclshade svf``: the same input, curvature and output options."""
-    from .horizon import SVF_DEFINITIONS
+    from .horizon import DEFAULT_COLUMNS, SUN_RADIUS, SVF_DEFINITIONS
 
     helps = {"horizon": ("horizon angles of a DEM, one band per azimuth",
                          "Horizon angles of a DEM: per cell and azimuth, the elevation angle of the highest terrain."),
              "svf": ("sky-view factor of a DEM from its horizons",
-                     "Sky-view factor of a DEM from the horizon angles of N equally spaced azimuths.")}
+                     "Sky-view factor of a DEM from the horizon angles of N equally spaced azimuths."),
+             "sunlit": ("soft shadows: the share of the sun's disc each cell sees",
+                        "Soft shadows of a DEM: per cell and sun, the share of the sun's disc seen over the "
+                        "terrain (1 = all of it), from exact horizons across the disc.")}
     for name, (summary, description) in helps.items():
         p = sub.add_parser(name, help=summary, description=description, epilog=HORIZON_EPILOG,
                            formatter_class=argparse.RawDescriptionHelpFormatter)
         p.add_argument("input", metavar="INPUT", help="DEM: .tif/.tiff, .hgt, .zip (with .hgt), .asc, .exr, .png, .npy")
         p.add_argument("output", metavar="OUTPUT", help="output raster: .tif/.tiff, .exr or .npy")
-        p.add_argument("--azimuths", type=_azimuths, default=16, metavar="N",
-                       help="equally spaced azimuths, 360 i / N degrees (default 16)")
+        if name == "sunlit":
+            p.add_argument("--sun", dest="suns", action="append", type=_sun, required=True, metavar="AZ,ALT",
+                           help="a sun position (degrees); repeat for several (one band each)")
+            p.add_argument("--disc-radius", type=_disc_radius, default=SUN_RADIUS, metavar="DEG",
+                           help=f"the sun's angular radius (default {SUN_RADIUS:g}, the mean)")
+            p.add_argument("--columns", type=_columns, default=DEFAULT_COLUMNS, metavar="K",
+                           help=f"strips across the disc, one horizon each (default {DEFAULT_COLUMNS})")
+        else:
+            p.add_argument("--azimuths", type=_azimuths, default=16, metavar="N",
+                           help="equally spaced azimuths, 360 i / N degrees (default 16)")
         if name == "svf":
             p.add_argument("--definition", default="cosine", choices=SVF_DEFINITIONS,
                            help="cosine (default): 1 - mean sin^2 h; solid-angle: 1 - mean sin h (RVT)")
@@ -1074,7 +1103,8 @@ def add_horizon_parsers(sub) -> None:
 
 
 def run_horizon(args: argparse.Namespace) -> int:
-    """``oclshade horizon`` (N bands of angles, streamed) and ``oclshade svf`` (one band)."""
+    """``oclshade horizon`` (N bands of angles, streamed), ``oclshade svf`` (one band) and
+    ``oclshade sunlit`` (one band per sun)."""
     from .horizon import HorizonCaster, azimuth_grid
 
     if _extension(args.output) not in (".tif", ".tiff", ".exr", ".npy"):
@@ -1087,28 +1117,37 @@ def run_horizon(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     raster, heightmap = read_input(args, cellsize)
     rows, cols = heightmap.shape
-    azimuths = azimuth_grid(args.azimuths)
-    svf = args.command == "svf"
-    names = [f"svf_{args.definition}"] if svf else \
-        [f"horizon_az{az:g}".replace(".", "p") for az in azimuths]
+    svf, sunlit = args.command == "svf", args.command == "sunlit"
+    azimuths = [] if sunlit else azimuth_grid(args.azimuths)
+    if svf:
+        names = [f"svf_{args.definition}"]
+    elif sunlit:
+        names = [f"sunlit_az{s.azimuth:g}_el{s.elevation:g}".replace(".", "p").replace("-", "m") for s in args.suns]
+    else:
+        names = [f"horizon_az{az:g}".replace(".", "p") for az in azimuths]
     if _extension(args.output) == ".exr" and not svf:   # EXR sorts channels by name: keep the band order
         names = [f"{k:0{len(str(len(names) - 1))}d}_{name}" for k, name in enumerate(names)]
     _make_parents(args.output)
-    bar = ProgressBar(sys.stderr, "azimuths") if not args.quiet and len(azimuths) > 1 else None
+    bar = ProgressBar(sys.stderr, "azimuths") if not args.quiet and (len(azimuths) > 1 or sunlit) else None
     with RasterWriter(args.output, (len(names), rows, cols), np.float32, like=raster, nodata=math.nan,
                       band_names=names, options=options, cog=cog) as out:
         caster = HorizonCaster(heightmap, device=args.device, curvature=curvature, cache=False)
         t1 = time.perf_counter()
         if svf:
             out.write(caster.sky_view_factor(azimuths, args.definition, progress=bar))
+        elif sunlit:
+            for sun in args.suns:
+                out.write(caster.sun_disc(sun, args.disc_radius, args.columns, progress=bar))
         else:
             for _, band in caster.iter_horizons(azimuths, progress=bar):
                 out.write(band)
         t2 = time.perf_counter()
     if not args.quiet:
-        what = f"sky-view factor ({args.definition})" if svf else "horizons"
+        what = f"sky-view factor ({args.definition})" if svf else \
+            f"sun disc ({args.columns} strips per sun)" if sunlit else "horizons"
         bent = "" if curvature is None else f", curvature R {curvature.radius:g} m k {curvature.refraction:g}"
-        print(f"{PROG}: {cols}x{rows} cells, {len(azimuths)} azimuths{bent}, device {caster.runtime.label}: "
+        count = f"{len(args.suns)} sun(s)" if sunlit else f"{len(azimuths)} azimuths"
+        print(f"{PROG}: {cols}x{rows} cells, {count}{bent}, device {caster.runtime.label}: "
               f"{what} {t2 - t1:.2f} s (total {time.perf_counter() - t0:.2f} s) -> {args.output}", file=sys.stderr)
     return 0
 
@@ -1139,7 +1178,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except SystemExit as exc:  # --help, or an argparse error already printed
         return int(exc.code or 0)
     command = {"devices": tuning_cli.run_devices, "tune": tuning_cli.run_tune, "shadow": run_shadow,
-               "render": run_render, "sunshine": run_sunshine, "horizon": run_horizon, "svf": run_horizon, "bench": bench_cli.run,
+               "render": run_render, "sunshine": run_sunshine, "horizon": run_horizon, "svf": run_horizon, "sunlit": run_horizon, "bench": bench_cli.run,
                "sun": solar_cli.run, "envmap": envmap_cli.run}[args.command]
     debug = runtime.debug()
     runtime.NOTICES = not getattr(args, "quiet", False)

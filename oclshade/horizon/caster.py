@@ -4,6 +4,7 @@
 >>> angles = caster.horizons(64)              # float32 (64, rows, cols), degrees, band i at 360 i / 64
 >>> for azimuth, band in caster.iter_horizons(64): ...     # one azimuth at a time (streamed)
 >>> svf = caster.sky_view_factor(64)          # float32 (rows, cols), the cosine-weighted definition
+>>> soft = caster.sun_disc(Sun(300, 4))       # float32 (rows, cols): the share of the sun disc seen
 
 Per cell and azimuth the horizon angle is the elevation angle, in degrees, of
 the highest point of the bilinear surface seen from the cell's surface point
@@ -30,7 +31,8 @@ from ..heightmap import Heightmap
 from ..pyramid import ExtremaPyramid, build_extrema_pyramid
 from ..reference.horizons import SVF_DEFINITIONS
 from ..runtime import Runtime, get_runtime
-from ..sun import Sun
+from ..sun import Sun, SunLike, as_sun
+from .disc import DEFAULT_COLUMNS, SUN_RADIUS, disc_columns, visible_fraction
 
 EARTH_RADIUS = 6371008.8          # metres: the IUGG mean radius (r.horizon and HORAYZON use about this)
 MAX_AZIMUTHS = 65536
@@ -192,6 +194,16 @@ class HorizonCaster:
         svf = (1.0 - total / az.size).astype(np.float32)
         svf[np.isnan(self.heightmap.heights)] = np.nan
         return svf
+
+    def sun_disc(self, sun: SunLike, radius: float = SUN_RADIUS, columns: int = DEFAULT_COLUMNS,
+                 progress: Progress | None = None) -> np.ndarray:
+        """Soft shadows: the share of the sun's disc each cell sees, float32 in [0, 1] (NaN =
+        nodata), from its horizons at ``columns`` azimuths across the disc (the disc's
+        angular ``radius`` in degrees; :mod:`oclshade.horizon.disc`)."""
+        sun = as_sun(sun)
+        azimuths, half_chords = disc_columns(sun, radius, columns)
+        bands = (band for _, band in self.iter_horizons(azimuths, progress))
+        return visible_fraction(bands, sun.elevation, half_chords).astype(np.float32)
 
     def _enqueuer(self, outputs: Mapping[str, object]) -> Callable[[float, cl.Buffer, cl.Buffer], None]:
         """A function enqueueing one azimuth's traversal into (angle, svf) buffers."""

@@ -1,0 +1,66 @@
+"""Soft shadows: the share of the sun's disc each cell sees, from its exact horizons.
+
+The disc, of angular radius ``radius`` (default :data:`SUN_RADIUS`; uniform, without limb
+darkening), is taken in the sky's tangent plane at the sun's centre: x = (azimuth - az)
+cos(e) across, y = elevation - e up (exact to first order in the radius, ample for 0.27
+degrees).  It is cut into ``columns`` vertical strips of equal width; in each, the part of
+the strip's chord above the cell's exact horizon angle h at the strip's middle azimuth is
+visible (the kernel's horizons, :class:`~oclshade.horizon.HorizonCaster`):
+
+    f = sum_k clip(e + c_k - h_k, 0, 2 c_k) / sum_k 2 c_k,
+    x_k = -r + (k + 1/2) w,  w = 2 r / columns,  c_k = sqrt(r^2 - x_k^2)
+
+(the midpoint rule over x, normalised by the same rule's disc area, so a disc wholly
+above the horizon reads exactly 1).  The only approximation is that rule across the disc: within a
+strip the horizon is taken as its value at the middle.  A straight line through the
+horizons at the disc's edges and centre was tried first and dropped: a nearby occluder's
+edge makes the horizon jump inside the disc (errors up to 0.5 of the disc on the
+generated canyon).  The error against the float64 reference with 256 strips
+(:func:`oclshade.reference.sun_disc_fraction`), per number of strips, is in
+docs/methods.md "Soft shadows"; the default, :data:`DEFAULT_COLUMNS`, is chosen there.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..sun import SunLike, as_sun
+
+#: mean apparent angular radius of the sun, degrees (diameter 31.99 arc minutes)
+SUN_RADIUS = 0.2666
+#: strips across the disc by default (docs/methods.md "Soft shadows")
+DEFAULT_COLUMNS = 16
+
+
+def check_disc(radius: float, columns: int) -> tuple[float, int]:
+    if not (isinstance(radius, (int, float)) and math.isfinite(radius) and 0.0 < radius <= 5.0):
+        raise ValueError(f"radius (the sun disc's angular radius) must be in (0, 5] degrees, got {radius!r}")
+    if not isinstance(columns, (int, np.integer)) or isinstance(columns, bool) or not 1 <= columns <= 1024:
+        raise ValueError(f"columns (strips across the sun's disc) must be an integer in 1..1024, got {columns!r}")
+    return float(radius), int(columns)
+
+
+def disc_columns(sun: SunLike, radius: float = SUN_RADIUS, columns: int = DEFAULT_COLUMNS
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """(azimuths of the strips' middles in [0, 360), their half-chords c_k), degrees, float64."""
+    sun = as_sun(sun)
+    radius, columns = check_disc(radius, columns)
+    if not abs(sun.elevation) < 90.0 - radius:
+        raise ValueError(f"elevation must leave the whole disc between the nadir and the zenith "
+                         f"(|elevation| < {90.0 - radius:g} degrees), got {sun.elevation!r}")
+    width = 2.0 * radius / columns
+    x = -radius + (np.arange(columns) + 0.5) * width
+    azimuths = (sun.azimuth + x / math.cos(math.radians(sun.elevation))) % 360.0
+    return azimuths, np.sqrt(radius * radius - x * x)
+
+
+def visible_fraction(horizons, elevation: float, half_chords: np.ndarray) -> np.ndarray:
+    """The visible share of the disc, float64, from the horizon angles (degrees; an iterable
+    of per-strip arrays, one per :func:`disc_columns` azimuth; NaN stays NaN)."""
+    total, whole = None, 0.0
+    for h, c in zip(horizons, half_chords):
+        seen = np.clip((elevation + c) - np.asarray(h, np.float64), 0.0, 2.0 * c)   # exact at 0 and 2c
+        total = seen if total is None else total + seen
+        whole += 2.0 * c               # summed in the same order: a disc seen whole reads exactly 1
+    return total / whole

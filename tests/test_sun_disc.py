@@ -1,0 +1,90 @@
+"""Soft shadows: the share of the sun's disc each cell sees (oclshade.horizon.disc), against
+its float64 twin, a closed form on a plane, and the fine-strip reference; ``oclshade sunlit``."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from oclshade import Heightmap
+from oclshade.cli import main
+from oclshade.horizon import SUN_RADIUS, HorizonCaster, disc_columns
+from oclshade.reference import angle_tolerance
+from oclshade.reference.sun_disc import sun_disc_fraction
+from oclshade.synthetic import canyon_crater
+
+
+def segment_share(p: float) -> float:
+    """Share of a unit disc above a horizontal line at height p (closed form)."""
+    p = min(max(p, -1.0), 1.0)
+    return (math.acos(p) - p * math.sqrt(1.0 - p * p)) / math.pi
+
+
+@pytest.fixture(scope="module")
+def canyon() -> Heightmap:
+    return Heightmap.from_array(canyon_crater(24, 28, seed=5, relief=500.0), 10.0)
+
+
+@pytest.mark.parametrize("elevation", [-0.2, 0.0, 0.1, 0.25, 1.0])
+def test_plane_reads_the_circular_segment(elevation):
+    """Over a plane every horizon looking across the map is 0 degrees: the visible share is the
+    disc above a horizontal line, in closed form; the midpoint rule over 64 strips errs by less
+    than 1e-3 there (the chord's square-root ends)."""
+    hm = Heightmap.from_array(np.zeros((12, 12)), 10.0)
+    f = HorizonCaster(hm).sun_disc((90.0, elevation), columns=64)
+    inner = f[1:-1, :-1]     # the last column looks east out of the map (nothing: 1); the first and
+    #                          last rows look out of it across half the disc
+    want = segment_share((0.0 - elevation) / SUN_RADIUS)
+    assert np.abs(inner - want).max() < 1e-3
+    assert (f[:, -1] == 1.0).all()
+
+
+def test_device_equals_its_float64_twin(canyon):
+    """The same strips over the float64 horizons: each strip's visible chord moves by at most the
+    horizon angle's float32 bound, so the share by at most K * bound / (2 sum c_k)."""
+    caster = HorizonCaster(canyon)
+    for sun in [(300.0, 3.0), (135.0, 12.0), (0.0, 0.5)]:
+        got = caster.sun_disc(sun, columns=8)
+        want = sun_disc_fraction(canyon, sun, SUN_RADIUS, columns=8)
+        _, c = disc_columns(sun, SUN_RADIUS, 8)
+        bound = 8 * angle_tolerance(canyon) / (2.0 * c.sum()) + 1e-6
+        assert np.abs(got - want).max() <= bound
+        assert 0.0 < ((want > 0) & (want < 1)).mean() < 0.5, "a view with penumbra, light and shade"
+
+
+def test_default_strips_within_the_stated_error(canyon):
+    """docs/methods.md "Soft shadows": 16 strips err by at most 0.03 of the disc against 256."""
+    caster = HorizonCaster(canyon)
+    for sun in [(300.0, 3.0), (135.0, 1.0)]:
+        err = np.abs(caster.sun_disc(sun) - sun_disc_fraction(canyon, sun, SUN_RADIUS, columns=256))
+        assert err.max() <= 0.03
+
+
+def test_nodata_and_arguments(canyon):
+    h = canyon.heights.copy()
+    h[3, 4] = np.nan
+    f = HorizonCaster(Heightmap.from_array(h, 10.0)).sun_disc((200.0, 5.0), columns=4)
+    assert np.isnan(f[3, 4]) and np.isfinite(np.delete(f.ravel(), 3 * f.shape[1] + 4)).all()
+    caster = HorizonCaster(canyon)
+    for kwargs, match in [({"radius": 0.0}, "radius"), ({"radius": 6.0}, "radius"), ({"columns": 0}, "columns"),
+                          ({"columns": 2.5}, "columns")]:
+        with pytest.raises(ValueError, match=match):
+            caster.sun_disc((0.0, 5.0), **kwargs)
+    with pytest.raises(ValueError, match="elevation"):
+        caster.sun_disc((0.0, 89.9))
+
+
+def test_cli_sunlit_equals_the_api(tmp_path, canyon, capsys):
+    np.save(tmp_path / "dem.npy", canyon.heights)
+    out = tmp_path / "soft.npy"
+    assert main(["sunlit", str(tmp_path / "dem.npy"), str(out), "--cellsize", "10", "--sun", "300,3",
+                 "--sun", "135,1", "--columns", "4", "--quiet"]) == 0
+    assert capsys.readouterr().err == ""
+    bands = np.load(out)
+    caster = HorizonCaster(canyon)
+    assert bands.dtype == np.float32 and bands.shape == (2,) + canyon.shape
+    assert np.array_equal(bands[0], caster.sun_disc((300.0, 3.0), columns=4))
+    assert np.array_equal(bands[1], caster.sun_disc((135.0, 1.0), columns=4))
+    assert main(["sunlit", str(tmp_path / "dem.npy"), str(out), "--cellsize", "10"]) == 2
+    assert "--sun" in capsys.readouterr().err
