@@ -18,7 +18,7 @@ Cases (``family/variant``) and what one timed run is:
 * ``render/<method>`` for every method of :data:`oclshade.terrain.METHODS`:
   ``TerrainRenderer.render(camera, method, on_device=True, out=...)``;
 * ``pixel_shadows/<method>`` (exact, maxmip): ``ScreenShadowCaster.shade_to_device``
-  on the bisect G-buffer, automatic level of detail;
+  on the bisect G-buffer, the default level of detail (q = 0: exact);
 * ``ssao/default`` (:data:`~oclshade.ssao.DEFAULT_FEATURES`, m = DEFAULT_M) and
   ``ssao/paper`` (:data:`~oclshade.ssao.PAPER_RECIPE`, m = PAPER_M), radius 4 cells;
 * ``compose``: :func:`oclshade.compose.compose` of the G-buffer with the exact
@@ -52,7 +52,7 @@ pyramid                   4 N + 8 T (T: stored texels)     16 T1 + 6 (T - T1) (T
 masks/*                   4 N heights + N mask + 2 N copy  20 N (the start patch test of each ray)
 render/*                  16 P (one patch per ray) +       60 P (ray set-up, clip, one exact patch hit)
                           76 P G-buffer written
-pixel_shadows/*           40 P (position, uv, uv_grad) +   30 P (level-of-detail choice, start patch test)
+pixel_shadows/*           40 P (position, uv, uv_grad) +   30 P (start point and start patch test)
                           5 P (flag, coefficient)
 ssao/default              92 P (prepare: 32 read, 20       m (25 P) + 20 P (per sample: rotation,
                           written; AO: 36 read, 4 written)  offset, projection, depth test)
