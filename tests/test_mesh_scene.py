@@ -187,3 +187,26 @@ colour = [1, 0, 0]
     image = np.asarray(Image.open(out))
     red = image[..., 0].astype(int) - image[..., 1]
     assert (red[ids == -1] > 20).mean() > 0.8                # the red cube is in the PNG
+
+
+def test_mesh_shadows_fall_on_terrain_and_meshes():
+    """Two cubes with cast_shadows on the flat ground east of the wall, the sun in the south:
+    the shadows pass darkens the ground and the second cube where the meshes hide the sun
+    (the shadow volumes, wired in the frame) and nowhere else: as the BVH's own any-hit rays
+    (MeshCaster.shadow_rays) say, away from 1 px of their boundaries."""
+    a, b = cube((240, -260, 0), 20.0, cast_shadows=True), cube((245, -225, 0), 10.0, cast_shadows=True)
+    sun = Sun(180.0, 25.0)
+    camera = Camera((330, -230, 100), (250, -230, 0), 64, 48, fov=45, near=1, far=2000)
+    f, ids = frame([a, b], sun=sun, camera=camera)
+    coef = host(f, f.shadow)
+    hidden = MeshCaster([a, b]).shadow_mask(camera, f.gbuffer, sun)
+    hit = f.gbuffer.to_host().hit
+    pad = np.pad(hidden, 1, mode="edge")
+    window = np.stack([pad[1 + dy:pad.shape[0] - 1 + dy, 1 + dx:pad.shape[1] - 1 + dx]
+                       for dy in (-1, 0, 1) for dx in (-1, 0, 1)])
+    inner, outer = window.all(axis=0) & hit, ~window.any(axis=0) & hit
+    assert (inner & (ids == 0)).sum() > 20 and (inner & (ids == -2)).any()      # ground and the second cube
+    assert np.all(coef[inner] == np.float32(0.2))
+    lit_faces = outer & ((ids == 0) | (host(f, f.normals, 4)[..., :3] @ (camera.rotation @ np.array(sun.vector()))
+                                       > 0.05))
+    assert np.all(coef[lit_faces] == 1.0)

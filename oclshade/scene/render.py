@@ -14,8 +14,8 @@ gbuffer    the quadrics, then the meshes, cast and depth-merged into the terrain
            (object ids kept: quadric k + 1, mesh -(k + 1))
 normals    the objects' own normals put into the smooth shading normals
 shadows    the terrain's exact shadows on mesh pixels (MeshCaster.shadow), then quadric
-           shadows on everything and terrain and quadric shadows on the quadrics (the meshes'
-           own shadows, shadow volumes: oclshade.meshes.shadow_volumes, are not wired yet)
+           shadows on everything and terrain and quadric shadows on the quadrics, then the
+           shadow volumes of the meshes with cast_shadows on every pixel (MeshShadows)
 compose    compose reads the albedo weighted for reflection; the reflections are added after
 =========  =================================================================================
 
@@ -42,7 +42,7 @@ from ..envmap.reflect import Reflections
 from ..frames import AOSettings, Frame, FrameSettings, TerrainScene
 from ..heightmap import Heightmap
 from ..io import read_dem
-from ..meshes import MeshCaster, TriangleMesh
+from ..meshes import MeshCaster, MeshShadows, TriangleMesh
 from ..quadrics import ObjectIds, Quadric, QuadricCaster
 from ..quadrics.caster import object_normals
 from ..runtime import Runtime
@@ -93,6 +93,8 @@ class ObjectScene(TerrainScene):
                                      heights=self.renderer.pyramid.heights) if self.quadrics else None)
         self.mesh_caster = (MeshCaster(self.meshes, heightfield.heightmap, self.runtime,
                                        heights=self.renderer.pyramid.heights) if self.meshes else None)
+        casters = [m for m in self.meshes if m.cast_shadows]
+        self.mesh_shadows = MeshShadows(casters, self.runtime, bounds=self._box()) if casters else None
         self._mesh_objects = None               # the meshes' own G-buffer, reused frame to frame
         self.reflections: Reflections | None = None
         self._file_map = None if environment is None or environment.cube is None else \
@@ -104,6 +106,21 @@ class ObjectScene(TerrainScene):
         self._face_scene: ObjectScene | None = None
         self.frames_rendered = 0
         self.generations = 0                    # how many times the objects' maps were generated
+
+    def _box(self) -> tuple[np.ndarray, np.ndarray]:
+        """The world box around the map, the quadrics and the meshes (the shadow volumes'
+        receivers: fixed per scene, so the volumes are cached while the light stands still)."""
+        lo, hi = map_bounds(self.renderer.field.heightmap)
+        los, his = [np.asarray(lo, float)], [np.asarray(hi, float)]
+        for q in self.quadrics:
+            centre, radius = q.bound
+            los.append(centre - radius)
+            his.append(centre + radius)
+        for m in self.meshes:
+            a, b = m.bounds
+            los.append(a)
+            his.append(b)
+        return np.min(los, axis=0), np.max(his, axis=0)
 
     def _reflect_with(self, cubes, cube_of: list[int] | None) -> None:
         env = self.environment
@@ -173,6 +190,8 @@ class ObjectScene(TerrainScene):
                 self.mesh_caster.shadow(camera, gbuf, self.ids, sun, out, *settings.shadow_k)
             if self.caster is not None:
                 self.caster.shadow(camera, gbuf, self.ids, sun, out, *settings.shadow_k)
+            if self.mesh_shadows is not None:
+                self.mesh_shadows.shadow(camera, gbuf, self.ids, sun, out, *settings.shadow_k)
         return out
 
     def _clear_ids(self, shape: tuple[int, int]) -> ObjectIds:
