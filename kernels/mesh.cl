@@ -73,6 +73,9 @@
  *                           rounding of the surface point: no self-hits) and, for a point
  *                           light, before the light; else 0.
  *     global size >= n (1-D).
+ *   mesh_shadow_apply(n, hidden, kshadow, coef)
+ *     coef[i] = kshadow where hidden[i] (mesh_shadow_rays' output), else unchanged.
+ *     global size >= n (1-D).
  *   -D OCLS_ORTHO: orthographic camera.  -D OCLS_OWN_BUILTINS: common.h's inline fmin, fmax,
  *   fabs (the same results; faster on PyPI PoCL 3.0).  Build with -cl-std=CL1.2, no fast-math.
  */
@@ -318,4 +321,10 @@ __kernel void mesh_shadow_rays(const int n, const int nm, __global const float4 
         }
     }
     hidden[i] = blocked;
+}
+
+__kernel void mesh_shadow_apply(const int n, __global const int *hidden, const float kshadow, __global float *coef)
+{
+    const int i = get_global_id(0);
+    if (i < n && hidden[i]) coef[i] = kshadow;
 }

@@ -210,3 +210,24 @@ def test_mesh_shadows_fall_on_terrain_and_meshes():
     lit_faces = outer & ((ids == 0) | (host(f, f.normals, 4)[..., :3] @ (camera.rotation @ np.array(sun.vector()))
                                        > 0.05))
     assert np.all(coef[lit_faces] == 1.0)
+
+
+def test_casters_with_cut_outs_shadow_through_their_holes():
+    """A 40 m square 30 m above the ground, its west half cut out (alpha 0), casting shadows
+    under a near-zenith sun: the ground under the east half is dark, under the west half lit
+    (the shadow volumes would shade the whole square: such casters go by BVH rays)."""
+    tex = np.ones((2, 2, 4), np.float32)
+    tex[:, 0, 3] = 0.0
+    v = np.array([[230, -250, 30], [270, -250, 30], [270, -210, 30], [230, -210, 30.0]])
+    sheet = TriangleMesh(v, [[0, 1, 2], [0, 2, 3]], uvs=[[0, 0], [1, 0], [1, 1], [0, 1]],
+                         surface=MeshSurface(texture=tex))
+    assert sheet.surface.cuts_out and sheet.cast_shadows
+    camera = Camera((250, -330, 60), (250, -230, 0), 64, 48, fov=50, near=1, far=2000)
+    f, ids = frame([sheet], sun=Sun(180.0, 88.0), camera=camera)
+    coef = host(f, f.shadow)
+    p = f.gbuffer.to_host().position[..., :3] @ camera.rotation + camera.position    # view -> world
+    ground = (ids == 0) & (np.abs(p[..., 1] + 230) < 15)
+    east = ground & (p[..., 0] > 253) & (p[..., 0] < 268)
+    west = ground & (p[..., 0] > 232) & (p[..., 0] < 247)
+    assert east.sum() > 10 and west.sum() > 10
+    assert np.all(coef[east] == np.float32(0.2)) and np.all(coef[west] == 1.0)

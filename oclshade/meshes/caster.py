@@ -16,6 +16,7 @@ host) and the kernel gets the camera relative to it.  Twin: :mod:`oclshade.refer
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Sequence
 
@@ -236,6 +237,20 @@ class MeshCaster:
                         texel, gbuffer.buffers["position"], *_rows(camera.rotation.T), lights, out)
         launch_1d(rt, kernel, n)
         return out
+
+    def ray_shadow(self, camera: Camera, gbuffer: DeviceGBuffer, sun: SunLike, coefficient: cl.Buffer,
+                   k_dark: float = 0.0, k_bright: float = 0.0) -> None:
+        """The meshes' shadows by :meth:`shadow_rays` into a shadow-coefficient buffer, in
+        place: every hit pixel a mesh with ``cast_shadows`` hides from the sun gets paper 000's
+        eq. (1); the others keep theirs.  For casters with alpha cut-outs, which the shadow
+        volumes (:class:`oclshade.meshes.MeshShadows`) would shade as solid triangles."""
+        sun = as_sun(sun)
+        n = gbuffer.shape[0] * gbuffer.shape[1]
+        hidden = self.shadow_rays(camera, gbuffer, sun)
+        kshadow = k_dark + (k_bright - k_dark) * max(math.sin(math.radians(sun.elevation)), 0.0)
+        kernel = self.runtime.kernel("mesh.cl", "mesh_shadow_apply", self._defines)
+        kernel.set_args(np.int32(n), hidden, np.float32(kshadow), coefficient)
+        launch_1d(self.runtime, kernel, n)
 
     def light_table(self, light: object) -> np.ndarray:
         """The light argument of mesh_shadow_rays, float32 (nm, 4): (sun vector, 0) or (point

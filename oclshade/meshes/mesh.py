@@ -53,6 +53,11 @@ class MeshSurface:
         if not (isinstance(self.alpha_cutoff, (int, float)) and 0.0 <= self.alpha_cutoff <= 1.0):
             raise ValueError(f"alpha_cutoff must be a number in [0, 1], got {self.alpha_cutoff!r}")
 
+    @property
+    def cuts_out(self) -> bool:
+        """Whether some texel is cut out (alpha below the cutoff)."""
+        return self.texture is not None and bool((self.texture[..., 3] < self.alpha_cutoff).any())
+
 
 @dataclass(frozen=True, eq=False)
 class TriangleMesh:

@@ -15,7 +15,8 @@ gbuffer    the quadrics, then the meshes, cast and depth-merged into the terrain
 normals    the objects' own normals put into the smooth shading normals
 shadows    the terrain's exact shadows on mesh pixels (MeshCaster.shadow), then quadric
            shadows on everything and terrain and quadric shadows on the quadrics, then the
-           shadow volumes of the meshes with cast_shadows on every pixel (MeshShadows)
+           shadow volumes of the meshes with cast_shadows on every pixel (MeshShadows); a
+           caster with alpha cut-outs shadows by BVH rays instead (MeshCaster.ray_shadow)
 compose    compose reads the albedo weighted for reflection; the reflections are added after
 =========  =================================================================================
 
@@ -93,8 +94,10 @@ class ObjectScene(TerrainScene):
                                      heights=self.renderer.pyramid.heights) if self.quadrics else None)
         self.mesh_caster = (MeshCaster(self.meshes, heightfield.heightmap, self.runtime,
                                        heights=self.renderer.pyramid.heights) if self.meshes else None)
-        casters = [m for m in self.meshes if m.cast_shadows]
-        self.mesh_shadows = MeshShadows(casters, self.runtime, bounds=self._box()) if casters else None
+        solid = [m for m in self.meshes if m.cast_shadows and not m.surface.cuts_out]
+        cut = [m for m in self.meshes if m.cast_shadows and m.surface.cuts_out]
+        self.mesh_shadows = MeshShadows(solid, self.runtime, bounds=self._box()) if solid else None
+        self.cutout_shadows = (MeshCaster(cut, None, self.runtime) if cut else None)  # shadow rays honour cut-outs
         self._mesh_objects = None               # the meshes' own G-buffer, reused frame to frame
         self.reflections: Reflections | None = None
         self._file_map = None if environment is None or environment.cube is None else \
@@ -192,6 +195,8 @@ class ObjectScene(TerrainScene):
                 self.caster.shadow(camera, gbuf, self.ids, sun, out, *settings.shadow_k)
             if self.mesh_shadows is not None:
                 self.mesh_shadows.shadow(camera, gbuf, self.ids, sun, out, *settings.shadow_k)
+            if self.cutout_shadows is not None:
+                self.cutout_shadows.ray_shadow(camera, gbuf, sun, out, *settings.shadow_k)
         return out
 
     def _clear_ids(self, shape: tuple[int, int]) -> ObjectIds:
