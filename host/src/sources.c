@@ -79,25 +79,33 @@ static oclshade_status load_source(oclshade *lib, const source_set *set, const c
     return st;
 }
 
-/* If line [s, e) is `#include "name"` (blanks allowed around the tokens),
- * copy the name into out and return 1. */
-static int include_line(const char *s, const char *e, char *out, size_t out_size)
+static int is_space(char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\f' || c == '\v'; }
+
+/* A match at p (p at the text's start or after a '\n') of the Python host's include pattern,
+ * re.compile(r'^\s*#\s*include\s+"([^"]+)"\s*$', re.MULTILINE), with the same semantics:
+ * the leading \s* may swallow blank lines before the directive, the trailing \s* whitespace up
+ * to the last line end before the next text.  Returns the match's end (the name into out), or
+ * NULL when the pattern does not match at p. */
+static const char *include_at(const char *p, char *out, size_t out_size)
 {
-    while (s < e && (*s == ' ' || *s == '\t')) ++s;
-    if (s == e || *s++ != '#') return 0;
-    while (s < e && (*s == ' ' || *s == '\t')) ++s;
-    if ((size_t)(e - s) < 8 || strncmp(s, "include", 7) != 0 || (s[7] != ' ' && s[7] != '\t')) return 0;
+    const char *s = p;
+    while (is_space(*s)) ++s;
+    if (*s++ != '#') return NULL;
+    while (is_space(*s)) ++s;
+    if (strncmp(s, "include", 7) != 0 || !is_space(s[7])) return NULL;
     s += 7;
-    while (s < e && (*s == ' ' || *s == '\t')) ++s;
-    if (s == e || *s++ != '"') return 0;
+    while (is_space(*s)) ++s;
+    if (*s++ != '"') return NULL;
     const char *name = s;
-    while (s < e && *s != '"') ++s;
-    if (s == e || s == name || (size_t)(s - name) >= out_size) return 0;
+    while (*s && *s != '"') ++s;
+    if (*s != '"' || s == name || (size_t)(s - name) >= out_size) return NULL;
     memcpy(out, name, (size_t)(s - name));
     out[s - name] = '\0';
-    for (++s; s < e; ++s)
-        if (*s != ' ' && *s != '\t' && *s != '\r') return 0;
-    return 1;
+    const char *after = ++s, *e = s;
+    while (is_space(*e)) ++e;                       /* greedy \s* ... */
+    while (e > after && *e != '\0' && *e != '\n') --e;   /* ... backed off until $ holds */
+    if (*e != '\0' && *e != '\n') return NULL;
+    return e;
 }
 
 typedef struct expansion {
@@ -117,19 +125,20 @@ static oclshade_status expand(oclshade *lib, const source_set *set, const char *
     char *text = NULL;
     oclshade_status st = load_source(lib, set, name, &text);
     if (st != OCLSHADE_OK) return st;
+    const char *copied = text;   /* text before it is in out */
     for (const char *s = text; *s && st == OCLSHADE_OK;) {
-        const char *e = strchr(s, '\n');
-        const char *next = e ? e + 1 : s + strlen(s);
-        if (e == NULL) e = next;
         char inc[64];
-        if (include_line(s, e, inc, sizeof inc)) {
+        const char *end = (s == text || s[-1] == '\n') ? include_at(s, inc, sizeof inc) : NULL;
+        if (end != NULL) {
+            sb_append(out, copied, (size_t)(s - copied));
             st = expand(lib, set, inc, ex, out);
-            if (out->len > 0 && out->p[out->len - 1] != '\n') sb_append(out, "\n", 1);
-        } else {
-            sb_append(out, s, (size_t)(next - s));
+            copied = s = end;
+            continue;
         }
-        s = next;
+        const char *nl = strchr(s, '\n');
+        s = nl ? nl + 1 : s + strlen(s);
     }
+    sb_append(out, copied, strlen(copied));
     free(text);
     if (st == OCLSHADE_OK && out->oom) st = ocls_fail(lib, OCLSHADE_OUT_OF_MEMORY, 0, "out of memory expanding %s", name);
     return st;
