@@ -96,7 +96,7 @@ class ObjectScene(TerrainScene):
                                        heights=self.renderer.pyramid.heights) if self.meshes else None)
         solid = [m for m in self.meshes if m.cast_shadows and not m.surface.cuts_out]
         cut = [m for m in self.meshes if m.cast_shadows and m.surface.cuts_out]
-        self.mesh_shadows = MeshShadows(solid, self.runtime, bounds=self._box()) if solid else None
+        self.mesh_shadows = MeshShadows(solid, self.runtime) if solid else None
         self.cutout_shadows = (MeshCaster(cut, None, self.runtime) if cut else None)  # shadow rays honour cut-outs
         self._mesh_objects = None               # the meshes' own G-buffer, reused frame to frame
         self.reflections: Reflections | None = None
@@ -109,21 +109,6 @@ class ObjectScene(TerrainScene):
         self._face_scene: ObjectScene | None = None
         self.frames_rendered = 0
         self.generations = 0                    # how many times the objects' maps were generated
-
-    def _box(self) -> tuple[np.ndarray, np.ndarray]:
-        """The world box around the map, the quadrics and the meshes (the shadow volumes'
-        receivers: fixed per scene, so the volumes are cached while the light stands still)."""
-        lo, hi = map_bounds(self.renderer.field.heightmap)
-        los, his = [np.asarray(lo, float)], [np.asarray(hi, float)]
-        for q in self.quadrics:
-            centre, radius = q.bound
-            los.append(centre - radius)
-            his.append(centre + radius)
-        for m in self.meshes:
-            a, b = m.bounds
-            los.append(a)
-            his.append(b)
-        return np.min(los, axis=0), np.max(his, axis=0)
 
     def _reflect_with(self, cubes, cube_of: list[int] | None) -> None:
         env = self.environment
