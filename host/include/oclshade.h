@@ -906,6 +906,7 @@ typedef struct oclshade_quadric_params {
     cl_mem scratch;                    /* >= oclshade_quadric_scratch_size (packed copies of pitched fields) */
 } oclshade_quadric_params;
 
+/* Zeroes (no terrain, sun (0, 0), k_dark = k_bright = 0). */
 void oclshade_quadric_params_init(oclshade_quadric_params *params);
 /* Scratch of the largest of the four calls for these parameters (0 when every field is packed
  * at offset 0). */
@@ -994,6 +995,7 @@ typedef struct oclshade_reflect_params {
     cl_mem scratch;                            /* >= oclshade_reflect_scratch_size */
 } oclshade_reflect_params;
 
+/* Zeroes, then Reflections' defaults: ssaa 1, intensity 1, background on. */
 void oclshade_reflect_params_init(oclshade_reflect_params *params);
 oclshade_status oclshade_reflect_scratch_size(oclshade *lib, const oclshade_reflect_params *params, size_t *bytes);
 /* Reflections.weights: weighted = albedo, then reflect_weights of each group's specialised
