@@ -303,3 +303,46 @@ def test_c_objects_argument_and_contract_checks(host: dict, tmp_path: Path) -> N
     lines = stdout.splitlines()
     assert not [line for line in lines if line.startswith("FAIL")], stdout
     assert sum(line.startswith("ok ") for line in lines) >= 23, stdout
+
+
+def _python_expansion(files: dict[str, str], name: str) -> str:
+    """oclshade.runtime.kernel_source's expansion over given texts (its regex, each file once)."""
+    from oclshade.runtime import _INCLUDE
+    seen: set[str] = set()
+
+    def expand(n: str) -> str:
+        if n in seen:
+            return ""
+        seen.add(n)
+        return _INCLUDE.sub(lambda m: expand(m.group(1)), files[n])
+
+    return expand(name)
+
+
+def test_c_include_expansion_equals_python(host: dict, tmp_path: Path) -> None:
+    """The library's #include expansion equals the Python host's on 30 random layouts: blank
+    and blank-ish lines before and after directives, indented and spaced directives, nested
+    and repeated includes, a directive on the last line with and without a newline."""
+    from oclshade.runtime import _kernel_root
+    root = Path(str(_kernel_root()))
+    others = [p for p in sorted(root.iterdir()) if p.suffix in (".cl", ".h") and p.name != "reflect.cl"]
+    rng = np.random.default_rng(7)
+    pieces = ["code();\n", "\n", "  \n", "\t\n", "// c\n", '#include "inc_a.h"\n', '  #  include  "inc_b.h"  \n',
+              '#include "inc_a.h"\n\n\n', '#include "common.h"\n', "#define X 1\n"]
+    for case in range(30):
+        folder = tmp_path / str(case)
+        (folder / "out").mkdir(parents=True)
+        texts = {}
+        for name in ("reflect.cl", "inc_a.h", "inc_b.h"):
+            parts = [str(rng.choice(pieces)) for _ in range(int(rng.integers(1, 9)))]
+            if name == "inc_a.h":
+                parts = [p for p in parts if "inc_a" not in p]
+            if name == "inc_b.h":
+                parts = [p for p in parts if "inc_" not in p]
+            text = "".join(parts) + str(rng.choice(["", "end", '#include "inc_b.h"', "\n"]))
+            texts[name] = text
+            (folder / name).write_bytes(text.encode())
+        files = {p.name: p.read_text(encoding="utf-8") for p in others} | texts
+        run_program(host, "host_objects", "expand", folder / "out", folder / "reflect.cl", *others,
+                    folder / "inc_a.h", folder / "inc_b.h")
+        assert (folder / "out" / "expanded.cl").read_bytes() == _python_expansion(files, "reflect.cl").encode(), case

@@ -12,6 +12,10 @@
  *       qi.i32), the cast (obj_*.bin), the merged G-buffer (mrg_*.bin), the shading normals
  *       (shading.out) and the coefficients (coef.out).  Checks itself that pitched fields at
  *       offsets give the same bits.
+ *   host_objects expand OUTDIR REFLECT FILE...
+ *       a handle from sources: REFLECT as reflect.cl, the FILEs (the other kernel files and
+ *       includes of a test's own) by their base names; the library's expansion of
+ *       reflect.cl into OUTDIR/expanded.cl.
  *   host_objects errors OUTDIR
  *       the argument and contract checks of every new entry point and host helper: prints
  *       "ok WHAT" or "FAIL WHAT: ..." per check and fails when one fails.
@@ -148,6 +152,29 @@ static void run_specialize(int argc, char **argv)
         }
         free(source);
     }
+}
+
+/* ------------------------------------------------------------------ include expansion */
+
+/* The library's expansion of a reflect.cl of our own (REFLECT) beside the files FILE...
+ * (every other kernel file and includes of our own, named by their base names), into
+ * OUTDIR/expanded.cl. */
+static void run_expand(int argc, char **argv)
+{
+    if (argc < 1) fail("usage: host_objects expand OUTDIR REFLECT FILE...");
+    oclshade_source *list = (oclshade_source *)xmalloc((size_t)argc * sizeof *list);
+    for (int i = 0; i < argc; ++i) {
+        const char *base = strrchr(argv[i], '/');
+        list[i].name = i == 0 ? "reflect.cl" : base ? base + 1 : argv[i];
+        list[i].text = read_text(argv[i]);
+    }
+    oclshade *own;
+    if (oclshade_create_from_sources(ctx, device, list, (size_t)argc, &own) != OCLSHADE_OK) fail(oclshade_last_error(own));
+    const char *text = oclshade_program_source(own, "reflect.cl");
+    write_file("expanded.cl", text, strlen(text));
+    oclshade_destroy(own);
+    for (int i = 0; i < argc; ++i) free((void *)list[i].text);
+    free(list);
 }
 
 /* ------------------------------------------------------------------ quadrics */
@@ -532,6 +559,7 @@ int main(int argc, char **argv)
     else if (strcmp(argv[1], "quadrics") == 0) run_quadrics(argc - 3, argv + 3);
     else if (strcmp(argv[1], "reflect") == 0) run_reflect(argc - 3, argv + 3);
     else if (strcmp(argv[1], "errors") == 0) run_errors();
+    else if (strcmp(argv[1], "expand") == 0) run_expand(argc - 3, argv + 3);
     else fail("unknown command");
     oclshade_destroy(lib);
     clReleaseCommandQueue(queue);
