@@ -231,3 +231,30 @@ def test_casters_with_cut_outs_shadow_through_their_holes():
     west = ground & (p[..., 0] > 232) & (p[..., 0] < 247)
     assert east.sum() > 10 and west.sum() > 10
     assert np.all(coef[east] == np.float32(0.2)) and np.all(coef[west] == 1.0)
+
+
+def test_a_scene_without_terrain(tmp_path, capsys):
+    """[terrain] is optional with objects: the mesh alone in the frame (the rest empty), its
+    camera from position / look_at; without objects or without a camera position, an error."""
+    (tmp_path / "cube.obj").write_text(CUBE_OBJ)
+    (tmp_path / "s.toml").write_text("""[camera]
+position = [40, -30, 25]
+look_at = [5, 5, 5]
+size = [48, 32]
+[[mesh]]
+file = "cube.obj"
+scale = 10
+""")
+    desc = load_scene(tmp_path / "s.toml")
+    assert desc.terrain is None
+    f, scene, camera = render_scene(desc)
+    ids, hit = scene.ids.to_host(scene.runtime), f.gbuffer.to_host().hit
+    assert (ids == -1).sum() > 50 and np.array_equal(hit, ids == -1)
+    assert main(["render", str(tmp_path / "s.toml"), str(tmp_path / "f.png")]) == 0
+    assert "0 quadrics, 1 meshes" in capsys.readouterr().err
+    (tmp_path / "e.toml").write_text("[camera]\nfov = 30\n")
+    with pytest.raises(SceneError, match=r"or at least one \[\[mesh\]\] or \[\[quadric\]\]"):
+        load_scene(tmp_path / "e.toml")
+    (tmp_path / "v.toml").write_text("[[mesh]]\nfile = 'cube.obj'\n")
+    with pytest.raises(SceneError, match=r"\[camera\]: a scene without \[terrain\] needs position and look_at"):
+        load_scene(tmp_path / "v.toml")

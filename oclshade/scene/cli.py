@@ -1,6 +1,6 @@
 """``oclshade render SCENE.toml OUT.png``: a scene file rendered (the render command's hook).
 
-The scene file holds the terrain, camera, sun, render settings, environment and quadrics
+The scene file holds the terrain, camera, sun, render settings, environment, quadrics and meshes
 (:mod:`oclshade.scene.description`); on the command line only OUTPUT (.png), --gbuffer
 EXR, --device and --quiet apply.  Another render option given with a scene file is an
 error naming the file's key to use instead, so nothing is silently ignored.
@@ -100,7 +100,8 @@ def run(args: argparse.Namespace) -> int:
         image.finish()
     if not args.quiet:
         passes = ", ".join(f"{name} {ms:.0f} ms" for name, ms in frame.ms.items())
-        print(f"{PROG}: scene {args.input}: {len(desc.quadrics)} quadrics, {width}x{height} pixels, device "
+        meshes = f"{len(desc.meshes)} meshes, " if desc.meshes else ""
+        print(f"{PROG}: scene {args.input}: {len(desc.quadrics)} quadrics, {meshes}{width}x{height} pixels, device "
               f"{scene.runtime.label}: {passes} (with builds; run {time.perf_counter() - t0:.2f} s) -> {args.output}",
               file=sys.stderr)
     return 0

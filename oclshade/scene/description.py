@@ -4,10 +4,12 @@
 >>> scene.quadrics[0].material.kind
 'mirror'
 
-The format (every section optional but ``[terrain]``; an unknown key or section is an
-error that names it, so a typo never passes silently)::
+The format (every section optional, but a scene needs ``[terrain]`` or at least one
+object; an unknown key or section is an error that names it, so a typo never passes
+silently)::
 
-    [terrain]
+    [terrain]                    # optional with [[mesh]] / [[quadric]] objects (then give
+                                 #   [camera] position / look_at: view frames a map)
     dem = "dem.tif"              # path; cellsize: the file's, or [terrain] cellsize
     cellsize = 30.0              # or [dx, dy] (metres)
     z_factor = 1.0
@@ -28,7 +30,7 @@ error that names it, so a typo never passes silently)::
     [render]
     ssaa = 1                     # samples per pixel along each axis
     shadows = true
-    ao = 4.0                     # SSAO radius in cells; 0 or absent: off
+    ao = 4.0                     # SSAO radius in cells (metres without terrain); 0 or absent: off
 
     [environment]
     file = "envmaps/sky.exr"     # any layout oclshade.envmap reads
@@ -143,7 +145,7 @@ class EnvironmentSpec:
 @dataclass(frozen=True)
 class SceneDescription:
     path: Path
-    terrain: TerrainSpec
+    terrain: TerrainSpec | None                 # None: no terrain (objects only)
     camera: CameraSpec = CameraSpec()
     sun: Sun = Sun(DEFAULT_AZIMUTH, DEFAULT_ELEVATION)
     render: RenderSpec = RenderSpec()
@@ -228,8 +230,9 @@ def load_scene(path: str | os.PathLike) -> SceneDescription:
     for key in doc:
         if key not in SECTIONS:
             raise SceneError(f"{path}: unknown section [{key}]; expected {', '.join(SECTIONS)}")
-    if "terrain" not in doc:
-        raise SceneError(f"{path}: a [terrain] section with dem = \"...\" is required")
+    if "terrain" not in doc and not (doc.get("mesh") or doc.get("quadric")):
+        raise SceneError(f"{path}: a [terrain] section with dem = \"...\", or at least one [[mesh]] or "
+                         "[[quadric]], is required")
     sections = {name: _Reader(path, f"[{name}]", doc.get(name, {})) for name in SECTIONS
                 if name not in ("quadric", "mesh")}
     for name, reader in sections.items():
@@ -239,8 +242,11 @@ def load_scene(path: str | os.PathLike) -> SceneDescription:
         tables[name] = doc.get(name, [])
         if not isinstance(tables[name], list):
             raise SceneError(f"{path}: {plural} are an array of tables: write [[{name}]]")
+    camera = _camera(sections["camera"])
+    if "terrain" not in doc and camera.position is None:
+        raise sections["camera"].error("a scene without [terrain] needs position and look_at (view frames a map)")
     return SceneDescription(
-        path=path, terrain=_terrain(sections["terrain"]), camera=_camera(sections["camera"]),
+        path=path, terrain=_terrain(sections["terrain"]) if "terrain" in doc else None, camera=camera,
         sun=_sun(sections["sun"]), render=_render(sections["render"]),
         environment=_environment(sections["environment"]) if "environment" in doc else None,
         quadrics=tuple(_quadric(_Reader(path, f"[[quadric]] {k + 1}", t)) for k, t in enumerate(tables["quadric"])),

@@ -201,16 +201,19 @@ class ObjectScene(TerrainScene):
 
 
 def scene_camera(desc: SceneDescription, heightmap: Heightmap) -> Camera:
-    """The description's camera; near and far enclose the map, every quadric and every mesh."""
+    """The description's camera; near and far enclose the map (if any), every quadric and
+    every mesh."""
     spec = desc.camera
     width, height = spec.size
     if spec.position is None:
         camera = frame_heightmap(heightmap, width, height, azimuth=spec.view[0], elevation=spec.view[1], fov=spec.fov)
     else:
         camera = Camera(np.array(spec.position), np.array(spec.look_at), width, height, fov=spec.fov)
-    lo, hi = map_bounds(heightmap)
-    corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
-    reach = np.linalg.norm(corners - camera.position, axis=1).max()
+    reach = 0.0
+    if desc.terrain is not None:
+        lo, hi = map_bounds(heightmap)
+        corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+        reach = float(np.linalg.norm(corners - camera.position, axis=1).max())
     for q in desc.quadrics:
         centre, radius = q.bound
         reach = max(reach, float(np.linalg.norm(centre - camera.position)) + radius)
@@ -221,8 +224,16 @@ def scene_camera(desc: SceneDescription, heightmap: Heightmap) -> Camera:
     return replace(camera, near=min(near, 0.5 * far), far=far)
 
 
+#: a scene without terrain renders over this map: 2 x 2 samples, all holes (nothing drawn,
+#: nothing that shades)
+NO_TERRAIN = np.full((2, 2), np.nan)
+
+
 def load_heightmap(desc: SceneDescription) -> Heightmap:
+    """The description's DEM as a Heightmap; a map of holes (:data:`NO_TERRAIN`) without one."""
     t = desc.terrain
+    if t is None:
+        return Heightmap.from_array(NO_TERRAIN, 1.0)
     raster = read_dem(t.dem, cellsize=t.cellsize, nodata=t.nodata)
     if t.cellsize is None and not {33550, 34264} & raster.georef.keys():
         raise SceneError(f"{desc.path}: [terrain] dem {t.dem} does not record its cell size; give cellsize = ...")
@@ -239,7 +250,8 @@ def render_scene(desc: SceneDescription, device: str | int | Runtime | None = No
         cube = None if e.file is None else load_cube(e.file, e.layout, e.size, device)
         environment = Environment(cube, e.rotation, e.intensity, e.background, e.generate,
                                   e.size if cube is None and e.size is not None else 128)
-    scene = ObjectScene(Heightfield(heightmap, desc.terrain.radius), desc.quadrics, environment, device, uber=uber,
+    radius = None if desc.terrain is None else desc.terrain.radius
+    scene = ObjectScene(Heightfield(heightmap, radius), desc.quadrics, environment, device, uber=uber,
                         meshes=desc.meshes)
     camera = scene_camera(desc, heightmap)
     r = desc.render
