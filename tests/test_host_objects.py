@@ -320,7 +320,7 @@ def _python_expansion(files: dict[str, str], name: str) -> str:
 
 
 def test_c_include_expansion_equals_python(host: dict, tmp_path: Path) -> None:
-    """The library's #include expansion equals the Python host's on 30 random layouts: blank
+    """The library's #include expansion equals the Python host's on 12 random layouts: blank
     and blank-ish lines before and after directives, indented and spaced directives, nested
     and repeated includes, a directive on the last line with and without a newline."""
     from oclshade.runtime import _kernel_root
@@ -329,7 +329,7 @@ def test_c_include_expansion_equals_python(host: dict, tmp_path: Path) -> None:
     rng = np.random.default_rng(7)
     pieces = ["code();\n", "\n", "  \n", "\t\n", "// c\n", '#include "inc_a.h"\n', '  #  include  "inc_b.h"  \n',
               '#include "inc_a.h"\n\n\n', '#include "common.h"\n', "#define X 1\n"]
-    for case in range(30):
+    for case in range(12):
         folder = tmp_path / str(case)
         (folder / "out").mkdir(parents=True)
         texts = {}
