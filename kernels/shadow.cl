@@ -5,9 +5,11 @@
  * ABI summary (details under "ABI" below):
  *   shadow_cells   heightmap space, one work-item per cell, global size (W, H)
  *                  rounded up to any local size; arguments: the relative
- *                  float32 heights, the extrema pyramid (float2 levels 1..L and
- *                  their offsets), the sun ray, sun vector, cell size, eq. (1)
- *                  constants and mode, then the mask / self / coef outputs.
+ *                  float32 heights, their size and int2 origin in the whole map
+ *                  (0 for a whole map), the extrema pyramid (float2 levels 1..L
+ *                  and their offsets), the sun ray, sun vector, cell size,
+ *                  eq. (1) constants and mode, then the mask / self / coef
+ *                  outputs.
  *   shadow_pixels  screen space, one work-item per G-buffer pixel, global size
  *                  (width, height) rounded up to any local size; arguments: the
  *                  heights, the level-q grids, the extrema pyramid, the G-buffer
@@ -89,13 +91,23 @@
  *         k_dark + (k_bright - k_dark) * max(sin(elevation), 0); NaN = nodata
  *
  * ABI
- *   __kernel shadow_cells(h, H, W, ext, lvl_off, nlev, ray, sunvec, cell, kcoef,
- *                         mode, mask, self, coef)
+ *   __kernel shadow_cells(h, H, W, origin, ext, lvl_off, nlev, ray, sunvec, cell,
+ *                         kcoef, mode, mask, self, coef)
  *     __global const float  *h       H*W heights, NaN = nodata; the hosts pass them
  *                                    relative to the map's mid-range (subtracted in
  *                                    float64) to keep float32 precision: any offset
  *                                    works, the same one gives the same results
  *     int H, W
+ *     int2 origin    (column, row) of h's first cell in the whole map h is a
+ *                    window of; (0, 0) for a whole map.  Cell coordinates are
+ *                    formed in the whole map (the ray of cell (i, j) starts at
+ *                    x0 = j + origin.x, patch column pc is at pc + origin.x,
+ *                    see make_cell_ray), buffers are indexed in the window: so
+ *                    every float32 value a cell's patch tests compute is the
+ *                    whole map's, and a window holding every patch that can
+ *                    rise above the cell's ray (and, for self, its neighbours)
+ *                    gives the whole map's outputs bit for bit (oclshade.tiles;
+ *                    docs/scale.md "Exactness").  origin + (W, H) <= 2^30
  *     __global const float2 *ext     extrema pyramid levels 1..nlev-1 back to back
  *                                    (level 0 is the heightmap itself, see pyramid.cl)
  *     __global const int    *lvl_off offset (in float2) of level l in ext at [l], [0] unused
@@ -126,6 +138,9 @@
  *                          position, uv, uv_grad, width, height, ray, sunvec,
  *                          kcoef, mode, lod, flag, coef, lod_out)
  *     h, H, W, ext, lvl_off, nlev, ray, sunvec, kcoef, mode  as for shadow_cells
+ *                                     (no origin: the G-buffer's uv are h's own
+ *                                     coordinates, and the rays are formed
+ *                                     relative to their start patch, see Ray)
  *     __global const float *coarse    level-q grids for q = 1..nlev-1 back to
  *                                     back, each (ceil(Hp/2^q)+1) x (ceil(Wp/2^q)+1)
  *                                     floats: the surface at the level-q tile
@@ -219,9 +234,10 @@
  * and row (xb, yb) and every height relative to hb before it meets the ray, so
  * rounding scales with the distance and the height differences the ray
  * actually travels, not with the map's coordinates or its relief.  A cell ray
- * has bases 0 (its operations are those of the plain formulas, bit for bit);
- * a pixel ray starts at a real point: bases its start patch's corner and the
- * sample nearest to it (pixel_ray).
+ * has bases minus the window's origin (0 for a whole map: its operations are
+ * then those of the plain formulas, bit for bit) and height base 0; a pixel
+ * ray starts at a real point: bases its start patch's corner and the sample
+ * nearest to it (pixel_ray).
  *
  * Near start (t < t_near, pixel rays only; cell rays have t_near = 0): the
  * first patches are tested on f(t) = S(t) - z(t) carried from patch to patch
@@ -252,10 +268,15 @@ OCLS_INLINE Ray make_ray_based(int xb, int yb, float hb, float x0, float y0, flo
     return r;
 }
 
-/* The ray of a cell: bases 0, no near start; ray = (ux, uy, w, c). */
-OCLS_INLINE Ray make_ray(float x0, float y0, float z0, float4 ray)
+/* The ray of cell (i, j) of a window whose first cell is (origin.y,
+ * origin.x) in the whole map: bases -origin, so positions are the whole map's
+ * columns and rows (x0 = j + origin.x, patch pc at pc + origin.x: every float32
+ * value is the one the whole map computes for that cell, while buffers are
+ * indexed in the window); height base 0, no near start; ray = (ux, uy, w, c). */
+OCLS_INLINE Ray make_cell_ray(int i, int j, int2 origin, float z0, float4 ray)
 {
-    return make_ray_based(0, 0, 0.0f, x0, y0, z0, ray.x, ray.y, ray.z, ray.w, 0.0f);
+    return make_ray_based(-origin.x, -origin.y, 0.0f, (float)(j + origin.x), (float)(i + origin.y), z0,
+                          ray.x, ray.y, ray.z, ray.w, 0.0f);
 }
 
 /* Exact test of the ray against one patch (or grid-line segment) between ray
@@ -542,9 +563,10 @@ OCLS_INLINE int trace(__global const float *h, int H, int W, __global const floa
  * gap).  The certificate is exact (it only skips provably lit parts of rays);
  * cells of tiles that can neither cast nor receive a shadow stop at once.
  *
- *   __kernel shadow_certify(H, W, ext, lvl_off, nlev, ray, cert)
- *     H, W, ext, lvl_off, nlev, ray as for shadow_cells (mode 0 only: the
- *     host does not launch it otherwise)
+ *   __kernel shadow_certify(H, W, origin, ext, lvl_off, nlev, ray, cert)
+ *     H, W, origin, ext, lvl_off, nlev, ray as for shadow_cells (mode 0 only:
+ *     the host does not launch it otherwise; the boxes B + t (ux, uy) are
+ *     formed in the whole map's coordinates, then indexed in the window)
  *     __global float *cert   ceil(H/s) * ceil(W/s) * OCLS_CERT_K floats,
  *                            tile (tr, tc) at (tr * ceil(W/s) + tc) * K
  *   global size (ceil(W/s), ceil(H/s)) rounded up to any local size.
@@ -568,7 +590,7 @@ OCLS_INLINE int trace(__global const float *h, int H, int W, __global const floa
 #define OCLS_CERT_SPAN 5
 #endif
 
-__kernel void shadow_certify(const int H, const int W, __global const float2 *ext,
+__kernel void shadow_certify(const int H, const int W, const int2 origin, __global const float2 *ext,
                              __global const int *lvl_off, const int nlev, const float4 ray,
                              __global float *cert)
 {
@@ -578,8 +600,11 @@ __kernel void shadow_certify(const int H, const int W, __global const float2 *ex
     const int Hp = max(H - 1, 1), Wp = max(W - 1, 1), top = nlev - 1;
     const float ux = ray.x, uy = ray.y, w = ray.z, major = fmax(fabs(ux), fabs(uy));
     const float z_top = ext[lvl_off[top]].x;
-    const float bx0 = (float)(tc * s), bx1 = (float)min(tc * s + s - 1, W - 1);
-    const float by0 = (float)(tr * s), by1 = (float)min(tr * s + s - 1, H - 1);
+    /* the box in the whole map's columns and rows (origin: the window's first cell) */
+    const float bx0 = (float)(tc * s + origin.x), bx1 = (float)(min(tc * s + s - 1, W - 1) + origin.x);
+    const float by0 = (float)(tr * s + origin.y), by1 = (float)(min(tr * s + s - 1, H - 1) + origin.y);
+    const float bx_org = (float)origin.x, by_org = (float)origin.y;
+    const float x_end = (float)(W - 1 + origin.x), y_end = (float)(H - 1 + origin.y);
     /* a lower bound of the tile's heights: the min of its level-log2(s) texel
      * (patches [c0, c0+s-1] cover the tile's samples) */
     const int ls = min(31 - (int)clz(s), top);
@@ -600,12 +625,14 @@ __kernel void shadow_certify(const int H, const int W, __global const float2 *ex
             const float xa = fmin(ux * ta, ux * tb), xb = fmax(ux * ta, ux * tb);
             const float ya = fmin(uy * ta, uy * tb), yb = fmax(uy * ta, uy * tb);
             const float x_lo = bx0 + xa, x_hi = bx1 + xb, y_lo = by0 + ya, y_hi = by1 + yb;
-            if (x_hi < 0.0f || x_lo > (float)(W - 1) || y_hi < 0.0f || y_lo > (float)(H - 1)) {
+            if (x_hi < bx_org || x_lo > x_end || y_hi < by_org || y_lo > y_end) {
                 o = 31;                                /* the box has left the map for good */
                 break;
             }
-            const int c_lo = clamp(ocls_floor_int(x_lo), 0, Wp - 1), c_hi = clamp(ocls_floor_int(x_hi), 0, Wp - 1);
-            const int r_lo = clamp(ocls_floor_int(y_lo), 0, Hp - 1), r_hi = clamp(ocls_floor_int(y_hi), 0, Hp - 1);
+            const int c_lo = clamp(ocls_floor_int(x_lo) - origin.x, 0, Wp - 1);
+            const int c_hi = clamp(ocls_floor_int(x_hi) - origin.x, 0, Wp - 1);
+            const int r_lo = clamp(ocls_floor_int(y_lo) - origin.y, 0, Hp - 1);
+            const int r_hi = clamp(ocls_floor_int(y_hi) - origin.y, 0, Hp - 1);
             int l = 1;
             while (l < top && ((c_hi >> l) - (c_lo >> l) >= OCLS_CERT_SPAN || (r_hi >> l) - (r_lo >> l) >= OCLS_CERT_SPAN)) ++l;
             float zmax = -INFINITY;
@@ -659,12 +686,12 @@ OCLS_INLINE int self_shadowed(__global const float *h, int H, int W, int i, int 
 }
 
 /* Cast shadow of cell (i, j) of height z0 (not nodata) by the scalar traversal. */
-OCLS_INLINE int cell_shadow(__global const float *h, int H, int W, __global const float2 *ext,
+OCLS_INLINE int cell_shadow(__global const float *h, int H, int W, int2 origin, __global const float2 *ext,
                             __global const int *lvl_off, int nlev, float4 ray, int mode,
                             __global const float *cert, int i, int j, float z0, uint *steps)
 {
     if (mode != 0) return mode == 2;
-    const Ray r = make_ray((float)j, (float)i, z0, ray);
+    const Ray r = make_cell_ray(i, j, origin, z0, ray);
     return trace(h, H, W, ext, lvl_off, nlev, 0, ext[lvl_off[nlev - 1]].x,
                  cert_limit(cert, W, i, j, z0, ray), &r, steps);
 }
@@ -699,7 +726,7 @@ OCLS_INLINE void write_cell(__global const float *h, int H, int W, int i, int j,
 #define OCLS_CERT_PARAM
 #endif
 #define OCLS_CELLS_PARAMS \
-    __global const float *h, const int H, const int W, __global const float2 *ext, \
+    __global const float *h, const int H, const int W, const int2 origin, __global const float2 *ext, \
     __global const int *lvl_off, const int nlev, const float4 ray, const float4 sunvec, const float2 cell, \
     const float2 kcoef, const int mode, __global uchar *mask, __global uchar *self, __global float *coef \
     OCLS_CERT_PARAM
@@ -716,7 +743,8 @@ __kernel void shadow_cells(OCLS_CELLS_PARAMS
     const float z0 = h[i * W + j];
     int shadow = 0;
 #if defined(OCLS_OUT_MASK) || defined(OCLS_OUT_COEF)
-    if (!isnan(z0)) shadow = cell_shadow(h, H, W, ext, lvl_off, nlev, ray, mode, OCLS_CERT_BUF, i, j, z0, steps);
+    if (!isnan(z0)) shadow = cell_shadow(h, H, W, origin, ext, lvl_off, nlev, ray, mode, OCLS_CERT_BUF, i, j, z0,
+                                         steps);
 #endif
     OCLS_STEPS_END(nlev);
     write_cell(h, H, W, i, j, shadow, mode, sunvec, cell, kcoef, mask, self, coef);
@@ -752,7 +780,8 @@ __kernel void shadow_cells(OCLS_CELLS_PARAMS
  *     per work-item, a multiple of the lane count), -D OCLS_LANES=4, 8 or 16
  *     (rays in flight; 16 when not given), EXACT or MAXMIP, without
  *     -D OCLS_STATS, and -D OCLS_CERT a multiple of the lane count if given;
- *     the arguments of shadow_cells (with -D OCLS_CERT the certificate buffer)
+ *     the arguments of shadow_cells (with -D OCLS_CERT the certificate buffer;
+ *     the origin forms the lanes' coordinates as make_cell_ray does)
  *   global size (ceil(W / run), H) rounded up to any local size.
  *   The hosts take run and lanes from the device's tuning entry
  *   (oclshade.tuning); the results never depend on them. */
@@ -832,7 +861,7 @@ typedef struct {
  * h00 .. h11 of its patch (level 0): returns the lanes whose ray ends, with
  * *shadow their result (-1 = cast shadow); the others descend, or step out
  * and climb (their state updated in *p). */
-OCLS_INLINE ocls_intv packet_step(__global const float *h, int H, int W, float4 ray, float y0, float z_top,
+OCLS_INLINE ocls_intv packet_step(__global const float *h, int H, int W, int2 origin, float4 ray, float y0, float z_top,
                               int top, ocls_intv act, Packet *p, ocls_floatv emax, ocls_floatv emin, ocls_floatv h00,
                               ocls_floatv h01, ocls_floatv h10, ocls_floatv h11, ocls_intv *shadow_out)
 {
@@ -843,8 +872,8 @@ OCLS_INLINE ocls_intv packet_step(__global const float *h, int H, int W, float4 
     const ocls_intv PR = p->pr, PC = p->pc, L = p->l;
     /* tile_exit of the level-L tile */
     const ocls_intv size = (ocls_intv)(1) << L, r0 = (PR >> L) << L, c0 = (PC >> L) << L;
-    const ocls_floatv tx = (OCLS_CONVERT_FLOAT(east ? c0 + size : c0) - X0) * ix;
-    const ocls_floatv ty = (OCLS_CONVERT_FLOAT(south ? r0 + size : r0) - y0) * iy;
+    const ocls_floatv tx = (OCLS_CONVERT_FLOAT((east ? c0 + size : c0) + origin.x) - X0) * ix;
+    const ocls_floatv ty = (OCLS_CONVERT_FLOAT((south ? r0 + size : r0) + origin.y) - y0) * iy;
     const ocls_intv corner = fabs(tx - ty) <= OCLS_CORNER_EPS * fmax(tx, ty);
     const ocls_intv via_x = corner | (tx < ty), via_y = corner | (ty < tx);
     const ocls_floatv t_out = fmin(tx, ty);
@@ -863,7 +892,8 @@ OCLS_INLINE ocls_intv packet_step(__global const float *h, int H, int W, float4 
 #endif
     /* level 0: patch_hits (the bilinear case) */
     const ocls_intv valid = ~(isnan(h00) | isnan(h01) | isnan(h10) | isnan(h11));
-    const ocls_floatv fx = (X0 + ux * T) - OCLS_CONVERT_FLOAT(PC), fy = (y0 + uy * T) - OCLS_CONVERT_FLOAT(PR);
+    const ocls_floatv fx = (X0 + ux * T) - OCLS_CONVERT_FLOAT(PC + origin.x);
+    const ocls_floatv fy = (y0 + uy * T) - OCLS_CONVERT_FLOAT(PR + origin.y);
     const ocls_floatv len = t_out - T;
     const ocls_floatv ex = h01 - h00, ey = h10 - h00, kk = (h00 - h01) - (h10 - h11);
     const ocls_floatv s_a = h00 + ex * fx + ey * fy + kk * (fx * fy);
@@ -889,8 +919,10 @@ OCLS_INLINE ocls_intv packet_step(__global const float *h, int H, int W, float4 
     /* step_out, then climb; a reaching tile is descended instead */
     const ocls_floatv px = X0 + ux * t_out, py = y0 + uy * t_out;
     const ocls_intv ipx = OCLS_CONVERT_INT(px), ipy = OCLS_CONVERT_INT(py);
-    const ocls_intv along_c = clamp(east ? OCLS_FLOORV(px, ipx) : OCLS_CEILV(px, ipx) - 1, c0, c0 + size - 1);
-    const ocls_intv along_r = clamp(south ? OCLS_FLOORV(py, ipy) : OCLS_CEILV(py, ipy) - 1, r0, r0 + size - 1);
+    const ocls_intv along_c = clamp((east ? OCLS_FLOORV(px, ipx) : OCLS_CEILV(px, ipx) - 1) - origin.x, c0,
+                                    c0 + size - 1);
+    const ocls_intv along_r = clamp((south ? OCLS_FLOORV(py, ipy) : OCLS_CEILV(py, ipy) - 1) - origin.y, r0,
+                                    r0 + size - 1);
     const ocls_intv npc = select(along_c, east ? c0 + size : c0 - 1, via_x);
     const ocls_intv npr = select(along_r, south ? r0 + size : r0 - 1, via_y);
     const ocls_intv moves = act & ~lit & ~shadow & ~reach;
@@ -912,13 +944,13 @@ OCLS_INLINE ocls_intv packet_step(__global const float *h, int H, int W, float4 
  * packet loop.  The rays that end in it (and cells that are nodata or whose
  * ray leaves the map at once) get res[] now; the others get their state in
  * *s and their bit in the returned mask. */
-OCLS_INLINE int first_steps(__global const float *h, int H, int W, float4 ray, float z_top, int top,
+OCLS_INLINE int first_steps(__global const float *h, int H, int W, int2 origin, float4 ray, float z_top, int top,
                             __global const float *cert, const float *tk, int i, int j0, int c, int n,
                             uchar *res, Packet *s)
 {
     const int Wp = W - 1, east = ray.x > 0.0f, pr0 = ray.y > 0.0f ? i : i - 1;
     const ocls_intv cells = c + OCLS_LANE_IDS, j = j0 + cells, pc = east ? j : j - 1;
-    s->x0 = OCLS_CONVERT_FLOAT(j);
+    s->x0 = OCLS_CONVERT_FLOAT(j + origin.x);
     s->z0 = row_lanes(h + i * W, j0 + c, W);
     s->t = 0.0f;
     s->t_lim = INFINITY;
@@ -938,8 +970,8 @@ OCLS_INLINE int first_steps(__global const float *h, int H, int W, float4 ray, f
 #endif
         const int col = start_col(j0 + c, east);
         __global const float *r0 = h + pr0 * W, *r1 = r0 + W;
-        ended = packet_step(h, H, W, ray, (float)i, z_top, top, start, s, (ocls_floatv)(0.0f), (ocls_floatv)(0.0f),
-                            row_lanes(r0, col, W), row_lanes(r0, col + 1, W),
+        ended = packet_step(h, H, W, origin, ray, (float)(i + origin.y), z_top, top, start, s,
+                            (ocls_floatv)(0.0f), (ocls_floatv)(0.0f), row_lanes(r0, col, W), row_lanes(r0, col + 1, W),
                             row_lanes(r1, col, W), row_lanes(r1, col + 1, W), &shadow);
     }
     int e[OCLS_LANES], sh[OCLS_LANES];
@@ -953,7 +985,7 @@ OCLS_INLINE int first_steps(__global const float *h, int H, int W, float4 ray, f
  * res[c] = 1 iff cell j0 + c is in cast shadow (0 for nodata).  The rays that
  * outlive their first iteration (first_steps) go through the packet: a lane
  * whose ray has ended is refilled by blending in the next ray's state. */
-OCLS_INLINE void trace_run(__global const float *h, int H, int W, __global const float2 *ext,
+OCLS_INLINE void trace_run(__global const float *h, int H, int W, int2 origin, __global const float2 *ext,
                            __global const int *lvl_off, int nlev, float4 ray,
                            __global const float *cert, int i, int j0, int n, uchar *res)
 {
@@ -977,7 +1009,7 @@ OCLS_INLINE void trace_run(__global const float *h, int H, int W, __global const
     for (;;) {
         while (refill) {                               /* new rays into the lanes that ended */
             while (!pending && next < n) {             /* the next chunk's first iterations */
-                pending = first_steps(h, H, W, ray, z_top, top, cert, tk, i, j0, next, n, res, &chunk);
+                pending = first_steps(h, H, W, origin, ray, z_top, top, cert, tk, i, j0, next, n, res, &chunk);
                 OCLS_VSTORE(chunk.z0, 0, cz0); OCLS_VSTORE(chunk.t, 0, ct);
                 OCLS_VSTORE(chunk.t_lim, 0, ctl); OCLS_VSTORE(chunk.pr, 0, cpr); OCLS_VSTORE(chunk.pc, 0, cpc);
                 OCLS_VSTORE(chunk.l, 0, cl);
@@ -995,7 +1027,7 @@ OCLS_INLINE void trace_run(__global const float *h, int H, int W, __global const
             live += 1;
             const int c = next - OCLS_LANES + b;
             CELL = select(CELL, (ocls_intv)(c), lane);
-            p.x0 = select(p.x0, (ocls_floatv)((float)(j0 + c)), lane);
+            p.x0 = select(p.x0, (ocls_floatv)((float)(j0 + c + origin.x)), lane);
             p.z0 = select(p.z0, (ocls_floatv)(cz0[b]), lane);
             p.t = select(p.t, (ocls_floatv)(ct[b]), lane);
             p.t_lim = select(p.t_lim, (ocls_floatv)(ctl[b]), lane);
@@ -1013,7 +1045,7 @@ OCLS_INLINE void trace_run(__global const float *h, int H, int W, __global const
                                 (p.pc >> lq));
         const ocls_intv pidx = p.pr * W + p.pc;
         ocls_intv shadow;
-        const ocls_intv ended = packet_step(h, H, W, ray, (float)i, z_top, top, act, &p,
+        const ocls_intv ended = packet_step(h, H, W, origin, ray, (float)(i + origin.y), z_top, top, act, &p,
                                         OCLS_GATHER(ocls_floatv, ext1, eidx), OCLS_GATHER(ocls_floatv, ext1 + 1, eidx),
                                         OCLS_GATHER(ocls_floatv, h, pidx), OCLS_GATHER(ocls_floatv, h + 1, pidx),
                                         OCLS_GATHER(ocls_floatv, h + W, pidx), OCLS_GATHER(ocls_floatv, h + W + 1, pidx),
@@ -1039,12 +1071,12 @@ __kernel void shadow_cells_packet(OCLS_CELLS_PARAMS)
     uchar res[OCLS_RUN];
 #if defined(OCLS_OUT_MASK) || defined(OCLS_OUT_COEF)
     if (mode == 0 && ray.x != 0.0f && ray.y != 0.0f && H > 1 && W > 1) {
-        trace_run(h, H, W, ext, lvl_off, nlev, ray, OCLS_CERT_BUF, i, j0, n, res);
+        trace_run(h, H, W, origin, ext, lvl_off, nlev, ray, OCLS_CERT_BUF, i, j0, n, res);
     } else {
         for (int c = 0; c < n; ++c) {
             const float z0 = h[i * W + j0 + c];
             uint steps[1];
-            res[c] = !isnan(z0) && cell_shadow(h, H, W, ext, lvl_off, nlev, ray, mode, OCLS_CERT_BUF,
+            res[c] = !isnan(z0) && cell_shadow(h, H, W, origin, ext, lvl_off, nlev, ray, mode, OCLS_CERT_BUF,
                                                 i, j0 + c, z0, steps);
         }
     }

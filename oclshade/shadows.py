@@ -69,6 +69,22 @@ def curvature_coefficient(curvature: Curvature | None) -> float:
     return 0.0 if curvature is None else curvature.coefficient
 
 
+#: the largest window origin plus extent: the kernels' int cell coordinates stay far from overflow
+MAX_COORDINATE = 1 << 30
+
+
+def check_origin(origin: tuple[int, int], shape: tuple[int, int]) -> tuple[int, int]:
+    """A window's (row, column) origin in its whole map, as ints (see :class:`ShadowCaster`)."""
+    try:
+        r, c = (int(v) for v in origin)
+    except (TypeError, ValueError):
+        raise ValueError(f"origin must be a (row, column) pair of ints, got {origin!r}") from None
+    if (r, c) != tuple(origin) or r < 0 or c < 0 or r + shape[0] > MAX_COORDINATE or c + shape[1] > MAX_COORDINATE:
+        raise ValueError(f"origin must be a (row, column) pair of ints >= 0 with origin + shape <= 2^30, "
+                         f"got {origin!r} for shape {shape}")
+    return r, c
+
+
 def check_coefficients(k_dark: float, k_bright: float) -> tuple[float, float]:
     for name, v in (("k_dark", k_dark), ("k_bright", k_bright)):
         if not 0.0 <= float(v) <= 1.0:
@@ -152,12 +168,18 @@ class ShadowCaster:
     (r.horizon's and HORAYZON's model; ``Curvature()`` is the mean Earth radius, no
     refraction).  The traversal stays exact: the ray over the flat map becomes the parabola
     z0 + w t + c t^2, still rising, so a tile's lowest ray point is still its entry.
+    origin: (row, column) of the heightmap's first cell in a larger map it is a window of
+    (:mod:`oclshade.tiles`), (0, 0) for a whole map: the kernels form the cells' coordinates in
+    the larger map, so every float32 value a cell's ray computes is the larger map's and a window
+    holding the terrain that can shade a cell decides it bit for bit as the whole map does.
     """
 
     def __init__(self, heightmap: Heightmap, device: str | int | Runtime | None = None, *,
                  cache: bool | None = None, analyse: bool = True, certificates: bool = True,
-                 knobs: Mapping[str, int] | None = None, curvature: Curvature | None = None):
+                 knobs: Mapping[str, int] | None = None, curvature: Curvature | None = None,
+                 origin: tuple[int, int] = (0, 0)):
         self.heightmap = heightmap
+        self.origin = check_origin(origin, heightmap.shape)
         self.curvature = check_curvature(curvature)
         self.runtime = get_runtime(device)
         self.cache = cache
@@ -260,7 +282,7 @@ class ShadowCaster:
         hm = self.heightmap
         coef = (k_dark, k_bright) if "coefficient" in outs else None
         return (_cache.heights_digest(hm), hm.dx, hm.dy, sun.azimuth, sun.elevation, method, outs, coef,
-                curvature_coefficient(self.curvature), self.runtime.device.int_ptr)
+                curvature_coefficient(self.curvature), self.origin, self.runtime.device.int_ptr)
 
     def masks_on_device(self, suns: Iterable[SunLike], method: str = "exact") -> Iterator[tuple[Sun, cl.Buffer]]:
         """Each sun's cast-shadow mask left on the device for a kernel that reads it next on
@@ -391,8 +413,7 @@ class ShadowCaster:
         def certify(sun: Sun) -> tuple:
             args = self._args(sun, 0.0, 1.0)
             if int(args[-1]) == 0:
-                kernel.set_args(np.int32(rows), np.int32(cols), pyr.buffer, pyr.offsets, np.int32(pyr.levels),
-                                args[6], buf)
+                kernel.set_args(*args[1:8], buf)   # H, W, origin, ext, lvl_off, nlev, ray
                 cl.enqueue_nd_range_kernel(rt.queue, kernel, gsize, lsize)
             return (buf,)
 
@@ -407,7 +428,8 @@ class ShadowCaster:
             ux = uy = w = 0.0
         s = sun.vector()
         rows, cols = hm.shape
-        return (pyr.heights, np.int32(rows), np.int32(cols), pyr.buffer, pyr.offsets, np.int32(pyr.levels),
+        return (pyr.heights, np.int32(rows), np.int32(cols), np.array(self.origin[::-1], np.int32),
+                pyr.buffer, pyr.offsets, np.int32(pyr.levels),
                 np.array([ux, uy, w, curvature_coefficient(self.curvature)], np.float32),
                 np.array([s[0], s[1], s[2], 0.0], np.float32),
                 np.array([hm.dx, hm.dy], np.float32), np.array([k_dark, k_bright], np.float32), np.int32(mode))

@@ -27,6 +27,7 @@ from oclshade.runtime import _kernel_root, define_options, get_runtime, kernel_s
 from oclshade.shadows import METHODS, TUNING, ShadowFeatures
 from oclshade.tuning import family
 from oclshade.tuning.rules import rule_values
+from tile_cases import FLIP_OFFSET, FLIP_SUN, flipped_map
 
 HOST = Path(__file__).resolve().parents[1] / "host"
 OUTPUT_BITS = {1: ("mask",), 2: ("self",), 4: ("coefficient",)}
@@ -136,21 +137,31 @@ def random_map() -> Heightmap:
     return Heightmap.from_array(h, (2.0, 0.5))
 
 
+def flip_window() -> Heightmap:
+    """The window of the flipped map that holds the flipped cell (tiles of 11, offset 3000)."""
+    return Heightmap.from_array(flipped_map()[0:34, 0:45], 1.0)
+
+
 # Suns at every special case of sincos_degrees and of the kernel's modes.
 TRICKY_SUNS = [(315.0, 5.0), (37.0, 20.0), (135.0, 45.0), (0.0, 10.0), (90.0, 3.0), (180.0, 30.0),
                (270.0, 60.0), (45.0, 45.0), (-45.0, 12.0), (-1e-20, 25.0), (360.0, 8.0), (720.5, 15.0),
                (1e-6, 89.99), (200.0, 0.01), (10.0, 90.0), (10.0, 0.0), (300.0, -5.0)]
 CASES = {
-    # name: (heightmap, suns, suns checked against the float64 reference, kernels: "-" = built-in)
-    "random": (random_map, TRICKY_SUNS, TRICKY_SUNS, "package"),
+    # name: (heightmap, suns, suns checked against the float64 reference, kernels: "-" = built-in,
+    #        the map's (row, col) origin in a larger map: oclshade_shadow_params origin_row / _col)
+    "random": (random_map, TRICKY_SUNS, TRICKY_SUNS, "package", (0, 0)),
+    "random_window": (random_map, TRICKY_SUNS[:6], TRICKY_SUNS[:6], "package", (3000, 70001)),
+    # a window on which the origin changes a cell (tests/tile_cases.py): the C host must pass it
+    "flip_window": (flip_window, [(FLIP_SUN.azimuth, FLIP_SUN.elevation), (37.0, 20.0)],
+                    [(FLIP_SUN.azimuth, FLIP_SUN.elevation)], "package", FLIP_OFFSET),
     "jacksboro": (jacksboro, [(315.0, 5.0), (37.0, 20.0), (135.0, 45.0), (90.0, 10.0)],
-                  [(37.0, 20.0), (135.0, 45.0)], "-"),
+                  [(37.0, 20.0), (135.0, 45.0)], "-", (0, 0)),
 }
 
 
 @pytest.mark.parametrize("case", sorted(CASES))
 def test_c_host_matches_python_host(host: dict, tmp_path: Path, case: str) -> None:
-    make, suns, ref_suns, kernels = CASES[case]
+    make, suns, ref_suns, kernels, origin = CASES[case]
     hm = make()
     rows, cols = hm.shape
     src = tmp_path / "heights.f64"
@@ -159,6 +170,7 @@ def test_c_host_matches_python_host(host: dict, tmp_path: Path, case: str) -> No
     out.mkdir()
     kdir = str(_kernel_root()) if kernels == "package" else "-"
     stdout = run_program(host, "host_shadows", kdir, src, rows, cols, repr(hm.dx), repr(hm.dy), out,
+                         *([f"--origin={origin[0]},{origin[1]}"] if origin != (0, 0) else []),
                          *[f"{az!r},{alt!r}" for az, alt in suns])
     assert stdout.strip().endswith("ok")
 
@@ -171,7 +183,7 @@ def test_c_host_matches_python_host(host: dict, tmp_path: Path, case: str) -> No
     # the heights the kernels read, and the pyramid, bit for bit
     assert load("offset.f64", np.float64)[0] == hm.offset
     assert load("relative.f32", np.float32).tobytes() == hm.relative32.tobytes()
-    caster = ShadowCaster(hm)
+    caster = ShadowCaster(hm, origin=origin)
     pyr = caster.pyramid
     expected_pyramid = np.concatenate([level.reshape(-1, 2) for level in pyr.to_numpy()])
     assert load("pyramid.f32", np.float32).tobytes() == expected_pyramid.tobytes()
@@ -182,9 +194,10 @@ def test_c_host_matches_python_host(host: dict, tmp_path: Path, case: str) -> No
         # the sun as the Python host hands it to the kernel (ShadowCaster._args: ray, vector, mode)
         args = caster._args(sun, K_DARK, K_BRIGHT)
         raw = (out / f"sun{k}.bin").read_bytes()
-        assert raw[:16] == args[6].tobytes(), f"ray of sun {sun}"
-        assert raw[16:32] == args[7].tobytes(), f"vector of sun {sun}"
-        assert np.frombuffer(raw[32:], np.int32)[0] == args[10], f"mode of sun {sun}"
+        assert args[3].tolist() == [origin[1], origin[0]], "the window origin (column, row)"
+        assert raw[:16] == args[7].tobytes(), f"ray of sun {sun}"
+        assert raw[16:32] == args[8].tobytes(), f"vector of sun {sun}"
+        assert np.frombuffer(raw[32:], np.int32)[0] == args[11], f"mode of sun {sun}"
         for method in METHODS:
             py = caster.cast(sun, method, "all", K_DARK, K_BRIGHT)
             for ext, arr in (("mask", py.mask), ("self", py.self_shadow), ("coef", py.coefficient)):
@@ -196,6 +209,9 @@ def test_c_host_matches_python_host(host: dict, tmp_path: Path, case: str) -> No
             got = load(f"exact_{k}.mask", np.uint8).reshape(rows, cols)
             assert np.array_equal((got != expected.mask) & ~ties, np.zeros_like(ties)), f"{case} vs reference at {sun}"
             assert np.array_equal(load(f"exact_{k}.self", np.uint8).reshape(rows, cols), expected.self_shadow)
+    if case == "flip_window":     # the origin matters here: without it the mask differs
+        local = ShadowCaster(hm, cache=False).cast(FLIP_SUN).mask
+        assert (local != caster.cast(FLIP_SUN).mask).sum() == 1
 
 
 def test_c_error_paths_and_build_options(host: dict) -> None:

@@ -9,43 +9,36 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from oclshade import ShadowCaster, Sun
-from oclshade import reference as ref
 from oclshade.heightmap import Heightmap
 from oclshade.synthetic import canyon_crater
 from oclshade.tiles import ReliefGrid, TileHeightmap, Tracing, Window, cast_tiled, halo_window, plan_tiles, \
     reach_distance, run_jobs
-from oclshade.tiles.plan import ALIGN, auto_tile_size, halo_bound, tiles_of
+from oclshade.tiles.plan import ALIGN, TileJob, auto_tile_size, halo_bound, tiles_of
+from tile_cases import FLIP_OFFSET, FLIP_SUN, FLIP_TILE, flipped_map
 
 OUTPUT_FIELDS = ("mask", "self_shadow", "coefficient")
 
 
-def same(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Cells equal bit for bit (NaN equal to NaN)."""
-    return (a == b) | (np.isnan(a) & np.isnan(b)) if a.dtype.kind == "f" else a == b
+def assert_same_bits(a: np.ndarray | None, b: np.ndarray | None, what: str) -> None:
+    """Equal bit for bit (NaN equal to NaN), or both absent."""
+    assert (a is None) == (b is None), what
+    if a is not None:
+        assert a.dtype == b.dtype and a.shape == b.shape, what
+        differ = a.view(np.uint8) != b.view(np.uint8)
+        assert not differ.any(), f"{what}: {int(differ.sum())} bytes differ, first at {np.argwhere(differ)[0]}"
 
 
 def assert_tiled_equal(hm: Heightmap, sun: Sun, tile_size: int, outputs=("mask",), **kw) -> None:
-    """The tiled masks equal the whole map's; a cell that differs must be a float32 tie of the
-    reference (oclshade.tiles.run: the window's coordinates round differently), and no other
-    output may differ at all."""
-    whole = ShadowCaster(hm, cache=False).cast(sun, outputs=outputs)
+    """The tiled outputs equal the whole map's bit for bit (the windows form the whole map's cell
+    coordinates: ShadowCaster(origin=...))."""
+    knobs = kw.pop("knobs", None)
+    whole = ShadowCaster(hm, cache=False, knobs=knobs).cast(sun, outputs=outputs)
     kw.setdefault("align", 1)              # windows exactly the halo's (the default alignment only adds)
     kw.setdefault("block", 8)              # tight halos (the default block is larger than these maps)
-    tiled = cast_tiled(hm, [sun], outputs=outputs, tile_size=tile_size, **kw)[0]
+    tiled = cast_tiled(hm, [sun], outputs=outputs, tile_size=tile_size, knobs=knobs, **kw)[0]
     for name in OUTPUT_FIELDS:
-        a, b = getattr(whole, name), getattr(tiled, name)
-        assert (a is None) == (b is None)
-        if a is None:
-            continue
-        differ = ~same(a, b)
-        if differ.any():
-            expected = ref.cast_shadows(hm, sun)
-            ties = expected.ties(ref.tie_tolerance(hm, sun))
-            if name == "self_shadow":
-                ties = np.zeros_like(ties)          # no ray: nothing to round differently
-            bad = differ & ~ties
-            assert not bad.any(), (f"{name}: {int(bad.sum())} cells differ outside ties at {sun}, tiles of "
-                                   f"{tile_size} on {hm.shape}, first at {np.argwhere(bad)[0]}")
+        assert_same_bits(getattr(whole, name), getattr(tiled, name),
+                         f"{name} at {sun}, tiles of {tile_size} on {hm.shape}, knobs {knobs}")
 
 
 # ----------------------------------------------------------------------------- relief grid
@@ -173,7 +166,7 @@ def test_tiled_equals_whole_map(canyon, sun):
 @pytest.mark.parametrize("tile_size", [3, 7, 82, 120, 500])
 def test_tiled_equals_whole_map_for_any_tile_size(canyon, tile_size):
     assert_tiled_equal(canyon, Sun(135.0, 20.0), tile_size, overlap=tile_size % 2 == 0)
-    assert_tiled_equal(canyon, Sun(135.0, 20.0), tile_size, align=ALIGN)
+    assert_tiled_equal(canyon, Sun(135.0, 20.0), tile_size, align=ALIGN, knobs={"lanes": 0})   # one ray per item
 
 
 @pytest.mark.parametrize("tile_size", [1, 2])
@@ -205,6 +198,68 @@ def maps(draw) -> np.ndarray:
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 def test_tiled_equals_whole_map_on_random_maps(h, az, el, tile):
     assert_tiled_equal(Heightmap.from_array(h, 30.0), Sun(az, el), tile, outputs=("mask", "self"))
+
+
+# ------------------------------------------------------- bit for bit on adversarial maps
+# Integer and quarter-metre heights on 1 m cells make many rays graze the surface (decisions
+# within float32 rounding); embedding a map at a large row / column offset of a nodata map makes
+# the whole map's cell coordinates round at 2^-12 instead of < 2^-17.  Before the kernels took
+# the window's origin, tiles formed their own (small) coordinates and such cells could flip.
+
+def assert_embedded_tiled_equal(h: np.ndarray, sun: Sun, tile: int, offset: tuple[int, int], lanes: int) -> None:
+    """``h`` embedded at ``offset`` in a nodata map: over h's cells the tiles' outputs equal the
+    single-shot outputs of the whole (embedded) map bit for bit.  The tiles are h's, planned on h
+    and moved by the offset (the nodata around h casts and receives nothing; planning every tile
+    of the large map would take longer than tracing)."""
+    big = np.full((h.shape[0] + offset[0], h.shape[1] + offset[1]), np.nan)
+    big[offset[0]:, offset[1]:] = h
+    hm = Heightmap.from_array(big, 1.0)
+    outputs = ("mask", "self", "coefficient")
+    whole = ShadowCaster(hm, cache=False, knobs={"lanes": lanes}).cast(sun, outputs=outputs)
+
+    def moved(w: Window) -> Window:
+        return Window(w.r0 + offset[0], w.r1 + offset[0], w.c0 + offset[1], w.c1 + offset[1])
+
+    plan = plan_tiles(ReliefGrid.of(h, 8), [sun], 1.0, 1.0, tile, None, 1)
+    jobs = [TileJob(moved(job.tile), moved(job.window), job.suns) for job in plan.jobs]
+    tiled = {name: np.zeros_like(getattr(whole, name)) for name in OUTPUT_FIELDS}
+
+    def write(job, results) -> None:
+        for name in OUTPUT_FIELDS:
+            tiled[name][job.tile.r0:job.tile.r1, job.tile.c0:job.tile.c1] = getattr(results[0], name)
+
+    tracing = Tracing((sun,), outputs=outputs, base=hm.offset, knobs={"lanes": lanes})
+    run_jobs(jobs, lambda w: big[w.r0:w.r1, w.c0:w.c1], write, tracing, overlap=False)
+    inside = (slice(offset[0], None), slice(offset[1], None))
+    for name in OUTPUT_FIELDS:
+        assert_same_bits(getattr(whole, name)[inside], tiled[name][inside],
+                         f"{name} at {sun}, tiles of {tile}, offset {offset}, lanes {lanes}")
+
+
+@st.composite
+def grazing_maps(draw) -> np.ndarray:
+    rows, cols = draw(st.integers(8, 48)), draw(st.integers(8, 48))
+    rng = np.random.default_rng(draw(st.integers(0, 2**31)))
+    kind = draw(st.sampled_from(["integer", "quarters", "noise"]))
+    if kind == "integer":
+        return rng.integers(0, 6, (rows, cols)).astype(np.float64)
+    if kind == "quarters":
+        return np.round(rng.normal(0.0, 2.0, (rows, cols)) * 4.0) / 4.0
+    return rng.normal(0.0, 3.0, (rows, cols))
+
+
+@given(h=grazing_maps(), az=st.floats(0.0, 360.0), el=st.sampled_from([5.0, 20.0, 45.0]), tile=st.integers(3, 40),
+       offset=st.sampled_from([(0, 0), (0, 3000), (3000, 0), (0, 70001)]), lanes=st.sampled_from([0, 8]))
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+def test_tiled_is_bit_identical_on_grazing_maps_at_large_offsets(h, az, el, tile, offset, lanes):
+    assert_embedded_tiled_equal(h, Sun(az, el), tile, offset, lanes)
+
+
+@pytest.mark.parametrize("lanes", [0, 8])
+def test_tiled_is_bit_identical_where_window_coordinates_flipped_a_cell(lanes):
+    h = flipped_map()
+    assert h.shape == (36, 73) and np.array_equal(np.round(h * 4.0) / 4.0, h)
+    assert_embedded_tiled_equal(h, FLIP_SUN, FLIP_TILE, FLIP_OFFSET, lanes)
 
 
 def test_several_suns_share_windows_and_equal_the_whole_map(canyon):
@@ -277,3 +332,12 @@ def test_tracing_checks_its_arguments():
         Tracing((Sun(),), outputs=("shade",))
     with pytest.raises(ValueError, match="tile size must be a positive integer"):
         tiles_of((10, 10), 0)
+
+
+def test_caster_checks_the_window_origin():
+    hm = Heightmap.from_array(np.zeros((4, 5)), 1.0)
+    assert ShadowCaster(hm, cache=False, origin=(np.int64(3), 7)).origin == (3, 7)
+    for bad in ((-1, 0), (0, -2), (1.5, 0), (0,), "ab", None, (0, (1 << 30) - 4)):
+        with pytest.raises(ValueError, match="origin must be a \\(row, column\\) pair of ints"):
+            ShadowCaster(hm, cache=False, origin=bad)
+    ShadowCaster(hm, cache=False, origin=((1 << 30) - 4, (1 << 30) - 5))   # the largest origin that fits

@@ -9,6 +9,8 @@
 /* far-field tile certificates (kernels/shadow.cl -D OCLS_CERT): oclshade/shadows.py CERT_K */
 #define CERT_K 6
 #define CERTIFIED(method) ((method) == OCLSHADE_EXACT || (method) == OCLSHADE_MAXMIP)
+/* the largest window origin plus extent (oclshade/shadows.py MAX_COORDINATE) */
+#define OCLS_MAX_COORDINATE (1 << 30)
 
 /* ------------------------------------------------------------------ sun */
 
@@ -182,6 +184,10 @@ static oclshade_status shadow_job_for(oclshade *lib, const oclshade_shadow_param
     if (!(isfinite(p->dx) && p->dx > 0.0 && isfinite(p->dy) && p->dy > 0.0))
         return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "dx and dy must be positive finite cell sizes, got dx %g, dy %g",
                          p->dx, p->dy);
+    if (p->origin_row < 0 || p->origin_col < 0 || p->origin_row > OCLS_MAX_COORDINATE - p->rows ||
+        p->origin_col > OCLS_MAX_COORDINATE - p->cols)
+        return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "origin_row and origin_col must be >= 0 with origin + size "
+                         "<= 2^30, got origin (%d, %d) for %d x %d", p->origin_row, p->origin_col, p->rows, p->cols);
     if (!isfinite(p->azimuth))
         return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "azimuth must be a finite number of degrees, got %g", p->azimuth);
     if (!(isfinite(p->elevation) && p->elevation >= -90.0 && p->elevation <= 90.0))
@@ -228,6 +234,9 @@ static oclshade_status shadow_body(ocls_pass *ps, const void *params)
     if (st == OCLSHADE_OK && CERTIFIED(p->method)) st = ocls_kernel(ps, "shadow.cl", &d, "shadow_certify", &certify);
     if (st != OCLSHADE_OK) return st;
     const cl_int H = p->rows, W = p->cols, nlev = j->lay.levels, mode = j->sun.mode;
+    cl_int2 origin;   /* (column, row) of the window's first cell in the whole map */
+    origin.s[0] = p->origin_col;
+    origin.s[1] = p->origin_row;
     cl_float4 ray, vec;
     cl_float2 cell, kcoef;
     for (int i = 0; i < 4; ++i) { ray.s[i] = j->sun.ray[i]; vec.s[i] = j->sun.vector[i]; }
@@ -236,16 +245,17 @@ static oclshade_status shadow_body(ocls_pass *ps, const void *params)
     kcoef.s[0] = (cl_float)p->k_dark;
     kcoef.s[1] = (cl_float)p->k_bright;
     if (certify != NULL && mode == 0) {   /* ShadowCaster._certifier: grid_2d's defaults (64, 16) */
-        const ocls_arg a[] = {OCLS_ARG(H), OCLS_ARG(W), OCLS_ARG(p->pyramid), OCLS_ARG(p->offsets), OCLS_ARG(nlev),
-                              OCLS_ARG(ray), OCLS_ARG(cert)};
-        st = ocls_set_args(ps, certify, a, 7);
+        const ocls_arg a[] = {OCLS_ARG(H), OCLS_ARG(W), OCLS_ARG(origin), OCLS_ARG(p->pyramid), OCLS_ARG(p->offsets),
+                              OCLS_ARG(nlev), OCLS_ARG(ray), OCLS_ARG(cert)};
+        st = ocls_set_args(ps, certify, a, 8);
         if (st == OCLSHADE_OK) st = ocls_launch(ps, certify, tc, tr, 64, 16);
     }
     /* an output not compiled in gets a NULL buffer (allowed for __global pointers) */
-    const ocls_arg a[] = {OCLS_ARG(heights), OCLS_ARG(H), OCLS_ARG(W), OCLS_ARG(p->pyramid), OCLS_ARG(p->offsets),
-                          OCLS_ARG(nlev), OCLS_ARG(ray), OCLS_ARG(vec), OCLS_ARG(cell), OCLS_ARG(kcoef),
-                          OCLS_ARG(mode), OCLS_ARG(mask), OCLS_ARG(self), OCLS_ARG(coef), OCLS_ARG(cert)};
-    if (st == OCLSHADE_OK) st = ocls_set_args(ps, k, a, certify != NULL ? 15 : 14);
+    const ocls_arg a[] = {OCLS_ARG(heights), OCLS_ARG(H), OCLS_ARG(W), OCLS_ARG(origin), OCLS_ARG(p->pyramid),
+                          OCLS_ARG(p->offsets), OCLS_ARG(nlev), OCLS_ARG(ray), OCLS_ARG(vec), OCLS_ARG(cell),
+                          OCLS_ARG(kcoef), OCLS_ARG(mode), OCLS_ARG(mask), OCLS_ARG(self), OCLS_ARG(coef),
+                          OCLS_ARG(cert)};
+    if (st == OCLSHADE_OK) st = ocls_set_args(ps, k, a, certify != NULL ? 16 : 15);
     if (st == OCLSHADE_OK)
         st = ocls_launch(ps, k, packets ? (W + run - 1) / run : W, H, (size_t)ocls_knob(lib, K_SHADOW_GROUP), 16);
     return st;

@@ -296,8 +296,8 @@ int main(int argc, char **argv)
     clFinish(queue);
     clFinish(queue);
 
-    struct { const char *what, *needle; oclshade_shadow_params q; } bad[12];
-    for (int i = 0; i < 12; ++i) bad[i].q = p;
+    struct { const char *what, *needle; oclshade_shadow_params q; } bad[14];
+    for (int i = 0; i < 14; ++i) bad[i].q = p;
     bad[0].what = "shadows: rows 0"; bad[0].needle = "rows and cols"; bad[0].q.rows = 0;
     bad[1].what = "shadows: dx negative"; bad[1].needle = "dx and dy"; bad[1].q.dx = -1;
     bad[2].what = "shadows: elevation 91"; bad[2].needle = "elevation must be in [-90, 90]"; bad[2].q.elevation = 91;
@@ -310,7 +310,11 @@ int main(int argc, char **argv)
     bad[9].what = "shadows: offsets too small"; bad[9].needle = "offsets must hold"; bad[9].q.offsets = small;
     bad[10].what = "shadows: coefficient too small"; bad[10].needle = "coefficient must hold"; bad[10].q.coefficient.buffer = mask;
     bad[11].what = "shadows: scratch too small"; bad[11].needle = "scratch must hold at least 24 bytes"; bad[11].q.scratch = small;
-    for (int i = 0; i < 12; ++i) {
+    bad[12].what = "shadows: origin_row -1"; bad[12].needle = "origin_row and origin_col must be >= 0";
+    bad[12].q.origin_row = -1;
+    bad[13].what = "shadows: origin_col 2^30"; bad[13].needle = "origin + size <= 2^30, got origin (0, 1073741824)";
+    bad[13].q.origin_col = 1 << 30;
+    for (int i = 0; i < 14; ++i) {
         st = oclshade_enqueue_shadows(lib, queue, &bad[i].q, 0, NULL, NULL);
         expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, bad[i].needle, bad[i].what);
     }

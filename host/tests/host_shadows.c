@@ -1,8 +1,9 @@
 /* host_shadows — drives the C host API for tests/test_host_api.py.
  *
- * usage: host_shadows KERNELS HEIGHTS ROWS COLS DX DY OUTDIR AZ,EL [AZ,EL ...]
+ * usage: host_shadows KERNELS HEIGHTS ROWS COLS DX DY OUTDIR [--origin=R,C] AZ,EL [AZ,EL ...]
  *   KERNELS  a kernel directory, or "-" for the copy built into the library
  *   HEIGHTS  raw float64 heights, ROWS x COLS, row-major, NaN = nodata
+ *   R,C      the map's origin in a larger map (oclshade_shadow_params origin_row / _col; default 0,0)
  * On the first OpenCL device (OCL_ICD_VENDORS picks the driver) it writes to OUTDIR:
  *   pyramid.cl, shadow.cl, ...      oclshade_program_source of every program (includes expanded)
  *   relative.f32, offset.f64        oclshade_relative_heights
@@ -128,8 +129,13 @@ static void *thread_main(void *arg)
 
 int main(int argc, char **argv)
 {
-    if (argc < 9) {
-        fprintf(stderr, "usage: %s KERNELS HEIGHTS ROWS COLS DX DY OUTDIR AZ,EL [AZ,EL ...]\n", argv[0]);
+    int first_sun = 8, origin_row = 0, origin_col = 0;
+    if (argc > 8 && strncmp(argv[8], "--origin=", 9) == 0) {
+        if (sscanf(argv[8] + 9, "%d,%d", &origin_row, &origin_col) != 2) { fprintf(stderr, "bad %s\n", argv[8]); return 2; }
+        first_sun = 9;
+    }
+    if (argc <= first_sun) {
+        fprintf(stderr, "usage: %s KERNELS HEIGHTS ROWS COLS DX DY OUTDIR [--origin=R,C] AZ,EL [AZ,EL ...]\n", argv[0]);
         return 2;
     }
     const char *kernels = strcmp(argv[1], "-") == 0 ? NULL : argv[1];
@@ -189,7 +195,7 @@ int main(int argc, char **argv)
     static const oclshade_method methods[] = {OCLSHADE_EXACT, OCLSHADE_PAPER, OCLSHADE_MAXMIP, OCLSHADE_DDA};
     CHECK(oclshade_prepare(lib, OCLSHADE_EXACT, OCLSHADE_OUT_MASK));
     shared sh;
-    sh.ctx = ctx; sh.device = device; sh.n = n; sh.nsuns = argc - 8;
+    sh.ctx = ctx; sh.device = device; sh.n = n; sh.nsuns = argc - first_sun;
     CHECK(oclshade_get_tuning(lib, &sh.initial));
     sh.regrouped = sh.initial;
     sh.regrouped.group = sh.initial.group == 16 ? 64 : 16;
@@ -200,10 +206,10 @@ int main(int argc, char **argv)
     sh.exact = (unsigned char *)xmalloc(sh.nsuns * n);
     sh.maxmip = (unsigned char *)xmalloc(sh.nsuns * n);
 
-    for (int k = 8; k < argc; ++k) {
+    for (int k = first_sun; k < argc; ++k) {
         double az, el;
         if (sscanf(argv[k], "%lf,%lf", &az, &el) != 2) { fprintf(stderr, "bad sun %s\n", argv[k]); return 2; }
-        const int sun_index = k - 8;
+        const int sun_index = k - first_sun;
         char name[64];
         oclshade_sun sun;
         CHECK(oclshade_sun_for(az, el, dx, dy, &sun));
@@ -219,6 +225,7 @@ int main(int argc, char **argv)
         oclshade_shadow_params_init(&p);
         p.heights = f_heights; p.rows = rows; p.cols = cols; p.dx = dx; p.dy = dy;
         p.pyramid = d_pyramid; p.offsets = d_offsets; p.azimuth = az; p.elevation = el;
+        p.origin_row = origin_row; p.origin_col = origin_col;
         p.method = OCLSHADE_EXACT; p.mask = oclshade_field_of(d_mask);
         if (scratch == NULL) scratch = shadow_scratch(ctx, &p);
         p.scratch = scratch;
@@ -271,6 +278,7 @@ int main(int argc, char **argv)
         oclshade_shadow_params_init(&p);
         p.heights = f_heights; p.rows = rows; p.cols = cols; p.dx = dx; p.dy = dy;
         p.pyramid = pyr2; p.offsets = off2; p.mask = oclshade_field_of(mask2);
+        p.origin_row = origin_row; p.origin_col = origin_col;
         cl_mem scratch2 = shadow_scratch(ctx, &p);   /* the first queue's commands may still use `scratch` */
         p.scratch = scratch2;
         double az, el;

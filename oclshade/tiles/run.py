@@ -1,17 +1,15 @@
 """Running tiles: each job's window traced by a :class:`~oclshade.shadows.ShadowCaster`, in a pipeline.
 
-Same answers as the whole map.  The kernel decides a cell from float32 patch
-tests on the relative heights and the sun's float32 ray constants: a window
-gets the whole map's relative heights bit for bit (:class:`TileHeightmap`: the
-same float64 heights minus the same base, :attr:`ReliefGrid.base`) and the
-same constants (``Sun.ray`` of the same cell sizes); the halo holds every patch
-that can rise above a ray of the tile (:mod:`oclshade.tiles.halo`).  One
-thing differs: the cell coordinates are the window's, not the map's, and the
-kernel adds them to float32 ray offsets (x0 + ux t), which rounds at the
-magnitude of the coordinate; so a cell whose decision is a float32 tie (the
-float64 reference's tie band, :func:`oclshade.reference.tie_tolerance`) may be
-decided the other way in a tile.  docs/scale.md gives the measured rates and
-the kernel change (a window origin argument) that would remove them.
+Same answers as the whole map, bit for bit.  The kernel decides a cell from
+float32 patch tests on the relative heights, the sun's float32 ray constants
+and the cell coordinates: a window gets the whole map's relative heights bit
+for bit (:class:`TileHeightmap`: the same float64 heights minus the same base,
+:attr:`ReliefGrid.base`), the same constants (``Sun.ray`` of the same cell
+sizes) and its origin in the map (``ShadowCaster(origin=...)``), so the kernel
+forms the whole map's coordinates (x0 + ux t with x0 the map's column) and
+every float32 value of a cell's patch tests is the whole map's; the halo holds
+every patch that can rise above a ray of the tile (:mod:`oclshade.tiles.halo`).
+docs/scale.md ("Exactness") says how that was checked.
 
 The pipeline (:func:`run_jobs`): a reader thread reads and converts the next
 window while the caller's thread traces the current one (upload, pyramid,
@@ -25,7 +23,7 @@ from __future__ import annotations
 import queue
 import threading
 from dataclasses import dataclass
-from typing import Callable, Iterator, Sequence
+from typing import Callable, Iterator, Mapping, Sequence
 
 import numpy as np
 
@@ -61,7 +59,8 @@ class TileHeightmap(Heightmap):
 @dataclass(frozen=True)
 class Tracing:
     """What every tile of a run traces: the suns (all of the run's), method, outputs, eq. (1)
-    constants, the map's cell sizes and base, and the device."""
+    constants, the map's cell sizes and base, the device, and the shadow family's tuning knobs
+    (``ShadowCaster(knobs=...)``; None: the device's tuning entry; results never depend on them)."""
 
     suns: tuple[Sun, ...]
     method: str = "exact"
@@ -72,6 +71,7 @@ class Tracing:
     dy: float = 1.0
     base: float = 0.0
     device: str | int | Runtime | None = None
+    knobs: Mapping[str, int] | None = None
 
     def __post_init__(self) -> None:
         check_method(self.method)
@@ -82,7 +82,8 @@ class Tracing:
         """The job's suns over its window, cropped to its tile (in ``job.suns`` order)."""
         inner = job.tile.inside(job.window)
         with DEVICE_LOCK:
-            caster = ShadowCaster(heights, self.device, cache=False)
+            caster = ShadowCaster(heights, self.device, cache=False, knobs=self.knobs,
+                                  origin=(job.window.r0, job.window.c0))
             results = []
             for res in caster.iter_many([self.suns[k] for k in job.suns], self.method, self.outputs,
                                         self.k_dark, self.k_bright):
@@ -184,16 +185,18 @@ def cast_tiled(heightmap: Heightmap, suns: SunLike | Sequence[SunLike], method: 
                outputs: str | Sequence[str] = ("mask",), k_dark: float = DEFAULT_K_DARK,
                k_bright: float = DEFAULT_K_BRIGHT, *, tile_size: int = 1024,
                max_window_cells: int | None = None, align: int = ALIGN, block: int = DEFAULT_BLOCK,
-               device: str | int | Runtime | None = None, overlap: bool = True) -> list[ShadowResult]:
+               device: str | int | Runtime | None = None, overlap: bool = True,
+               knobs: Mapping[str, int] | None = None) -> list[ShadowResult]:
     """:meth:`ShadowCaster.cast_many` of a heightmap in memory, tile by tile (each tile's window
     on the device, never the whole map): the same results (see the module docstring).
     ``tile_size``, ``max_window_cells``, ``align``: as :func:`~oclshade.tiles.plan_tiles`;
-    ``block``: the relief grid's block size (smaller: tighter halos, more work planning)."""
+    ``block``: the relief grid's block size (smaller: tighter halos, more work planning);
+    ``knobs``: as :class:`Tracing`."""
     sun_list = as_suns(suns)
     rows, cols = heightmap.shape
     relief = ReliefGrid.of(heightmap.heights, block)
     tracing = Tracing(tuple(sun_list), method, check_outputs(outputs), k_dark, k_bright, heightmap.dx,
-                      heightmap.dy, heightmap.offset, device)
+                      heightmap.dy, heightmap.offset, device, knobs)
     plan = plan_tiles(relief, sun_list, heightmap.dx, heightmap.dy, tile_size, max_window_cells, align)
     out = [ShadowResult(sun,
                         np.empty((rows, cols), np.uint8) if "mask" in tracing.outputs else None,
