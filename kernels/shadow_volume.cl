@@ -21,7 +21,10 @@
  *            lit caster face is not shadowed by its own cap), and the dark caps lie beyond
  *            every receiver (automatic extrusion length).
  *   test   : watertight.  The line o + t d (d = p - o) meets triangle (A, B, C) iff its three
- *            edge functions d . ((V_i - o) x (V_j - o)) have one sign.  Each edge's function is
+ *            edge functions d . ((V_i - o) x (V_j - o)) have one sign, evaluated as
+ *            d . (a x (b - a)) (a = V_i - o, b = V_j - o): a long vector crossed with the short
+ *            edge rounds to u |a| |b - a|, where two long nearly parallel ones would round to
+ *            u |a| |b|.  Each edge's function is
  *            evaluated with its vertices in index order (lower first) and negated for the
  *            other winding, so two faces sharing an edge see exactly opposite values; an
  *            exact 0 takes the sign of the first non-zero component of (V_i - o) x (V_j - o)
@@ -74,7 +77,7 @@ OCLS_INLINE float sv_dot(float3 u, float3 v)
 OCLS_INLINE int edge_sign(float3 d, int i, float3 u, int j, float3 v)
 {
     const int flip = i > j;
-    const float3 n = flip ? sv_cross(v, u) : sv_cross(u, v);
+    const float3 n = flip ? sv_cross(v, u - v) : sv_cross(u, v - u);     /* = v x u, u x v: no cancellation */
     const float f = sv_dot(d, n);
     int s;
     if (f != 0.0f) s = f > 0.0f ? 1 : -1;

@@ -145,7 +145,8 @@ class MeshShadows:
     """Shadow volumes of meshes (those with ``cast_shadows``) on one device; see the module doc.
 
     ``bounds``: the receivers' world box (lo, hi) when known (the scene's box); None: the
-    meshes, the camera and the frame's visible points, per frame.  ``per_face``: classic
+    frame's visible points, per frame.  The meshes and the camera are always added (a view
+    segment must not meet a dark cap: they lie beyond the box).  ``per_face``: classic
     all-face volumes (no silhouette)."""
 
     def __init__(self, meshes: Sequence[TriangleMesh], device: str | int | Runtime | None = None,
@@ -226,7 +227,8 @@ class MeshShadows:
         rt.queue.finish()
         finite = depth[np.isfinite(depth)]
         max_depth = float(finite.max()) if finite.size else 0.0
-        vol, faces = self._volumes_on_device(light, visible_box(camera, max_depth) if self.bounds is None else None)
+        box = visible_box(camera, max_depth) if self.bounds is None else (camera.position, camera.position)
+        vol, faces = self._volumes_on_device(light, box)
         key = (_camera_key(camera), light_key(light), id(vol), gbuffer_key)
         if gbuffer_key is not None and self._mask is not None and self._mask[0] == key:
             return self._mask[1]
@@ -271,7 +273,9 @@ class MeshShadows:
         view = camera.view
         verts = np.zeros((max(len(vol.vertices), 1), 4), np.float32)
         verts[:len(vol.vertices), :3] = vol.vertices @ view[:3, :3].T + view[:3, 3]
-        w0 = 0 if ortho else winding_number(vol.triangles, camera.position)
+        inside = len(vol.vertices) and np.all(camera.position >= vol.vertices.min(axis=0)) and \
+            np.all(camera.position <= vol.vertices.max(axis=0))
+        w0 = winding_number(vol.triangles, camera.position) if inside and not ortho else 0
         zs = float(verts[:, 2].max()) if len(vol.vertices) else 0.0
         zs = float(np.float32(max(zs, 0.0) * 1.001 + 1.0))
         sx, sy = camera.scale
@@ -321,8 +325,10 @@ def _dark_cap_reach(vol: Volumes, light: PointLight) -> float:
     caps = vol.faces[vol.faces[:, 3] == KINDS["cap"]]
     dark = vol.vertices[caps[len(caps) // 2:, :3]]
     nrm = np.cross(dark[:, 1] - dark[:, 0], dark[:, 2] - dark[:, 0])
-    nrm /= np.linalg.norm(nrm, axis=1, keepdims=True)
-    return float(np.abs(np.einsum("ij,ij->i", dark[:, 0] - light.position, nrm)).min())
+    length = np.linalg.norm(nrm, axis=1)
+    keep = length > 0
+    return float(np.min(np.abs(np.einsum("ij,ij->i", dark[keep, 0] - light.position, nrm[keep])) / length[keep],
+                        initial=np.inf))
 
 
 def _camera_key(camera: Camera) -> tuple:

@@ -11,12 +11,14 @@ the volumes count it).
 Ties (:func:`tie_pixels`): the float32 count can differ from these decisions only where a
 quantity it compares is within its rounding of the boundary.  Its inputs are view-space
 float32 (relative rounding u = 2^-24 of the coordinates, of magnitude up to M, the largest
-distance from the eye involved); an edge function d . (a x b) or a plane side a . N is a
-cross and a dot product of them: rounding the inputs moves it by at most 2 u |d||a||b|, the
-cross product's two products and difference by 2 u per component (3.5 u in norm), the dot
-product's by 3 u: about 9 u |d||a||b| in all (Higham's gamma_n bounds, first order).  The band
-is 16 u: ties are pixels whose surface point lies within 16 u M of a volume side or dark cap,
-whose view line passes within 16 u |d||a||b| of a silhouette edge's plane through its start
+distance from the eye involved).  An edge function is evaluated as d . (a x e), e = b - a
+the edge (exact or within u |e|: Sterbenz), a plane side as a . N with N = e1 x e2 from edges:
+for a line d between the edge's ends, rounding the inputs moves d . (a x e) by about
+2 u |d| M |e|, the cross product's two products and difference by 2 u per component (3.5 u
+in norm) and the dot product by 3 u more: about 9 u |d| M |e| in all (Higham's gamma_n
+bounds, first order); a plane side likewise within 9 u M |N|.  The band is 16 u: ties are
+pixels whose surface point lies within 16 u M of a volume side or dark cap, whose view line
+passes between a silhouette edge's ends within 16 u |d| M |e| of its plane through the start
 (the G-buffer's own outline of a caster), whose near-plane point lies within 16 u M of a
 cap, or whose shadow ray meets a triangle at a sine below 16 u (the light grazing a face:
 :func:`shadow_mask`).
@@ -192,7 +194,7 @@ def tie_pixels(camera: Camera, volumes, points: np.ndarray, hit: np.ndarray) -> 
         ties[sl] |= near_triangles(p[sl], tri[~light_cap], band[:, ~light_cap]).any(axis=1)
         if len(caps):
             ties[sl] |= near_triangles(near_pts[sl], caps, band[:, kinds == 1]).any(axis=1)
-        if len(sil):       # |d . (a x b)| within 64 u |d| |a| |b| (orthographic: a, b across the view only)
+        if len(sil):       # |d . (a x b)| within 16 u |d| max(|a|, |b|) |b - a| (orthographic: across the view)
             view = camera.view[:3, :3]
             o = (starts[sl] - camera.position) @ view.T
             ra = (volumes.vertices[sil[:, 1]] - camera.position) @ view.T - o[:, None, :]
@@ -205,7 +207,8 @@ def tie_pixels(camera: Camera, volumes, points: np.ndarray, hit: np.ndarray) -> 
                       (np.einsum("pek,pek->pe", np.cross(ra, dirs), n) >= -0.01 * ld * la * ln)
             if camera.projection == "orthographic":
                 ra[..., 2] = rb[..., 2] = 0.0
-            bound = ld * np.linalg.norm(ra, axis=-1) * np.linalg.norm(rb, axis=-1)
+            bound = ld * np.maximum(np.linalg.norm(ra, axis=-1), np.linalg.norm(rb, axis=-1)) * \
+                np.linalg.norm(rb - ra, axis=-1)
             ties[sl] |= ((np.abs(f) <= BAND_ULPS * U32 * bound) & between).any(axis=1)
     out = np.zeros(hit.shape, bool)
     out[rows, cols] = ties
