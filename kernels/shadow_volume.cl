@@ -36,8 +36,10 @@
  *
  * Binning.  The frame is cut into T x T pixel tiles (TW x TH of them); each volume face goes to
  * the tiles of its projected bounding rectangle (1 pixel of margin; the whole frame when a
- * vertex is at or behind the eye plane of a pinhole camera); faces deeper than every hit
- * (maxdepth) and caps deeper than near are dropped.  Two passes of sv_bin: count per tile,
+ * vertex is at or behind the eye plane of a pinhole camera) that are not wholly outside one
+ * edge of its projected triangle (1.5 pixels to spare; long thin sides cross few of the
+ * tiles of their rectangle); faces deeper than every hit (maxdepth) and caps deeper than
+ * near are dropped.  Two passes of sv_bin: count per tile,
  * the host's prefix sums, fill.
  *
  * ABI
@@ -51,7 +53,13 @@
  *     fill 0: count[t] += 1 for every tile t of each face (count zeroed by the host);
  *     fill 1: list[offset[t] + k] = face, k = count[t]++ (count zeroed again; offset: the
  *     exclusive prefix sums of the first pass).  global size >= ntri (1-D).
- *   sv_count(verts, tris, offset, list, position, cam, zs, w0, IW, IH, T, TW, mask)
+ *   sv_prepare(ntri, tris, verts, planes)            (pinhole only)
+ *     __global float4 *planes  out, 4 per face: (m0, kind), (m1, 0), (m2, 0), (N, a . N): the
+ *     edge vectors of its edges a->b, b->c, c->a (edge function d . m) and its plane; the
+ *     eye is every pixel's start, so they serve every pixel.  global size >= ntri (1-D).
+ *   sv_count(verts, tris, planes, offset, list, position, cam, zs, w0, IW, IH, T, TW, mask)
+ *     planes     sv_prepare's (pinhole; orthographic: unused, the faces are read from
+ *                verts and tris per pixel, whose start differs)
  *     position   the G-buffer's view-space float4 (w = 1 hit); float zs the orthographic
  *                start height; int w0 the eye's winding number (pinhole);
  *     __global uchar *mask  out: 1 the light is hidden by a caster, 0 lit or empty
@@ -73,18 +81,22 @@ OCLS_INLINE float sv_dot(float3 u, float3 v)
     return (u.x * v.x + u.y * v.y) + u.z * v.z;
 }
 
-/* sign (+1 / -1, never 0) of the edge function of edge i -> j for the line direction d */
-OCLS_INLINE int edge_sign(float3 d, int i, float3 u, int j, float3 v)
+/* the edge function's vector m of edge i -> j (u, v: its ends less the start o): the edge
+ * function is d . m; m = u x (v - u) evaluated with the lower index first, negated for the
+ * other order (exact), so two faces sharing the edge hold exactly opposite vectors */
+OCLS_INLINE float3 edge_normal(int i, float3 u, int j, float3 v)
 {
-    const int flip = i > j;
-    const float3 n = flip ? sv_cross(v, u - v) : sv_cross(u, v - u);     /* = v x u, u x v: no cancellation */
-    const float f = sv_dot(d, n);
-    int s;
-    if (f != 0.0f) s = f > 0.0f ? 1 : -1;
-    else if (n.x != 0.0f) s = n.x > 0.0f ? 1 : -1;
-    else if (n.y != 0.0f) s = n.y > 0.0f ? 1 : -1;
-    else s = n.z < 0.0f ? -1 : 1;
-    return flip ? -s : s;
+    return i > j ? -sv_cross(v, u - v) : sv_cross(u, v - u);     /* = u x v: no cancellation */
+}
+
+/* sign (+1 / -1, never 0) of d . m, an exact 0 decided by the first non-zero component of m */
+OCLS_INLINE int sos_sign(float3 d, float3 m)
+{
+    const float f = sv_dot(d, m);
+    if (f != 0.0f) return f > 0.0f ? 1 : -1;
+    if (m.x != 0.0f) return m.x > 0.0f ? 1 : -1;
+    if (m.y != 0.0f) return m.y > 0.0f ? 1 : -1;
+    return m.z < 0.0f ? -1 : 1;
 }
 
 /* pixel column / row (continuous, pixel centres at integers) of a view-space point */
@@ -99,10 +111,13 @@ OCLS_INLINE float2 sv_pixel(float3 v, float4 cam, int IW, int IH)
     return (float2)(((nx + 1.0f) * (float)IW - 1.0f) * 0.5f, ((1.0f - ny) * (float)IH - 1.0f) * 0.5f);
 }
 
-/* tiles (x0, y0, x1, y1), inclusive, a face may be crossed in; x0 > x1 when none */
-OCLS_INLINE int4 face_tiles(float3 a, float3 b, float3 c, int cap, float4 cam, int IW, int IH, int T)
+/* tiles (x0, y0, x1, y1), inclusive, a face may be crossed in; x0 > x1 when none.  *proj:
+ * the face's pixel coordinates (xy of a, b, c in s0.xy, s0.zw, s1.xy) and s1.z = 1 when the
+ * tiles may be tested against the projected triangle itself (every vertex before the eye). */
+OCLS_INLINE int4 face_tiles(float3 a, float3 b, float3 c, int cap, float4 cam, int IW, int IH, int T, float8 *proj)
 {
     const int4 none = (int4)(1, 0, 0, 0);
+    *proj = (float8)(0.0f);
     const float dmin = fmin(-a.z, fmin(-b.z, -c.z));
     if (dmin > cam.w || (cap && dmin > cam.z)) return none;
 #ifndef OCLS_ORTHO
@@ -117,7 +132,33 @@ OCLS_INLINE int4 face_tiles(float3 a, float3 b, float3 c, int cap, float4 cam, i
     const float y0 = clamp(floor(fmin(pa.y, fmin(pb.y, pc.y))) - 1.0f, -lim, lim);
     const float y1 = clamp(ceil(fmax(pa.y, fmax(pb.y, pc.y))) + 1.0f, -lim, lim);
     if (!(x1 >= 0.0f && y1 >= 0.0f && x0 <= (float)(IW - 1) && y0 <= (float)(IH - 1))) return none;
+    const float big = 1e6f;           /* beyond: the projected edges are not trusted for culling */
+    const int sharp = fmax(fmax(fabs(pa.x), fabs(pa.y)), fmax(fmax(fabs(pb.x), fabs(pb.y)),
+                                                            fmax(fabs(pc.x), fabs(pc.y)))) < big;
+    *proj = (float8)(pa, pb, pc, sharp ? 1.0f : 0.0f, 0.0f);
     return (int4)(max((int)x0, 0) / T, max((int)y0, 0) / T, min((int)x1, IW - 1) / T, min((int)y1, IH - 1) / T);
+}
+
+/* 1 when the tile's pixels (with 1.5 pixels to spare) lie wholly outside one edge of the
+ * projected triangle (a separating edge: the face cannot be crossed there) */
+OCLS_INLINE int tile_outside(float8 q, int tx, int ty, int T)
+{
+    const float2 p[3] = {q.s01, q.s23, q.s45};
+    const float area = (p[1].x - p[0].x) * (p[2].y - p[0].y) - (p[1].y - p[0].y) * (p[2].x - p[0].x);
+    if (!(fabs(area) > 1e-3f)) return 0;
+    const float sgn = area > 0.0f ? 1.0f : -1.0f;
+    const float cx0 = (float)(tx * T) - 1.0f, cx1 = (float)(tx * T + T), cy0 = (float)(ty * T) - 1.0f,
+                cy1 = (float)(ty * T + T);
+    for (int k = 0; k < 3; ++k) {
+        const float2 e = p[(k + 1) % 3] - p[k];
+        const float spare = 1.5f * sqrt(e.x * e.x + e.y * e.y);
+        const float f00 = sgn * (e.x * (cy0 - p[k].y) - e.y * (cx0 - p[k].x));
+        const float f01 = sgn * (e.x * (cy0 - p[k].y) - e.y * (cx1 - p[k].x));
+        const float f10 = sgn * (e.x * (cy1 - p[k].y) - e.y * (cx0 - p[k].x));
+        const float f11 = sgn * (e.x * (cy1 - p[k].y) - e.y * (cx1 - p[k].x));
+        if (fmax(fmax(f00, f01), fmax(f10, f11)) < -spare) return 1;
+    }
+    return 0;
 }
 
 __kernel void sv_bin(const int ntri, __global const int4 *tris, __global const float4 *verts, const float4 cam,
@@ -127,9 +168,11 @@ __kernel void sv_bin(const int ntri, __global const int4 *tris, __global const f
     const int k = get_global_id(0);
     if (k >= ntri) return;
     const int4 f = tris[k];
-    const int4 r = face_tiles(verts[f.x].xyz, verts[f.y].xyz, verts[f.z].xyz, f.w, cam, IW, IH, T);
+    float8 proj;
+    const int4 r = face_tiles(verts[f.x].xyz, verts[f.y].xyz, verts[f.z].xyz, f.w, cam, IW, IH, T, &proj);
     for (int ty = r.y; ty <= r.w; ++ty) {
         for (int tx = r.x; tx <= r.z; ++tx) {
+            if (proj.s6 > 0.5f && tile_outside(proj, tx, ty, T)) continue;
             const int t = ty * TW + tx;
             if (fill) list[offset[t] + atomic_inc(&count[t])] = k;
             else atomic_inc(&count[t]);
@@ -137,10 +180,26 @@ __kernel void sv_bin(const int ntri, __global const int4 *tris, __global const f
     }
 }
 
-__kernel void sv_count(__global const float4 *verts, __global const int4 *tris, __global const int *offset,
-                       __global const int *list, __global const float4 *position, const float4 cam,
-                       const float zs, const int w0, const int IW, const int IH, const int T, const int TW,
-                       __global uchar *mask)
+/* pinhole: the start is the eye for every pixel, so each face's edge vectors and plane are
+ * the same for all its pixels: 4 float4 per face, (m0, kind), (m1, 0), (m2, 0), (N, a . N) */
+__kernel void sv_prepare(const int ntri, __global const int4 *tris, __global const float4 *verts,
+                         __global float4 *planes)
+{
+    const int k = get_global_id(0);
+    if (k >= ntri) return;
+    const int4 f = tris[k];
+    const float3 a = verts[f.x].xyz, b = verts[f.y].xyz, c = verts[f.z].xyz;
+    const float3 nrm = sv_cross(b - a, c - a);
+    planes[4 * k] = (float4)(edge_normal(f.x, a, f.y, b), (float)f.w);
+    planes[4 * k + 1] = (float4)(edge_normal(f.y, b, f.z, c), 0.0f);
+    planes[4 * k + 2] = (float4)(edge_normal(f.z, c, f.x, a), 0.0f);
+    planes[4 * k + 3] = (float4)(nrm, sv_dot(a, nrm));
+}
+
+__kernel void sv_count(__global const float4 *verts, __global const int4 *tris, __global const float4 *planes,
+                       __global const int *offset, __global const int *list, __global const float4 *position,
+                       const float4 cam, const float zs, const int w0, const int IW, const int IH, const int T,
+                       const int TW, __global uchar *mask)
 {
     const int x = get_global_id(0), y = get_global_id(1);
     if (x >= IW || y >= IH) return;
@@ -158,13 +217,26 @@ __kernel void sv_count(__global const float4 *verts, __global const int4 *tris, 
     const int t = (y / T) * TW + x / T;
     int count = w0;
     for (int k = offset[t]; k < offset[t + 1]; ++k) {
-        const int4 f = tris[list[k]];
+        const int face = list[k];
+#ifdef OCLS_ORTHO
+        const int4 f = tris[face];
         const float3 a = verts[f.x].xyz - o, b = verts[f.y].xyz - o, c = verts[f.z].xyz - o;
-        const int s0 = edge_sign(d, f.x, a, f.y, b);
-        if (edge_sign(d, f.y, b, f.z, c) != s0 || edge_sign(d, f.z, c, f.x, a) != s0) continue;
+        const int s0 = sos_sign(d, edge_normal(f.x, a, f.y, b));
+        if (sos_sign(d, edge_normal(f.y, b, f.z, c)) != s0 || sos_sign(d, edge_normal(f.z, c, f.x, a)) != s0) continue;
         const float3 nrm = sv_cross(b - a, c - a);
-        const float den = sv_dot(d, nrm), num = sv_dot(a, nrm);
-        const float t_end = f.w ? fmin(t_near, 1.0f) : 1.0f;
+        const float num = sv_dot(a, nrm);
+        const int cap = f.w;
+#else
+        __global const float4 *q = planes + 4 * face;
+        const float4 m0 = q[0];
+        const int s0 = sos_sign(d, m0.xyz);
+        if (sos_sign(d, q[1].xyz) != s0 || sos_sign(d, q[2].xyz) != s0) continue;
+        const float3 nrm = q[3].xyz;
+        const float num = q[3].w;
+        const int cap = m0.w > 0.5f;
+#endif
+        const float den = sv_dot(d, nrm);
+        const float t_end = cap ? fmin(t_near, 1.0f) : 1.0f;
         const int inside = den > 0.0f ? (num > 0.0f && num < t_end * den) : (num < 0.0f && num > t_end * den);
         if (inside) count += s0 < 0 ? 1 : -1;
     }

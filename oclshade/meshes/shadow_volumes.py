@@ -304,9 +304,16 @@ class MeshShadows:
         if total:
             cl.enqueue_fill_buffer(rt.queue, cbuf, np.int32(0), 0, 4 * tw * th)
             self._bin(defines, ntri, faces, vbuf, cam, w, h, tile, tw, th, 1, cbuf, obuf, lbuf)
+        planes = vbuf
+        if not ortho and ntri:
+            planes = rt.empty(64 * ntri, "shadow volume planes")
+            prepare = rt.kernel("shadow_volume.cl", "sv_prepare", defines)
+            prepare.set_args(np.int32(ntri), faces, vbuf, planes)
+            local = rt.local_size(prepare, 64)
+            cl.enqueue_nd_range_kernel(rt.queue, prepare, (-(-ntri // local) * local,), (local,))
         kernel = rt.kernel("shadow_volume.cl", "sv_count", defines)
-        kernel.set_args(vbuf, faces, obuf, lbuf, gbuffer.buffers["position"], cam, np.float32(zs), np.int32(w0),
-                        np.int32(w), np.int32(h), np.int32(tile), np.int32(tw), out)
+        kernel.set_args(vbuf, faces, planes, obuf, lbuf, gbuffer.buffers["position"], cam, np.float32(zs),
+                        np.int32(w0), np.int32(w), np.int32(h), np.int32(tile), np.int32(tw), out)
         cl.enqueue_nd_range_kernel(rt.queue, kernel, *rt.grid_2d(kernel, w, h))
         rt.queue.finish()           # the uploads above are released on return
 
