@@ -279,7 +279,7 @@ def test_iss_far_from_the_origin(offset):
     mesh = iss.placed(translate=shift)
     size = float(np.linalg.norm(hi - lo))
     target = shift + centre
-    camera = Camera(target + size * np.array([0.5, -0.6, 0.45]), target, 48, 30, fov=50, near=0.01 * size)
+    camera = Camera(target + size * np.array([0.5, -0.6, 0.45]), target, 40, 25, fov=50, near=0.01 * size)
     position, _ = cast(camera, [mesh])
     got, want, ties, hit = compare(camera, [mesh], Sun(60, 50), position)
     assert want.sum() > 20
