@@ -1016,6 +1016,122 @@ oclshade_status oclshade_enqueue_reflect_finish(oclshade *lib, cl_command_queue 
                                                 cl_uint num_events_in_wait_list, const cl_event *event_wait_list,
                                                 cl_event *event);
 
+/* ----------------------------------------------------------- meshes (kernels/mesh.cl) */
+
+/* Paper 001's mesh G-buffers: triangle meshes ray-cast through a BVH into a G-buffer, their
+ * pixels shaded against the terrain, any-hit shadow rays (oclshade/meshes/caster.py
+ * MeshCaster; docs/meshes.md).  The depth merge and object normals are the quadric calls
+ * above (oclshade_enqueue_gbuffer_merge, oclshade_enqueue_object_normals: the same kernels
+ * for every kind of object; mesh k's pixels have id -(k + 1)).  The BVH and the flattened
+ * tables are built by the Python host (oclshade.meshes.tables.write_mesh_tables) and read
+ * here from its file (host/README.md "Meshes"). */
+#define OCLSHADE_MAX_MESHES 65536
+
+/* The tables of one set of meshes, host arrays (layouts of kernels/mesh.cl's ABI). */
+typedef struct oclshade_mesh_tables {
+    int meshes, nodes, slots, vertices, texels;
+    cl_int4 *mi;              /* 3 per mesh: (root, flags, 0, 0), texture, normal map */
+    double *origin;           /* 3 per mesh: world origin (float64) the mesh's tables are relative to */
+    double *reach;            /* 1 per mesh: largest distance of a vertex from its origin */
+    cl_float4 *surface;       /* 1 per mesh: colour (linear rgb), alpha cutoff */
+    cl_float4 *box;           /* 2 per node */
+    cl_int2 *info;            /* 1 per node */
+    cl_float4 *tri;           /* 3 per slot */
+    cl_int4 *tvtx;            /* 1 per slot */
+    cl_float4 *tangent;       /* 1 per slot */
+    cl_float4 *vnrm;          /* 1 per vertex */
+    cl_float2 *vuv;           /* 1 per vertex */
+    cl_float4 *texel;         /* texels (>= 1) */
+} oclshade_mesh_tables;
+
+/* Read a tables file (format: oclshade/meshes/tables.py; host/README.md) into *out (arrays
+ * malloc'd; free with oclshade_mesh_tables_free).  OCLSHADE_INVALID_ARGUMENT with the reason
+ * in error (error_size bytes, may be NULL): an unreadable or short file, a wrong magic, counts
+ * out of range, indices outside the tables; OCLSHADE_OUT_OF_MEMORY.
+ * Host only, reentrant. */
+oclshade_status oclshade_mesh_tables_read(const char *path, oclshade_mesh_tables *out, char *error, size_t error_size);
+/* Frees the arrays of tables read by oclshade_mesh_tables_read and zeroes *tables (NULL: nothing). */
+void oclshade_mesh_tables_free(oclshade_mesh_tables *tables);
+
+/* The per-camera table mf of kernels/mesh.cl (MeshCaster.table): 3 float4 per mesh (camera
+ * position - origin rounded once from float64; colour and cutoff; the screen rectangle of
+ * the mesh's bounding sphere).  position: the camera's world position (the one given to
+ * oclshade_camera_look_at; it must agree with camera->view within 1e-6 of its size + 1 m).
+ * You upload meshes * 48 bytes.  Host only, reentrant. */
+oclshade_status oclshade_mesh_camera_table(const oclshade_mesh_tables *tables, const oclshade_camera *camera,
+                                           const double position[3], cl_float4 *mf);
+
+/* A light for the shadow rays: the sun (point 0: azimuth, elevation in degrees) or a point
+ * light (point 1: world position, metres). */
+typedef struct oclshade_mesh_light {
+    int point;
+    double azimuth, elevation;
+    double position[3];
+} oclshade_mesh_light;
+
+/* The light table of mesh_shadow_rays (MeshCaster.light_table): 1 float4 per mesh, (sun
+ * vector, 0) or (position - origin rounded once, 1).  You upload meshes * 16 bytes.  Host
+ * only, reentrant. */
+oclshade_status oclshade_mesh_light_table(const oclshade_mesh_tables *tables, const oclshade_mesh_light *light,
+                                          cl_float4 *table);
+
+/* One params struct for the mesh calls; each reads the members its comment names. */
+typedef struct oclshade_mesh_params {
+    oclshade_camera camera;            /* all: the frame (width x height); cast, rays: the view */
+    int count;                         /* cast, rays: meshes, 1..OCLSHADE_MAX_MESHES */
+    int nodes, slots, vertices, texels;/* cast, rays: the tables' sizes (oclshade_mesh_tables) */
+    cl_mem mf;                         /* cast, rays: oclshade_mesh_camera_table for this camera, uploaded */
+    cl_mem mi;                         /* cast, rays: the tables' mi, uploaded (count * 48 bytes) */
+    cl_mem box, info, tri, tvtx;       /* cast, rays: the tables' arrays, uploaded */
+    cl_mem tangent, vnrm;              /* cast: the tables' arrays, uploaded */
+    cl_mem vuv, texel;                 /* cast, rays: the tables' arrays, uploaded */
+    int own_builtins;                  /* cast, rays, terrain shadow: -D OCLS_OWN_BUILTINS (the same
+                                          bits; the Python host's default: on) */
+    oclshade_object_gbuffer objects;   /* cast: written */
+    oclshade_object_gbuffer gbuffer;   /* terrain shadow: position, object read; rays: position read */
+    /* terrain shadow: the terrain (heights.buffer NULL: none, every mesh pixel lit unless the
+     * sun is at or below the horizon) and the sun, as oclshade_quadric_params */
+    oclshade_field heights;
+    int rows, cols;
+    double dx, dy, offset;
+    float hmax;
+    double azimuth, elevation;         /* terrain shadow, apply: the sun (degrees) */
+    double k_dark, k_bright;           /* terrain shadow, apply: paper 000 eq. (1), in [0, 1] */
+    oclshade_field coefficient;        /* terrain shadow, apply: float per pixel, read and written */
+    cl_mem light;                      /* rays: oclshade_mesh_light_table, uploaded (count * 16 bytes) */
+    oclshade_field hidden;             /* rays: int32 per pixel, written; apply: read */
+    cl_mem scratch;                    /* >= oclshade_mesh_scratch_size (packed copies of pitched fields) */
+} oclshade_mesh_params;
+
+/* Zeroes, then own_builtins 1 (MeshCaster's default). */
+void oclshade_mesh_params_init(oclshade_mesh_params *params);
+/* Scratch of the largest of the four calls for these parameters (0 when every field is packed
+ * at offset 0). */
+oclshade_status oclshade_mesh_scratch_size(oclshade *lib, const oclshade_mesh_params *params, size_t *bytes);
+/* mesh_cast over (width, height) (-D OCLS_ORTHO for an orthographic camera): the meshes' own
+ * G-buffer and ids -(k + 1) (MeshCaster.cast). */
+oclshade_status oclshade_enqueue_mesh_cast(oclshade *lib, cl_command_queue queue, const oclshade_mesh_params *params,
+                                           cl_uint num_events_in_wait_list, const cl_event *event_wait_list,
+                                           cl_event *event);
+/* mesh_terrain_shadow (MeshCaster.shadow): every mesh pixel (id < 0) of gbuffer gets eq. (1)
+ * when the terrain hides the sun from it, else 1; other pixels keep their coefficient. */
+oclshade_status oclshade_enqueue_mesh_terrain_shadow(oclshade *lib, cl_command_queue queue,
+                                                     const oclshade_mesh_params *params,
+                                                     cl_uint num_events_in_wait_list, const cl_event *event_wait_list,
+                                                     cl_event *event);
+/* mesh_shadow_rays (MeshCaster.shadow_rays): hidden = 1 where a hit pixel's ray toward the
+ * light meets a triangle of a mesh that casts shadows (alpha cut-outs honoured), else 0. */
+oclshade_status oclshade_enqueue_mesh_shadow_rays(oclshade *lib, cl_command_queue queue,
+                                                  const oclshade_mesh_params *params,
+                                                  cl_uint num_events_in_wait_list, const cl_event *event_wait_list,
+                                                  cl_event *event);
+/* mesh_shadow_apply (the second half of MeshCaster.ray_shadow): coefficient = eq. (1) of the
+ * sun (azimuth, elevation, k_dark, k_bright) where hidden, else unchanged. */
+oclshade_status oclshade_enqueue_mesh_shadow_apply(oclshade *lib, cl_command_queue queue,
+                                                   const oclshade_mesh_params *params,
+                                                   cl_uint num_events_in_wait_list, const cl_event *event_wait_list,
+                                                   cl_event *event);
+
 #ifdef __cplusplus
 }
 #endif

@@ -16,7 +16,9 @@
  * horizon.c     horizon angles and sky-view factor sums
  * envmap.c      cube maps: seam border, lat-long <-> cube
  * specialize.c  paper 002's @IF meta-language (reflect.cl's variants)
- * quadrics.c    quadrics: tables, G-buffer, depth merge, object normals, shadows
+ * quadrics.c    quadrics: tables, G-buffer, depth merge, object normals, shadows; the sun and
+ *               terrain arguments every object family's terrain shadows take
+ * meshes.c      meshes: tables file, per-camera and light tables, G-buffer, shadows
  * reflect.c     environment reflections around compose (specialised reflect.cl)
  */
 #ifndef OCLSHADE_INTERNAL_H
@@ -87,9 +89,10 @@ typedef struct program_entry {
     struct program_entry *next;
 } program_entry;
 
-#define N_PROGRAM_FILES 10
+#define N_PROGRAM_FILES 11
 extern const char *const OCLS_PROGRAM_FILES[N_PROGRAM_FILES];   /* pyramid, shadow, terrain, ssao, compose,
-                                                                   sunshine, horizon, envmap, quadric, reflect */
+                                                                   sunshine, horizon, envmap, quadric, reflect,
+                                                                   mesh */
 
 struct oclshade {
     cl_context context;
@@ -283,5 +286,25 @@ int ocls_extent(int n0, int level);      /* ceil(n0 / 2^level) */
 /* (ux, uy) of oclshade/sun.py Sun(azimuth, 0).ray(dx, dy): cells per metre east and south, float32
  * with subnormals flushed (shadows.c; the horizon rays). */
 void ocls_horizontal_ray(double azimuth, double dx, double dy, cl_float out[2]);
+
+/* ------------------------------------------------------------------ objects on the terrain (quadrics.c) */
+
+/* The arguments of kernels/terrain_ray.h's sun test on object pixels (caster.py
+ * terrain_shadow_args): view-space sun (w = 1 at or below the horizon), terrain ray, eq. (1). */
+typedef struct ocls_sun_args {
+    cl_float4 sun, ray;
+    cl_float kshadow;
+} ocls_sun_args;
+oclshade_status ocls_check_sun(oclshade *lib, double azimuth, double elevation, double k_dark, double k_bright);
+float ocls_kshadow(double elevation, double k_dark, double k_bright);
+oclshade_status ocls_sun_args_for(oclshade *lib, const oclshade_camera *camera, int terrain, double dx, double dy,
+                                  double azimuth, double elevation, double k_dark, double k_bright, ocls_sun_args *out);
+/* caster.py screen_rect: pixels (x0, y0, x1, y1) that may see a view-space sphere. */
+void ocls_screen_rect(const oclshade_camera *cam, const double centre[3], double radius, cl_int out[4]);
+/* An input and output field: ocls_bind_in, and a staged copy is copied back by ocls_pass_finish. */
+oclshade_status ocls_bind_inout(ocls_pass *ps, const oclshade_field *f, int rows, size_t row_bytes, const char *name,
+                                cl_mem *out);
+/* Rows of the affine map view -> (u, v, z - offset) of the heightmap (zeros without one). */
+void ocls_heightmap_rows(const double *view, int terrain, double dx, double dy, double offset, cl_float4 hm[3]);
 
 #endif /* OCLSHADE_INTERNAL_H */

@@ -49,7 +49,7 @@ static void to_view(const double *V, const double p[3], double out[3])
 static int clip_int(double v, int hi) { return v < 0.0 ? 0 : v > hi ? hi : (int)v; }
 
 /* caster.py screen_rect: the pixels that may see a view-space sphere. */
-static void screen_rect(const oclshade_camera *cam, const double c[3], double radius, cl_int out[4])
+void ocls_screen_rect(const oclshade_camera *cam, const double c[3], double radius, cl_int out[4])
 {
     const int w = cam->width, h = cam->height;
     double cmin = INFINITY, cmax = -INFINITY, rmin = INFINITY, rmax = -INFINITY, dmin = INFINITY;
@@ -130,8 +130,54 @@ oclshade_status oclshade_quadric_tables(const oclshade_quadric *quadrics, int co
         row[4].s[3] = (cl_float)radius;
         qi[2 * k].s[0] = KIND_CODE[q->kind];
         qi[2 * k].s[1] = qi[2 * k].s[2] = qi[2 * k].s[3] = 0;
-        screen_rect(camera, bc, radius, qi[2 * k + 1].s);
+        ocls_screen_rect(camera, bc, radius, qi[2 * k + 1].s);
     }
+    return OCLSHADE_OK;
+}
+
+/* ------------------------------------------------------------------ the sun on object pixels */
+
+oclshade_status ocls_check_sun(oclshade *lib, double azimuth, double elevation, double k_dark, double k_bright)
+{
+    if (!isfinite(azimuth) || !(elevation >= -90.0 && elevation <= 90.0))
+        return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "azimuth must be finite and elevation in [-90, 90], "
+                         "got %g, %g", azimuth, elevation);
+    if (!(k_dark >= 0.0 && k_dark <= 1.0) || !(k_bright >= 0.0 && k_bright <= 1.0))
+        return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "k_dark and k_bright must be in [0, 1], got %g, %g",
+                         k_dark, k_bright);
+    return OCLSHADE_OK;
+}
+
+float ocls_kshadow(double elevation, double k_dark, double k_bright)
+{
+    const double e = sin(elevation * (3.14159265358979323846 / 180.0));
+    return (cl_float)(k_dark + (k_bright - k_dark) * (e > 0.0 ? e : 0.0));
+}
+
+/* caster.py terrain_shadow_args: the view-space sun (w = 1 at or below the horizon), the
+ * terrain ray and eq. (1)'s coefficient. */
+oclshade_status ocls_sun_args_for(oclshade *lib, const oclshade_camera *camera, int terrain, double dx, double dy,
+                                  double azimuth, double elevation, double k_dark, double k_bright, ocls_sun_args *out)
+{
+    double s[3];
+    oclshade_sun sun;
+    oclshade_status st;
+    if ((st = oclshade_sun_vector(azimuth, elevation, s)) != OCLSHADE_OK ||
+        (st = oclshade_sun_for(azimuth, elevation, dx > 0.0 ? dx : 1.0, dy > 0.0 ? dy : 1.0, &sun)) != OCLSHADE_OK)
+        return ocls_fail(lib, st, 0, "the sun (%g, %g) could not be set up", azimuth, elevation);
+    const int below = elevation <= 0.0;
+    const double *V = camera->view;
+    memset(out, 0, sizeof *out);
+    for (int r = 0; r < 3; ++r) out->sun.s[r] = (cl_float)(V[4 * r] * s[0] + V[4 * r + 1] * s[1] + V[4 * r + 2] * s[2]);
+    out->sun.s[3] = below ? 1.0f : 0.0f;
+    if (terrain && !below) {   /* Sun.ray(dx, dy): w is inf at the zenith */
+        cl_float uxy[2];
+        ocls_horizontal_ray(azimuth, dx, dy, uxy);
+        out->ray.s[0] = uxy[0];
+        out->ray.s[1] = uxy[1];
+        out->ray.s[2] = sun.mode == 0 ? sun.ray[2] : INFINITY;
+    }
+    out->kshadow = ocls_kshadow(elevation, k_dark, k_bright);
     return OCLSHADE_OK;
 }
 
@@ -145,20 +191,19 @@ typedef struct quadric_job {
     cl_float4 hm[3];   /* rows of view -> (u, v, z - offset) (zeros without a terrain) */
 } quadric_job;
 
-/* caster.py _uv_rows: heightmap_from_world(hm) @ inv(view), the view rigid: inv = [R^T | -R^T t]
- * (numpy inverts by LU: equal up to rounding, as terrain.c). */
-static void uv_rows(const oclshade_quadric_params *p, cl_float4 hm[3])
+/* caster.py heightmap_rows: heightmap_from_world(hm) @ inv(view), the view rigid: inv = [R^T | -R^T t]
+ * (numpy inverts by LU: equal up to rounding, as terrain.c); zeros without a terrain. */
+void ocls_heightmap_rows(const double *V, int terrain, double dx, double dy, double offset, cl_float4 hm[3])
 {
     memset(hm, 0, 3 * sizeof *hm);
-    if (p->heights.buffer == NULL) return;
-    const double *V = p->camera.view;
+    if (!terrain) return;
     double inv[4][4] = {{0}};
     for (int r = 0; r < 3; ++r) {
         for (int c = 0; c < 3; ++c) inv[r][c] = V[4 * c + r];
         inv[r][3] = -(V[r] * V[3] + V[4 + r] * V[7] + V[8 + r] * V[11]);
     }
     inv[3][3] = 1.0;
-    const double h[3][4] = {{1.0 / p->dx, 0.0, 0.0, 0.0}, {0.0, -1.0 / p->dy, 0.0, 0.0}, {0.0, 0.0, 1.0, -p->offset}};
+    const double h[3][4] = {{1.0 / dx, 0.0, 0.0, 0.0}, {0.0, -1.0 / dy, 0.0, 0.0}, {0.0, 0.0, 1.0, -offset}};
     for (int r = 0; r < 3; ++r)
         for (int c = 0; c < 4; ++c) {
             double sum = 0.0;
@@ -192,15 +237,10 @@ static oclshade_status quadric_job_for(oclshade *lib, const oclshade_quadric_par
         }
     }
     if (op == SHADOW) {
-        if (!isfinite(p->azimuth) || !(p->elevation >= -90.0 && p->elevation <= 90.0))
-            return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "azimuth must be finite and elevation in [-90, 90], "
-                             "got %g, %g", p->azimuth, p->elevation);
-        if (!(p->k_dark >= 0.0 && p->k_dark <= 1.0) || !(p->k_bright >= 0.0 && p->k_bright <= 1.0))
-            return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "k_dark and k_bright must be in [0, 1], got %g, %g",
-                             p->k_dark, p->k_bright);
+        if ((st = ocls_check_sun(lib, p->azimuth, p->elevation, p->k_dark, p->k_bright)) != OCLSHADE_OK) return st;
         if (!isfinite(p->hmax)) return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "hmax must be finite, got %g", p->hmax);
     }
-    uv_rows(p, j->hm);
+    ocls_heightmap_rows(p->camera.view, p->heights.buffer != NULL, p->dx, p->dy, p->offset, j->hm);
     return OCLSHADE_OK;
 }
 
@@ -219,7 +259,7 @@ static const oclshade_field *gb_field(const oclshade_object_gbuffer *g, int i)
 }
 
 /* An input and output field: read from its own buffer or a staged copy, copied back at the end. */
-static oclshade_status bind_inout(ocls_pass *ps, const oclshade_field *f, int rows, size_t row_bytes,
+oclshade_status ocls_bind_inout(ocls_pass *ps, const oclshade_field *f, int rows, size_t row_bytes,
                                   const char *name, cl_mem *out)
 {
     oclshade_status st = ocls_bind_in(ps, f, rows, row_bytes, name, out);
@@ -246,14 +286,14 @@ static oclshade_status quadric_body(ocls_pass *ps, const void *params)
         if (j->op == CAST) st = ocls_bind_out(ps, gb_field(&p->objects, i), H, row, GB_NAMES[0][i], &src[i]);
         if (j->op == MERGE) {
             st = ocls_bind_in(ps, gb_field(&p->objects, i), H, row, GB_NAMES[0][i], &src[i]);
-            if (st == OCLSHADE_OK) st = bind_inout(ps, gb_field(&p->gbuffer, i), H, row, GB_NAMES[1][i], &dst[i]);
+            if (st == OCLSHADE_OK) st = ocls_bind_inout(ps, gb_field(&p->gbuffer, i), H, row, GB_NAMES[1][i], &dst[i]);
         }
         if ((j->op == NORMALS && (i == 1 || i == 6)) || (j->op == SHADOW && (i == 0 || i == 6)))
             st = ocls_bind_in(ps, gb_field(&p->gbuffer, i), H, row, GB_NAMES[1][i], &dst[i]);
     }
-    if (st == OCLSHADE_OK && j->op == NORMALS) st = bind_inout(ps, &p->shading, H, 16 * (size_t)W, "shading", &extra);
+    if (st == OCLSHADE_OK && j->op == NORMALS) st = ocls_bind_inout(ps, &p->shading, H, 16 * (size_t)W, "shading", &extra);
     if (st == OCLSHADE_OK && j->op == SHADOW) {
-        st = bind_inout(ps, &p->coefficient, H, 4 * (size_t)W, "coefficient", &extra);
+        st = ocls_bind_inout(ps, &p->coefficient, H, 4 * (size_t)W, "coefficient", &extra);
         if (st == OCLSHADE_OK && p->heights.buffer != NULL)
             st = ocls_bind_in(ps, &p->heights, p->rows, 4 * (size_t)p->cols, "heights", &heights);
     }
@@ -293,33 +333,17 @@ static oclshade_status quadric_body(ocls_pass *ps, const void *params)
         return ocls_launch(ps, k, n, 0, 64, 0);
     }
     /* SHADOW: QuadricCaster.shadow's arguments */
-    double s[3];
-    oclshade_sun sun;
-    if ((st = oclshade_sun_vector(p->azimuth, p->elevation, s)) != OCLSHADE_OK ||
-        (st = oclshade_sun_for(p->azimuth, p->elevation, p->dx > 0.0 ? p->dx : 1.0, p->dy > 0.0 ? p->dy : 1.0, &sun)) !=
-            OCLSHADE_OK)
-        return ocls_fail(ps->lib, st, 0, "the sun (%g, %g) could not be set up", p->azimuth, p->elevation);
-    const int below = p->elevation <= 0.0;
-    const double *V = p->camera.view;
-    cl_float4 sv, ray = {{0.0f, 0.0f, 0.0f, 0.0f}};
-    for (int r = 0; r < 3; ++r) sv.s[r] = (cl_float)(V[4 * r] * s[0] + V[4 * r + 1] * s[1] + V[4 * r + 2] * s[2]);
-    sv.s[3] = below ? 1.0f : 0.0f;
-    if (p->heights.buffer != NULL && !below) {   /* Sun.ray(dx, dy): w is inf at the zenith */
-        cl_float uxy[2];
-        ocls_horizontal_ray(p->azimuth, p->dx, p->dy, uxy);
-        ray.s[0] = uxy[0];
-        ray.s[1] = uxy[1];
-        ray.s[2] = sun.mode == 0 ? sun.ray[2] : INFINITY;
-    }
-    const double e = sin(p->elevation * (3.14159265358979323846 / 180.0));
-    const cl_float kshadow = (cl_float)(p->k_dark + (p->k_bright - p->k_dark) * (e > 0.0 ? e : 0.0));
+    ocls_sun_args sa;
+    if ((st = ocls_sun_args_for(ps->lib, &p->camera, p->heights.buffer != NULL, p->dx, p->dy, p->azimuth, p->elevation,
+                                p->k_dark, p->k_bright, &sa)) != OCLSHADE_OK)
+        return st;
     const cl_int rows = p->heights.buffer ? p->rows : 0, cols = p->heights.buffer ? p->cols : 0;
     const cl_float zmax = p->heights.buffer ? p->hmax : 0.0f;
     const cl_mem h = heights ? heights : p->qf;   /* not read without a terrain (rows, cols 0) */
     const ocls_arg a[17] = {OCLS_ARG(n), OCLS_ARG(p->count), OCLS_ARG(p->qf), OCLS_ARG(p->qi), OCLS_ARG(dst[0]),
-                            OCLS_ARG(dst[6]), OCLS_ARG(sv), OCLS_ARG(h), OCLS_ARG(rows), OCLS_ARG(cols),
+                            OCLS_ARG(dst[6]), OCLS_ARG(sa.sun), OCLS_ARG(h), OCLS_ARG(rows), OCLS_ARG(cols),
                             OCLS_ARG(zmax), OCLS_ARG(j->hm[0]), OCLS_ARG(j->hm[1]), OCLS_ARG(j->hm[2]),
-                            OCLS_ARG(ray), OCLS_ARG(kshadow), OCLS_ARG(extra)};
+                            OCLS_ARG(sa.ray), OCLS_ARG(sa.kshadow), OCLS_ARG(extra)};
     if ((st = ocls_kernel(ps, "quadric.cl", &d, "quadric_shadow", &k)) != OCLSHADE_OK ||
         (st = ocls_set_args(ps, k, a, 17)) != OCLSHADE_OK)
         return st;

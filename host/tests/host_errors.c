@@ -147,7 +147,7 @@ int main(int argc, char **argv)
     char *sunshine = read_text(dir, "sunshine.cl"), *horizon = read_text(dir, "horizon.cl");
     char *cubemap = read_text(dir, "cubemap.h"), *envmap = read_text(dir, "envmap.cl");
     char *quadric = read_text(dir, "quadric.cl"), *reflect = read_text(dir, "reflect.cl");
-    char *terrain_ray = read_text(dir, "terrain_ray.h");
+    char *terrain_ray = read_text(dir, "terrain_ray.h"), *mesh = read_text(dir, "mesh.cl");
     oclshade_source missing[2] = {{"common.h", common}, {"pyramid.cl", pyramid}};
     st = oclshade_create_from_sources(ctx, device, missing, 2, &lib);
     expect_status(lib, st, OCLSHADE_SOURCE_ERROR, "shadow.cl", "create_from_sources: shadow.cl missing");
@@ -156,12 +156,13 @@ int main(int argc, char **argv)
     /* ---- a build failure carries the compiler log */
     const char *broken = "#include \"common.h\"\n"
                          "__kernel void shadow_cells(__global float *h) { h[0] = oclshade_no_such_name; }\n";
-    oclshade_source sources[13] = {{"common.h", common}, {"pyramid.cl", pyramid}, {"shadow.cl", broken},
+    oclshade_source sources[14] = {{"common.h", common}, {"pyramid.cl", pyramid}, {"shadow.cl", broken},
                                   {"terrain.cl", terrain}, {"ssao.cl", ssao}, {"compose.cl", compose},
                                   {"sunshine.cl", sunshine}, {"horizon.cl", horizon},
                                    {"cubemap.h", cubemap}, {"envmap.cl", envmap},
-                                   {"quadric.cl", quadric}, {"terrain_ray.h", terrain_ray}, {"reflect.cl", reflect}};
-    st = oclshade_create_from_sources(ctx, device, sources, 13, &lib);
+                                   {"quadric.cl", quadric}, {"terrain_ray.h", terrain_ray}, {"reflect.cl", reflect},
+                                   {"mesh.cl", mesh}};
+    st = oclshade_create_from_sources(ctx, device, sources, 14, &lib);
     expect_status(lib, st, OCLSHADE_OK, "", "create_from_sources: broken shadow.cl is read");
     st = oclshade_prepare(lib, OCLSHADE_PAPER, OCLSHADE_OUT_MASK | OCLSHADE_OUT_SELF);
     expect_status(lib, st, OCLSHADE_BUILD_FAILED, "oclshade_no_such_name", "build failure: the log names the error");
@@ -662,7 +663,7 @@ int main(int argc, char **argv)
     clReleaseCommandQueue(queue); clReleaseCommandQueue(other_queue);
     clReleaseContext(ctx); clReleaseContext(other_ctx);
     free(common); free(pyramid); free(terrain); free(ssao); free(compose); free(sunshine); free(horizon); free(cubemap); free(envmap);
-    free(quadric); free(reflect); free(terrain_ray);
+    free(quadric); free(reflect); free(terrain_ray); free(mesh);
     printf("%d failure(s)\n", failures);
     return failures;
 }

@@ -160,8 +160,9 @@ int main(int argc, char **argv)
     CLCHECK(err);
     CHECK(oclshade_create(ctx, device, kernels, &lib));
     static const char *const programs[] = {"pyramid.cl", "shadow.cl", "terrain.cl", "ssao.cl", "compose.cl",
-                                           "sunshine.cl", "horizon.cl", "envmap.cl", "quadric.cl", "reflect.cl"};
-    for (int i = 0; i < 10; ++i)
+                                           "sunshine.cl", "horizon.cl", "envmap.cl", "quadric.cl", "reflect.cl",
+                                           "mesh.cl"};
+    for (int i = 0; i < 11; ++i)
         write_file(programs[i], oclshade_program_source(lib, programs[i]), strlen(oclshade_program_source(lib, programs[i])));
 
     float *rel = (float *)xmalloc(n * sizeof *rel);

@@ -75,6 +75,7 @@ class _Tables:
     texel: np.ndarray
     mi: np.ndarray
     origins: np.ndarray          # float64 (nm, 3)
+    reach: list[float]           # per mesh: the largest distance of a vertex from its origin
 
 
 def _flatten(meshes: Sequence[TriangleMesh]) -> _Tables:
@@ -116,7 +117,8 @@ def _flatten(meshes: Sequence[TriangleMesh]) -> _Tables:
                    np.concatenate(tangents).astype(f32), np.concatenate(vnrms).astype(f32),
                    np.concatenate(vuvs).astype(f32),
                    np.concatenate(texels).astype(f32) if texels else np.zeros((1, 4), f32),
-                   np.array(mi, np.int32), np.array(origins))
+                   np.array(mi, np.int32), np.array(origins),
+                   [float(np.linalg.norm(m.vertices - o, axis=1).max()) for m, o in zip(meshes, origins)])
 
 
 def _rows(m: np.ndarray) -> list[np.ndarray]:
@@ -144,7 +146,7 @@ class MeshCaster:
         self._defines = {"OCLS_OWN_BUILTINS": bool(own_builtins)}
         t = _flatten(meshes)
         self.origins = t.origins
-        self.reach = [float(np.linalg.norm(m.vertices - o, axis=1).max()) for m, o in zip(meshes, t.origins)]
+        self.reach = t.reach
         self._mi = t.mi
         self._buffers = [rt.to_device(a, f"mesh {name}") for name, a in
                          (("BVH boxes", t.box), ("BVH nodes", t.info), ("triangles", t.tri),
