@@ -119,7 +119,8 @@ def compare(camera, meshes, light, position, rt=None, bounds=None):
     got = shadows.mask_to_host(camera, device_gbuffer(rt, position, depth), light)
     hit = position[..., 3] > 0.5
     pts = ref.world_points(camera, position)
-    want, grazing = ref.shadow_mask(meshes, light, pts, hit, ref.towards_viewer(camera, pts), ref.float32_band(camera, pts))
+    want, grazing = ref.shadow_mask(meshes, light, pts, hit, ref.towards_viewer(camera, pts),
+                                    ref.float32_band(camera, pts))
     ties = ref.tie_pixels(camera, shadows.volumes(light), pts, hit) | grazing
     return got, want, ties, hit
 
