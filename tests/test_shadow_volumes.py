@@ -177,6 +177,34 @@ def test_volumes_are_closed_and_wound_outwards():
         assert winding_number(vol.triangles, centre_below + [2.0, 0.0, 0.0]) >= 1
 
 
+@settings(max_examples=25, deadline=None)
+@given(az=st.floats(0, 360), el=st.floats(5, 89), point=st.booleans(), drop=st.integers(0, 3),
+       seed=st.integers(0, 2 ** 16))
+def test_winding_number_is_the_shadow_ray_count(az, el, point, drop, seed):
+    """The start count (the eye's winding number about the volumes, float64) is nonzero exactly
+    where the twin's shadow ray meets a caster, for points around and under a torus."""
+    mesh = torus([0, 0, 10], 3.0, 1.2, 8, 5, tilt=25.0, drop=drop)
+    sun = Sun(az, el)
+    light = PointLight(np.array([0.0, 0.0, 10.0]) + 40.0 * np.array(sun.vector())) if point else sun
+    vol = build_volumes([mesh], light, 200.0)
+    points = np.random.default_rng(seed).uniform([-15, -15, -2], [15, 15, 22], (40, 3))
+    keep = ~ref.near_triangles(points, vol.triangles, np.full(len(points), 1e-6)).any(axis=1)
+    hidden, _ = ref.shadow_mask([mesh], light, points, np.ones(len(points), bool), viewer=points)
+    counts = np.array([winding_number(vol.triangles, q) for q in points])
+    assert (counts >= 0).all()
+    assert np.array_equal((counts != 0)[keep], hidden[keep])
+
+
+def test_no_casting_faces_no_shadow():
+    camera, light = SCENES["sun"]
+    meshes = [torus([0, 0, 10], 3.0, 1.2, cast_shadows=False), ground(0.0, 60)]
+    position, depth = cast(camera, meshes)
+    rt = get_runtime(None)
+    shadows = MeshShadows(meshes, rt)
+    assert not shadows.mask_to_host(camera, device_gbuffer(rt, position, depth), light).any()
+    assert shadows.volumes(light).casters == 0
+
+
 # --- counts against the twin -------------------------------------------------------------------
 SCENES = {
     "sun": (Camera([12, -18, 16], [-2, 2, 3], 96, 64, fov=50), Sun(135, 40)),
