@@ -30,7 +30,16 @@ Cases (``family/variant``) and what one timed run is:
 * ``sunshine/masks``: ``SunshineCaster(..., analyse=False).accumulate`` of the
   :data:`SUNSHINE_SUNS` (a day's path, 600 s each) over the masks' map, hours and
   cast fraction: a mask per sun traced and summed on the device, the sums copied
-  to the host.
+  to the host;
+* ``meshes/cast``: ``MeshCaster.cast(camera, out=...)`` of :func:`bench_mesh` (a wavy
+  sheet of 2 x MESH_QUADS^2 triangles generated over the middle of the frame's map, its
+  BVH built once when the case is prepared) into its own G-buffer and object ids;
+* ``meshes/shadow_rays``: ``MeshCaster.shadow_rays`` (any-hit rays through the BVH toward
+  the low sun) from every pixel of the bisect G-buffer with the sheet merged in;
+* ``meshes/shadow_volumes``: ``MeshShadows([sheet]).mask`` (paper 003's silhouette
+  volumes, built once for the sun and cached, as the paper's static light allows; the
+  per-frame count of crossings is what is timed) on the same G-buffer and sun: the same
+  question as ``meshes/shadow_rays`` by the other method, same run.
 
 Work model, per case (``nbytes`` and ``flops`` of :class:`Case`): the traffic
 and arithmetic the case cannot avoid, so the roofline time derived from them
@@ -65,6 +74,15 @@ horizons                  4 N heights + 4 N angles +       30 N (the start patch
 sunshine/masks            S (4 N heights + 2 N mask        S (20 N + 12 N) (each mask's start patch
                           written and read + 16 N sums     test; gradient, facing test and sums;
                           read and written) + 16 N copy    S: the number of suns)
+meshes/cast               80 P G-buffer and ids written    60 P (ray set-up, the root box's slab
+                          + B (B: the mesh tables: 80 per  test, one watertight triangle test)
+                          triangle, 24 per vertex; BVH
+                          nodes not counted)
+meshes/shadow_rays        16 P positions + 4 P written     50 P (ray set-up, one slab test, one
+                          + B                              triangle test)
+meshes/shadow_volumes     20 P (position, depth) + P mask  30 P (the view segment's set-up and one
+                          + 16 V (V: volume vertices,      face's crossing test)
+                          sent each frame)
 ========================  ===============================  ====================================
 
 ``exact`` cases must give the same bits on every device (their results equal
@@ -81,11 +99,12 @@ from typing import Callable
 import numpy as np
 import pyopencl as cl
 
-from ..camera import Camera, frame_heightmap
+from ..camera import Camera, frame_heightmap, map_bounds
 from ..compose import Lighting, compose
 from ..gbuffer import CHANNELS
 from ..heightmap import Heightmap
 from ..horizon import HorizonCaster
+from ..meshes import MeshCaster, MeshShadows, TriangleMesh
 from ..pyramid import build_extrema_pyramid, extrema_shapes
 from ..runtime import Runtime
 from ..screen_shadows import ScreenShadowCaster
@@ -96,7 +115,7 @@ from ..sunshine import SunshineCaster
 from ..synthetic import canyon_crater
 from ..terrain import METHODS as TERRAIN_METHODS, DeviceGBuffer, Heightfield, TerrainRenderer
 
-FAMILIES = ("pyramid", "masks", "render", "pixel_shadows", "ssao", "compose", "horizons", "sunshine")
+FAMILIES = ("pyramid", "masks", "render", "pixel_shadows", "ssao", "compose", "horizons", "sunshine", "meshes")
 PIXEL_SHADOW_METHODS = ("exact", "maxmip")
 CELL_M = 30.0
 RELIEF_M = 1500.0
@@ -107,6 +126,8 @@ AO_RADIUS_CELLS = 4.0
 #: the sunshine case's suns: a day's path, east to west
 SUNSHINE_SUNS = tuple(Sun(az, el) for az, el in ((70.0, 5.0), (90.0, 20.0), (120.0, 40.0), (160.0, 55.0),
                                                 (200.0, 55.0), (240.0, 40.0), (270.0, 20.0), (290.0, 5.0)))
+#: the meshes cases' sheet: MESH_QUADS x MESH_QUADS quads (3200 triangles)
+MESH_QUADS = 40
 
 
 @dataclass(frozen=True)
@@ -178,6 +199,20 @@ def terrain(side: int) -> Heightmap:
 def terrain_digest(side: int) -> str:
     hm = terrain(side)
     return digest([hm.heights, np.array([hm.dx, hm.dy])])
+
+
+def bench_mesh(hm: Heightmap) -> TriangleMesh:
+    """The meshes cases' caster: a sheet of MESH_QUADS^2 quads (two triangles each) over the
+    middle half of the map, at 70 % of its relief, waved by 3 % of its width (it covers much of
+    the frame and casts a long shadow on the terrain under the low sun)."""
+    lo, hi = map_bounds(hm)
+    u, v = np.meshgrid(np.linspace(0.25, 0.75, MESH_QUADS + 1), np.linspace(0.25, 0.75, MESH_QUADS + 1))
+    x, y = lo[0] + u * (hi[0] - lo[0]), lo[1] + v * (hi[1] - lo[1])
+    z = lo[2] + 0.7 * (hi[2] - lo[2]) + 0.03 * (hi[0] - lo[0]) * np.sin(6 * np.pi * u) * np.cos(4 * np.pi * v)
+    i = np.arange((MESH_QUADS + 1) ** 2).reshape(MESH_QUADS + 1, MESH_QUADS + 1)
+    a, b, c, d = i[:-1, :-1].ravel(), i[:-1, 1:].ravel(), i[1:, 1:].ravel(), i[1:, :-1].ravel()
+    faces = np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)])
+    return TriangleMesh(np.stack([x.ravel(), y.ravel(), z.ravel()], 1), faces, name="bench sheet")
 
 
 def _map_label(side: int) -> str:
@@ -252,6 +287,35 @@ class Workload:
                                 m=DEFAULT_M, features=DEFAULT_FEATURES)
         self.rt.queue.finish()
         return buf
+
+    @functools.cached_property
+    def mesh(self) -> TriangleMesh:
+        return bench_mesh(self.frame_map)
+
+    @functools.cached_property
+    def mesh_caster(self) -> MeshCaster:
+        return MeshCaster([self.mesh], self.frame_map, self.rt)
+
+    @functools.cached_property
+    def mesh_gbuffer(self) -> DeviceGBuffer:
+        """A bisect G-buffer of its own with the sheet merged in (the shadow cases' receivers)."""
+        gbuf = self.renderer.render(self.camera, "bisect", on_device=True)
+        self.mesh_caster.merge(self.mesh_caster.cast(self.camera), gbuf)
+        self.rt.queue.finish()
+        return gbuf
+
+    @property
+    def mesh_table_bytes(self) -> float:
+        """B of the work model: the tables a mesh kernel reads (80 bytes per triangle, 24 per
+        vertex; the BVH's nodes are not counted)."""
+        return 80.0 * len(self.mesh.faces) + 24.0 * len(self.mesh.vertices)
+
+    def mesh_label(self) -> str:
+        return f"{len(self.mesh.faces)}-triangle sheet over the {self.frame_label()}, sun {LOW_SUN.azimuth:g}/" \
+               f"{LOW_SUN.elevation:g}"
+
+    def mesh_digest(self) -> str:
+        return digest([np.frombuffer(self.frame_digest().encode(), np.uint8), self.mesh.vertices, self.mesh.faces])
 
     @property
     def ao_radius(self) -> float:
@@ -410,6 +474,54 @@ def _sunshine(w: Workload) -> Case:
                 lambda: [state["maps"].hours, state["maps"].fraction])
 
 
+def _mesh_cast(w: Workload) -> Case:
+    caster, camera, rt = w.mesh_caster, w.camera, w.rt
+    state: dict = {"out": None}
+
+    def run() -> None:
+        state["out"] = caster.cast(camera, out=state["out"])
+        rt.queue.finish()
+
+    def outputs() -> list[np.ndarray]:
+        gbuf, ids = state["out"]
+        host = gbuf.to_host()
+        return [getattr(host, name) for name in CHANNELS] + [ids.to_host(rt)]
+
+    p = w.pixels
+    return Case(f"mesh G-buffer by BVH rays, {w.mesh_label()}", "rays", p, 80.0 * p + w.mesh_table_bytes, 60.0 * p,
+                w.mesh_digest(), run, outputs)
+
+
+def _mesh_shadow_rays(w: Workload) -> Case:
+    caster, camera, rt, gbuf = w.mesh_caster, w.camera, w.rt, w.mesh_gbuffer
+    state: dict = {"out": None}
+
+    def run() -> None:
+        state["out"] = caster.shadow_rays(camera, gbuf, LOW_SUN, out=state["out"])
+        rt.queue.finish()
+
+    p = w.pixels
+    return Case(f"mesh shadows by any-hit BVH rays, {w.mesh_label()}", "pixels", p,
+                20.0 * p + w.mesh_table_bytes, 50.0 * p, w.mesh_digest(), run,
+                lambda: [_read(rt, state["out"], gbuf.shape, np.int32)])
+
+
+def _mesh_shadow_volumes(w: Workload) -> Case:
+    camera, rt, gbuf = w.camera, w.rt, w.mesh_gbuffer
+    shadows = MeshShadows([w.mesh], rt)
+    vertices = len(shadows.volumes(LOW_SUN, map_bounds(w.frame_map)).vertices)
+    state: dict = {}
+
+    def run() -> None:
+        state["mask"] = shadows.mask(camera, gbuf, LOW_SUN)
+        rt.queue.finish()
+
+    p = w.pixels
+    return Case(f"mesh shadows by silhouette shadow volumes (paper 003), {w.mesh_label()}", "pixels", p,
+                21.0 * p + 16.0 * vertices, 30.0 * p, w.mesh_digest(), run,
+                lambda: [_read(rt, state["mask"], gbuf.shape, np.uint8)])
+
+
 SPECS: tuple[CaseSpec, ...] = (
     CaseSpec("pyramid", "pyramid", True, _pyramid),
     *(CaseSpec(f"masks/{m}", "masks", m == "exact", _mask(m)) for m in SHADOW_METHODS),
@@ -420,4 +532,7 @@ SPECS: tuple[CaseSpec, ...] = (
     CaseSpec("compose", "compose", False, _compose),
     CaseSpec("horizons", "horizons", True, _horizons),
     CaseSpec("sunshine/masks", "sunshine", True, _sunshine),
+    CaseSpec("meshes/cast", "meshes", False, _mesh_cast),
+    CaseSpec("meshes/shadow_rays", "meshes", False, _mesh_shadow_rays),
+    CaseSpec("meshes/shadow_volumes", "meshes", False, _mesh_shadow_volumes),
 )
