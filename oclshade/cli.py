@@ -365,7 +365,8 @@ outputs (by OUTPUT's extension):
         with mirror or glossy objects it adds reflection.x/y/z: the view-space reflection
         direction R = U - 2 (N.U) N on those objects' pixels, 0 elsewhere.
   shadow    (a .exr G-buffer of a frame with shadows) 1 where the light is hidden from
-        the pixel's point by any caster (terrain included), 0 lit, on hit pixels; 0 empty
+        the pixel's point by any caster (terrain, quadrics, meshes), 0 lit, on hit pixels;
+        0 on empty pixels
   header    view and projection: the camera's 4x4 matrices (row-major, float64, on column
         vectors: world -> view, view -> OpenGL clip space), so any tool can rebuild world
         positions: world = inverse(view) . (position.x, position.y, position.z, 1)
@@ -744,13 +745,29 @@ def gbuffer_bands(gbuf, shadow: np.ndarray | None = None) -> tuple[list[np.ndarr
         data = getattr(gbuf, field)
         bands += [data if data.ndim == 2 else data[..., k] for k, name in enumerate(channels) if name is not None]
     if shadow is None:
-        return bands, GBUFFER_NAMES
+        return bands, list(GBUFFER_NAMES)
     if shadow.shape != gbuf.shape:
         raise ValueError(f"the shadow mask is {shadow.shape} pixels, the G-buffer {gbuf.shape}")
     return bands + [(shadow & gbuf.hit).astype(np.float32)], GBUFFER_NAMES + [SHADOW_NAME]
 
 
 SHADOW_NAME = "shadow"
+
+
+def frame_shadow_mask(frame) -> np.ndarray | None:
+    """The :data:`SHADOW_NAME` channel's mask of a rendered frame (bool (height, width)): its
+    shadow coefficient below 1, where a caster (terrain, quadric, mesh) wrote paper 000's
+    eq. (1) coefficient; None when the frame has no shadows.  (With k_dark = k_bright = 1 a
+    shadow writes 1 and is not seen: the renders here use k = 0.)"""
+    if frame.shadow is None:
+        return None
+    import pyopencl as cl
+
+    coef = np.empty(frame.gbuffer.shape, np.float32)
+    queue = frame.gbuffer.runtime.queue
+    cl.enqueue_copy(queue, coef, frame.shadow)
+    queue.finish()
+    return coef < 1.0
 
 
 class GBufferExr:
@@ -857,10 +874,8 @@ def run_render(args: argparse.Namespace) -> int:
         t2 = time.perf_counter()
         outputs = [(image, lambda: [frame.image[..., c] for c in range(3)]),
                    (ao_map, lambda: [frame.ao_factor()])]
-        if gbuffer is not None:       # the shadow channel: the per-pixel pass's cast-shadow flag
-            flag = None if args.no_shadows else scene.shadow_caster.shade(
-                frame.gbuffer, args.sun, settings.shadow_method, settings.lod, "flag").flag == 1
-            gbuffer.write(*gbuffer_bands(frame.gbuffer.to_host(), flag), camera)
+        if gbuffer is not None:
+            gbuffer.write(*gbuffer_bands(frame.gbuffer.to_host(), frame_shadow_mask(frame)), camera)
         for out, planes in outputs:
             for plane in planes() if out is not None else ():
                 out.write(plane)

@@ -72,7 +72,7 @@ def test_gbuffer_holds_the_reflection_direction(tmp_path: Path, camera: str) -> 
     gb = tmp_path / "g.exr"
     assert main(["render", str(tmp_path / "scene.toml"), str(tmp_path / "f.png"), "--gbuffer", str(gb), "--quiet"]) == 0
     ch = _read_exr(gb)
-    assert set(ch) == set(GBUFFER_NAMES) | set(REFLECTION_NAMES)
+    assert set(ch) == set(GBUFFER_NAMES) | set(REFLECTION_NAMES) | {"shadow"}
     p = np.stack([ch[f"position.{a}"] for a in "xyz"], -1)
     n = np.stack([ch[f"normal.{a}"] for a in "xyz"], -1)
     r = np.stack([ch[f"reflection.{a}"] for a in "xyz"], -1)
@@ -106,4 +106,4 @@ def test_no_reflection_channels_without_reflective_objects(tmp_path: Path) -> No
     (tmp_path / "scene.toml").write_text(text)
     gb = tmp_path / "g.exr"
     assert main(["render", str(tmp_path / "scene.toml"), str(tmp_path / "f.png"), "--gbuffer", str(gb), "--quiet"]) == 0
-    assert set(_read_exr(gb)) == set(GBUFFER_NAMES)
+    assert set(_read_exr(gb)) == set(GBUFFER_NAMES) | {"shadow"}

@@ -69,3 +69,53 @@ def test_gbuffer_writer_checks_its_destination_first(tmp_path: Path) -> None:
         GBufferExr(str(tmp_path))
     with pytest.raises(CliError, match="does not exist"):
         GBufferExr(str(tmp_path / "missing" / "g.exr"))
+
+
+CUBE = "\n".join(["v 0 0 0", "v 1 0 0", "v 1 1 0", "v 0 1 0", "v 0 0 1", "v 1 0 1", "v 1 1 1", "v 0 1 1",
+                  "f 1 3 2", "f 1 4 3", "f 5 6 7", "f 5 7 8", "f 1 2 6", "f 1 6 5", "f 2 3 7", "f 2 7 6",
+                  "f 3 4 8", "f 3 8 7", "f 4 1 5", "f 4 5 8"]) + "\n"
+
+
+def test_scene_gbuffer_exr_shadow_of_a_mesh(tmp_path: Path) -> None:
+    """A scene file: a cube over flat ground; the EXR's shadow channel (read back, world points
+    rebuilt from its view matrix) against the float64 twin's shadow rays to the cube."""
+    from oclshade.meshes import TriangleMesh
+    from oclshade.reference.mesh_shadows import shadow_mask
+
+    (tmp_path / "cube.obj").write_text(CUBE)
+    np.save(tmp_path / "d.npy", np.zeros((40, 40)))
+    (tmp_path / "s.toml").write_text("""[terrain]
+dem = "d.npy"
+cellsize = 10
+[camera]
+position = [330, -230, 160]
+look_at = [200, -200, 0]
+size = [64, 48]
+[sun]
+azimuth = 150
+elevation = 30
+[[mesh]]
+file = "cube.obj"
+translate = [180, -200, 20]
+scale = 30
+""")
+    exr = tmp_path / "g.exr"
+    assert main(["render", str(tmp_path / "s.toml"), str(tmp_path / "f.png"), "--gbuffer", str(exr), "--quiet"]) == 0
+    ch, header = read(exr)
+    hit = ch["position.w"] > 0.5
+    pos = np.stack([ch["position.x"], ch["position.y"], ch["position.z"], np.ones(hit.shape)], -1)
+    world = (pos @ np.linalg.inv(header["view"]).T)[..., :3]
+    eye = np.linalg.inv(header["view"])[:3, 3]
+    v = np.array([[float(x) for x in line.split()[1:]] for line in CUBE.splitlines() if line.startswith("v ")])
+    f = [[int(x) - 1 for x in line.split()[1:]] for line in CUBE.splitlines() if line.startswith("f ")]
+    cube = TriangleMesh(30.0 * v + [180, -200, 20], f)
+    band = 16 * 2.0 ** -24 * np.linalg.norm(world - eye, axis=-1)
+    want, _ = shadow_mask([cube], Sun(150, 30), world, hit, eye - world, band)
+    got = ch["shadow"] == 1.0
+    edge = np.zeros(hit.shape, bool)
+    for m in (want, hit):
+        pad = np.pad(m, 1, mode="edge")
+        windows = [pad[i:i + hit.shape[0], j:j + hit.shape[1]] for i in range(3) for j in range(3)]
+        edge |= np.any(windows, axis=0) & ~np.all(windows, axis=0)
+    assert want.sum() > 50 and not got[~hit].any()
+    assert not ((got != want) & hit & ~edge).any()

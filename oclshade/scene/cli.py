@@ -57,7 +57,7 @@ def reflection_bands(gbuf, ids: np.ndarray, reflective: list[bool], camera) -> l
 
 def run(args: argparse.Namespace) -> int:
     """Render the scene file ``args.input`` to ``args.output``."""
-    from ..cli import GBUFFER_NAMES, PROG, CliError, UsageError, gbuffer_bands
+    from ..cli import PROG, CliError, GBufferExr, UsageError, frame_shadow_mask, gbuffer_bands
     from ..io import RasterWriter
     from .description import load_scene
     from .render import render_scene
@@ -78,26 +78,23 @@ def run(args: argparse.Namespace) -> int:
                          "pixel (set ssaa = 1, or leave out --gbuffer)")
     width, height = desc.camera.size
     reflective = [q.material.kind != "diffuse" for q in desc.quadrics]
-    names = GBUFFER_NAMES + (REFLECTION_NAMES if any(reflective) else [])
     with contextlib.ExitStack() as stack:
         image = stack.enter_context(RasterWriter(args.output, (3, height, width), np.uint8))
-        gbuffer = None if args.gbuffer is None else stack.enter_context(
-            RasterWriter(args.gbuffer, (len(names), height, width), np.float32, band_names=names))
+        gbuffer = None if args.gbuffer is None else GBufferExr(args.gbuffer)     # checked before any work
         try:
             frame, scene, camera = render_scene(desc, args.device)
         except OSError as exc:
             raise CliError(str(exc)) from None
         for c in range(3):
             image.write(frame.image[..., c])
-        if gbuffer is not None:
+        image.finish()
+        if gbuffer is not None:      # shadow channel, view and projection: oclshade.cli.GBufferExr
             host = frame.gbuffer.to_host()
-            bands = gbuffer_bands(host)[0]
+            bands, names = gbuffer_bands(host, frame_shadow_mask(frame))
             if any(reflective):
                 bands += reflection_bands(host, scene.ids.to_host(scene.runtime), reflective, camera)
-            for band in bands:
-                gbuffer.write(band)
-            gbuffer.finish()
-        image.finish()
+                names = names + REFLECTION_NAMES
+            gbuffer.write(bands, names, camera)
     if not args.quiet:
         passes = ", ".join(f"{name} {ms:.0f} ms" for name, ms in frame.ms.items())
         meshes = f"{len(desc.meshes)} meshes, " if desc.meshes else ""
