@@ -6,8 +6,8 @@
   normals, terrain shadows on mesh pixels, shadow rays and their application against
   :class:`oclshade.meshes.MeshCaster` (an icosphere, a textured sheet with alpha cut-outs and
   a normal map, a cube that casts no shadow; perspective and orthographic cameras; suns
-  above and below the horizon, a point light; the scene 1e6 m from the origin without a
-  terrain); the C program also checks pitched fields at offsets.
+  above and below the horizon, a point light; the scene 1e6 m and 1e7 m from the origin
+  without a terrain); the C program also checks pitched fields at offsets.
 * The reader on damaged files and the argument and contract checks of every mesh call.
 """
 from __future__ import annotations
@@ -59,6 +59,7 @@ CASES = {   # projection, sun, point light (None: the sun), the scene's offset f
     "orthographic point": ("orthographic", (300.0, 8.0), (100.0, -80.0, 220.0), 0.0, True),
     "sun below": ("perspective", (40.0, -3.0), None, 0.0, True),
     "far point": ("perspective", (10.0, 60.0), (120.0, -60.0, 260.0), 1e6, False),
+    "farther sun": ("orthographic", (200.0, 35.0), None, 1e7, False),
 }
 
 
