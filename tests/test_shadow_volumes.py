@@ -14,7 +14,7 @@ from oclshade.camera import Camera
 from oclshade.gbuffer import CHANNELS
 from oclshade.meshes.lights import PointLight
 from oclshade.meshes.mesh import TriangleMesh
-from oclshade.meshes.shadow_volumes import MeshShadows, build_volumes, winding_number
+from oclshade.meshes.shadow_volumes import MeshShadows, build_volumes, visible_box, winding_number
 from oclshade.meshes.silhouette import caster_faces, is_closed, silhouette_edges
 from oclshade.reference import mesh_shadows as ref
 from oclshade.runtime import get_runtime
@@ -193,6 +193,21 @@ def test_winding_number_is_the_shadow_ray_count(az, el, point, drop, seed):
     counts = np.array([winding_number(vol.triangles, q) for q in points])
     assert (counts >= 0).all()
     assert np.array_equal((counts != 0)[keep], hidden[keep])
+
+
+@settings(max_examples=30, deadline=None)
+@given(pos=st.tuples(*(st.floats(-1e4, 1e4),) * 3), dx=st.floats(-1, 1), dy=st.floats(-1, 1), dz=st.floats(-1, 1),
+       fov=st.floats(5, 150), depth=st.floats(1, 1e4), ortho=st.booleans())
+def test_visible_box_holds_every_visible_point(pos, dx, dy, dz, fov, depth, ortho):
+    assume(abs(dx) + abs(dy) + abs(dz) > 1e-3)
+    camera = Camera(pos, np.array(pos) + [dx, dy, dz], 16, 9, fov=fov, near=0.1, far=2e4,
+                    projection="orthographic" if ortho else "perspective", ortho_height=50.0)
+    origins, dirs = camera.view_rays()
+    t = np.random.default_rng(0).uniform(0, depth, origins.shape[:2])[..., None]
+    world = (origins + t * dirs).reshape(-1, 3) @ camera.rotation + camera.position
+    lo, hi = visible_box(camera, depth)
+    spare = 1e-9 * (np.abs(world).max() + depth)
+    assert np.all(world >= lo - spare) and np.all(world <= hi + spare)
 
 
 def test_no_casting_faces_no_shadow():

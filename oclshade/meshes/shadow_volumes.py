@@ -132,13 +132,17 @@ def winding_number(triangles: np.ndarray, point: np.ndarray) -> int:
 
 
 def visible_box(camera: Camera, max_depth: float) -> tuple[np.ndarray, np.ndarray]:
-    """A world box holding the camera and every point it sees up to depth ``max_depth``."""
+    """A world box holding the camera and every point it sees up to depth ``max_depth``: the
+    box of the view frustum's corners cut at that depth (and at the eye, or the view plane)."""
     sx, sy = camera.scale
+    corners = np.array([[x, y] for x in (-sx, sx) for y in (-sy, sy)])
     if camera.projection == "perspective":
-        reach = max_depth * math.sqrt(1.0 + sx * sx + sy * sy)
+        view = np.vstack([np.zeros(3), np.column_stack([max_depth * corners, np.full(4, -max_depth)])])
     else:
-        reach = math.sqrt(max_depth * max_depth + sx * sx + sy * sy)
-    return camera.position - reach, camera.position + reach
+        view = np.vstack([np.column_stack([corners, np.zeros(4)]),
+                          np.column_stack([corners, np.full(4, -max_depth)])])
+    world = view @ camera.rotation + camera.position
+    return world.min(axis=0), world.max(axis=0)
 
 
 class MeshShadows:
