@@ -204,8 +204,10 @@ class MeshShadows:
         if self._volumes is not None and self._volumes[0] == key and self._volumes[1].extrusion >= need:
             return self._volumes[1], self._volumes[2]
         vol = build_volumes(self.meshes, light, 2.0 * need, self.per_face, self._closed)
-        if isinstance(light, PointLight):      # a dark cap's plane may pass nearer the light than its corners
-            while vol.casters and _dark_cap_reach(vol, light) < need:
+        if isinstance(light, PointLight):      # a dark cap's plane may pass nearer the light than its
+            for _ in range(10):                # corners: longer, at most 2^10 times (docs/shadow_volumes.md)
+                if not vol.casters or _dark_cap_reach(vol, light) >= need:
+                    break
                 vol = build_volumes(self.meshes, light, 2.0 * vol.extrusion, self.per_face, self._closed)
         faces = self.runtime.to_device(np.ascontiguousarray(vol.faces if len(vol.faces) else
                                                             np.zeros((1, 4), np.int32)), "shadow volume faces")
