@@ -194,16 +194,26 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--quick", action="store_true", help="480x270, 2 reps, 0 / 4258 / 9720 faces (a check)")
     ap.add_argument("--out", type=Path, default=REPO / "bench" / "results")
     ap.add_argument("--reps", type=int, default=None, help="frames per figure (default 3; quick 2)")
+    ap.add_argument("--size", default=None, help="WIDTHxHEIGHT (default 1920x1080; quick 480x270)")
+    ap.add_argument("--faces", default=None, help="comma-separated caster counts (default the paper's)")
     args = ap.parse_args(argv)
     args.reps = args.reps or (2 if args.quick else 3)
-    args.size = (480, 270) if args.quick else (1920, 1080)
-    args.faces = (0, 4258, 9720) if args.quick else FACES
+    try:
+        args.size = tuple(int(x) for x in args.size.split("x")) if args.size else \
+            ((480, 270) if args.quick else (1920, 1080))
+        args.faces = tuple(int(x) for x in args.faces.split(",")) if args.faces else \
+            ((0, 4258, 9720) if args.quick else FACES)
+    except ValueError:
+        ap.error("--size takes WIDTHxHEIGHT and --faces integers separated by commas")
+    if len(args.size) != 2 or min(args.size) < 1 or min(args.faces) < 0:
+        ap.error("--size takes WIDTHxHEIGHT (positive) and --faces counts >= 0")
     missing = [f for f in FILES if not (DATA / f).is_file()]
     if missing:
         print(f"shadow_volumes: the shared meshes {', '.join(missing)} are not in {DATA}", file=sys.stderr)
         return 2
     res = {"meta": metadata(sys.argv if argv is None else ["bench/shadow_volumes.py", *argv]),
-           "config": {"size": list(args.size), "reps": args.reps, "quick": args.quick, "faces": list(args.faces)},
+           "config": {"size": list(args.size), "reps": args.reps, "quick": args.quick or args.size != (1920, 1080),
+                      "faces": list(args.faces)},
            "runs": run(args)}
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "shadow_volumes.json").write_text(json.dumps(res, indent=1))
