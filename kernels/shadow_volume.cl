@@ -32,7 +32,13 @@
  *            edge or a vertex crosses exactly one of the faces around it.  All negative: the
  *            face is turned to the viewer (+1).  The crossing counts if its parameter
  *            t = (a . N) / (d . N) (a = A - o, N = (B - A) x (C - A)) lies in (0, t_end):
- *            t_end = 1 for sides, the near plane's t for caps.
+ *            t_end = 1 - bias for sides, the near plane's t for caps (if nearer).
+ *   bias   : the segment stops OCLS_SV_BIAS x the point's depth short of it, towards the eye
+ *            (paper 003's near caps "pushed slightly into the scene", the other way round): a
+ *            surface lying in a volume's side (a face edge-on to the light, as the side of a
+ *            box under a sun along its axis) is decided on the viewer's side, not by rounding.
+ *            2^-18 = 64 u: past the count's rounding (about 9 u of the distances involved)
+ *            wherever the view ray meets the face at more than ~10 degrees.
  *
  * Binning.  The frame is cut into T x T pixel tiles (TW x TH of them); each volume face goes to
  * the tiles of its projected bounding rectangle (1 pixel of margin; the whole frame when a
@@ -70,6 +76,9 @@
  *   -D OCLS_ORTHO: orthographic camera.  Build with -cl-std=CL1.2, no fast-math.
  */
 #include "common.h"
+
+/* the segment ends this fraction of the point's depth short of it (see "bias" above) */
+#define OCLS_SV_BIAS 3.814697265625e-6f
 
 OCLS_INLINE float3 sv_cross(float3 u, float3 v)
 {
@@ -209,9 +218,11 @@ __kernel void sv_count(__global const float4 *verts, __global const int4 *tris, 
 #ifdef OCLS_ORTHO
     const float3 o = (float3)(p.x, p.y, zs);
     const float t_near = (zs + cam.z) / (zs - p.z);
+    const float t_side = 1.0f - OCLS_SV_BIAS * (-p.z / (zs - p.z));
 #else
     const float3 o = (float3)(0.0f);
     const float t_near = cam.z / -p.z;
+    const float t_side = 1.0f - OCLS_SV_BIAS;
 #endif
     const float3 d = p.xyz - o;
     const int t = (y / T) * TW + x / T;
@@ -236,7 +247,7 @@ __kernel void sv_count(__global const float4 *verts, __global const int4 *tris, 
         const int cap = m0.w > 0.5f;
 #endif
         const float den = sv_dot(d, nrm);
-        const float t_end = cap ? fmin(t_near, 1.0f) : 1.0f;
+        const float t_end = cap ? fmin(t_near, t_side) : t_side;
         const int inside = den > 0.0f ? (num > 0.0f && num < t_end * den) : (num < 0.0f && num > t_end * den);
         if (inside) count += s0 < 0 ? 1 : -1;
     }

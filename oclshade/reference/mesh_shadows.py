@@ -54,9 +54,20 @@ def boundary_edges(faces: np.ndarray) -> np.ndarray:
     return np.array(sorted(out), np.int64).reshape(-1, 2)
 
 
+#: the count's segment stops this fraction of the point's depth short of it (kernels/shadow_volume.cl)
+BIAS = 2.0 ** -18
+
+
 def world_points(camera: Camera, position: np.ndarray) -> np.ndarray:
-    """World float64 (H, W, 3) of the G-buffer's view-space positions (float32 (H, W, 4))."""
+    """World float64 (H, W, 3) of the G-buffer's view-space positions (float32 (H, W, 4)),
+    each moved :data:`BIAS` x its depth towards the eye along its view ray, as the count's
+    segment ends."""
     view = position[..., :3].astype(np.float64)
+    depth = -view[..., 2:3]
+    if camera.projection == "perspective":
+        view = view * (1.0 - BIAS)
+    else:
+        view = view + BIAS * depth * np.array([0.0, 0.0, 1.0])
     return (view - camera.view[:3, 3]) @ camera.view[:3, :3]
 
 
