@@ -15,7 +15,8 @@
  *                  0) of one azimuth, then the outputs angle (float, H*W,
  *                  degrees) and svf (float2 (sum, compensation), H*W).
  *   -D options OCLS_OUT_ANGLE, OCLS_OUT_SVF=1|2 (cosine | solid-angle sky-view
- *   term), OCLS_CURVATURE (read c), OCLS_OWN_BUILTINS (common.h); no others.
+ *   term), OCLS_CURVATURE (read c), OCLS_CLAMP (a trailing float2 argument:
+ *   only T within [lo, hi] is wanted), OCLS_OWN_BUILTINS (common.h); no others.
  *
  * Geometry (as shadow.cl).  Sample (i, j) sits at x = j (east), y = i
  * (south) in cell units; the surface is bilinear over patches (pyramid.cl).
@@ -81,10 +82,20 @@
  *     __global float *angle          H*W (OCLS_OUT_ANGLE)
  *     __global float2 *svf           H*W (OCLS_OUT_SVF), zeroed by the host before
  *                                    the first azimuth
+ *     float2 bounds                  (lo, hi) tangents, only with -D OCLS_CLAMP: the
+ *                                    traversal starts at T = lo (terrain below it is
+ *                                    pruned as if already beaten) and stops once
+ *                                    T >= hi, so T is exact where it lies in
+ *                                    [lo, hi], lo where it is below (also where
+ *                                    nothing is seen) and some value >= hi above:
+ *                                    for a caller that clamps T to [lo, hi] anyway
+ *                                    (soft shadows: each strip of the sun's disc,
+ *                                    oclshade/horizon/disc.py), at about the cost
+ *                                    of a cast-shadow ray
  *   global size (W, H) rounded up to any local size.
  *
  * Build options: -D OCLS_OUT_ANGLE, OCLS_OUT_SVF=1|2, OCLS_CURVATURE,
- *   OCLS_OWN_BUILTINS (common.h) and -cl-std=CL1.2, nothing else (no
+ *   OCLS_CLAMP, OCLS_OWN_BUILTINS (common.h) and -cl-std=CL1.2, nothing else (no
  *   fast-math); the hosts paste common.h in place of its include.
  */
 #include "common.h"
@@ -192,16 +203,17 @@ OCLS_INLINE float corner_sup(__global const float *h, int H, int W, int pr, int 
     return (side && !isnan(v)) ? ((v - z0) - OCLS_DROP(r->c, t)) / t : -INFINITY;
 }
 
-/* T of cell (i, j) (height z0, not nodata). */
+/* T of cell (i, j) (height z0, not nodata), starting from lo; with -D OCLS_CLAMP
+ * it stops once T >= hi. */
 OCLS_INLINE float horizon_tan(__global const float *h, int H, int W, __global const float2 *ext,
-                              __global const int *lvl_off, int nlev, const HRay *r, float z0)
+                              __global const int *lvl_off, int nlev, const HRay *r, float z0, float lo, float hi)
 {
     const int Hp = max(H - 1, 1), Wp = max(W - 1, 1), top = nlev - 1;
     int pc = r->sx < 0 ? r->j - 1 : (r->sx > 0 ? r->j : min(r->j, Wp - 1));
     int pr = r->sy < 0 ? r->i - 1 : (r->sy > 0 ? r->i : min(r->i, Hp - 1));
-    if (pc < 0 || pc >= Wp || pr < 0 || pr >= Hp) return -INFINITY;
+    if (pc < 0 || pc >= Wp || pr < 0 || pr >= Hp) return lo;
     const float rise = ext[lvl_off[top]].x - z0;           /* z_top - z0 >= 0 */
-    float best = -INFINITY, t = 0.0f;
+    float best = lo, t = 0.0f;
     int l = 0;
     for (int it = 0; it < OCLS_MAX_ITERATIONS; ++it) {
         const int size = 1 << l, r0 = (pr >> l) << l, c0 = (pc >> l) << l;
@@ -218,6 +230,9 @@ OCLS_INLINE float horizon_tan(__global const float *h, int H, int W, __global co
             best = fmax(best, patch_sup(h, H, W, pr, pc, r, z0, t, t_out));
             if (via_x && via_y && !valid_patch(h, H, W, pr, pc))
                 best = fmax(best, corner_sup(h, H, W, pr, pc, r, z0, t_out));
+#ifdef OCLS_CLAMP
+            if (best >= hi) break;                         /* as high as the caller asks */
+#endif
         }
         const int opr = pr, opc = pc;
         if (via_x) pc = r->sx > 0 ? c0 + size : c0 - 1;
@@ -234,7 +249,11 @@ OCLS_INLINE float horizon_tan(__global const float *h, int H, int W, __global co
 
 __kernel void horizon_cells(__global const float *h, const int H, const int W, __global const float2 *ext,
                             __global const int *lvl_off, const int nlev, const float4 ray,
-                            __global float *angle, __global float2 *svf)
+                            __global float *angle, __global float2 *svf
+#ifdef OCLS_CLAMP
+                            , const float2 bounds
+#endif
+                            )
 {
     const int j = get_global_id(0), i = get_global_id(1);
     if (j >= W || i >= H) return;
@@ -253,7 +272,11 @@ __kernel void horizon_cells(__global const float *h, const int H, const int W, _
     r.iy = r.sy ? 1.0f / ray.y : 0.0f;
     r.on_row = r.sy == 0;
     r.on_col = r.sx == 0 && !r.on_row;
-    const float T = horizon_tan(h, H, W, ext, lvl_off, nlev, &r, z0);
+#ifdef OCLS_CLAMP
+    const float T = horizon_tan(h, H, W, ext, lvl_off, nlev, &r, z0, bounds.x, bounds.y);
+#else
+    const float T = horizon_tan(h, H, W, ext, lvl_off, nlev, &r, z0, -INFINITY, INFINITY);
+#endif
 #ifdef OCLS_OUT_ANGLE
     angle[idx] = T == -INFINITY ? -90.0f : atan(T) * (180.0f / M_PI_F);
 #endif

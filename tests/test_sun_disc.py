@@ -88,3 +88,16 @@ def test_cli_sunlit_equals_the_api(tmp_path, canyon, capsys):
     assert np.array_equal(bands[1], caster.sun_disc((135.0, 1.0), columns=4))
     assert main(["sunlit", str(tmp_path / "dem.npy"), str(out), "--cellsize", "10"]) == 2
     assert "--sun" in capsys.readouterr().err
+
+
+def test_clamped_strips_equal_the_unclamped_horizons(canyon):
+    """The strips' horizons are traced clamped to the strip's elevations (-D OCLS_CLAMP: rays
+    stop as soon as the answer is known); the share equals the one from the full horizons bit
+    for bit, curvature included."""
+    from oclshade.horizon import Curvature, visible_fraction
+
+    for caster in (HorizonCaster(canyon), HorizonCaster(canyon, curvature=Curvature(radius=2e4))):
+        for sun in [(300.0, 3.0), (135.0, 1.0), (10.0, 0.1), (80.0, 30.0)]:
+            azimuths, half_chords = disc_columns(sun, SUN_RADIUS, 8)
+            full = visible_fraction((b for _, b in caster.iter_horizons(azimuths)), sun[1], half_chords)
+            assert np.array_equal(caster.sun_disc(sun, columns=8), full.astype(np.float32))

@@ -34,6 +34,9 @@ from ..runtime import Runtime, get_runtime
 from ..sun import Sun, SunLike, as_sun
 from .disc import DEFAULT_COLUMNS, SUN_RADIUS, disc_columns, visible_fraction
 
+#: degrees added on both sides of a strip's elevations before its horizons are clamped: far
+#: above the float32 error of an angle, so a clamped angle never lands inside the strip
+STRIP_MARGIN = 1e-3
 EARTH_RADIUS = 6371008.8          # metres: the IUGG mean radius (r.horizon and HORAYZON use about this)
 MAX_AZIMUTHS = 65536
 _SVF_CODE = {"cosine": 1, "solid-angle": 2}
@@ -202,11 +205,30 @@ class HorizonCaster:
         angular ``radius`` in degrees; :mod:`oclshade.horizon.disc`)."""
         sun = as_sun(sun)
         azimuths, half_chords = disc_columns(sun, radius, columns)
-        bands = (band for _, band in self.iter_horizons(azimuths, progress))
-        return visible_fraction(bands, sun.elevation, half_chords).astype(np.float32)
+        return visible_fraction(self._strip_angles(sun.elevation, azimuths, half_chords, progress),
+                                sun.elevation, half_chords).astype(np.float32)
 
-    def _enqueuer(self, outputs: Mapping[str, object]) -> Callable[[float, cl.Buffer, cl.Buffer], None]:
-        """A function enqueueing one azimuth's traversal into (angle, svf) buffers."""
+    def _strip_angles(self, elevation: float, azimuths: np.ndarray, half_chords: np.ndarray,
+                      progress: Progress | None) -> Iterator[np.ndarray]:
+        """Each strip's horizon angles, exact within the strip's elevations [e - c, e + c]
+        widened by :data:`STRIP_MARGIN` and clamped outside (-D OCLS_CLAMP: the rays stop as
+        soon as the answer is known); the strip's visible chord is the same as from the
+        unclamped angles (tested bit for bit)."""
+        rows, cols = self.heightmap.shape
+        enqueue = self._enqueuer({"OCLS_OUT_ANGLE": True, "OCLS_CLAMP": True})
+        buf = self.runtime.empty(4 * rows * cols, "horizon angles")
+        for k, (a, c) in enumerate(zip(azimuths, half_chords)):
+            lo, hi = (math.tan(math.radians(elevation + s * (c + STRIP_MARGIN))) for s in (-1, 1))
+            enqueue(float(a), buf, self._dummy, (lo, hi))
+            band = np.empty((rows, cols), np.float32)
+            cl.enqueue_copy(self.runtime.queue, band, buf)
+            if progress is not None:
+                progress(k + 1, azimuths.size)
+            yield band
+
+    def _enqueuer(self, outputs: Mapping[str, object]) -> Callable[..., None]:
+        """A function enqueueing one azimuth's traversal into (angle, svf) buffers (and, with
+        ``OCLS_CLAMP`` among the outputs, the (lo, hi) tangents)."""
         rt, hm = self.runtime, self.heightmap
         pyr = self.pyramid
         rows, cols = hm.shape
@@ -217,9 +239,10 @@ class HorizonCaster:
         fixed = (pyr.heights, np.int32(rows), np.int32(cols), pyr.buffer, pyr.offsets, np.int32(pyr.levels))
         c = self.coefficient
 
-        def enqueue(azimuth: float, angle: cl.Buffer, svf: cl.Buffer) -> None:
+        def enqueue(azimuth: float, angle: cl.Buffer, svf: cl.Buffer, bounds: tuple[float, float] = ()) -> None:
             ux, uy, _ = Sun(azimuth, 0.0).ray(hm.dx, hm.dy)
-            kernel.set_args(*fixed, np.array([ux, uy, c, 0.0], np.float32), angle, svf)
+            kernel.set_args(*fixed, np.array([ux, uy, c, 0.0], np.float32), angle, svf,
+                            *([np.array(bounds, np.float32)] if bounds else []))
             cl.enqueue_nd_range_kernel(rt.queue, kernel, gsize, lsize)
 
         return enqueue
