@@ -79,6 +79,22 @@ up = "y"
     assert b.cast_shadows and np.allclose(b.bounds[0], [0, -1, 0]) and np.allclose(b.bounds[1], [1, 0, 1])
 
 
+def test_render_mesh_shadows_key(tmp_path):
+    """[render] mesh_shadows picks rays (default) or the shadow volumes; anything else is
+    refused naming the key, and ObjectScene refuses it too."""
+    (tmp_path / "cube.obj").write_text(CUBE_OBJ)
+    base = "[terrain]\ndem = 'd.npy'\n[[mesh]]\nfile = 'cube.obj'\n"
+    (tmp_path / "s.toml").write_text(base)
+    assert load_scene(tmp_path / "s.toml").render.mesh_shadows == "rays"
+    (tmp_path / "s.toml").write_text(base + "[render]\nmesh_shadows = 'volumes'\n")
+    assert load_scene(tmp_path / "s.toml").render.mesh_shadows == "volumes"
+    (tmp_path / "s.toml").write_text(base + "[render]\nmesh_shadows = 'stencil'\n")
+    with pytest.raises(SceneError, match=r"\[render\] mesh_shadows: must be \"rays\" or \"volumes\""):
+        load_scene(tmp_path / "s.toml")
+    with pytest.raises(ValueError, match="mesh_shadows must be one of rays, volumes"):
+        ObjectScene(Heightfield(wall_map()), meshes=[cube((230, -210, 0), 30.0)], mesh_shadows="stencil")
+
+
 @pytest.mark.parametrize("table, message", [
     ("file = 'none.obj'", "[[mesh]] 1 file: mesh file"),
     ("file = 'cube.obj'\nup = 'x'", "[[mesh]] 1 up: must be one of 'z', 'y'"),
@@ -119,8 +135,8 @@ def host(f, buf: cl.Buffer, channels: int = 1) -> np.ndarray:
 CAMERA = Camera((250, -250, 150), (250, -200, 10), 48, 32, fov=40, near=1, far=2000)
 
 
-def frame(meshes, quadrics=(), sun=Sun(270.0, 20.0), camera=CAMERA):
-    scene = ObjectScene(Heightfield(wall_map()), quadrics, meshes=meshes)
+def frame(meshes, quadrics=(), sun=Sun(270.0, 20.0), camera=CAMERA, mesh_shadows="rays"):
+    scene = ObjectScene(Heightfield(wall_map()), quadrics, meshes=meshes, mesh_shadows=mesh_shadows)
     f = scene.frame(camera, sun, FrameSettings(shadows=True, shadow_k=(0.2, 0.2)))
     return f, scene.ids.to_host(scene.runtime)
 
@@ -189,15 +205,16 @@ colour = [1, 0, 0]
     assert (red[ids == -1] > 20).mean() > 0.8                # the red cube is in the PNG
 
 
-def test_mesh_shadows_fall_on_terrain_and_meshes():
+@pytest.mark.parametrize("method", ["rays", "volumes"])
+def test_mesh_shadows_fall_on_terrain_and_meshes(method):
     """Two cubes with cast_shadows on the flat ground east of the wall, the sun in the south:
     the shadows pass darkens the ground and the second cube where the meshes hide the sun
-    (the shadow volumes, wired in the frame) and nowhere else: as the BVH's own any-hit rays
-    (MeshCaster.shadow_rays) say, away from 1 px of their boundaries."""
+    (by BVH rays or by the shadow volumes, as wired in the frame) and nowhere else: as the
+    BVH's own any-hit rays (MeshCaster.shadow_rays) say, away from 1 px of their boundaries."""
     a, b = cube((240, -260, 0), 20.0, cast_shadows=True), cube((245, -225, 0), 10.0, cast_shadows=True)
     sun = Sun(180.0, 25.0)
     camera = Camera((330, -230, 100), (250, -230, 0), 64, 48, fov=45, near=1, far=2000)
-    f, ids = frame([a, b], sun=sun, camera=camera)
+    f, ids = frame([a, b], sun=sun, camera=camera, mesh_shadows=method)
     coef = host(f, f.shadow)
     hidden = MeshCaster([a, b]).shadow_mask(camera, f.gbuffer, sun)
     hit = f.gbuffer.to_host().hit

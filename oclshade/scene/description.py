@@ -89,7 +89,7 @@ _KEYS = {
     "terrain": ("dem", "cellsize", "z_factor", "nodata", "radius"),
     "camera": ("position", "look_at", "view", "fov", "size"),
     "sun": ("azimuth", "elevation"),
-    "render": ("ssaa", "shadows", "ao"),
+    "render": ("ssaa", "shadows", "ao", "mesh_shadows"),
     "environment": ("file", "layout", "size", "rotation", "intensity", "background", "generate"),
     "quadric": ("kind", "centre", "radius", "radii", "height", "axis") + MATERIAL_KEYS,
     "mesh": ("file", "up", "translate", "scale", "rotate_z", "cast_shadows", "colour", "texture", "alpha_cutoff",
@@ -129,6 +129,7 @@ class RenderSpec:
     ssaa: int = 1
     shadows: bool = True
     ao: float = 0.0                       # SSAO radius in cells, 0 off
+    mesh_shadows: str = "rays"            # "rays" (BVH any-hit) or "volumes" (paper 003)
 
 
 @dataclass(frozen=True)
@@ -292,7 +293,10 @@ def _render(r: _Reader) -> RenderSpec:
     ao = r.number("ao", 0.0)
     if ao < 0:
         raise r.error(f"must be >= 0 cells (0: off), got {ao}", "ao")
-    return RenderSpec(r.integer("ssaa", 1), r.boolean("shadows", True), ao)
+    mesh_shadows = r.table.get("mesh_shadows", "rays")
+    if mesh_shadows not in ("rays", "volumes"):
+        raise r.error(f"must be \"rays\" or \"volumes\", got {mesh_shadows!r}", "mesh_shadows")
+    return RenderSpec(r.integer("ssaa", 1), r.boolean("shadows", True), ao, mesh_shadows)
 
 
 def _environment(r: _Reader) -> EnvironmentSpec:

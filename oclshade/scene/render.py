@@ -15,8 +15,9 @@ gbuffer    the quadrics, then the meshes, cast and depth-merged into the terrain
 normals    the objects' own normals put into the smooth shading normals
 shadows    the terrain's exact shadows on mesh pixels (MeshCaster.shadow), then quadric
            shadows on everything and terrain and quadric shadows on the quadrics, then the
-           shadow volumes of the meshes with cast_shadows on every pixel (MeshShadows); a
-           caster with alpha cut-outs shadows by BVH rays instead (MeshCaster.ray_shadow)
+           meshes with cast_shadows on every pixel: by any-hit BVH rays (MeshCaster.ray_shadow,
+           the default) or with ``mesh_shadows="volumes"`` by shadow volumes (MeshShadows;
+           casters with alpha cut-outs still by rays)
 compose    compose reads the albedo weighted for reflection; the reflections are added after
 =========  =================================================================================
 
@@ -52,6 +53,9 @@ from ..terrain import Heightfield
 from .description import SceneDescription, SceneError
 from .generate import generate_cube
 
+#: how meshes with cast_shadows shadow the frame (ObjectScene mesh_shadows)
+MESH_SHADOW_METHODS = ("rays", "volumes")
+
 
 @dataclass(frozen=True)
 class Environment:
@@ -84,9 +88,17 @@ class ObjectScene(TerrainScene):
 
     def __init__(self, heightfield: Heightfield, quadrics: Sequence[Quadric] = (),
                  environment: Environment | None = None, device: str | int | Runtime | None = None,
-                 caching: bool = True, uber: bool = False, meshes: Sequence[TriangleMesh] = ()):
+                 caching: bool = True, uber: bool = False, meshes: Sequence[TriangleMesh] = (),
+                 mesh_shadows: str = "rays"):
         """``uber``: reflection programs with every feature compiled in (benchmarks only);
-        ``meshes``: :class:`oclshade.meshes.TriangleMesh` objects in world coordinates."""
+        ``meshes``: :class:`oclshade.meshes.TriangleMesh` objects in world coordinates;
+        ``mesh_shadows``: how meshes with cast_shadows shadow the frame, ``"rays"`` (default:
+        any-hit rays through their BVH, :meth:`MeshCaster.ray_shadow`) or ``"volumes"``
+        (paper 003's shadow volumes, :class:`MeshShadows`; casters with alpha cut-outs still go
+        by rays).  Both are exact against the float64 twin (ties apart); on the CPUs measured
+        the rays are far faster (docs/shadow_volumes.md "Which one renders")."""
+        if mesh_shadows not in MESH_SHADOW_METHODS:
+            raise ValueError(f"mesh_shadows must be one of {', '.join(MESH_SHADOW_METHODS)}, got {mesh_shadows!r}")
         super().__init__(heightfield, device, caching)
         self.quadrics, self.meshes = list(quadrics), list(meshes)
         self.environment, self.uber = environment, uber
@@ -94,10 +106,11 @@ class ObjectScene(TerrainScene):
                                      heights=self.renderer.pyramid.heights) if self.quadrics else None)
         self.mesh_caster = (MeshCaster(self.meshes, heightfield.heightmap, self.runtime,
                                        heights=self.renderer.pyramid.heights) if self.meshes else None)
-        solid = [m for m in self.meshes if m.cast_shadows and not m.surface.cuts_out]
-        cut = [m for m in self.meshes if m.cast_shadows and m.surface.cuts_out]
+        volumes = mesh_shadows == "volumes"
+        solid = [m for m in self.meshes if m.cast_shadows and volumes and not m.surface.cuts_out]
+        cut = [m for m in self.meshes if m.cast_shadows and not (volumes and not m.surface.cuts_out)]
         self.mesh_shadows = MeshShadows(solid, self.runtime) if solid else None
-        self.cutout_shadows = (MeshCaster(cut, None, self.runtime) if cut else None)  # shadow rays honour cut-outs
+        self.ray_shadows = (MeshCaster(cut, None, self.runtime) if cut else None)  # rays honour cut-outs
         self._mesh_objects = None               # the meshes' own G-buffer, reused frame to frame
         self.reflections: Reflections | None = None
         self._file_map = None if environment is None or environment.cube is None else \
@@ -180,8 +193,8 @@ class ObjectScene(TerrainScene):
                 self.caster.shadow(camera, gbuf, self.ids, sun, out, *settings.shadow_k)
             if self.mesh_shadows is not None:
                 self.mesh_shadows.shadow(camera, gbuf, self.ids, sun, out, *settings.shadow_k)
-            if self.cutout_shadows is not None:
-                self.cutout_shadows.ray_shadow(camera, gbuf, sun, out, *settings.shadow_k)
+            if self.ray_shadows is not None:
+                self.ray_shadows.ray_shadow(camera, gbuf, sun, out, *settings.shadow_k)
         return out
 
     def _clear_ids(self, shape: tuple[int, int]) -> ObjectIds:
@@ -252,7 +265,7 @@ def render_scene(desc: SceneDescription, device: str | int | Runtime | None = No
                                   e.size if cube is None and e.size is not None else 128)
     radius = None if desc.terrain is None else desc.terrain.radius
     scene = ObjectScene(Heightfield(heightmap, radius), desc.quadrics, environment, device, uber=uber,
-                        meshes=desc.meshes)
+                        meshes=desc.meshes, mesh_shadows=desc.render.mesh_shadows)
     camera = scene_camera(desc, heightmap)
     r = desc.render
     shown = environment is not None and environment.cube is not None and environment.background
