@@ -49,7 +49,7 @@ def _run(cmd: list[str], **kw) -> subprocess.CompletedProcess:
 
 
 PROGRAMS = ("pyramid.cl", "shadow.cl", "terrain.cl", "ssao.cl", "compose.cl", "sunshine.cl", "horizon.cl", "envmap.cl",
-            "quadric.cl", "reflect.cl", "mesh.cl")
+            "quadric.cl", "reflect.cl", "mesh.cl", "shadow_volume.cl")
 
 
 def build_env(tmp_path_factory) -> dict:

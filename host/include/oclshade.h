@@ -1132,6 +1132,87 @@ oclshade_status oclshade_enqueue_mesh_shadow_apply(oclshade *lib, cl_command_que
                                                    cl_uint num_events_in_wait_list, const cl_event *event_wait_list,
                                                    cl_event *event);
 
+/* ------------------------------------------------ shadow volumes (kernels/shadow_volume.cl) */
+
+/* Paper 003's mesh shadows by shadow volumes, counted per pixel (oclshade/meshes/
+ * shadow_volumes.py MeshShadows; docs/shadow_volumes.md).  The volumes, the silhouette and the
+ * eye's start count are host work in float64 that stays in Python: MeshShadows.frame_tables +
+ * write_frame_tables write one frame's tables, oclshade_shadow_volume_frame_read reads them.
+ * Per frame: bin (count faces per tile), read the counts back, oclshade_shadow_volume_offsets,
+ * upload the offsets, mask (fill the tile lists, count), apply (host/README.md). */
+
+/* One frame's tables (layouts of kernels/shadow_volume.cl's ABI), host arrays. */
+typedef struct oclshade_shadow_volume_frame {
+    int vertices, faces;      /* rows of verts and tris (>= 1; faces 1 with ntri 0: no volume) */
+    int ntri;                 /* volume faces to count (0 or faces) */
+    int start_count;          /* the eye's winding number (pinhole cameras) */
+    float start_height;       /* zs: the orthographic start height */
+    float max_depth;          /* the largest depth of a hit pixel of the frame they were made for */
+    cl_float4 *verts;         /* view-space vertex positions (xyz, w 0) */
+    cl_int4 *tris;            /* (a, b, c, kind): vertex indices, kind 0 side, 1 cap */
+} oclshade_shadow_volume_frame;
+
+/* Read a frame tables file (oclshade.meshes.shadow_volumes.write_frame_tables; host/README.md)
+ * into *out (arrays malloc'd; free with oclshade_shadow_volume_frame_free).  INVALID_ARGUMENT
+ * with the reason in error (at most error_size bytes) for a missing, short, long or damaged
+ * file (an index outside the vertices, a kind other than 0 or 1); *out is then cleared.  Host
+ * only, reentrant. */
+oclshade_status oclshade_shadow_volume_frame_read(const char *path, oclshade_shadow_volume_frame *out, char *error,
+                                                  size_t error_size);
+/* Frees the arrays of oclshade_shadow_volume_frame_read and zeroes *frame (NULL: nothing). */
+void oclshade_shadow_volume_frame_free(oclshade_shadow_volume_frame *frame);
+/* The exclusive prefix sums of tiles counts (sv_bin's first pass) into offsets (tiles + 1
+ * entries; offsets[tiles] the list's length).  INVALID_ARGUMENT for a NULL array, tiles < 1,
+ * a negative count or a total over INT_MAX.  Host only, reentrant. */
+oclshade_status oclshade_shadow_volume_offsets(const cl_int *counts, int tiles, cl_int *offsets);
+
+/* One params struct for the shadow volume calls; each reads the members its comment names. */
+typedef struct oclshade_shadow_volume_params {
+    oclshade_camera camera;            /* all: the frame (width x height); bin, mask: projection, sx, sy, near */
+    int ntri, vertices;                /* bin, mask: volume faces (>= 0) and vertex rows (>= 1) */
+    cl_mem verts;                      /* bin, mask: the frame's verts, uploaded (vertices * 16 bytes) */
+    cl_mem tris;                       /* bin, mask: the frame's tris, uploaded (max(ntri, 1) * 16 bytes) */
+    double max_depth;                  /* bin: faces deeper than every hit pixel are dropped (>= 0) */
+    int tile;                          /* bin, mask: tile side T in pixels (MeshShadows: 16, doubled while
+                                          the lists exceed 2^25 entries) */
+    cl_mem counts;                     /* bin: written; mask: scratch (TW * TH ints, TW = ceil(width / T)) */
+    cl_mem offsets;                    /* mask: oclshade_shadow_volume_offsets of bin's counts, uploaded */
+    int entries;                       /* mask: the lists' length, offsets[TW * TH] */
+    cl_mem list;                       /* mask: written (max(entries, 1) ints) */
+    cl_mem planes;                     /* mask, pinhole: written (max(ntri, 1) * 64 bytes) */
+    int start_count;                   /* mask: the frame's start_count (pinhole) */
+    float start_height;                /* mask: the frame's start_height (orthographic) */
+    oclshade_field position;           /* mask: the G-buffer's view-space float4 (w = 1 hit), read */
+    oclshade_field mask;               /* mask: uchar per pixel, 1 the light hidden, written; apply: read */
+    double elevation;                  /* apply: the sun's elevation (degrees; a point light: 0) */
+    double k_dark, k_bright;           /* apply: paper 000 eq. (1), in [0, 1] */
+    oclshade_field coefficient;        /* apply: float per pixel, read and written */
+    cl_mem scratch;                    /* >= oclshade_shadow_volume_scratch_size (pitched fields) */
+} oclshade_shadow_volume_params;
+
+/* Zeroes, then tile 16 (MeshShadows' TILE). */
+void oclshade_shadow_volume_params_init(oclshade_shadow_volume_params *params);
+/* Scratch of the largest of the three calls (0 when every field is packed at offset 0). */
+oclshade_status oclshade_shadow_volume_scratch_size(oclshade *lib, const oclshade_shadow_volume_params *params,
+                                                    size_t *bytes);
+/* Zero counts, sv_bin's first pass (fill 0): counts[t] = the faces binned to tile t. */
+oclshade_status oclshade_enqueue_shadow_volume_bin(oclshade *lib, cl_command_queue queue,
+                                                   const oclshade_shadow_volume_params *params,
+                                                   cl_uint num_events_in_wait_list, const cl_event *event_wait_list,
+                                                   cl_event *event);
+/* Zero counts, sv_bin's second pass (fill 1: the tile lists), sv_prepare (pinhole), sv_count:
+ * mask = 1 where a hit pixel's count is not 0 (MeshShadows.mask). */
+oclshade_status oclshade_enqueue_shadow_volume_mask(oclshade *lib, cl_command_queue queue,
+                                                    const oclshade_shadow_volume_params *params,
+                                                    cl_uint num_events_in_wait_list, const cl_event *event_wait_list,
+                                                    cl_event *event);
+/* sv_apply (MeshShadows.shadow): coefficient = eq. (1) of (elevation, k_dark, k_bright) where
+ * mask, else unchanged. */
+oclshade_status oclshade_enqueue_shadow_volume_apply(oclshade *lib, cl_command_queue queue,
+                                                     const oclshade_shadow_volume_params *params,
+                                                     cl_uint num_events_in_wait_list, const cl_event *event_wait_list,
+                                                     cl_event *event);
+
 #ifdef __cplusplus
 }
 #endif

@@ -12,7 +12,8 @@ extern const size_t oclshade_embedded_source_count;
 
 const char *const OCLS_PROGRAM_FILES[N_PROGRAM_FILES] = {"pyramid.cl", "shadow.cl", "terrain.cl", "ssao.cl",
                                                          "compose.cl", "sunshine.cl", "horizon.cl", "envmap.cl",
-                                                         "quadric.cl", "reflect.cl", "mesh.cl"};
+                                                         "quadric.cl", "reflect.cl", "mesh.cl",
+                                                         "shadow_volume.cl"};
 /* ------------------------------------------------------------------ threads */
 
 #if defined(_WIN32)

@@ -19,6 +19,7 @@
  * quadrics.c    quadrics: tables, G-buffer, depth merge, object normals, shadows; the sun and
  *               terrain arguments every object family's terrain shadows take
  * meshes.c      meshes: tables file, per-camera and light tables, G-buffer, shadows
+ * shadow_volumes.c  mesh shadows by shadow volumes: frame tables file, tile offsets, passes
  * reflect.c     environment reflections around compose (specialised reflect.cl)
  */
 #ifndef OCLSHADE_INTERNAL_H
@@ -89,10 +90,10 @@ typedef struct program_entry {
     struct program_entry *next;
 } program_entry;
 
-#define N_PROGRAM_FILES 11
+#define N_PROGRAM_FILES 12
 extern const char *const OCLS_PROGRAM_FILES[N_PROGRAM_FILES];   /* pyramid, shadow, terrain, ssao, compose,
                                                                    sunshine, horizon, envmap, quadric, reflect,
-                                                                   mesh */
+                                                                   mesh, shadow_volume */
 
 struct oclshade {
     cl_context context;

@@ -33,7 +33,7 @@ static void sb_append(strbuf *b, const char *s, size_t n)
     b->p[b->len] = '\0';
 }
 
-#define SOURCE_FILES "common.h, pyramid.cl, shadow.cl, terrain.cl, ssao.cl, compose.cl, sunshine.cl, horizon.cl, cubemap.h, envmap.cl, quadric.cl, terrain_ray.h, reflect.cl and mesh.cl"
+#define SOURCE_FILES "common.h, pyramid.cl, shadow.cl, terrain.cl, ssao.cl, compose.cl, sunshine.cl, horizon.cl, cubemap.h, envmap.cl, quadric.cl, terrain_ray.h, reflect.cl, mesh.cl and shadow_volume.cl"
 
 /* The text of a source file (malloc'd) into *text. */
 static oclshade_status load_source(oclshade *lib, const source_set *set, const char *name, char **text_out)

@@ -148,6 +148,7 @@ int main(int argc, char **argv)
     char *cubemap = read_text(dir, "cubemap.h"), *envmap = read_text(dir, "envmap.cl");
     char *quadric = read_text(dir, "quadric.cl"), *reflect = read_text(dir, "reflect.cl");
     char *terrain_ray = read_text(dir, "terrain_ray.h"), *mesh = read_text(dir, "mesh.cl");
+    char *shadow_volume = read_text(dir, "shadow_volume.cl");
     oclshade_source missing[2] = {{"common.h", common}, {"pyramid.cl", pyramid}};
     st = oclshade_create_from_sources(ctx, device, missing, 2, &lib);
     expect_status(lib, st, OCLSHADE_SOURCE_ERROR, "shadow.cl", "create_from_sources: shadow.cl missing");
@@ -156,13 +157,13 @@ int main(int argc, char **argv)
     /* ---- a build failure carries the compiler log */
     const char *broken = "#include \"common.h\"\n"
                          "__kernel void shadow_cells(__global float *h) { h[0] = oclshade_no_such_name; }\n";
-    oclshade_source sources[14] = {{"common.h", common}, {"pyramid.cl", pyramid}, {"shadow.cl", broken},
+    oclshade_source sources[15] = {{"common.h", common}, {"pyramid.cl", pyramid}, {"shadow.cl", broken},
                                   {"terrain.cl", terrain}, {"ssao.cl", ssao}, {"compose.cl", compose},
                                   {"sunshine.cl", sunshine}, {"horizon.cl", horizon},
                                    {"cubemap.h", cubemap}, {"envmap.cl", envmap},
                                    {"quadric.cl", quadric}, {"terrain_ray.h", terrain_ray}, {"reflect.cl", reflect},
-                                   {"mesh.cl", mesh}};
-    st = oclshade_create_from_sources(ctx, device, sources, 14, &lib);
+                                   {"mesh.cl", mesh}, {"shadow_volume.cl", shadow_volume}};
+    st = oclshade_create_from_sources(ctx, device, sources, 15, &lib);
     expect_status(lib, st, OCLSHADE_OK, "", "create_from_sources: broken shadow.cl is read");
     st = oclshade_prepare(lib, OCLSHADE_PAPER, OCLSHADE_OUT_MASK | OCLSHADE_OUT_SELF);
     expect_status(lib, st, OCLSHADE_BUILD_FAILED, "oclshade_no_such_name", "build failure: the log names the error");
@@ -663,7 +664,7 @@ int main(int argc, char **argv)
     clReleaseCommandQueue(queue); clReleaseCommandQueue(other_queue);
     clReleaseContext(ctx); clReleaseContext(other_ctx);
     free(common); free(pyramid); free(terrain); free(ssao); free(compose); free(sunshine); free(horizon); free(cubemap); free(envmap);
-    free(quadric); free(reflect); free(terrain_ray); free(mesh);
+    free(quadric); free(reflect); free(terrain_ray); free(mesh); free(shadow_volume);
     printf("%d failure(s)\n", failures);
     return failures;
 }

@@ -161,8 +161,8 @@ int main(int argc, char **argv)
     CHECK(oclshade_create(ctx, device, kernels, &lib));
     static const char *const programs[] = {"pyramid.cl", "shadow.cl", "terrain.cl", "ssao.cl", "compose.cl",
                                            "sunshine.cl", "horizon.cl", "envmap.cl", "quadric.cl", "reflect.cl",
-                                           "mesh.cl"};
-    for (int i = 0; i < 11; ++i)
+                                           "mesh.cl", "shadow_volume.cl"};
+    for (int i = 0; i < 12; ++i)
         write_file(programs[i], oclshade_program_source(lib, programs[i]), strlen(oclshade_program_source(lib, programs[i])));
 
     float *rel = (float *)xmalloc(n * sizeof *rel);

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Sequence
 
 import numpy as np
@@ -228,13 +229,7 @@ class MeshShadows:
         if gbuffer.shape != (camera.height, camera.width):
             raise ValueError(f"the G-buffer is {gbuffer.shape} pixels, the camera {(camera.height, camera.width)}")
         rt = self.runtime
-        depth = np.empty(gbuffer.shape, np.float32)
-        cl.enqueue_copy(rt.queue, depth, gbuffer.buffers["depth"])
-        rt.queue.finish()
-        finite = depth[np.isfinite(depth)]
-        max_depth = float(finite.max()) if finite.size else 0.0
-        box = visible_box(camera, max_depth) if self.bounds is None else (camera.position, camera.position)
-        vol, faces = self._volumes_on_device(light, box)
+        max_depth, vol, faces = self._frame_volumes(camera, gbuffer, light)
         key = (_camera_key(camera), light_key(light), id(vol), gbuffer_key)
         if gbuffer_key is not None and self._mask is not None and self._mask[0] == key:
             return self._mask[1]
@@ -245,6 +240,24 @@ class MeshShadows:
         self.counts["mask"] += 1
         self.ran += ("mask",)
         return out
+
+    def frame_tables(self, camera: Camera, gbuffer: DeviceGBuffer, light: LightLike) -> FrameTables:
+        """The per-frame tables :meth:`mask` counts with (for the C host: :func:`write_frame_tables`)."""
+        max_depth, vol, _ = self._frame_volumes(camera, gbuffer, as_light(light))
+        return frame_tables(camera, vol, max_depth)
+
+    def _frame_volumes(self, camera: Camera, gbuffer: DeviceGBuffer, light: Light
+                       ) -> tuple[float, Volumes, cl.Buffer]:
+        """The frame's largest hit depth and the volumes that reach past its visible points."""
+        rt = self.runtime
+        depth = np.empty(gbuffer.shape, np.float32)
+        cl.enqueue_copy(rt.queue, depth, gbuffer.buffers["depth"])
+        rt.queue.finish()
+        finite = depth[np.isfinite(depth)]
+        max_depth = float(finite.max()) if finite.size else 0.0
+        box = visible_box(camera, max_depth) if self.bounds is None else (camera.position, camera.position)
+        vol, faces = self._volumes_on_device(light, box)
+        return max_depth, vol, faces
 
     def shadow(self, camera: Camera, gbuffer: DeviceGBuffer, ids: object, sun: LightLike, coefficient: cl.Buffer,
                k_dark: float = 0.0, k_bright: float = 0.0, gbuffer_key: str | None = None) -> None:
@@ -276,16 +289,8 @@ class MeshShadows:
         rt = self.runtime
         w, h = camera.width, camera.height
         ortho = camera.projection == "orthographic"
-        view = camera.view
-        verts = np.zeros((max(len(vol.vertices), 1), 4), np.float32)
-        verts[:len(vol.vertices), :3] = vol.vertices @ view[:3, :3].T + view[:3, 3]
-        inside = len(vol.vertices) and np.all(camera.position >= vol.vertices.min(axis=0)) and \
-            np.all(camera.position <= vol.vertices.max(axis=0))
-        w0 = winding_number(vol.triangles, camera.position) if inside and not ortho else 0
-        zs = float(verts[:, 2].max()) if len(vol.vertices) else 0.0
-        zs = float(np.float32(max(zs, 0.0) * 1.001 + 1.0))
-        sx, sy = camera.scale
-        cam = np.array([sx, sy, camera.near, max_depth], np.float32)
+        frame = frame_tables(camera, vol, max_depth)
+        verts, w0, zs, cam = frame.vertices, frame.start_count, frame.start_height, frame.cam
         defines = {"OCLS_ORTHO": ortho}
         vbuf = rt.to_device(verts, "shadow volume vertices")
         ntri = len(vol.faces)
@@ -331,6 +336,53 @@ class MeshShadows:
                         np.int32(th), np.int32(fill), cbuf, obuf, lbuf)
         local = rt.local_size(kernel, 64)
         cl.enqueue_nd_range_kernel(rt.queue, kernel, (-(-ntri // local) * local,), (local,))
+
+
+#: magic of the per-frame tables file (:func:`write_frame_tables`; host/README.md)
+FRAME_MAGIC = b"OCLSSVF1"
+
+
+@dataclass(frozen=True)
+class FrameTables:
+    """What kernels/shadow_volume.cl reads per frame besides the G-buffer (the C host reads
+    them from :func:`write_frame_tables`'s file): ``vertices`` float32 (max(V, 1), 4) view
+    space, w 0; ``faces`` int32 (max(F, 1), 4) (:attr:`Volumes.faces`; F = ``ntri``);
+    ``start_count`` the eye's winding number (pinhole); ``start_height`` zs (orthographic);
+    ``cam`` float32 (sx, sy, near, max_depth)."""
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    ntri: int
+    start_count: int
+    start_height: float
+    cam: np.ndarray
+
+
+def frame_tables(camera: Camera, vol: Volumes, max_depth: float) -> FrameTables:
+    """The per-frame tables of ``vol`` seen by ``camera`` whose hit pixels lie no deeper than
+    ``max_depth`` (the module doc's "per frame")."""
+    ortho = camera.projection == "orthographic"
+    view = camera.view
+    verts = np.zeros((max(len(vol.vertices), 1), 4), np.float32)
+    verts[:len(vol.vertices), :3] = vol.vertices @ view[:3, :3].T + view[:3, 3]
+    inside = len(vol.vertices) and np.all(camera.position >= vol.vertices.min(axis=0)) and \
+        np.all(camera.position <= vol.vertices.max(axis=0))
+    w0 = winding_number(vol.triangles, camera.position) if inside and not ortho else 0
+    zs = float(verts[:, 2].max()) if len(vol.vertices) else 0.0
+    zs = float(np.float32(max(zs, 0.0) * 1.001 + 1.0))
+    sx, sy = camera.scale
+    cam = np.array([sx, sy, camera.near, max_depth], np.float32)
+    faces = np.ascontiguousarray(vol.faces if len(vol.faces) else np.zeros((1, 4), np.int32), np.int32)
+    return FrameTables(verts, faces, len(vol.faces), int(w0), zs, cam)
+
+
+def write_frame_tables(frame: FrameTables, path: str | Path) -> None:
+    """``frame`` as a little-endian file: FRAME_MAGIC, int32 (V, F, start_count, 0) (V, F the
+    rows of vertices and faces, >= 1), float32 (start_height, max_depth), float32 (V, 4)
+    vertices, int32 (F, 4) faces (host/README.md, oclshade_shadow_volume_frame_read)."""
+    head = np.array([len(frame.vertices), len(frame.faces), frame.start_count, 0], "<i4")
+    Path(path).write_bytes(FRAME_MAGIC + head.tobytes() + np.array([frame.start_height, frame.cam[3]], "<f4").tobytes()
+                           + frame.vertices.astype("<f4").tobytes() + frame.faces.astype("<i4").tobytes())
 
 
 def _dark_cap_reach(vol: Volumes, light: PointLight) -> float:
