@@ -4,7 +4,8 @@
 * ``oclshade_shadow_volume_frame_read`` of :func:`write_frame_tables`'s file (the tables
   :meth:`MeshShadows.frame_tables` gives), bin, ``oclshade_shadow_volume_offsets``, mask and
   apply against :meth:`MeshShadows.mask` and :meth:`MeshShadows.shadow` (a sun, the eye inside
-  a point light's shadow: a start count of 1, an orthographic camera 1e6 m from the origin);
+  a point light's shadow: a start count of 1, an orthographic camera 1e6 m from the origin
+  whose view plane cuts a volume);
   the C program also checks pitched fields at offsets.
 * The reader on damaged files, the offsets helper and the argument and contract checks.
 """
@@ -37,8 +38,8 @@ CASES = {   # camera (relative to the scene's offset), light, offset, start coun
     "sun": (lambda s: Camera(s + [12, -18, 16], s + [-2, 2, 3], 96, 64, fov=50), lambda s: Sun(135, 40), 0.0, 0),
     "eye in a point light's shadow": (lambda s: Camera(s + [3.0, 0.1, 2], s + [6, 2, 0], 96, 64, fov=60, near=0.1),
                                       lambda s: PointLight(s + [3.0, 0.0, 30]), 0.0, 1),
-    "orthographic 1e6 m away": (lambda s: Camera(s + [12, -18, 16], s + [-2, 2, 3], 96, 64, projection="orthographic",
-                                                 ortho_height=30), lambda s: Sun(150, 35), 1e6, 0),
+    "orthographic 1e6 m away": (lambda s: Camera(s + [0.5, -0.3, 2], s + [10, 5, 1], 96, 64, projection="orthographic",
+                                                 ortho_height=30), lambda s: Sun(135, 80), 1e6, 0),
 }
 
 
@@ -53,6 +54,8 @@ def _frame(folder: Path, name: str):
     shadows = MeshShadows(meshes, rt)
     frame = shadows.frame_tables(camera, gbuf, light)
     assert frame.start_count == start
+    if camera.projection == "orthographic":    # volume vertices behind the view plane: zs matters
+        assert frame.start_height > 2.0, frame.start_height
     write_frame_tables(frame, folder / "frame.bin")
     return rt, camera, light, position, gbuf, shadows, frame
 
