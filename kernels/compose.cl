@@ -17,6 +17,8 @@
  *   c0 + sum_k (c_k - c0) / ssaa^2
  * (c0 the first sample: a region of one colour keeps its value bit for bit), then encoded:
  *   out = round(255 * srgb(mean)), alpha 255.
+ * With -D OCLS_LINEAR the samples are not clamped and the mean is written as linear light,
+ *   out = (mean, 1)  (float4; high dynamic range: what generated cube maps store, paper 002).
  *
  * ABI
  *   compose(position, normal, albedo, width, height, ssaa, sun, sky, up, background,
@@ -32,8 +34,9 @@
  *     float4 background        linear colour of empty samples (rgb)
  *     __global const float *shadow   one float per sample, only with -D OCLS_SHADOW
  *     __global const float *ao       one float per sample, only with -D OCLS_AO
- *     __global uchar4 *out     width * height sRGB pixels (r, g, b, 255)
- *   -D options: OCLS_SHADOW, OCLS_AO.
+ *     __global uchar4 *out     width * height sRGB pixels (r, g, b, 255); with -D OCLS_LINEAR
+ *                              __global float4 *out, width * height linear pixels (r, g, b, 1)
+ *   -D options: OCLS_SHADOW, OCLS_AO, OCLS_LINEAR.
  */
 #include "common.h"
 
@@ -52,7 +55,11 @@ __kernel void compose(__global const float4 *position, __global const float4 *no
 #ifdef OCLS_AO
                       __global const float *ao,
 #endif
+#ifdef OCLS_LINEAR
+                      __global float4 *out)
+#else
                       __global uchar4 *out)
+#endif
 {
     const int i = get_global_id(0);
     if (i >= width * height) return;
@@ -74,11 +81,17 @@ __kernel void compose(__global const float4 *position, __global const float4 *no
 #endif
                 c = albedo[p].xyz * (direct + sky.xyz * diffuse);
             }
+#ifndef OCLS_LINEAR
             c = clamp(c, 0.0f, 1.0f);
+#endif
             if (j == 0 && k == 0) c0 = c;
             else acc = acc + (c - c0);
         }
     const float3 m = c0 + acc / (float)(ssaa * ssaa);
+#ifdef OCLS_LINEAR
+    out[i] = (float4)(m, 1.0f);
+#else
     out[i] = (uchar4)((uchar)(255.0f * srgb_encode(m.x) + 0.5f), (uchar)(255.0f * srgb_encode(m.y) + 0.5f),
                       (uchar)(255.0f * srgb_encode(m.z) + 0.5f), (uchar)255);
+#endif
 }

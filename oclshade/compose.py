@@ -3,6 +3,7 @@
 >>> rgba = compose(gbuf, camera)                                  # uint8 (height, width, 4)
 >>> rgba = compose(gbuf, camera, shadow=coef, ao=occlusion)       # passes written elsewhere
 >>> rgba = compose(big, big_camera, ssaa=3)                       # 3 x 3 samples per pixel
+>>> buf = compose_linear(gbuf, camera, shadow=coef)               # float4 linear, on the device
 
 Shadow coefficients (1 = lit) and AO factors (1 = unoccluded) are optional
 per-sample float inputs (numpy (height, width) arrays or device buffers of
@@ -66,9 +67,10 @@ class Lighting:
 class ComposeFeatures:
     shadow: bool = False
     ao: bool = False
+    linear: bool = False
 
     def defines(self) -> dict[str, object]:
-        return {"OCLS_SHADOW": self.shadow, "OCLS_AO": self.ao}
+        return {"OCLS_SHADOW": self.shadow, "OCLS_AO": self.ao, "OCLS_LINEAR": self.linear}
 
 
 def _factor(rt: Runtime, value: object, shape: tuple[int, int], name: str) -> cl.Buffer | None:
@@ -109,6 +111,27 @@ def compose(gbuffer: GBuffer | DeviceGBuffer, camera: Camera, lighting: Lighting
     """uint8 sRGB frame of a G-buffer seen by ``camera`` (the G-buffer's size).  ``ssaa``: the
     G-buffer holds ssaa x ssaa samples per output pixel, box-filtered into a frame of
     (height / ssaa, width / ssaa, 4) pixels; ``normal``: shading normals in place of the G-buffer's."""
+    rt, out, size = _enqueue(gbuffer, camera, lighting, shadow, ao, device, normal, ssaa, linear=False)
+    frame = np.empty(size + (4,), np.uint8)
+    cl.enqueue_copy(rt.queue, frame, out)
+    rt.queue.finish()
+    return frame
+
+
+def compose_linear(gbuffer: GBuffer | DeviceGBuffer, camera: Camera, lighting: Lighting = Lighting(),
+                   shadow: np.ndarray | cl.Buffer | None = None, ao: np.ndarray | cl.Buffer | None = None,
+                   device: str | int | Runtime | None = None, normal: np.ndarray | cl.Buffer | None = None,
+                   ssaa: int = 1) -> cl.Buffer:
+    """As :func:`compose`, but the frame stays on the device in linear light with its full
+    range (no clamp, no sRGB): a buffer of (height / ssaa) x (width / ssaa) float4 (r, g, b, 1),
+    row-major (-D OCLS_LINEAR; what generated cube maps are made of)."""
+    return _enqueue(gbuffer, camera, lighting, shadow, ao, device, normal, ssaa, linear=True)[1]
+
+
+def _enqueue(gbuffer: GBuffer | DeviceGBuffer, camera: Camera, lighting: Lighting, shadow: object, ao: object,
+             device: str | int | Runtime | None, normal: object, ssaa: int,
+             linear: bool) -> tuple[Runtime, cl.Buffer, tuple[int, int]]:
+    """Check the inputs and enqueue compose.cl: (runtime, output buffer, output size)."""
     if isinstance(gbuffer, DeviceGBuffer):
         rt = gbuffer.runtime
         pos, nrm, alb = (gbuffer.buffers[k] for k in ("position", "normal", "albedo"))
@@ -128,15 +151,13 @@ def compose(gbuffer: GBuffer | DeviceGBuffer, camera: Camera, lighting: Lighting
     extra = [b for b in (_factor(rt, shadow, shape, "shadow"), _factor(rt, ao, shape, "ao")) if b is not None]
     size = (shape[0] // ssaa, shape[1] // ssaa)
     n = size[0] * size[1]
-    kernel = rt.kernel("compose.cl", "compose", ComposeFeatures(shadow is not None, ao is not None).defines())
-    out = rt.empty(4 * n, "frame")
+    features = ComposeFeatures(shadow is not None, ao is not None, linear)
+    kernel = rt.kernel("compose.cl", "compose", features.defines())
+    out = rt.empty((16 if linear else 4) * n, "linear frame" if linear else "frame")
     f4 = lambda *v: np.array(v, np.float32)  # noqa: E731
     kernel.set_args(pos, nrm, alb, np.int32(size[1]), np.int32(size[0]), np.int32(ssaa),
                     f4(*lighting.sun_view(camera), lighting.sun_intensity), f4(*lighting.sky, 0.0),
                     f4(*lighting.up_view(camera), 0.0), f4(*lighting.background, 0.0), *extra, out)
     local = rt.local_size(kernel, 64)
     cl.enqueue_nd_range_kernel(rt.queue, kernel, (-(-n // local) * local,), (local,))
-    frame = np.empty(size + (4,), np.uint8)
-    cl.enqueue_copy(rt.queue, frame, out)
-    rt.queue.finish()
-    return frame
+    return rt, out, size

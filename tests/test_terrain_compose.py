@@ -9,7 +9,9 @@ import pytest
 
 from oclshade import reference as ref
 from oclshade.camera import frame_heightmap
-from oclshade.compose import Lighting, compose
+import pyopencl as cl
+
+from oclshade.compose import Lighting, compose, compose_linear
 from oclshade.frames import FrameSettings, TerrainScene
 from oclshade.terrain import Heightfield, TerrainRenderer
 
@@ -66,6 +68,35 @@ def test_supersampled_compose_matches_reference(scene, ssaa):
     assert got.shape == (g.shape[0] // ssaa, g.shape[1] // ssaa, 4)
     assert np.abs(got.astype(int) - want.astype(int)).max() <= 1
     assert not np.array_equal(got, compose(g, cam, light, shadow=shadow, device=renderer.runtime, ssaa=ssaa))
+
+
+@pytest.mark.parametrize("ssaa", [1, 2])
+def test_linear_compose_keeps_the_range(scene, ssaa):
+    """-D OCLS_LINEAR: float4 linear light on the device, unclamped (a sun of intensity 6
+    drives lit samples far above 1), against the twin's unclamped mean; the 8-bit frame of the
+    same inputs is the clamped, encoded one."""
+    _, cam, renderer, g = scene
+    rng = np.random.default_rng(3)
+    shadow = (rng.random(g.shape) < 0.6).astype(np.float32)
+    ao = rng.random(g.shape).astype(np.float32)
+    light = Lighting(sun=(140.0, 40.0), sun_intensity=6.0, background=(2.5, 0.0, 0.25))
+    rt = renderer.runtime
+    buf = compose_linear(g, cam, light, shadow=shadow, ao=ao, device=rt, ssaa=ssaa)
+    got = np.empty((g.shape[0] // ssaa, g.shape[1] // ssaa, 4), np.float32)
+    cl.enqueue_copy(rt.queue, got, buf)
+    rt.queue.finish()
+    want = ref.compose(g.position, g.normal, g.albedo, light.sun_view(cam), light.sun_intensity,
+                       np.array(light.sky), light.up_view(cam), np.array(light.background), shadow, ao, ssaa,
+                       linear=True)
+    assert want.max() > 2.0                                          # the range a clamp would lose
+    assert np.all(got[..., 3] == 1.0)
+    assert np.allclose(got[..., :3], want, rtol=1e-5, atol=1e-6)
+    if ssaa == 1:
+        assert np.all(got[~g.hit][:, :3] == np.float32([2.5, 0.0, 0.25]))   # background kept exactly
+    encoded = compose(g, cam, light, shadow=shadow, ao=ao, device=rt, ssaa=ssaa)
+    clamped = ref.compose(g.position, g.normal, g.albedo, light.sun_view(cam), light.sun_intensity,
+                          np.array(light.sky), light.up_view(cam), np.array(light.background), shadow, ao, ssaa)
+    assert np.abs(encoded.astype(int) - clamped.astype(int)).max() <= 1
 
 
 def test_flat_ground_by_hand():

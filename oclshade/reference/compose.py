@@ -11,10 +11,12 @@ def srgb_encode(linear: np.ndarray) -> np.ndarray:
 
 def compose(position: np.ndarray, normal: np.ndarray, albedo: np.ndarray, sun_view: np.ndarray,
             sun_intensity: float, sky: np.ndarray, up_view: np.ndarray, background: np.ndarray,
-            shadow: np.ndarray | None = None, ao: np.ndarray | None = None, ssaa: int = 1) -> np.ndarray:
+            shadow: np.ndarray | None = None, ao: np.ndarray | None = None, ssaa: int = 1,
+            linear: bool = False) -> np.ndarray:
     """uint8 (h / ssaa, w / ssaa, 4) sRGB: per sample albedo * (I_sun max(n.s, 0) shadow
     + sky ao (1 + n.up) / 2), background where empty, clamped to [0, 1]; each output pixel
-    the mean of its ssaa x ssaa samples."""
+    the mean of its ssaa x ssaa samples.  ``linear``: float64 (h / ssaa, w / ssaa, 3), the
+    mean of the unclamped samples in linear light (compose.cl -D OCLS_LINEAR)."""
     hit = position[..., 3] > 0.5
     n = normal[..., :3].astype(float)
     direct = sun_intensity * np.maximum(n @ np.asarray(sun_view, float), 0.0)
@@ -24,9 +26,13 @@ def compose(position: np.ndarray, normal: np.ndarray, albedo: np.ndarray, sun_vi
     if ao is not None:
         diffuse = diffuse * ao
     colour = albedo[..., :3] * (direct[..., None] + np.asarray(sky, float) * diffuse[..., None])
-    colour = np.clip(np.where(hit[..., None], colour, np.asarray(background, float)), 0.0, 1.0)
+    colour = np.where(hit[..., None], colour, np.asarray(background, float))
+    if not linear:
+        colour = np.clip(colour, 0.0, 1.0)
     rows, cols = hit.shape
     mean = colour.reshape(rows // ssaa, ssaa, cols // ssaa, ssaa, 3).mean(axis=(1, 3))
+    if linear:
+        return mean
     out = np.full(mean.shape[:2] + (4,), 255, np.uint8)
     out[..., :3] = np.floor(255.0 * srgb_encode(mean) + 0.5).astype(np.uint8)
     return out
