@@ -24,6 +24,14 @@
  *     __global float4 *ll         lat-long map out, H x W: each texel the cube map's
  *                                 seam-continuous bilinear sample in its centre's direction
  *     global size (>= W, >= H)
+ *   cube_face_store(frame, n, face, cube)
+ *     __global const float4 *frame  an N x N frame (row-major, float4 linear rgb_) of the camera
+ *                             that looks along face `face` (oclshade/scene/generate.py)
+ *     int n, face             face size N, face index 0..5
+ *     __global float4 *cube   bordered cube map: texel (r, c) of the face's interior gets frame
+ *                             pixel (r, N - 1 - c) (the face table's mirror image of a
+ *                             right-handed camera's view); run cube_border after the six faces
+ *     global size (>= N, >= N): (column, row)
  *   No -D options; build with -cl-std=CL1.2 (no fast-math).
  */
 #include "cubemap.h"
@@ -95,4 +103,12 @@ __kernel void cube_to_latlong(__global const float4 *cube, const int n, __global
     const float lat = 0.5f * OCLS_PI - OCLS_PI * ((float)r + 0.5f) / (float)H;
     const float3 d = (float3)(sin(lon) * cos(lat), sin(lat), cos(lon) * cos(lat));
     ll[r * W + c] = ocls_cube_sample(cube, n, d);
+}
+
+__kernel void cube_face_store(__global const float4 *frame, const int n, const int face, __global float4 *cube)
+{
+    const int c = get_global_id(0), r = get_global_id(1);
+    if (c >= n || r >= n || face < 0 || face >= 6) return;
+    const int m = n + 2;
+    cube[face * m * m + (r + 1) * m + c + 1] = frame[r * n + (n - 1 - c)];
 }

@@ -117,16 +117,23 @@ class Reflections:
             self._launch(k, ns)
         return DeviceGBuffer(rt, gbuffer.shape, {**gbuffer.buffers, "albedo": albedo})
 
-    def accumulate(self, gbuffer: DeviceGBuffer, ids: ObjectIds, camera: Camera, ssaa: int = 1) -> cl.Buffer:
+    def accumulate(self, gbuffer: DeviceGBuffer, ids: ObjectIds, camera: Camera, ssaa: int = 1,
+                   into: cl.Buffer | None = None) -> cl.Buffer:
         """The reflections per output pixel, linear rgb (float4, a = 0) on the device:
-        ``camera`` is the G-buffer's (its samples), ``ssaa`` samples per pixel along each axis."""
+        ``camera`` is the G-buffer's (its samples), ``ssaa`` samples per pixel along each axis.
+        ``into``: add them to this buffer of float4 per output pixel instead (a linear frame,
+        :func:`oclshade.compose.compose_linear`), which is returned."""
         rt = self.runtime
         hs, ws = gbuffer.shape
         if hs % ssaa or ws % ssaa:
             raise ValueError(f"ssaa {ssaa} must divide the G-buffer's size {hs}x{ws}")
         h, w = hs // ssaa, ws // ssaa
-        acc = rt.empty(16 * h * w, "reflections")
-        cl.enqueue_fill_buffer(rt.queue, acc, np.float32(0.0), 0, 16 * h * w)
+        if into is not None and into.size != 16 * h * w:
+            raise ValueError(f"into must hold {h}x{w} float4 pixels ({16 * h * w} bytes), got {into.size} bytes")
+        acc = into
+        if acc is None:
+            acc = rt.empty(16 * h * w, "reflections")
+            cl.enqueue_fill_buffer(rt.queue, acc, np.float32(0.0), 0, 16 * h * w)
         v2w = [np.array([*row, 0.0], np.float32) for row in camera.rotation.T]
         w2c = [np.array([*row, 0.0], np.float32) for row in self.world_to_cube]
         passes = [(g, c) for g, c in enumerate(self.groups)] + ([(-1, BACKGROUND)] if self.background else [])

@@ -1,6 +1,7 @@
-"""Cube maps generated from an object's centre (paper 002's cases 2 and 3).
+"""Cube maps generated from an object's centre (paper 002's cases 2 and 3), on the device.
 
->>> cube = generate_cube(scene, centre, 256, sun, settings)     # six 90-degree terrain renders
+>>> faces = FaceScene(Heightfield(hm), environment=sky)             # frames in linear light
+>>> cube = generate_cube(faces, centre, 256, sun, settings)        # a DeviceCubeMap
 
 Six cameras at ``centre`` with a 90-degree field of view look along the cube-map frame's
 axes (+X, -X, +Y, -Y, +Z, -Z of F, placed in the world by ``cube_frame(rotation)``); each
@@ -9,23 +10,44 @@ when the scene has one) at ``size`` x ``size``.  The OpenGL face table's face im
 mirror images of a right-handed camera's view, so each render is flipped left-right:
 pixel (row r, column c) of the camera looking along face f has exactly the direction of
 texel (r, size - 1 - c) of face f (tests/test_generate.py checks it against the face
-table).  The frames come back as 8-bit sRGB (compose's output) and are decoded to linear
-light: a generated map is low dynamic range (values <= 1, 8-bit steps) and takes a trip
-through the host (docs/reflections.md, "Generated cube maps").
+table).  A :class:`FaceScene` composes in linear light with its full range (compose.cl
+-D OCLS_LINEAR, the sky added by the reflections' background pass into the same buffer),
+and kernels/envmap.cl ``cube_face_store`` writes each frame straight into the cube map's
+bordered device buffer: the map never leaves the device and keeps high dynamic range
+(docs/reflections.md, "Generated cube maps").
 """
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
+import pyopencl as cl
 
 from ..camera import Camera
-from ..envmap.cube import CubeMap, cube_frame
-from ..envmap.files import srgb_to_linear
-from ..frames import FrameSettings, TerrainScene
+from ..compose import Lighting, compose_linear
+from ..envmap.cube import DeviceCubeMap, cube_frame
+from ..frames import FrameSettings
 from ..sun import SunLike
+from .render import ObjectScene
 
 #: per face of the cube-map frame F: the camera's forward and up directions
 FACE_VIEWS = (((1, 0, 0), (0, 1, 0)), ((-1, 0, 0), (0, 1, 0)), ((0, 1, 0), (0, 0, -1)),
               ((0, -1, 0), (0, 0, 1)), ((0, 0, 1), (0, 1, 0)), ((0, 0, -1), (0, 1, 0)))
+
+
+class FaceScene(ObjectScene):
+    """An :class:`~oclshade.scene.render.ObjectScene` whose frames stay on the device in linear
+    light: ``frame(...).image`` is a ``cl.Buffer`` of float4 (r, g, b, 1) per pixel, row-major
+    (compose_linear, plus the reflections and the environment's background added in place)."""
+
+    def _compose(self, camera: Camera, settings: FrameSettings, lighting: Lighting) -> cl.Buffer:
+        gbuf, refl = self._out["gbuffer"], self.reflections
+        shown = refl.weights(gbuf, self.ids, camera) if refl is not None else gbuf
+        image = compose_linear(shown, camera, lighting, shadow=self._out["shadows"], ao=self._out["ao"],
+                               device=self.runtime, normal=self._out["normals"], ssaa=settings.ssaa)
+        if refl is not None and refl.active:
+            refl.accumulate(gbuf, self.ids, camera, settings.ssaa, into=image)
+        return image
 
 
 def face_cameras(centre: object, size: int, rotation: float = 0.0, near: float = 1.0,
@@ -37,12 +59,19 @@ def face_cameras(centre: object, size: int, rotation: float = 0.0, near: float =
                    fov=90.0, near=near, far=far) for fwd, up in FACE_VIEWS]
 
 
-def generate_cube(scene: TerrainScene, centre: object, size: int, sun: SunLike,
+def generate_cube(scene: FaceScene, centre: object, size: int, sun: SunLike,
                   settings: FrameSettings = FrameSettings(), rotation: float = 0.0, near: float = 1.0,
-                  far: float = 1e6) -> CubeMap:
-    """A cube map of what ``scene`` shows from ``centre`` (module doc)."""
-    faces = np.empty((6, size, size, 3), np.float32)
+                  far: float = 1e6) -> DeviceCubeMap:
+    """A cube map on the device of what ``scene`` shows from ``centre`` (module doc); each
+    face is rendered with ``settings`` at one sample per pixel."""
+    if not isinstance(scene, FaceScene):
+        raise TypeError(f"scene must be a FaceScene (frames in linear light on the device), got {type(scene).__name__}")
+    rt = scene.runtime
+    cube = DeviceCubeMap(rt, size, rt.empty(16 * 6 * (size + 2) ** 2, "generated cube map"))
+    store = rt.kernel("envmap.cl", "cube_face_store")
+    one = replace(settings, ssaa=1)
     for f, camera in enumerate(face_cameras(centre, size, rotation, near, far)):
-        image = scene.frame(camera, sun, settings).image
-        faces[f] = srgb_to_linear(image[:, ::-1, :3].astype(np.float64) / 255.0)
-    return CubeMap(faces)
+        store.set_args(scene.frame(camera, sun, one).image, np.int32(size), np.int32(f), cube.buffer)
+        cl.enqueue_nd_range_kernel(rt.queue, store, *rt.grid_2d(store, size, size))
+    cube.fill_border()
+    return cube

@@ -8,8 +8,9 @@
 pass       what the objects add (kernels/quadric.cl, mesh.cl, reflect.cl)
 =========  =================================================================================
 generate   with ``Environment(generate=...)``: a cube map from each reflective object's
-           centre (:mod:`oclshade.scene.generate`), on the first frame or every N frames
-           (the maps show the terrain and the sky, not the meshes)
+           centre (:mod:`oclshade.scene.generate`: rendered in linear light into device
+           cube maps), on the first frame or every N frames (the maps show the terrain and
+           the sky, not the meshes)
 gbuffer    the quadrics, then the meshes, cast and depth-merged into the terrain's G-buffer
            (object ids kept: quadric k + 1, mesh -(k + 1))
 normals    the objects' own normals put into the smooth shading normals
@@ -51,7 +52,6 @@ from ..runtime import Runtime
 from ..sun import Sun, SunLike
 from ..terrain import Heightfield
 from .description import SceneDescription, SceneError
-from .generate import generate_cube
 
 #: how meshes with cast_shadows shadow the frame (ObjectScene mesh_shadows)
 MESH_SHADOW_METHODS = ("rays", "volumes")
@@ -123,9 +123,11 @@ class ObjectScene(TerrainScene):
         self.frames_rendered = 0
         self.generations = 0                    # how many times the objects' maps were generated
 
-    def _reflect_with(self, cubes, cube_of: list[int] | None) -> None:
+    def _reflect_with(self, cubes, cube_of: list[int] | None, intensity: float | None = None) -> None:
+        """Reflections of ``cubes`` read at ``intensity`` (default: the environment's)."""
         env = self.environment
-        self.reflections = Reflections(cubes, [q.material for q in self.quadrics], env.rotation, env.intensity,
+        intensity = env.intensity if intensity is None else intensity
+        self.reflections = Reflections(cubes, [q.material for q in self.quadrics], env.rotation, intensity,
                                        env.background and self._file_map is not None, self.uber, cube_of)
 
     def frame(self, camera: Camera, sun: SunLike, settings: FrameSettings = FrameSettings()) -> Frame:
@@ -148,16 +150,21 @@ class ObjectScene(TerrainScene):
 
     def _generate(self, sun: SunLike, settings: FrameSettings) -> None:
         """A cube map from the centre of every reflective object (the terrain and the sky only)."""
+        from .generate import FaceScene, generate_cube      # generate.py builds on this module
         env = self.environment
         if self._face_scene is None:
             sky = None if env.cube is None else Environment(env.cube, env.rotation, env.intensity)
-            self._face_scene = ObjectScene(self.renderer.field, (), sky, self.runtime)
+            self._face_scene = FaceScene(self.renderer.field, (), sky, self.runtime)
+            # the generated maps hold the sky at the environment's intensity already, so every
+            # map is read at 1: the file map (the background's) scaled once instead
+            self._sky_map = None if self._file_map is None or env.intensity == 1.0 else \
+                CubeMap(env.cube.faces * np.float32(env.intensity)).to_device(self.runtime)
         lighting = settings.lighting if env.cube is None else replace(settings.lighting, background=(0.0, 0.0, 0.0))
         faces = replace(settings, ssaa=1, lighting=lighting)
         size = env.size if self._file_map is None else self._file_map.size
         lo, hi = map_bounds(self.renderer.field.heightmap)
         corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
-        maps = [] if self._file_map is None else [self._file_map]
+        maps = [] if self._file_map is None else [self._file_map if self._sky_map is None else self._sky_map]
         cube_of = []
         for q in self.quadrics:
             if not q.material.conditions:
@@ -167,8 +174,8 @@ class ObjectScene(TerrainScene):
             far = 1.05 * float(np.linalg.norm(corners - q.centre, axis=1).max()) + radius
             cube_of.append(len(maps))
             maps.append(generate_cube(self._face_scene, q.centre, size, sun, faces, env.rotation,
-                                      near=min(0.5 * radius, 1e-3 * far), far=far).to_device(self.runtime))
-        self._reflect_with(stack_cubes(maps), cube_of)
+                                      near=min(0.5 * radius, 1e-3 * far), far=far))
+        self._reflect_with(stack_cubes(maps), cube_of, intensity=1.0)
         self.generations += 1
 
     def _run(self, name: str, camera: Camera, sun: Sun, settings: FrameSettings, lighting: Lighting) -> object:
