@@ -68,6 +68,19 @@
  *                           its bound) or the terrain (exact: every patch under the ray tested
  *                           in closed form), else 1
  *     global size >= n (1-D).
+ *   quadric_point_shadow(n, nq, qf, qi, position, object, light, kshadow, coef)
+ *     A point light (docs/meshes.md "Point lights"): float4 light = its view-space position
+ *     (xyz).  Every hit pixel whose segment to the light, p + t (light - p) with 0 < t <= 1,
+ *     meets a quadric gets kshadow (its own closed shape excluded, an open paraboloid
+ *     included past t > 1e-3 of its bound's radius); the others keep theirs (the terrain
+ *     pass below has set every hit pixel first).  global size >= n (1-D).
+ *   terrain_point_shadow(n, position, object, light, h, H, W, zmax, hm0, hm1, hm2, kshadow, coef)
+ *     The terrain's shadows of a point light on every pixel (terrain, quadric and mesh ones):
+ *     float4 light = its position in (u, v, z - offset) (xyz); h, H, W, zmax, hm0..hm2 as
+ *     quadric_shadow.  A hit pixel gets kshadow when the terrain rises above its segment to
+ *     the light (terrain_ray.h terrain_segment_blocks: exact, every patch under the segment;
+ *     a terrain pixel, object 0, starts on the surface), else 1; an empty pixel gets 1.
+ *     global size >= n (1-D).  The two point-light kernels have no C entry points yet.
  *   -D OCLS_ORTHO: orthographic camera.  Build with -cl-std=CL1.2, no fast-math.
  */
 #include "common.h"
@@ -280,4 +293,54 @@ __kernel void quadric_shadow(const int n, const int nq, __global const float4 *q
     }
     if (blocked) coef[i] = kshadow;
     else if (own > 0) coef[i] = 1.0f;
+}
+
+__kernel void quadric_point_shadow(const int n, const int nq, __global const float4 *qf, __global const int4 *qi,
+                                   __global const float4 *position, __global const int *object, const float4 light,
+                                   const float kshadow, __global float *coef)
+{
+    const int i = get_global_id(0);
+    if (i >= n) return;
+    const float4 pw = position[i];
+    if (!(pw.w > 0.5f)) return;
+    const int own = object[i];
+    const float3 p = pw.xyz, s = light.xyz - p;
+    const float reach = sqrt(dot(s, s));
+    if (!(reach > 0.0f)) return;
+    const float3 sh = s / reach;
+    for (int k = 0; k < nq; ++k) {
+        const int kind = qi[2 * k].x;
+        if (k + 1 == own && kind != OCLS_PARABOLOID) continue;     /* a closed convex shape */
+        __global const float4 *m = qf + 5 * k;
+        const float4 b = m[4];
+        const float3 v = b.xyz - p;
+        const float tc = dot(v, sh);
+        if (tc < -b.w || tc > reach + b.w || dot(v, v) - tc * tc > b.w * b.w) continue;  /* misses the bound */
+        float3 gk;
+        const float t_lo = k + 1 == own ? 1e-3f * b.w / reach : 0.0f;
+        if (quadric_hit(kind, local_point(m, p), local_vector(m, s), t_lo, 1.0f, &gk) <= 1.0f) {
+            coef[i] = kshadow;
+            return;
+        }
+    }
+}
+
+__kernel void terrain_point_shadow(const int n, __global const float4 *position, __global const int *object,
+                                   const float4 light, __global const float *h, const int H, const int W,
+                                   const float zmax, const float4 hm0, const float4 hm1, const float4 hm2,
+                                   const float kshadow, __global float *coef)
+{
+    const int i = get_global_id(0);
+    if (i >= n) return;
+    const float4 pw = position[i];
+    if (!(pw.w > 0.5f)) {
+        coef[i] = 1.0f;
+        return;
+    }
+    const float3 p = pw.xyz;
+    const float3 q = (float3)(dot(hm0.xyz, p) + hm0.w, dot(hm1.xyz, p) + hm1.w, dot(hm2.xyz, p) + hm2.w);
+    const float3 d = light.xyz - q;
+    const float major = fmax(fabs(d.x), fabs(d.y));
+    const float4 seg = (float4)(d, major > 0.0f ? 1.0f / major : INFINITY);
+    coef[i] = terrain_segment_blocks(h, H, W, zmax, q, seg, object[i] == 0) ? kshadow : 1.0f;
 }

@@ -26,6 +26,7 @@ import pyopencl as cl
 from ..camera import Camera
 from ..gbuffer import CHANNELS
 from ..heightmap import Heightmap
+from ..lights import LightLike, PointLight, as_light
 from ..quadrics.caster import (ObjectIds, launch_1d, merge_gbuffers, object_normals, screen_rect,
                                terrain_shadow_args)
 from ..runtime import Runtime, get_runtime
@@ -240,16 +241,19 @@ class MeshCaster:
         launch_1d(rt, kernel, n)
         return out
 
-    def ray_shadow(self, camera: Camera, gbuffer: DeviceGBuffer, sun: SunLike, coefficient: cl.Buffer,
+    def ray_shadow(self, camera: Camera, gbuffer: DeviceGBuffer, light: LightLike, coefficient: cl.Buffer,
                    k_dark: float = 0.0, k_bright: float = 0.0) -> None:
         """The meshes' shadows by :meth:`shadow_rays` into a shadow-coefficient buffer, in
-        place: every hit pixel a mesh with ``cast_shadows`` hides from the sun gets paper 000's
-        eq. (1); the others keep theirs.  For casters with alpha cut-outs, which the shadow
-        volumes (:class:`oclshade.meshes.MeshShadows`) would shade as solid triangles."""
-        sun = as_sun(sun)
+        place: every hit pixel a mesh with ``cast_shadows`` hides from the light gets paper 000's
+        eq. (1), k_dark + (k_bright - k_dark) max(sin elevation, 0) (a point light: k_dark, as
+        :class:`oclshade.meshes.MeshShadows`); the others keep theirs.  For casters with alpha
+        cut-outs, which the shadow volumes would shade as solid triangles.  ``light``: a sun
+        or a :class:`oclshade.lights.PointLight`."""
+        light = as_light(light)
         n = gbuffer.shape[0] * gbuffer.shape[1]
-        hidden = self.shadow_rays(camera, gbuffer, sun)
-        kshadow = k_dark + (k_bright - k_dark) * max(math.sin(math.radians(sun.elevation)), 0.0)
+        hidden = self.shadow_rays(camera, gbuffer, light)
+        elevation = 0.0 if isinstance(light, PointLight) else light.elevation
+        kshadow = k_dark + (k_bright - k_dark) * max(math.sin(math.radians(elevation)), 0.0)
         kernel = self.runtime.kernel("mesh.cl", "mesh_shadow_apply", self._defines)
         kernel.set_args(np.int32(n), hidden, np.float32(kshadow), coefficient)
         launch_1d(self.runtime, kernel, n)

@@ -1,55 +1,5 @@
-"""Lights that cast mesh shadows (paper 003: parallel or perspective extrusion).
+"""Lights that cast mesh shadows (paper 003: parallel or perspective extrusion): the frame's
+lights, :mod:`oclshade.lights` (a Sun or a PointLight)."""
+from ..lights import Light, LightLike, PointLight, as_light, light_key, towards_light
 
-A directional light is the sun (:class:`oclshade.sun.Sun`, azimuth/elevation, or an
-(azimuth, elevation) pair); a point light is :class:`PointLight` (a world position, metres).
-"""
-from __future__ import annotations
-
-from dataclasses import dataclass
-from typing import Union
-
-import numpy as np
-
-from ..sun import Sun, SunLike, as_sun
-
-
-@dataclass(frozen=True, eq=False)
-class PointLight:
-    """A light at a finite distance: world position (x east, y north, z up; metres)."""
-
-    position: np.ndarray
-
-    def __post_init__(self) -> None:
-        p = np.asarray(self.position, dtype=np.float64).reshape(-1)
-        if p.shape != (3,) or not np.all(np.isfinite(p)):
-            raise ValueError(f"a point light's position must be 3 finite numbers (x east, y north, z up), "
-                             f"got {self.position!r}")
-        object.__setattr__(self, "position", p)
-
-    def __repr__(self) -> str:
-        return f"PointLight({self.position.tolist()!r})"
-
-
-Light = Union[Sun, PointLight]
-LightLike = Union[Sun, PointLight, SunLike]
-
-
-def as_light(value: LightLike) -> Light:
-    """A Sun or a PointLight (an (azimuth, elevation) pair is a sun)."""
-    return value if isinstance(value, PointLight) else as_sun(value)
-
-
-def towards_light(light: Light, points: np.ndarray) -> np.ndarray:
-    """Float64 (..., 3) vectors from ``points`` towards the light: the sun's unit vector, or
-    the light's position minus the point (not normalised)."""
-    points = np.asarray(points, dtype=np.float64)
-    if isinstance(light, PointLight):
-        return light.position - points
-    return np.broadcast_to(np.array(light.vector()), points.shape)
-
-
-def light_key(light: Light) -> tuple:
-    """A hashable key naming the light exactly (for caches)."""
-    if isinstance(light, PointLight):
-        return ("point", *light.position.tolist())
-    return ("sun", light.azimuth, light.elevation)
+__all__ = ["Light", "LightLike", "PointLight", "as_light", "light_key", "towards_light"]

@@ -24,6 +24,7 @@ import pyopencl as cl
 from ..camera import Camera, heightmap_from_world
 from ..gbuffer import CHANNELS
 from ..heightmap import Heightmap
+from ..lights import PointLight
 from ..runtime import Runtime, get_runtime
 from ..sun import SunLike, as_sun
 from ..terrain import DeviceGBuffer
@@ -145,6 +146,49 @@ class QuadricCaster:
                         *terrain_shadow_args(camera, self.heightmap, self.heights, sun, k_dark, k_bright),
                         coefficient)
         launch_1d(rt, kernel, n)
+
+
+    def point_shadow(self, camera: Camera, gbuffer: DeviceGBuffer, ids: ObjectIds, light: PointLight,
+                     coefficient: cl.Buffer, k_dark: float = 0.0) -> None:
+        """Quadric shadows of a point light, in place: every hit pixel whose segment to the
+        light meets a quadric (its own closed shape excluded) gets ``k_dark``; the others keep
+        theirs.  Run after :func:`terrain_point_shadow`, which sets every pixel."""
+        if not isinstance(light, PointLight):
+            raise TypeError(f"light must be an oclshade.meshes.lights.PointLight, got {type(light).__name__}")
+        rt = self.runtime
+        n = gbuffer.shape[0] * gbuffer.shape[1]
+        tables = self._tables_on_device(camera)
+        kernel = rt.kernel("quadric.cl", "quadric_point_shadow")
+        kernel.set_args(np.int32(n), np.int32(len(self.quadrics)), *tables, gbuffer.buffers["position"], ids.buffer,
+                        light_view(camera, light), np.float32(k_dark), coefficient)
+        launch_1d(rt, kernel, n)
+
+
+def light_view(camera: Camera, light: PointLight) -> np.ndarray:
+    """The point light's view-space position (float64 product rounded once), float4 w = 0."""
+    return np.array([*(camera.view[:3, :3] @ light.position + camera.view[:3, 3]), 0.0], np.float32)
+
+
+def terrain_point_shadow(runtime: Runtime, camera: Camera, heightmap: Heightmap | None, heights: cl.Buffer,
+                         gbuffer: DeviceGBuffer, ids: ObjectIds, light: PointLight, coefficient: cl.Buffer,
+                         k_dark: float = 0.0) -> None:
+    """The terrain's shadows of a point light on every pixel of a (merged) G-buffer, into
+    ``coefficient`` (one float per pixel): ``k_dark`` where the terrain rises above the segment
+    from the pixel's surface point to the light (exact, kernels/terrain_ray.h; terrain pixels,
+    object id 0, start on the surface), else 1 (empty pixels too).  ``heights``: the
+    relative float32 heights on the device; no heightmap: every pixel 1."""
+    if not isinstance(light, PointLight):
+        raise TypeError(f"light must be an oclshade.meshes.lights.PointLight, got {type(light).__name__}")
+    hm = heightmap
+    n = gbuffer.shape[0] * gbuffer.shape[1]
+    rows, cols = hm.shape if hm is not None else (0, 0)
+    zmax = 0.0 if hm is None else float(np.nanmax(hm.relative32)) if np.isfinite(hm.relative32).any() else 0.0
+    at = heightmap_from_world(hm) @ np.array([*light.position, 1.0]) if hm is not None else np.zeros(4)
+    kernel = runtime.kernel("quadric.cl", "terrain_point_shadow")
+    kernel.set_args(np.int32(n), gbuffer.buffers["position"], ids.buffer, np.array([*at[:3], 0.0], np.float32),
+                    heights, np.int32(rows), np.int32(cols), np.float32(zmax), *heightmap_rows(camera, hm),
+                    np.float32(k_dark), coefficient)
+    launch_1d(runtime, kernel, n)
 
 
 def heightmap_rows(camera: Camera, heightmap: Heightmap | None) -> list[np.ndarray]:

@@ -13,8 +13,8 @@ from .envmap import (CONE_SAMPLES, FACE_NAMES, cone_directions, cube_to_latlong,
 from .horizons import (SVF_DEFINITIONS, angle_tolerance, horizon_angles, horizon_tangents, horizon_tolerance,
                        sky_view_factor)
 from .pyramid import extrema_pyramid, mip_pyramid
-from .quadrics import (ReferenceQuadrics, cast_quadrics, intersect, quadric_occludes,
-                       terrain_margin)
+from .quadrics import (ReferenceQuadrics, cast_quadrics, intersect, quadric_occludes, quadric_segment_occludes,
+                       terrain_margin, terrain_segment_occludes)
 from .screen_shadows import ReferencePixelShadows, minimal_lod, pixel_shadows, surface_height
 from .shadows import (CORNER_SNAP, CORNER_TIE, ReferenceShadows, cast_shadows,
                       shadow_coefficient, tie_tolerance)
@@ -33,4 +33,5 @@ __all__ = [
     "sample_cube", "sample_face", "sample_latlong", "seam_jump", "texel_directions",
     "CONE_SAMPLES", "cone_directions", "reflect", "reflect_frame", "schlick",
     "ReferenceQuadrics", "cast_quadrics", "intersect", "quadric_occludes", "terrain_margin",
+    "quadric_segment_occludes", "terrain_segment_occludes",
 ]

@@ -192,3 +192,86 @@ def terrain_margin(heights: np.ndarray, start: tuple[float, float, float], ray: 
                 cand.append(f_a - a * a / (4.0 * s2))
         worst = max(worst, max(cand))
     return worst
+
+
+def terrain_segment_occludes(heights: np.ndarray, start: tuple[float, float, float],
+                             end: tuple[float, float, float], surface: bool = False) -> bool:
+    """Whether the terrain rises strictly above the segment from ``start`` to ``end`` (a point
+    light) somewhere with 0 < t <= 1 (kernels/terrain_ray.h terrain_segment_blocks): both in
+    heightmap units (u = column, v = row, z relative as ``heights``), heights bilinear between
+    samples, holes and the world beyond the map occlude nothing.  ``surface``: the start is a
+    terrain surface point: its height is the bilinear surface's at (u, v) (its z is not read)
+    on the first valid patch the segment meets within one cell along its major axis (the start
+    patch; a start on a hole's border rounded into the hole gets its neighbour's surface,
+    extended), and f = surface - segment is 0 there, so the segment is blocked at once when
+    f's slope a > 0 (the light below the local surface); a start with no such patch keeps its z.  Every patch the segment's ground track
+    crosses is tested exactly (a quadratic in t); a segment along z tests the patch under
+    the start."""
+    h = np.asarray(heights, float)
+    rows, cols = h.shape
+    if rows < 2 or cols < 2:
+        return False
+    x0, y0, z0 = (float(v) for v in start)
+    ux, uy, w = (float(e) - float(s) for e, s in zip(end, start))
+    ts = [0.0, 1.0]
+    for p0, u, n in ((x0, ux, cols), (y0, uy, rows)):
+        if u != 0.0:
+            ts += [(k - p0) / u for k in range(n)]
+    ts = np.unique([t for t in ts if 0.0 <= t <= 1.0])
+
+    def patch(ta: float, tb: float) -> np.ndarray | None:
+        tm = 0.5 * (ta + tb)
+        xm, ym = x0 + ux * tm, y0 + uy * tm
+        if not (0.0 <= xm <= cols - 1 and 0.0 <= ym <= rows - 1):
+            return None
+        pc, pr = min(int(np.floor(xm)), cols - 2), min(int(np.floor(ym)), rows - 2)
+        c = h[pr:pr + 2, pc:pc + 2]
+        return None if np.isnan(c).any() else (pr, pc, c)
+
+    first = None                # the start patch's entry (the first valid patch within t_near)
+    if surface:
+        major = max(abs(ux), abs(uy))
+        t_near = 1.0 / major if major > 0.0 else np.inf
+        for ta, tb in zip(ts[:-1], ts[1:]):
+            if ta >= t_near:
+                break
+            got = patch(ta, tb)
+            if got is not None:
+                pr, pc, c = got
+                fx, fy = x0 - pc, y0 - pr                   # the start, on this patch's surface extended
+                z0 = (c[0, 0] + (c[0, 1] - c[0, 0]) * fx + (c[1, 0] - c[0, 0]) * fy
+                      + (c[0, 0] - c[0, 1] - c[1, 0] + c[1, 1]) * fx * fy)
+                first = ta
+                break
+    for ta, tb in zip(ts[:-1], ts[1:]):
+        got = patch(ta, tb)
+        if got is None:
+            continue
+        pr, pc, c = got
+        fx, fy = x0 + ux * ta - pc, y0 + uy * ta - pr
+        ex, ey, k = c[0, 1] - c[0, 0], c[1, 0] - c[0, 0], c[0, 0] - c[0, 1] - c[1, 0] + c[1, 1]
+        a = (ex + k * fy) * ux + (ey + k * fx) * uy - w
+        s2 = k * ux * uy
+        start = first == 0.0 and ta == 0.0
+        f_a = 0.0 if start else c[0, 0] + ex * fx + ey * fy + k * fx * fy - (z0 + w * ta)
+        length = tb - ta
+        if (a > 0.0 if start else f_a > 0.0) or f_a + (a + s2 * length) * length > 0.0:
+            return True
+        if s2 < 0.0 and 0.0 < -a / (2.0 * s2) < length and f_a - a * a / (4.0 * s2) > 0.0:
+            return True
+    return False
+
+
+def quadric_segment_occludes(quadrics, points: np.ndarray, light: np.ndarray, skip: np.ndarray | None = None,
+                             t_min: float | np.ndarray = 0.0) -> np.ndarray:
+    """Boolean per world point (N, 3): the segment to a point light at world ``light`` meets a
+    quadric at t_min < t <= 1 (t in units of the segment); ``skip`` (N,) int: quadric index + 1
+    to leave out (0 none)."""
+    points = np.atleast_2d(np.asarray(points, float))
+    dirs = np.asarray(light, float) - points
+    hit = np.zeros(len(points), bool)
+    for k, q in enumerate(quadrics):
+        t, _ = intersect(q, points, dirs, t_min, 1.0)
+        mine = np.zeros(len(points), bool) if skip is None else (skip == k + 1)
+        hit |= np.isfinite(t) & (t > t_min) & ~mine
+    return hit
