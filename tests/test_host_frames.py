@@ -18,7 +18,7 @@ import pytest
 
 from oclshade.camera import Camera
 from oclshade.cli import main as cli_main
-from oclshade.compose import Lighting, compose
+from oclshade.compose import Lighting, compose, compose_linear
 from oclshade.heightmap import Heightmap
 from oclshade.pyramid import build_mip_levels
 from oclshade.screen_shadows import LodOptions, ScreenShadowCaster
@@ -310,8 +310,9 @@ def test_pixel_shadows_real(host: dict, tmp_path: Path) -> None:
 
 
 # ------------------------------------------------------------------------ compose
-@pytest.mark.parametrize("ssaa, shadow, ao", [(1, True, True), (2, True, False), (3, False, True), (1, False, False)])
-def test_compose(host: dict, tmp_path: Path, ssaa: int, shadow: bool, ao: bool) -> None:
+@pytest.mark.parametrize("ssaa, shadow, ao, linear", [(1, True, True, 0), (2, True, False, 0), (3, False, True, 0),
+                                                      (1, False, False, 0), (1, True, True, 1), (2, False, True, 1)])
+def test_compose(host: dict, tmp_path: Path, ssaa: int, shadow: bool, ao: bool, linear: int) -> None:
     hm = random_map()
     cam = camera_over(hm, 24 * ssaa, 17 * ssaa)
     renderer = TerrainRenderer(Heightfield(hm))
@@ -333,9 +334,17 @@ def test_compose(host: dict, tmp_path: Path, ssaa: int, shadow: bool, ao: bool) 
     out = tmp_path / "out"
     out.mkdir()
     run_program(host, "host_passes", "compose", out, inputs, 24, 17, ssaa, "130.0,25.0", "1.7", "0.2,0.3,0.4",
-                "0.5,0.6,0.7", int(shadow), int(ao))
-    want = compose(gbuf, cam, lighting, shadow=shadow_map, ao=ao_map, normal=normals, ssaa=ssaa)
-    assert (out / "image.u8").read_bytes() == want.tobytes()
+                "0.5,0.6,0.7", int(shadow), int(ao), linear)
+    if not linear:
+        want = compose(gbuf, cam, lighting, shadow=shadow_map, ao=ao_map, normal=normals, ssaa=ssaa)
+        assert (out / "image.u8").read_bytes() == want.tobytes()
+        return
+    rt = renderer.runtime                          # compose_linear: the float4 frame on the device
+    buf = compose_linear(gbuf, cam, lighting, shadow=shadow_map, ao=ao_map, normal=normals, device=rt, ssaa=ssaa)
+    want = np.empty((17, 24, 4), np.float32)
+    cl.enqueue_copy(rt.queue, want, buf)
+    rt.queue.finish()
+    assert (out / "image.f32").read_bytes() == want.tobytes()
 
 
 # ------------------------------------------------------------------------ the example

@@ -691,7 +691,11 @@ typedef struct oclshade_compose_params {
     double sun_intensity;       /* the sun's irradiance on a plane facing it, >= 0 */
     double sky[3];              /* the sky's irradiance on a horizontal plane, linear RGB, >= 0 */
     double background[3];       /* linear RGB of empty samples, >= 0 */
-    oclshade_field image;       /* output: width x height uchar4 sRGB (r, g, b, 255) */
+    oclshade_field image;       /* output: width x height uchar4 sRGB (r, g, b, 255); with linear,
+                                   width x height float4 linear light (r, g, b, 1) */
+    int linear;                 /* 0: 8-bit sRGB, each sample clamped to [0, 1]; 1: the unclamped
+                                   mean in float4 (-D OCLS_LINEAR; oclshade.compose.compose_linear:
+                                   what generated cube maps are made of) */
     cl_mem scratch;
 } oclshade_compose_params;
 
@@ -816,12 +820,16 @@ typedef struct oclshade_envmap_params {
     int face;                   /* N, 1..8192 */
     oclshade_field latlong;     /* height x width float4: read by latlong_to_cube, written by cube_to_latlong */
     int height, width;          /* 1..32768 each (width >= 2 to read one) */
-    cl_mem scratch;             /* >= oclshade_envmap_scratch_size (a packed copy of a pitched latlong) */
+    oclshade_field frame;       /* face x face float4: a face camera's linear frame (cube_face_store) */
+    int face_index;             /* 0..5: the face cube_face_store writes (+X, -X, +Y, -Y, +Z, -Z) */
+    cl_mem scratch;             /* >= oclshade_envmap_scratch_size (a packed copy of a pitched latlong
+                                   or frame) */
 } oclshade_envmap_params;
 
 void oclshade_envmap_params_init(oclshade_envmap_params *params);
 /* Scratch bytes of oclshade_enqueue_latlong_to_cube and oclshade_enqueue_cube_to_latlong
- * (0 for a lat-long field packed at offset 0, or none). */
+ * (0 for a lat-long field packed at offset 0, or none); with latlong unset and frame set, of
+ * oclshade_enqueue_cube_face_store (0 for a frame packed at offset 0). */
 oclshade_status oclshade_envmap_scratch_size(oclshade *lib, const oclshade_envmap_params *params, size_t *bytes);
 /* cube_border over (N + 2, 4, 6) work-items: the border of a cube whose face interiors are
  * filled (DeviceCubeMap.fill_border).  cube is read and written. */
@@ -833,6 +841,15 @@ oclshade_status oclshade_enqueue_cube_border(oclshade *lib, cl_command_queue que
  * direction; global size (N, N) rounded up to the local size, x 6 faces), then cube_border:
  * oclshade.envmap.latlong_to_cube on an RGBA map (the Python host's a = 0). */
 oclshade_status oclshade_enqueue_latlong_to_cube(oclshade *lib, cl_command_queue queue,
+                                                 const oclshade_envmap_params *params,
+                                                 cl_uint num_events_in_wait_list, const cl_event *event_wait_list,
+                                                 cl_event *event);
+/* cube_face_store over (N, N): the interior of face face_index gets the frame mirrored
+ * left-right (texel (r, c) = frame pixel (r, N - 1 - c)): one face of a generated cube map
+ * (oclshade.scene.generate; the frame from oclshade_enqueue_compose with linear = 1 of the
+ * face camera, oclshade.scene.generate.face_cameras).  Run oclshade_enqueue_cube_border after
+ * the six faces.  cube is written (the face's interior only). */
+oclshade_status oclshade_enqueue_cube_face_store(oclshade *lib, cl_command_queue queue,
                                                  const oclshade_envmap_params *params,
                                                  cl_uint num_events_in_wait_list, const cl_event *event_wait_list,
                                                  cl_event *event);

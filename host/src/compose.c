@@ -38,6 +38,9 @@ static oclshade_status compose_job_for(oclshade *lib, const oclshade_compose_par
     memset(j, 0, sizeof *j);
     if (p == NULL) return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "params must point to oclshade_compose_params, got NULL");
     if ((st = ocls_check_size(lib, "height", p->height, "width", p->width)) != OCLSHADE_OK) return st;
+    if (p->linear != 0 && p->linear != 1)
+        return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "linear must be 0 (8-bit sRGB) or 1 (float4 linear), got %d",
+                         p->linear);
     if (p->ssaa < 1 || p->ssaa > MAX_SSAA)
         return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "ssaa must be an integer in 1..%d (samples per pixel along "
                          "each axis), got %d", MAX_SSAA, p->ssaa);
@@ -85,12 +88,14 @@ static oclshade_status compose_body(ocls_pass *ps, const void *params)
         (st = ocls_bind_in(ps, &p->albedo, sh, 16 * sw, "albedo", &alb)) != OCLSHADE_OK ||
         (st = ocls_bind_in(ps, &p->shadow, sh, 4 * sw, "shadow", &shadow)) != OCLSHADE_OK ||
         (st = ocls_bind_in(ps, &p->ao, sh, 4 * sw, "ao", &ao)) != OCLSHADE_OK ||
-        (st = ocls_bind_out(ps, &p->image, p->height, 4u * (size_t)p->width, "image", &image)) != OCLSHADE_OK ||
+        (st = ocls_bind_out(ps, &p->image, p->height, (p->linear ? 16u : 4u) * (size_t)p->width, "image", &image)) !=
+            OCLSHADE_OK ||
         !ps->run)
         return st;
     ocls_defines d = {0};   /* ComposeFeatures.defines */
     ocls_def_flag(&d, "OCLS_SHADOW", shadow != NULL);
     ocls_def_flag(&d, "OCLS_AO", ao != NULL);
+    ocls_def_flag(&d, "OCLS_LINEAR", p->linear);
     kernel_entry *k;
     if ((st = ocls_kernel(ps, "compose.cl", &d, "compose", &k)) != OCLSHADE_OK) return st;
     const cl_int width = p->width, height = p->height, ssaa = p->ssaa;
@@ -129,7 +134,8 @@ oclshade_status oclshade_enqueue_compose(oclshade *lib, cl_command_queue queue, 
         (st = ocls_use_field(lib, &uses, "albedo", &p->albedo, sh, 16 * sw, OCLS_IN)) != OCLSHADE_OK ||
         (p->shadow.buffer && (st = ocls_use_field(lib, &uses, "shadow", &p->shadow, sh, 4 * sw, OCLS_IN)) != OCLSHADE_OK) ||
         (p->ao.buffer && (st = ocls_use_field(lib, &uses, "ao", &p->ao, sh, 4 * sw, OCLS_IN)) != OCLSHADE_OK) ||
-        (st = ocls_use_field(lib, &uses, "image", &p->image, p->height, 4u * (size_t)p->width, OCLS_OUT)) != OCLSHADE_OK)
+        (st = ocls_use_field(lib, &uses, "image", &p->image, p->height, (p->linear ? 16u : 4u) * (size_t)p->width,
+                             OCLS_OUT)) != OCLSHADE_OK)
         return st;
     return ocls_enqueue(lib, queue, p->scratch, &uses, compose_body, &j, num_events_in_wait_list, event_wait_list, event);
 }

@@ -1,5 +1,6 @@
 /* envmap.c — cube maps on the device (kernels/envmap.cl cube_border, latlong_to_cube,
- * cube_to_latlong; oclshade/envmap/cube.py DeviceCubeMap, latlong_to_cube). */
+ * cube_to_latlong, cube_face_store; oclshade/envmap/cube.py DeviceCubeMap, latlong_to_cube;
+ * oclshade/scene/generate.py generate_cube). */
 #include "internal.h"
 
 #include <string.h>
@@ -12,7 +13,7 @@ void oclshade_envmap_params_init(oclshade_envmap_params *p)
     memset(p, 0, sizeof *p);
 }
 
-enum { CUBE_BORDER, LATLONG_TO_CUBE, CUBE_TO_LATLONG };
+enum { CUBE_BORDER, LATLONG_TO_CUBE, CUBE_TO_LATLONG, CUBE_FACE_STORE };
 
 typedef struct envmap_job {
     const oclshade_envmap_params *p;
@@ -27,6 +28,10 @@ static oclshade_status envmap_job_for(oclshade *lib, const oclshade_envmap_param
     if (p->face < 1 || p->face > MAX_FACE)
         return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "face must be the cube face size in 1..%d, got %d", MAX_FACE, p->face);
     if (op == CUBE_BORDER) return OCLSHADE_OK;
+    if (op == CUBE_FACE_STORE)
+        return p->face_index >= 0 && p->face_index < 6 ? OCLSHADE_OK
+               : ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "face_index must be in 0..5 (+X, -X, +Y, -Y, +Z, -Z), got %d",
+                           p->face_index);
     const int min_width = op == LATLONG_TO_CUBE ? 2 : 1;
     if (p->height < 1 || p->height > 4 * MAX_FACE || p->width < min_width || p->width > 4 * MAX_FACE)
         return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "height and width of the lat-long map must be in 1..%d and "
@@ -43,10 +48,18 @@ static oclshade_status envmap_body(ocls_pass *ps, const void *params)
     oclshade_status st = OCLSHADE_OK;
     if (j->op == LATLONG_TO_CUBE) st = ocls_bind_in(ps, &p->latlong, p->height, row, "latlong", &ll);
     if (j->op == CUBE_TO_LATLONG) st = ocls_bind_out(ps, &p->latlong, p->height, row, "latlong", &ll);
+    if (j->op == CUBE_FACE_STORE) st = ocls_bind_in(ps, &p->frame, p->face, 16 * (size_t)p->face, "frame", &ll);
     if (st != OCLSHADE_OK || !ps->run) return st;
     const ocls_defines none = {0};   /* no -D options */
     kernel_entry *k;
-    const cl_int n = p->face, H = p->height, W = p->width;
+    const cl_int n = p->face, H = p->height, W = p->width, f = p->face_index;
+    if (j->op == CUBE_FACE_STORE) {
+        const ocls_arg a[4] = {OCLS_ARG(ll), OCLS_ARG(n), OCLS_ARG(f), OCLS_ARG(p->cube)};
+        if ((st = ocls_kernel(ps, "envmap.cl", &none, "cube_face_store", &k)) != OCLSHADE_OK ||
+            (st = ocls_set_args(ps, k, a, 4)) != OCLSHADE_OK)
+            return st;
+        return ocls_launch(ps, k, n, n, 64, 16);   /* Runtime.grid_2d(k, N, N) */
+    }
     if (j->op == CUBE_TO_LATLONG) {
         const ocls_arg a[5] = {OCLS_ARG(p->cube), OCLS_ARG(n), OCLS_ARG(ll), OCLS_ARG(H), OCLS_ARG(W)};
         if ((st = ocls_kernel(ps, "envmap.cl", &none, "cube_to_latlong", &k)) != OCLSHADE_OK ||
@@ -72,7 +85,10 @@ oclshade_status oclshade_envmap_scratch_size(oclshade *lib, const oclshade_envma
     envmap_job j;
     oclshade_status st = ocls_enter(lib);
     if (st == OCLSHADE_OK && bytes == NULL) st = ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "bytes must not be NULL");
-    if (st == OCLSHADE_OK) st = envmap_job_for(lib, params, CUBE_TO_LATLONG, &j);
+    /* the lat-long map's pitch when one is set, else the face frame's (cube_face_store) */
+    const int op = params != NULL && params->latlong.buffer == NULL && params->frame.buffer != NULL ? CUBE_FACE_STORE
+                                                                                                    : CUBE_TO_LATLONG;
+    if (st == OCLSHADE_OK) st = envmap_job_for(lib, params, op, &j);
     return st != OCLSHADE_OK ? st : ocls_plan(lib, envmap_body, &j, bytes);
 }
 
@@ -87,8 +103,11 @@ static oclshade_status envmap_enqueue(oclshade *lib, cl_command_queue queue, con
     const size_t m = (size_t)p->face + 2;
     const int cube_use = op == CUBE_TO_LATLONG ? OCLS_IN : OCLS_INOUT;
     if ((st = ocls_use_buffer(lib, &uses, "cube", p->cube, 16 * 6 * m * m, cube_use)) != OCLSHADE_OK ||
-        (op != CUBE_BORDER && (st = ocls_use_field(lib, &uses, "latlong", &p->latlong, p->height, 16 * (size_t)p->width,
-                                                   op == LATLONG_TO_CUBE ? OCLS_IN : OCLS_OUT)) != OCLSHADE_OK))
+        (op == CUBE_FACE_STORE &&
+         (st = ocls_use_field(lib, &uses, "frame", &p->frame, p->face, 16 * (size_t)p->face, OCLS_IN)) != OCLSHADE_OK) ||
+        ((op == LATLONG_TO_CUBE || op == CUBE_TO_LATLONG) &&
+         (st = ocls_use_field(lib, &uses, "latlong", &p->latlong, p->height, 16 * (size_t)p->width,
+                              op == LATLONG_TO_CUBE ? OCLS_IN : OCLS_OUT)) != OCLSHADE_OK))
         return st;
     return ocls_enqueue(lib, queue, p->scratch, &uses, envmap_body, &j, nwait, wait, event);
 }
@@ -112,4 +131,11 @@ oclshade_status oclshade_enqueue_cube_to_latlong(oclshade *lib, cl_command_queue
                                                  const cl_event *event_wait_list, cl_event *event)
 {
     return envmap_enqueue(lib, queue, params, CUBE_TO_LATLONG, num_events_in_wait_list, event_wait_list, event);
+}
+
+oclshade_status oclshade_enqueue_cube_face_store(oclshade *lib, cl_command_queue queue,
+                                                 const oclshade_envmap_params *params, cl_uint num_events_in_wait_list,
+                                                 const cl_event *event_wait_list, cl_event *event)
+{
+    return envmap_enqueue(lib, queue, params, CUBE_FACE_STORE, num_events_in_wait_list, event_wait_list, event);
 }

@@ -587,7 +587,7 @@ static void *compose_once(oclshade_compose_params *p, float *host[5], int pitche
         *fields[i] = host[i] == NULL ? oclshade_field_of(NULL)
                      : pitched ? pitched_copy(host[i], sh, rows[i], 128u * (size_t)(i + 1), rows[i] + 32)
                                : oclshade_field_of(buffer((size_t)sh * rows[i], host[i]));
-    const size_t row = 4u * (size_t)p->width;
+    const size_t row = (p->linear ? 16u : 4u) * (size_t)p->width;
     void *zero = xmalloc(row * (size_t)p->height);
     p->image = pitched ? pitched_copy(zero, p->height, row, 384, row + 4) : oclshade_field_of(buffer(row * (size_t)p->height, NULL));
     free(zero);
@@ -604,13 +604,14 @@ static void *compose_once(oclshade_compose_params *p, float *host[5], int pitche
 
 static void run_compose(int argc, char **argv)
 {
-    if (argc != 10) fail("usage: host_passes compose OUTDIR INDIR WIDTH HEIGHT SSAA AZ,EL INTENSITY SKY BG SHADOW AO");
+    if (argc != 11) fail("usage: host_passes compose OUTDIR INDIR WIDTH HEIGHT SSAA AZ,EL INTENSITY SKY BG SHADOW AO LINEAR");
     const char *indir = argv[0];
     oclshade_compose_params p;
     oclshade_compose_params_init(&p);
     p.width = atoi(argv[1]); p.height = atoi(argv[2]); p.ssaa = atoi(argv[3]);
     if (sscanf(argv[4], "%lf,%lf", &p.azimuth, &p.elevation) != 2) fail("bad sun");
     p.sun_intensity = strtod(argv[5], NULL);
+    p.linear = atoi(argv[10]);
     if (sscanf(argv[6], "%lf,%lf,%lf", &p.sky[0], &p.sky[1], &p.sky[2]) != 3 ||
         sscanf(argv[7], "%lf,%lf,%lf", &p.background[0], &p.background[1], &p.background[2]) != 3)
         fail("bad colour");
@@ -623,9 +624,9 @@ static void run_compose(int argc, char **argv)
                       (float *)read_file(indir, "albedo.f32", 16 * samples, 0),
                       atoi(argv[8]) ? (float *)read_file(indir, "shadow.f32", 4 * samples, 0) : NULL,
                       atoi(argv[9]) ? (float *)read_file(indir, "ao.f32", 4 * samples, 0) : NULL};
-    const size_t bytes = 4u * (size_t)p.width * (size_t)p.height;
+    const size_t bytes = (p.linear ? 16u : 4u) * (size_t)p.width * (size_t)p.height;
     void *image = compose_once(&p, host, 0);
-    write_file("image.u8", image, bytes);
+    write_file(p.linear ? "image.f32" : "image.u8", image, bytes);
     void *again = compose_once(&p, host, 1);
     if (memcmp(image, again, bytes) != 0) fail("compose: pitched fields give another image");
     printf("compose: pitched fields: same image\n");
@@ -885,6 +886,42 @@ static void run_envmap(int argc, char **argv)
     free(first_cube); free(first_ll); free(ll); free(faces);
 }
 
+/* Face FACE of a cube of N x N faces from FRAME.f32 (N x N float4), into a cube buffer filled
+ * with NaN: cube_face_store alone (face.f32), then with a pitched frame (the same bytes). */
+static void run_face_store(int argc, char **argv)
+{
+    if (argc != 3) fail("usage: host_passes face_store OUTDIR FRAME.f32 N FACE");
+    const int n = atoi(argv[1]);
+    const size_t row = 16 * (size_t)n, cube_bytes = 16 * 6 * (size_t)(n + 2) * (size_t)(n + 2);
+    float *frame = (float *)read_file(NULL, argv[0], row * (size_t)n, 0);
+    float *nan = (float *)xmalloc(cube_bytes);
+    for (size_t i = 0; i < cube_bytes / 4; ++i) nan[i] = NAN;
+    void *first = NULL;
+    for (int pitched = 0; pitched < 2; ++pitched) {
+        oclshade_envmap_params p;
+        oclshade_envmap_params_init(&p);
+        p.face = n;
+        p.face_index = atoi(argv[2]);
+        p.cube = buffer(cube_bytes, nan);
+        p.frame = pitched ? pitched_copy(frame, n, row, 64, row + 32) : oclshade_field_of(buffer(row * (size_t)n, frame));
+        size_t bytes = 0;
+        CHECK(oclshade_envmap_scratch_size(lib, &p, &bytes));
+        if ((bytes != 0) != pitched) fail("face_store: scratch only for a pitched frame");
+        p.scratch = scratch_of(bytes);
+        CHECK(oclshade_enqueue_cube_face_store(lib, queue, &p, 0, NULL, NULL));
+        void *cube = read_back(p.cube, cube_bytes);
+        release(p.frame.buffer); release(p.scratch); release(p.cube);
+        if (!pitched) {
+            write_file("face.f32", cube, cube_bytes);
+            first = cube;
+        } else {
+            if (memcmp(cube, first, cube_bytes) != 0) fail("face_store: a pitched frame gives another cube");
+            free(cube);
+        }
+    }
+    free(first); free(frame); free(nan);
+}
+
 /* ------------------------------------------------------------------ main */
 
 int main(int argc, char **argv)
@@ -909,6 +946,7 @@ int main(int argc, char **argv)
     else if (strcmp(argv[1], "horizon") == 0) run_horizon(argc - 3, argv + 3);
     else if (strcmp(argv[1], "sunshine") == 0) run_sunshine(argc - 3, argv + 3);
     else if (strcmp(argv[1], "envmap") == 0) run_envmap(argc - 3, argv + 3);
+    else if (strcmp(argv[1], "face_store") == 0) run_face_store(argc - 3, argv + 3);
     else fail("unknown command");
     oclshade_destroy(lib);
     clReleaseCommandQueue(queue);
