@@ -15,14 +15,22 @@ Writes bench/results/solar.{md,json,png} (``--out`` to change).  Per map and for
   band it must stay within (:func:`~oclshade.reference.angle_tolerance`) and the
   count of cells outside it (0 = exact);
 * **GRASS r.horizon** (``grass-core``; skipped with the reason when absent): run in
-  a throwaway location (``grass --tmp-location EPSG:32604``), the heights imported
-  with r.in.ascii on the same cell sizes (dx, dy), ``r.horizon -d step=360/N`` (its
-  directions counter-clockwise from east are converted to azimuths); time of the
-  r.horizon call alone (import and export outside it) and its difference from
-  oclshade's exact angles on every cell where both see terrain.  r.horizon always
-  lowers distant terrain by the Earth's curvature (checked: a 500 m tower 30 km
-  away on flat ground reads 0.81998 degrees, the curved value, not 0.95484), so
-  it is compared with oclshade's ``Curvature()`` run (timed too);
+  a throwaway location (``grass --tmp-location EPSG:3857``: spherical Mercator, the
+  map centred on the equator and the prime meridian, so that r.horizon's correction
+  of directions for the projection is nil: no meridian convergence, and its
+  latitude/longitude steps are on a sphere), the float32 heights imported
+  losslessly with r.in.bin on the same cell sizes (dx, dy) with a one-cell border
+  of nulls on the west and south (see :func:`run_grass`), ``r.horizon -d
+  step=360/N`` (its directions counter-clockwise from east are converted to
+  azimuths); time of the r.horizon call alone (import and export outside it) and
+  its difference from oclshade's exact angles on every cell where both see
+  terrain, in all and split into the near field (either angle set within one cell
+  of the cell) and the far field (docs/solar.md, "r.horizon").  Maps with nodata
+  are compared with their voids filled (:func:`fill_voids`, both sides): the two
+  models differ there by design.  r.horizon always lowers distant terrain by the
+  Earth's curvature (checked: a 500 m tower 30 km away on flat ground reads
+  0.81998 degrees, the curved value, not 0.95484), so it is compared with
+  oclshade's ``Curvature()`` run (timed too);
 * **sky-view factor**: oclshade's solid-angle SVF (the definition RVT uses) from the
   same horizons against ``rvt.vis.sky_view_factor`` (PyPI ``rvt-py``, the bench
   extra; it requires the GDAL Python bindings, which build only where GDAL's
@@ -100,7 +108,8 @@ def reference_error(hm: Heightmap, angles: np.ndarray, samples: int, seed: int =
 
 # ----------------------------------------------------------------------------- GRASS r.horizon
 GRASS_SCRIPT = """set -e
-r.in.ascii input={ascii} output=dem --quiet
+r.in.bin -f input={binary} output=dem bytes=4 order=native north={north!r} south={south!r} \
+  east={east!r} west={west!r} rows={rows} cols={cols} anull=-9999 --quiet
 g.region raster=dem
 start=$(date +%s.%N)
 r.horizon -d elevation=dem step={step} start=0 end=360 output=hz --quiet
@@ -112,6 +121,8 @@ for m in $(g.list raster pattern="hz_*"); do
   i=$((i + 1))
 done
 """
+#: r.horizon's Earth radius (raster/r.horizon/main.c, EARTHRADIUS): it lowers terrain by d^2 / 2R
+GRASS_EARTH_RADIUS = 6371000.0
 
 
 def grass_version() -> str | None:
@@ -122,36 +133,182 @@ def grass_version() -> str | None:
     return ((proc.stdout + proc.stderr).strip().splitlines() or ["?"])[0]
 
 
+def fill_voids(heights: np.ndarray) -> np.ndarray:
+    """A copy with every nodata (NaN) cell set to the mean of its valid 4-neighbours, ring by ring
+    inwards from the voids' borders.  r.horizon reads nodata as a height of -9999 m and samples
+    the valid cells at a void's border, where oclshade's surface drops every patch touching a void;
+    the peer comparison runs on the filled map so that both see the same terrain."""
+    h = np.array(heights, np.float64)
+    if np.isnan(h).all():
+        raise ValueError("heights has no valid cell to fill the voids from")
+    while True:
+        void = np.isnan(h)
+        if not void.any():
+            return h.astype(np.float32)
+        total, count = np.zeros_like(h), np.zeros_like(h)
+        for axis, shift in ((0, 1), (0, -1), (1, 1), (1, -1)):
+            nb = np.roll(h, shift, axis)
+            edge = [slice(None)] * 2
+            edge[axis] = 0 if shift == 1 else -1          # np.roll wraps around: no neighbour there
+            nb[tuple(edge)] = np.nan
+            ok = ~np.isnan(nb)
+            total += np.where(ok, nb, 0.0)
+            count += ok
+        fill = void & (count > 0)
+        h[fill] = total[fill] / count[fill]
+
+
 def run_grass(hm: Heightmap, n: int) -> dict:
-    """r.horizon's angles as (n, rows, cols) azimuth-ordered (band i at 360 i / n), and its time."""
+    """r.horizon's angles as (n, rows, cols) azimuth-ordered (band i at 360 i / n), and its time.
+
+    The map gets a one-cell border of nulls on its west and south sides: r.horizon tests "outside
+    the map" on its sample's cell index truncated towards zero ((int)(x / dx + 0.5)), so without
+    the border a sample up to one cell beyond the west or south edge reads the edge column or row
+    (terrain that is not there, at the distance of that cell's centre: up to 90 degrees off near
+    those edges; docs/solar.md).  With it such a sample reads a null (-9999 m: never the horizon
+    unless it is the only sample), as past the north and east edges, where the test is exact.
+    """
     rows, cols = hm.shape
+    padded = np.full((rows + 1, cols + 1), -9999.0, np.float32)     # row 0 is north: the border is
+    padded[:rows, 1:] = np.nan_to_num(hm.heights, nan=-9999.0)     # the last row and column 0
+    north, west = (rows + 1) * hm.dy / 2.0, -(cols + 1) * hm.dx / 2.0     # centred on (0, 0)
     with tempfile.TemporaryDirectory(prefix="oclshade-grass-") as tmp:
-        ascii_path = Path(tmp) / "dem.txt"
-        west, south = 500000.0, 2400000.0
-        with open(ascii_path, "w") as f:
-            f.write(f"north: {south + rows * hm.dy!r}\nsouth: {south!r}\neast: {west + cols * hm.dx!r}\n"
-                    f"west: {west!r}\nrows: {rows}\ncols: {cols}\nnull: -9999\ntype: double\n")
-            np.savetxt(f, np.nan_to_num(hm.heights, nan=-9999.0), fmt="%.3f")
+        binary = Path(tmp) / "dem.bin"
+        padded.tofile(binary)
         script = Path(tmp) / "run.sh"
-        script.write_text(GRASS_SCRIPT.format(ascii=ascii_path, step=repr(360.0 / n), out=tmp))
-        proc = subprocess.run(["grass", "--tmp-location", "EPSG:32604", "--exec", "bash", str(script)],
+        script.write_text(GRASS_SCRIPT.format(
+            binary=binary, north=north, south=north - (rows + 1) * hm.dy, west=west,
+            east=west + (cols + 1) * hm.dx, rows=rows + 1, cols=cols + 1, step=repr(360.0 / n), out=tmp))
+        proc = subprocess.run(["grass", "--tmp-location", "EPSG:3857", "--exec", "bash", str(script)],
                               capture_output=True, text=True)
         lines = [ln for ln in proc.stdout.splitlines() + proc.stderr.splitlines() if "RHORIZON_SECONDS" in ln]
         if proc.returncode != 0 or not lines:
             raise RuntimeError(f"grass failed ({proc.returncode}): {proc.stderr.strip()[-500:]}")
-        ccw = np.stack([np.fromfile(Path(tmp) / f"{i}.bin", np.float32).reshape(rows, cols) for i in range(n)])
+        ccw = np.stack([np.fromfile(Path(tmp) / f"{i}.bin", np.float32).reshape(rows + 1, cols + 1)[:rows, 1:]
+                        for i in range(n)])
     ccw[ccw == -9999.0] = np.nan
     # map i is direction i * 360/n counter-clockwise from east = azimuth 90 - that
     order = [int(round(((90.0 - az) % 360.0) / (360.0 / n))) % n for az in azimuth_grid(n)]
     return {"seconds": float(lines[-1].split()[-1]), "angles": ccw[order]}
 
 
-def peer_difference(ours: np.ndarray, theirs: np.ndarray) -> dict:
-    both = np.isfinite(ours) & np.isfinite(theirs) & (ours > -90.0) & (theirs > -90.0)   # both see terrain
-    d = (theirs - ours)[both].astype(np.float64)
-    return {"cells": int(both.sum()), "mean_deg": float(d.mean()), "mean_abs_deg": float(np.abs(d).mean()),
+def grass_first_sample(heights: np.ndarray, dx: float, dy: float, azimuth: float) -> np.ndarray:
+    """The angle (degrees) r.horizon gives each cell's first sample at ``azimuth``: the cell nearest
+    to the point one step ((dx + dy) / 2) from the cell's centre along the azimuth (further steps
+    while that is the cell itself), seen at the distance of its centre, lowered by r.horizon's
+    curvature; NaN where that cell is off the map."""
+    a = np.radians(90.0 - azimuth)                   # r.horizon's direction: counter-clockwise from east
+    c, s = np.cos(a), np.sin(a)
+    c, s = (0.0 if abs(c) < 1e-7 else c), (0.0 if abs(s) < 1e-7 else s)
+    step, m = 0.5 * (dx + dy), 1
+    while True:
+        dj, dn = int(np.floor(0.5 + m * step * c / dx)), int(np.floor(0.5 + m * step * s / dy))
+        if (dj, dn) != (0, 0):
+            break
+        m += 1
+    di = -dn                                         # rows count southwards
+    length = float(np.hypot(dj * dx, dn * dy))
+    h = np.asarray(heights, np.float64)
+    rows, cols = h.shape
+    z = np.full(h.shape, np.nan)
+    r0, r1, c0, c1 = max(0, -di), rows - max(0, di), max(0, -dj), cols - max(0, dj)
+    if r0 < r1 and c0 < c1:
+        z[r0:r1, c0:c1] = h[r0 + di:r1 + di, c0 + dj:c1 + dj]
+    drop = length * length / (2.0 * GRASS_EARTH_RADIUS)
+    return np.degrees(np.arctan((z - h - drop) / length))
+
+
+def near_horizon(hm: Heightmap, azimuth: float, curvature: float, reach: float = 1.5,
+                 samples: int = 16) -> np.ndarray:
+    """A lower bound (degrees) of the highest angle of the bilinear surface within ``reach`` cells
+    of each cell along ``azimuth`` (the first patch the ray crosses and its exit): the surface
+    sampled at t = 1e-6 and 1e-3 cell, every 1 / samples cell, and where the ray crosses grid lines
+    (the kinks of the profile), in units of the smaller cell size; -inf where it leaves the map."""
+    h = hm.heights.astype(np.float64)
+    rows, cols = h.shape
+    ux, uy = np.sin(np.radians(azimuth)) / hm.dx, -np.cos(np.radians(azimuth)) / hm.dy   # cells per metre
+    cell = min(hm.dx, hm.dy)
+    ts = [1e-6 * cell, 1e-3 * cell] + list(np.arange(1, int(reach * samples) + 1) / samples * cell)
+    ts += [k / abs(u) for u in (ux, uy) if abs(u) > 1e-12 for k in (1, 2) if k / abs(u) <= reach * cell]
+    ii, jj = np.indices(h.shape, dtype=np.float64)
+    best = np.full(h.shape, -np.inf)
+    for t in sorted(ts):
+        x, y = jj + ux * t, ii + uy * t
+        inside = (x >= 0) & (x <= cols - 1) & (y >= 0) & (y <= rows - 1)
+        x, y = np.clip(x, 0, cols - 1), np.clip(y, 0, rows - 1)
+        x0, y0 = np.minimum(x.astype(np.int64), cols - 2), np.minimum(y.astype(np.int64), rows - 2)
+        fx, fy = x - x0, y - y0
+        s = (h[y0, x0] * (1 - fx) * (1 - fy) + h[y0, x0 + 1] * fx * (1 - fy)
+             + h[y0 + 1, x0] * (1 - fx) * fy + h[y0 + 1, x0 + 1] * fx * fy)
+        tangent = np.where(inside, (s - h - curvature * t * t) / t, -np.inf)
+        best = np.fmax(best, tangent)
+    return np.degrees(np.arctan(best))
+
+
+def grass_rim_samples(heights: np.ndarray, dx: float, dy: float, azimuth: float) -> np.ndarray:
+    """The highest angle (degrees) r.horizon gives each cell's samples in the rim of the map, the
+    half cell between the outermost cell centres (where oclshade's bilinear surface ends) and the
+    map's border (where r.horizon's cells end); -inf where none.  A sample there reads the edge
+    cell, seen at the distance of its centre (as :func:`grass_first_sample`)."""
+    h = np.asarray(heights, np.float64)
+    rows, cols = h.shape
+    a = np.radians(90.0 - azimuth)
+    c, s = np.cos(a), np.sin(a)
+    c, s = (0.0 if abs(c) < 1e-7 else c), (0.0 if abs(s) < 1e-7 else s)
+    step = 0.5 * (dx + dy)
+    vx, vy = step * c / dx, -step * s / dy            # cells per step, columns east and rows south
+    ii, jj = np.indices(h.shape, dtype=np.float64)
+
+    def exits(p: np.ndarray, v: float, size: int) -> tuple[np.ndarray, np.ndarray]:
+        """First step off the outermost centres, first step off the map, along one axis."""
+        if v == 0.0:
+            return np.full(p.shape, np.inf), np.full(p.shape, np.inf)
+        if v > 0:
+            return np.floor((size - 1 - p) / v) + 1, np.ceil((size - 0.5 - p) / v)
+        return np.floor(p / -v) + 1, np.floor((p + 0.5) / -v) + 1
+
+    m1x, m2x = exits(jj, vx, cols)
+    m1y, m2y = exits(ii, vy, rows)
+    m1, m2 = np.minimum(m1x, m1y), np.minimum(m2x, m2y)
+    best = np.full(h.shape, -np.inf)
+    span = m2 - m1
+    for k in range(int(span[np.isfinite(span)].max(initial=0.0))):
+        m = m1 + k
+        ok = m < m2
+        x, y = jj + m * vx, ii + m * vy
+        col = np.clip(np.floor(x + 0.5), 0, cols - 1).astype(np.int64)
+        row = np.clip(np.ceil(y - 0.5), 0, rows - 1).astype(np.int64)     # r.horizon rounds south-up
+        length = np.hypot((col - jj) * dx, (row - ii) * dy)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            angle = (h[row, col] - h - length * length / (2.0 * GRASS_EARTH_RADIUS)) / length
+        best = np.where(ok & (length > 0), np.fmax(best, angle), best)
+    return np.degrees(np.arctan(best))
+
+
+def _summary(d: np.ndarray) -> dict:
+    if d.size == 0:
+        return {"cells": 0}
+    return {"cells": int(d.size), "mean_deg": float(d.mean()), "mean_abs_deg": float(np.abs(d).mean()),
             "rms_deg": float(np.sqrt((d * d).mean())), "p99_abs_deg": float(np.percentile(np.abs(d), 99)),
             "max_abs_deg": float(np.abs(d).max())}
+
+
+def peer_difference(hm: Heightmap, ours: np.ndarray, theirs: np.ndarray, curvature: float) -> dict:
+    """r.horizon - oclshade (degrees) on the cells where both see terrain: all of them, then split
+    in three classes (docs/solar.md, "r.horizon"): ``near``, r.horizon's angle is its first
+    sample's (the cell nearest one step away, off the ray by up to half a cell) or oclshade's is
+    reached within 1.5 cells (:func:`near_horizon`); ``rim``, else r.horizon's angle is set by a sample in the half cell
+    of map past the outermost cell centres, beyond oclshade's surface; ``far``, the rest."""
+    both = np.isfinite(ours) & np.isfinite(theirs) & (ours > -90.0) & (theirs > -90.0)   # both see terrain
+    near, rim = np.zeros(ours.shape, bool), np.zeros(ours.shape, bool)
+    for k, az in enumerate(azimuth_grid(ours.shape[0])):
+        with np.errstate(invalid="ignore"):
+            near[k] = ((np.abs(grass_first_sample(hm.heights, hm.dx, hm.dy, az) - theirs[k]) <= 1e-4)
+                       | (ours[k] <= near_horizon(hm, az, curvature) + 0.05))
+            rim[k] = grass_rim_samples(hm.heights, hm.dx, hm.dy, az) >= theirs[k] - 1e-4
+    d = (theirs - ours).astype(np.float64)
+    return {**_summary(d[both]), "near": _summary(d[both & near]), "rim": _summary(d[both & ~near & rim]),
+            "far": _summary(d[both & ~near & ~rim])}
 
 
 # ----------------------------------------------------------------------------- sky-view factor
@@ -195,18 +352,21 @@ def run(reduced: bool, samples: int, svf_crop: int, rvt_radius: int) -> dict:
     for name, hm in maps(reduced).items():
         print(f"{name}: {hm.shape[1]}x{hm.shape[0]}, dx {hm.dx:.2f} dy {hm.dy:.2f}", flush=True)
         caster = HorizonCaster(hm, rt, cache=False)
-        curved_caster = HorizonCaster(hm, rt, cache=False, curvature=Curvature())
+        voids = int(np.isnan(hm.heights).sum())
+        peer_map = Heightmap.from_array(fill_voids(hm.heights), (hm.dx, hm.dy)) if voids else hm
+        curved_caster = HorizonCaster(peer_map, rt, cache=False, curvature=Curvature())
         for c in (caster, curved_caster):
             c.horizons([0.0])             # warm-up: pyramid and kernel build
-        entry = {"shape": list(hm.shape), "dx": hm.dx, "dy": hm.dy, "runs": {}}
+        entry = {"shape": list(hm.shape), "dx": hm.dx, "dy": hm.dy, "voids_filled_for_peers": voids, "runs": {}}
         for n in AZIMUTH_COUNTS:
             seconds, angles = time_ours(caster, n)
             row = {"oclshade_s": seconds, "reference": reference_error(hm, angles, samples)}
             if gv:     # r.horizon lowers distant terrain by the Earth's curvature: so does this run
                 row["oclshade_curved_s"], curved = time_ours(curved_caster, n)
-                g = run_grass(hm, n)
+                g = run_grass(peer_map, n)
                 row["grass_s"] = g["seconds"]
-                row["grass_vs_oclshade"] = peer_difference(curved, g["angles"])
+                row["grass_vs_oclshade"] = peer_difference(peer_map, curved, g["angles"],
+                                                           curved_caster.coefficient)
             ours_svf = ref.sky_view_factor(angles, "solid-angle")
             if rvt_ok:
                 for radius in (10, rvt_radius):
@@ -219,6 +379,12 @@ def run(reduced: bool, samples: int, svf_crop: int, rvt_radius: int) -> dict:
         entry["svf_error_of_n"] = svf_errors(hm, svf_crop)
         result["maps"][name] = entry
     return result
+
+
+def _class_cell(c: dict) -> str:
+    if not c["cells"]:
+        return "0"
+    return f"{c['cells']}: {c['mean_abs_deg']:.3f} / {c['p99_abs_deg']:.2f} / {c['max_abs_deg']:.1f}"
 
 
 def markdown(res: dict) -> str:
@@ -241,11 +407,28 @@ def markdown(res: dict) -> str:
                          f"{r['max_abs_deg']:.2e} ({r['cells']} cells) | {r['band_deg']:.2e} | {r['outside_band']} | "
                          f"{grass} | {rvt} |")
     lines += ["", "oclshade's angles are held to the float64 reference on the sampled cells (outside band = 0: "
-              "exact). r.horizon and RVT are peers with their own surface models (nearest or interpolated "
-              "samples at steps from the cell; RVT: within its radius, nearest cells, mirrored edges), so their "
-              "differences are reported, not asserted; the large maxima sit where a steep near field sets the "
-              "horizon (not investigated cell by cell).",
-              "", "Error of N azimuths: mean / max |SVF(N) - SVF(1024)| on a centre crop.", "",
+              "exact). r.horizon and RVT are peers with their own surface models, so their differences are "
+              "reported, not asserted. r.horizon runs on the map with its voids filled (both sides; "
+              "`fill_voids`), in a spherical Mercator location centred on the equator (no correction of its "
+              "directions) with a null border on the west and south (its edge test reads one cell past those "
+              "edges); differences split by class below, explained in docs/solar.md, \"r.horizon\". RVT: "
+              "nearest cells within its radius, mirrored edges.", ""]
+    if any("grass_vs_oclshade" in row for e in res["maps"].values() for row in e["runs"].values()):
+        lines += ["r.horizon - oclshade curved by class, cells and mean / p99 / max |difference| (deg): *near*, "
+                  "r.horizon's angle is its first sample's (the nearest cell one step away, off the ray by up to "
+                  "half a cell, at the distance of its centre) or oclshade's is reached within 1.5 cells (its "
+                  "bilinear surface's slope at the cell); *rim*, r.horizon's angle comes from the half cell of map "
+                  "past the outermost cell centres, where oclshade's surface ends; *far*, the rest (nearest-cell "
+                  "samples further out on steep ground; r.horizon's 100x100-cell skip, which misses terrain "
+                  "under a negative horizon).", "",
+                  "| map | N | voids filled | all | near | rim | far |", "|---|---|---|---|---|---|---|"]
+        for name, e in res["maps"].items():
+            for n, row in e["runs"].items():
+                g = row.get("grass_vs_oclshade")
+                if g:
+                    lines.append(f"| {name} {e['shape'][1]}x{e['shape'][0]} | {n} | {e['voids_filled_for_peers']} | "
+                                 + " | ".join(_class_cell(c) for c in (g, g["near"], g["rim"], g["far"])) + " |")
+    lines += ["", "Error of N azimuths: mean / max |SVF(N) - SVF(1024)| on a centre crop.", "",
               "| map | definition | " + " | ".join(f"N = {n}" for n in SVF_COUNTS) + " |",
               "|---|---|" + "---|" * len(SVF_COUNTS)]
     for name, e in res["maps"].items():
