@@ -19,10 +19,17 @@
  *   out = round(255 * srgb(mean)), alpha 255.
  * With -D OCLS_LINEAR the samples are not clamped and the mean is written as linear light,
  *   out = (mean, 1)  (float4; high dynamic range: what generated cube maps store, paper 002).
+ * With -D OCLS_POINT_LIGHT the light is a point light (docs/meshes.md "Point lights"): sun.xyz
+ * is its view-space position L, and per sample, p the sample's view-space position,
+ *   d2 = |L - p|^2,  s = (L - p) / sqrt(d2),
+ *   direct = sun.w * g * max(n.s, 0) * shadow,  g = falloff / d2 if falloff > 0, else 1
+ * (falloff = r0^2: sun.w is the irradiance on a plane facing the light r0 metres away,
+ * inverse-square beyond; 0: no falloff); direct = 0 where d2 = 0.  Without the option the
+ * program is the sun's, token for token (the sun's frames bit for bit).
  *
  * ABI
  *   compose(position, normal, albedo, width, height, ssaa, sun, sky, up, background,
- *           [shadow], [ao], out)
+ *           [falloff], [shadow], [ao], out)
  *   global size >= width * height (1-D), any local size; one work-item per output pixel.
  *     __global const float4 *position, *normal, *albedo   G-buffer fields (oclshade/gbuffer.py),
  *                              (height ssaa) x (width ssaa) samples, row-major
@@ -32,11 +39,13 @@
  *     float4 sky               sky irradiance on a horizontal plane (rgb)
  *     float4 up                view-space unit vector of world up (xyz)
  *     float4 background        linear colour of empty samples (rgb)
+ *     float falloff            r0^2 of the point light's falloff (0: none), only with
+ *                              -D OCLS_POINT_LIGHT (then sun = view-space position, intensity)
  *     __global const float *shadow   one float per sample, only with -D OCLS_SHADOW
  *     __global const float *ao       one float per sample, only with -D OCLS_AO
  *     __global uchar4 *out     width * height sRGB pixels (r, g, b, 255); with -D OCLS_LINEAR
  *                              __global float4 *out, width * height linear pixels (r, g, b, 1)
- *   -D options: OCLS_SHADOW, OCLS_AO, OCLS_LINEAR.
+ *   -D options: OCLS_SHADOW, OCLS_AO, OCLS_LINEAR, OCLS_POINT_LIGHT (Python host only for now).
  */
 #include "common.h"
 
@@ -49,6 +58,9 @@ OCLS_INLINE float srgb_encode(float c)
 __kernel void compose(__global const float4 *position, __global const float4 *normal,
                       __global const float4 *albedo, const int width, const int height, const int ssaa,
                       const float4 sun, const float4 sky, const float4 up, const float4 background,
+#ifdef OCLS_POINT_LIGHT
+                      const float falloff,
+#endif
 #ifdef OCLS_SHADOW
                       __global const float *shadow,
 #endif
@@ -71,7 +83,15 @@ __kernel void compose(__global const float4 *position, __global const float4 *no
             float3 c = background.xyz;
             if (position[p].w > 0.5f) {
                 const float3 n = normal[p].xyz;
+#ifdef OCLS_POINT_LIGHT
+                const float3 l = sun.xyz - position[p].xyz;
+                const float d2 = dot(l, l);
+                float direct = 0.0f;
+                if (d2 > 0.0f)
+                    direct = sun.w * (falloff > 0.0f ? falloff / d2 : 1.0f) * fmax(dot(n, l / sqrt(d2)), 0.0f);
+#else
                 float direct = sun.w * fmax(dot(n, sun.xyz), 0.0f);
+#endif
                 float diffuse = 0.5f * (1.0f + dot(n, up.xyz));
 #ifdef OCLS_SHADOW
                 direct = direct * shadow[p];

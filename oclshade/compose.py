@@ -13,6 +13,12 @@ terrain's smooth shading normals, :meth:`oclshade.terrain.TerrainRenderer.shadin
 The G-buffer may be on the host (:class:`~oclshade.gbuffer.GBuffer`) or on the device
 (:class:`~oclshade.terrain.DeviceGBuffer`).  Kernel: ``kernels/compose.cl`` (the formulas);
 twin: :func:`oclshade.reference.compose`.
+
+The light (``Lighting.sun``) is the sun or a :class:`oclshade.lights.PointLight` (-D
+OCLS_POINT_LIGHT; the sun's program is unchanged): per sample the unit vector from the
+surface point to the light (view space), Lambert, and the inverse-square falloff about the
+light's reference ``distance`` r0, ``sun_intensity (r0 / d)^2`` at d metres (none when
+``distance`` is None).
 """
 from __future__ import annotations
 
@@ -23,28 +29,31 @@ import pyopencl as cl
 
 from .camera import Camera
 from .gbuffer import GBuffer
+from .lights import LightLike, PointLight, as_light
 from .runtime import Runtime, get_runtime
-from .sun import Sun, SunLike, as_sun
+from .sun import Sun
 from .terrain import DeviceGBuffer
 
 
 @dataclass(frozen=True)
 class Lighting:
-    """Sun (gdaldem words: azimuth, elevation in degrees) and sky, linear RGB.
+    """The light and the sky, linear RGB.  ``sun``: the light, a sun (gdaldem words: azimuth,
+    elevation in degrees) or a :class:`oclshade.lights.PointLight`.
 
-    ``sun_intensity``: the sun's irradiance on a plane facing it; ``sky``: the sky's
+    ``sun_intensity``: the light's irradiance on a plane facing it (a point light: at its
+    reference distance, inverse-square beyond; everywhere without one); ``sky``: the sky's
     irradiance on an unoccluded horizontal plane (a tilted plane gets (1 + cos tilt) / 2 of
     it).  The defaults keep the clear-sky ratio of diffuse horizontal to direct normal
     irradiance, about 0.12 (sky luminance 0.24 to the sun's 2.0; docs/methods.md "Image
     quality in render"), so a cast shadow on sunlit ground keeps only the sky's share."""
 
-    sun: SunLike = (315.0, 45.0)
+    sun: LightLike = (315.0, 45.0)
     sun_intensity: float = 2.0
     sky: tuple[float, float, float] = (0.21, 0.24, 0.30)
     background: tuple[float, float, float] = (0.45, 0.62, 0.85)
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "sun", as_sun(self.sun))
+        object.__setattr__(self, "sun", as_light(self.sun))
         for name in ("sky", "background"):
             v = np.asarray(getattr(self, name), float)
             if v.shape != (3,) or not np.all(np.isfinite(v)) or v.min() < 0:
@@ -54,8 +63,22 @@ class Lighting:
 
     def sun_view(self, camera: Camera) -> np.ndarray:
         """Unit vector towards the sun in view space."""
-        assert isinstance(self.sun, Sun)
+        if not isinstance(self.sun, Sun):
+            raise TypeError("sun_view: the light is a point light; its view-space position is light_view")
         return camera.rotation @ np.array(self.sun.vector())
+
+    def light_view(self, camera: Camera) -> np.ndarray:
+        """compose.cl's ``sun`` xyz: the unit vector towards the sun, or the point light's
+        view-space position (float64, rounded once by the caller), in view space."""
+        if isinstance(self.sun, PointLight):
+            return camera.view[:3, :3] @ self.sun.position + camera.view[:3, 3]
+        return self.sun_view(camera)
+
+    @property
+    def falloff(self) -> float:
+        """compose.cl's ``falloff``: the point light's reference distance squared, 0 for none."""
+        d = self.sun.distance if isinstance(self.sun, PointLight) else None
+        return 0.0 if d is None else d * d
 
     @staticmethod
     def up_view(camera: Camera) -> np.ndarray:
@@ -68,9 +91,11 @@ class ComposeFeatures:
     shadow: bool = False
     ao: bool = False
     linear: bool = False
+    point: bool = False
 
     def defines(self) -> dict[str, object]:
-        return {"OCLS_SHADOW": self.shadow, "OCLS_AO": self.ao, "OCLS_LINEAR": self.linear}
+        return {"OCLS_SHADOW": self.shadow, "OCLS_AO": self.ao, "OCLS_LINEAR": self.linear,
+                "OCLS_POINT_LIGHT": self.point}
 
 
 def _factor(rt: Runtime, value: object, shape: tuple[int, int], name: str) -> cl.Buffer | None:
@@ -151,13 +176,15 @@ def _enqueue(gbuffer: GBuffer | DeviceGBuffer, camera: Camera, lighting: Lightin
     extra = [b for b in (_factor(rt, shadow, shape, "shadow"), _factor(rt, ao, shape, "ao")) if b is not None]
     size = (shape[0] // ssaa, shape[1] // ssaa)
     n = size[0] * size[1]
-    features = ComposeFeatures(shadow is not None, ao is not None, linear)
+    point = isinstance(lighting.sun, PointLight)
+    features = ComposeFeatures(shadow is not None, ao is not None, linear, point)
     kernel = rt.kernel("compose.cl", "compose", features.defines())
     out = rt.empty((16 if linear else 4) * n, "linear frame" if linear else "frame")
     f4 = lambda *v: np.array(v, np.float32)  # noqa: E731
     kernel.set_args(pos, nrm, alb, np.int32(size[1]), np.int32(size[0]), np.int32(ssaa),
-                    f4(*lighting.sun_view(camera), lighting.sun_intensity), f4(*lighting.sky, 0.0),
-                    f4(*lighting.up_view(camera), 0.0), f4(*lighting.background, 0.0), *extra, out)
+                    f4(*lighting.light_view(camera), lighting.sun_intensity), f4(*lighting.sky, 0.0),
+                    f4(*lighting.up_view(camera), 0.0), f4(*lighting.background, 0.0),
+                    *([np.float32(lighting.falloff)] if point else []), *extra, out)
     local = rt.local_size(kernel, 64)
     cl.enqueue_nd_range_kernel(rt.queue, kernel, (-(-n // local) * local,), (local,))
     return rt, out, size

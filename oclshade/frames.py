@@ -39,11 +39,12 @@ import pyopencl as cl
 
 from .camera import MAX_SIDE, Camera
 from .compose import Lighting, check_ssaa, compose
+from .lights import LightLike, PointLight, as_light
 from .runtime import Runtime
 from .screen_shadows import LodOptions, ScreenShadowCaster
 from .shadows import check_coefficients
 from .ssao import DEFAULT_FEATURES, DEFAULT_M, SSAO, AOFeatures, AOInputs, check_params
-from .sun import Sun, SunLike, as_sun
+from .sun import Sun
 from .terrain import DeviceGBuffer, Heightfield, TerrainRenderer
 
 PASSES = ("gbuffer", "normals", "shadows", "ao", "compose")
@@ -155,9 +156,17 @@ class TerrainScene:
             self._ssao = SSAO(self.runtime)
         return self._ssao
 
-    def frame(self, camera: Camera, sun: SunLike, settings: FrameSettings = FrameSettings()) -> Frame:
-        """Render one frame; passes whose inputs are unchanged since the last frame are reused."""
-        sun = as_sun(sun)
+    #: whether :meth:`frame` takes a point light (ObjectScene's passes; TerrainScene's are sun-only)
+    POINT_LIGHTS = False
+
+    def frame(self, camera: Camera, sun: LightLike, settings: FrameSettings = FrameSettings()) -> Frame:
+        """Render one frame; passes whose inputs are unchanged since the last frame are reused.
+        ``sun``: the light, a sun or (:class:`oclshade.scene.ObjectScene` only) a
+        :class:`oclshade.lights.PointLight`; it keys the shadows and compose passes."""
+        sun = as_light(sun)
+        if isinstance(sun, PointLight) and not self.POINT_LIGHTS:
+            raise ValueError(f"sun: {type(self).__name__}'s passes are sun-only; render a point light with "
+                             "oclshade.scene.ObjectScene (docs/meshes.md \"Point lights\")")
         lighting = replace(settings.lighting, sun=sun)
         ao_on = settings.ao is not None and settings.ao.radius > 0 and settings.ao.m > 0
         camera = supersampled(camera, settings.ssaa)

@@ -60,17 +60,17 @@ def run_terrain(hm: Heightmap, world: np.ndarray, ids: np.ndarray, light: PointL
     return read(coef, len(world))
 
 
-def twin_terrain(hm: Heightmap, world32: np.ndarray, ids: np.ndarray, light: PointLight
-                 ) -> tuple[np.ndarray, np.ndarray]:
+def twin_terrain(hm: Heightmap, view32: np.ndarray, ids: np.ndarray, light: PointLight,
+                 camera: Camera = CAMERA) -> tuple[np.ndarray, np.ndarray]:
     """(occluded, tie) per point from the float32 G-buffer positions as the device sees them:
     ties are the points whose float64 verdict changes when the start or the light moves by the
     float32 rounding of their heightmap coordinates (64 eps of the sizes involved)."""
-    world = (world32.astype(float) - CAMERA.view[:3, 3]) @ CAMERA.rotation      # view -> world, float64
+    world = (view32.astype(float) - camera.view[:3, 3]) @ camera.rotation      # view -> world, float64
     m = heightmap_from_world(hm)
     q = world @ m[:3, :3].T + m[:3, 3]
     lq = m[:3, :3] @ light.position + m[:3, 3]
     rel = hm.relative32.astype(float)
-    size = np.abs(q) + np.abs(lq) + np.linalg.norm(world32, axis=1)[:, None] / min(hm.dx, hm.dy) \
+    size = np.abs(q) + np.abs(lq) + np.linalg.norm(view32, axis=1)[:, None] / min(hm.dx, hm.dy) \
         + np.nanmax(np.abs(rel))
     out, tie = np.zeros(len(q), bool), np.zeros(len(q), bool)
     for i in range(len(q)):
@@ -131,7 +131,8 @@ def test_terrain_segment_shadows_match_the_twin(seed):
     surf = np.stack([u * hm.dx, -v * hm.dy, np.where(on, z, 0.0)], 1)[on]
     world = np.concatenate([free, surf])
     ids = np.concatenate([rng.choice([1, -1], n), np.zeros(len(surf), int)])
-    light = PointLight((rng.uniform(-20, 100), rng.uniform(-140, 20), rng.uniform(15, 90)))
+    top = float(np.nanmax(hm.heights))
+    light = PointLight((rng.uniform(-20, 100), rng.uniform(-140, 20), top + rng.uniform(-10, 40)))
     got = run_terrain(hm, world, ids, light)
     view32 = (world @ CAMERA.rotation.T + CAMERA.view[:3, 3]).astype(np.float32)
     want, tie = twin_terrain(hm, view32, ids, light)
@@ -141,7 +142,7 @@ def test_terrain_segment_shadows_match_the_twin(seed):
     gridded = np.zeros(len(world), bool)
     gridded[n:] = np.flatnonzero(on) < 2 * n // 3
     assert tie[~gridded].mean() < 0.05 and tie.mean() < 0.15
-    assert 0 < want.mean() < 1
+    assert want.any()
 
 
 def test_no_acne_on_a_tilted_plane():

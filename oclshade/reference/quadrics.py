@@ -199,14 +199,14 @@ def terrain_segment_occludes(heights: np.ndarray, start: tuple[float, float, flo
     """Whether the terrain rises strictly above the segment from ``start`` to ``end`` (a point
     light) somewhere with 0 < t <= 1 (kernels/terrain_ray.h terrain_segment_blocks): both in
     heightmap units (u = column, v = row, z relative as ``heights``), heights bilinear between
-    samples, holes and the world beyond the map occlude nothing.  ``surface``: the start is a
-    terrain surface point: its height is the bilinear surface's at (u, v) (its z is not read)
-    on the first valid patch the segment meets within one cell along its major axis (the start
-    patch; a start on a hole's border rounded into the hole gets its neighbour's surface,
-    extended), and f = surface - segment is 0 there, so the segment is blocked at once when
-    f's slope a > 0 (the light below the local surface); a start with no such patch keeps its z.  Every patch the segment's ground track
-    crosses is tested exactly (a quadratic in t); a segment along z tests the patch under
-    the start."""
+    samples, holes and the world beyond the map occlude nothing.  Every patch the segment's
+    ground track crosses is tested exactly (a quadratic in t); a segment along z tests the
+    patch under the start.  ``surface``: the start is a terrain surface point: its height is
+    the bilinear surface's at (u, v) (its z is not read) on the first valid patch the segment
+    meets within one cell along its major axis (the start patch; a start on a hole's border
+    or the map's edge rounded off it gets that patch's surface, extended), and f = surface -
+    segment is 0 there, so the segment is blocked at once when f's slope a > 0 (the light
+    below the local surface); a start with no such patch keeps its z."""
     h = np.asarray(heights, float)
     rows, cols = h.shape
     if rows < 2 or cols < 2:

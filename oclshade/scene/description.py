@@ -1,4 +1,5 @@
-"""Scene files (TOML): terrain, camera, sun, render settings, environment and quadrics.
+"""Scene files (TOML): terrain, camera, light (sun or point), render settings, environment,
+quadrics and meshes.
 
 >>> scene = load_scene("valley.toml")        # a SceneDescription; paths relative to the file
 >>> scene.quadrics[0].material.kind
@@ -26,6 +27,16 @@ silently)::
     [sun]
     azimuth = 315.0              # degrees clockwise from north
     elevation = 45.0
+
+    [[light]]                    # instead of [sun]: exactly one light for now (docs/meshes.md
+    kind = "point"               #   "Point lights"); "point" or "sun"
+    position = [x, y, z]         # point: world metres (over or inside the map, anywhere)
+    intensity = 2.0              # optional: irradiance on a plane facing the light (linear;
+                                 #   default 2.0, the sun's); for a point light at `distance`
+    distance = 500.0             # point, optional: the inverse-square falloff's reference
+                                 #   distance in metres, intensity (distance / d)^2 at d metres;
+                                 #   absent: no falloff
+    # kind = "sun" takes azimuth, elevation (as [sun]) and intensity
 
     [render]
     ssaa = 1                     # samples per pixel along each axis
@@ -78,23 +89,27 @@ else:                                   # pragma: no cover - Python 3.10
     import tomli as tomllib
 
 from ..envmap.materials import Material
+from ..lights import Light, PointLight
 from ..meshes.load import UPS, load_mesh, load_normal_map, load_texture
 from ..meshes.mesh import MeshSurface, TriangleMesh
 from ..quadrics.objects import Quadric
 from ..sun import DEFAULT_AZIMUTH, DEFAULT_ELEVATION, Sun
 
-SECTIONS = ("terrain", "camera", "sun", "render", "environment", "quadric", "mesh")
+SECTIONS = ("terrain", "camera", "sun", "light", "render", "environment", "quadric", "mesh")
 MATERIAL_KEYS = ("material", "colour", "roughness", "fresnel")
 _KEYS = {
     "terrain": ("dem", "cellsize", "z_factor", "nodata", "radius"),
     "camera": ("position", "look_at", "view", "fov", "size"),
     "sun": ("azimuth", "elevation"),
+    "light": ("kind", "position", "azimuth", "elevation", "intensity", "distance"),
     "render": ("ssaa", "shadows", "ao", "mesh_shadows"),
     "environment": ("file", "layout", "size", "rotation", "intensity", "background", "generate"),
     "quadric": ("kind", "centre", "radius", "radii", "height", "axis") + MATERIAL_KEYS,
     "mesh": ("file", "up", "translate", "scale", "rotate_z", "cast_shadows", "colour", "texture", "alpha_cutoff",
              "normal_map"),
 }
+#: the keys each [[light]] kind takes (kind besides)
+_LIGHT_KEYS = {"point": ("position", "intensity", "distance"), "sun": ("azimuth", "elevation", "intensity")}
 #: which size keys each quadric kind takes
 _SHAPE_KEYS = {"sphere": ("radius",), "ellipsoid": ("radii",), "cylinder": ("radius", "height"),
                "paraboloid": ("radius", "height")}
@@ -148,11 +163,17 @@ class SceneDescription:
     path: Path
     terrain: TerrainSpec | None                 # None: no terrain (objects only)
     camera: CameraSpec = CameraSpec()
-    sun: Sun = Sun(DEFAULT_AZIMUTH, DEFAULT_ELEVATION)
+    light: Light = Sun(DEFAULT_AZIMUTH, DEFAULT_ELEVATION)    # [sun] or the one [[light]]
     render: RenderSpec = RenderSpec()
     environment: EnvironmentSpec | None = None
     quadrics: tuple[Quadric, ...] = field(default_factory=tuple)
     meshes: tuple[TriangleMesh, ...] = field(default_factory=tuple)
+    intensity: float | None = None              # [[light]] intensity; None: Lighting's default
+
+    @property
+    def sun(self) -> Light:
+        """The light (the name of the sun-only format): a Sun or a PointLight."""
+        return self.light
 
 
 class _Reader:
@@ -235,20 +256,28 @@ def load_scene(path: str | os.PathLike) -> SceneDescription:
         raise SceneError(f"{path}: a [terrain] section with dem = \"...\", or at least one [[mesh]] or "
                          "[[quadric]], is required")
     sections = {name: _Reader(path, f"[{name}]", doc.get(name, {})) for name in SECTIONS
-                if name not in ("quadric", "mesh")}
+                if name not in ("quadric", "mesh", "light")}
     for name, reader in sections.items():
         reader.check_keys(_KEYS[name])
     tables = {}
-    for name, plural in (("quadric", "quadrics"), ("mesh", "meshes")):
+    for name, plural in (("quadric", "quadrics"), ("mesh", "meshes"), ("light", "lights")):
         tables[name] = doc.get(name, [])
         if not isinstance(tables[name], list):
             raise SceneError(f"{path}: {plural} are an array of tables: write [[{name}]]")
+    if len(tables["light"]) > 1:
+        raise SceneError(f"{path}: [[light]]: exactly one light for now, got {len(tables['light'])} "
+                         "[[light]] tables")
+    if tables["light"] and "sun" in doc:
+        raise SceneError(f"{path}: [sun] and [[light]] together: give the light once, as [sun] or as one "
+                         "[[light]] (kind = \"sun\" takes azimuth / elevation)")
+    light, intensity = (_light(_Reader(path, "[[light]] 1", tables["light"][0])) if tables["light"]
+                        else (_sun(sections["sun"]), None))
     camera = _camera(sections["camera"])
     if "terrain" not in doc and camera.position is None:
         raise sections["camera"].error("a scene without [terrain] needs position and look_at (view frames a map)")
     return SceneDescription(
         path=path, terrain=_terrain(sections["terrain"]) if "terrain" in doc else None, camera=camera,
-        sun=_sun(sections["sun"]), render=_render(sections["render"]),
+        light=light, intensity=intensity, render=_render(sections["render"]),
         environment=_environment(sections["environment"]) if "environment" in doc else None,
         quadrics=tuple(_quadric(_Reader(path, f"[[quadric]] {k + 1}", t)) for k, t in enumerate(tables["quadric"])),
         meshes=tuple(_mesh(_Reader(path, f"[[mesh]] {k + 1}", t)) for k, t in enumerate(tables["mesh"])))
@@ -287,6 +316,25 @@ def _sun(r: _Reader) -> Sun:
         return Sun(r.number("azimuth", DEFAULT_AZIMUTH), r.number("elevation", DEFAULT_ELEVATION))
     except ValueError as exc:
         raise r.error(str(exc)) from None
+
+
+def _light(r: _Reader) -> tuple[Light, float | None]:
+    r.check_keys(_KEYS["light"])
+    kind = r.text("kind")
+    if kind not in _LIGHT_KEYS:
+        raise r.error(f"must be one of {', '.join(repr(k) for k in _LIGHT_KEYS)}, got {kind!r}", "kind")
+    for key in r.table:
+        if key != "kind" and key not in _LIGHT_KEYS[kind]:
+            raise r.error(f"a {kind} light takes {', '.join(_LIGHT_KEYS[kind])}, not {key}", key)
+    intensity = r.number("intensity")
+    if intensity is not None and intensity < 0:
+        raise r.error(f"must be >= 0, got {intensity}", "intensity")
+    if kind == "sun":
+        return _sun(r), intensity
+    position = r.numbers("position", 3)
+    if position is None:
+        raise r.error("a point light needs position = [x, y, z] (world metres)", "position")
+    return PointLight(position, r.number("distance", positive=True)), intensity
 
 
 def _render(r: _Reader) -> RenderSpec:

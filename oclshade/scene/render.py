@@ -18,7 +18,11 @@ shadows    the terrain's exact shadows on mesh pixels (MeshCaster.shadow), then 
            shadows on everything and terrain and quadric shadows on the quadrics, then the
            meshes with cast_shadows on every pixel: by any-hit BVH rays (MeshCaster.ray_shadow,
            the default) or with ``mesh_shadows="volumes"`` by shadow volumes (MeshShadows;
-           casters with alpha cut-outs still by rays)
+           casters with alpha cut-outs still by rays).  A point light
+           (:class:`oclshade.lights.PointLight`): the terrain's on every pixel along the segment
+           to the light (quadrics.caster.terrain_point_shadow: exact, in place of the
+           screen-space pass), the quadrics' (QuadricCaster.point_shadow), then the meshes' as
+           for the sun (docs/meshes.md "Point lights")
 compose    compose reads the albedo weighted for reflection; the reflections are added after
 =========  =================================================================================
 
@@ -45,9 +49,10 @@ from ..envmap.reflect import Reflections
 from ..frames import AOSettings, Frame, FrameSettings, TerrainScene
 from ..heightmap import Heightmap
 from ..io import read_dem
+from ..lights import LightLike, PointLight
 from ..meshes import MeshCaster, MeshShadows, TriangleMesh
 from ..quadrics import ObjectIds, Quadric, QuadricCaster
-from ..quadrics.caster import object_normals
+from ..quadrics.caster import object_normals, terrain_point_shadow
 from ..runtime import Runtime
 from ..sun import Sun, SunLike
 from ..terrain import Heightfield
@@ -84,7 +89,9 @@ class Environment:
 
 class ObjectScene(TerrainScene):
     """A heightfield with quadrics and triangle meshes standing on it, and optionally an
-    environment the quadrics reflect."""
+    environment the quadrics reflect; lit by the sun or a point light."""
+
+    POINT_LIGHTS = True
 
     def __init__(self, heightfield: Heightfield, quadrics: Sequence[Quadric] = (),
                  environment: Environment | None = None, device: str | int | Runtime | None = None,
@@ -130,8 +137,9 @@ class ObjectScene(TerrainScene):
         self.reflections = Reflections(cubes, [q.material for q in self.quadrics], env.rotation, intensity,
                                        env.background and self._file_map is not None, self.uber, cube_of)
 
-    def frame(self, camera: Camera, sun: SunLike, settings: FrameSettings = FrameSettings()) -> Frame:
-        """As :meth:`TerrainScene.frame`; with ``environment.generate``, the objects' maps are
+    def frame(self, camera: Camera, sun: LightLike, settings: FrameSettings = FrameSettings()) -> Frame:
+        """As :meth:`TerrainScene.frame` (``sun``: a sun or a :class:`oclshade.lights.PointLight`,
+        not on a curved map); with ``environment.generate``, the objects' maps are
         rendered first on the first frame and, for N, every N-th frame after it (the compose
         pass then runs again; ``ran`` starts with ``"generate"`` and ``ms`` has its time)."""
         env, generated_ms = self.environment, None
@@ -178,9 +186,12 @@ class ObjectScene(TerrainScene):
         self._reflect_with(stack_cubes(maps), cube_of, intensity=1.0)
         self.generations += 1
 
-    def _run(self, name: str, camera: Camera, sun: Sun, settings: FrameSettings, lighting: Lighting) -> object:
+    def _run(self, name: str, camera: Camera, sun: Sun | PointLight, settings: FrameSettings,
+             lighting: Lighting) -> object:
         if name == "compose":
             return self._compose(camera, settings, lighting)
+        if name == "shadows" and isinstance(sun, PointLight):
+            return self._point_shadows(camera, sun, settings)
         out = super()._run(name, camera, sun, settings, lighting)
         gbuf = out if name == "gbuffer" else self._out["gbuffer"]
         if name == "gbuffer":
@@ -202,6 +213,27 @@ class ObjectScene(TerrainScene):
                 self.mesh_shadows.shadow(camera, gbuf, self.ids, sun, out, *settings.shadow_k)
             if self.ray_shadows is not None:
                 self.ray_shadows.ray_shadow(camera, gbuf, sun, out, *settings.shadow_k)
+        return out
+
+    def _point_shadows(self, camera: Camera, light: PointLight, settings: FrameSettings) -> cl.Buffer:
+        """The shadows pass for a point light (module doc): every caster on every pixel, exact;
+        a shadowed pixel gets k_dark (paper 000's eq. (1) at elevation 0, as MeshShadows)."""
+        if self.renderer.field.radius is not None:
+            raise ValueError("sun: a point light on a curved map (Heightfield radius) is not supported: its "
+                             "terrain shadows are traced over the flat map (give no radius, or use a sun)")
+        gbuf = self._out["gbuffer"]
+        n = gbuf.shape[0] * gbuf.shape[1]
+        prev = self._out.get("shadows")
+        out = prev if prev is not None and prev.size == 4 * n else self.runtime.empty(4 * n, "shadow coefficients")
+        k_dark = settings.shadow_k[0]
+        terrain_point_shadow(self.runtime, camera, self.renderer.field.heightmap, self.renderer.pyramid.heights,
+                             gbuf, self.ids, light, out, k_dark)
+        if self.caster is not None:
+            self.caster.point_shadow(camera, gbuf, self.ids, light, out, k_dark)
+        if self.mesh_shadows is not None:
+            self.mesh_shadows.shadow(camera, gbuf, self.ids, light, out, *settings.shadow_k)
+        if self.ray_shadows is not None:
+            self.ray_shadows.ray_shadow(camera, gbuf, light, out, *settings.shadow_k)
         return out
 
     def _clear_ids(self, shape: tuple[int, int]) -> ObjectIds:
@@ -276,7 +308,9 @@ def render_scene(desc: SceneDescription, device: str | int | Runtime | None = No
     camera = scene_camera(desc, heightmap)
     r = desc.render
     shown = environment is not None and environment.cube is not None and environment.background
-    lighting = Lighting(sun=desc.sun, background=(0.0, 0.0, 0.0)) if shown else Lighting(sun=desc.sun)
+    given = {} if desc.intensity is None else {"sun_intensity": desc.intensity}
+    lighting = Lighting(sun=desc.light, background=(0.0, 0.0, 0.0), **given) if shown else \
+        Lighting(sun=desc.light, **given)
     ao = AOSettings(radius=r.ao * max(heightmap.dx, heightmap.dy)) if r.ao > 0 else None
     settings = FrameSettings(shadows=r.shadows, ao=ao, lighting=lighting, ssaa=r.ssaa)
-    return scene.frame(camera, desc.sun, settings), scene, camera
+    return scene.frame(camera, desc.light, settings), scene, camera
