@@ -285,30 +285,37 @@ def grass_rim_samples(heights: np.ndarray, dx: float, dy: float, azimuth: float)
     return np.degrees(np.arctan(best))
 
 
-def _summary(d: np.ndarray) -> dict:
+def _summary(parts: list[np.ndarray]) -> dict:
+    d = np.concatenate(parts) if parts else np.zeros(0, np.float32)
     if d.size == 0:
         return {"cells": 0}
-    return {"cells": int(d.size), "mean_deg": float(d.mean()), "mean_abs_deg": float(np.abs(d).mean()),
-            "rms_deg": float(np.sqrt((d * d).mean())), "p99_abs_deg": float(np.percentile(np.abs(d), 99)),
-            "max_abs_deg": float(np.abs(d).max())}
+    a = np.abs(d)
+    return {"cells": int(d.size), "mean_deg": float(d.mean(dtype=np.float64)),
+            "mean_abs_deg": float(a.mean(dtype=np.float64)),
+            "rms_deg": float(np.sqrt(np.square(d, dtype=np.float64).mean())),
+            "p99_abs_deg": float(np.percentile(a, 99)), "max_abs_deg": float(a.max())}
 
 
 def peer_difference(hm: Heightmap, ours: np.ndarray, theirs: np.ndarray, curvature: float) -> dict:
     """r.horizon - oclshade (degrees) on the cells where both see terrain: all of them, then split
     in three classes (docs/solar.md, "r.horizon"): ``near``, r.horizon's angle is its first
     sample's (the cell nearest one step away, off the ray by up to half a cell) or oclshade's is
-    reached within 1.5 cells (:func:`near_horizon`); ``rim``, else r.horizon's angle is set by a sample in the half cell
-    of map past the outermost cell centres, beyond oclshade's surface; ``far``, the rest."""
-    both = np.isfinite(ours) & np.isfinite(theirs) & (ours > -90.0) & (theirs > -90.0)   # both see terrain
-    near, rim = np.zeros(ours.shape, bool), np.zeros(ours.shape, bool)
+    reached within 1.5 cells (:func:`near_horizon`); ``rim``, else r.horizon's angle is set by a
+    sample in the half cell of map past the outermost cell centres, beyond oclshade's surface;
+    ``far``, the rest.  One band at a time (the maps can be large)."""
+    parts: dict[str, list[np.ndarray]] = {"near": [], "rim": [], "far": []}
     for k, az in enumerate(azimuth_grid(ours.shape[0])):
+        o, t = ours[k], theirs[k]
+        both = np.isfinite(o) & np.isfinite(t) & (o > -90.0) & (t > -90.0)     # both see terrain
         with np.errstate(invalid="ignore"):
-            near[k] = ((np.abs(grass_first_sample(hm.heights, hm.dx, hm.dy, az) - theirs[k]) <= 1e-4)
-                       | (ours[k] <= near_horizon(hm, az, curvature) + 0.05))
-            rim[k] = grass_rim_samples(hm.heights, hm.dx, hm.dy, az) >= theirs[k] - 1e-4
-    d = (theirs - ours).astype(np.float64)
-    return {**_summary(d[both]), "near": _summary(d[both & near]), "rim": _summary(d[both & ~near & rim]),
-            "far": _summary(d[both & ~near & ~rim])}
+            near = ((np.abs(grass_first_sample(hm.heights, hm.dx, hm.dy, az) - t) <= 1e-4)
+                    | (o <= near_horizon(hm, az, curvature) + 0.05))
+            rim = grass_rim_samples(hm.heights, hm.dx, hm.dy, az) >= t - 1e-4
+        d = t - o
+        parts["near"].append(d[both & near])
+        parts["rim"].append(d[both & ~near & rim])
+        parts["far"].append(d[both & ~near & ~rim])
+    return {**_summary([x for v in parts.values() for x in v]), **{c: _summary(v) for c, v in parts.items()}}
 
 
 # ----------------------------------------------------------------------------- sky-view factor
