@@ -179,6 +179,12 @@ def test_terrain_scene_refuses_a_point_light():
         TerrainScene(Heightfield(hm)).frame(camera, light)
     with pytest.raises(ValueError, match="curved map"):
         ObjectScene(Heightfield(hm, 6.371e6)).frame(camera, light)
+    scene = ObjectScene(Heightfield(hm), [Quadric.sphere((50, -50, 20), 5.0)], meshes=[cube((30, -30, 5), 5.0)])
+    frame = scene.frame(camera, Sun(100.0, 30.0))
+    with pytest.raises(TypeError, match="terrain_point_shadow"):
+        scene.mesh_caster.shadow(camera, frame.gbuffer, scene.ids, light, frame.shadow)
+    with pytest.raises(TypeError, match="point_shadow"):
+        scene.caster.shadow(camera, frame.gbuffer, scene.ids, light, frame.shadow)
 
 
 SCENE = """[terrain]

@@ -215,6 +215,9 @@ class MeshCaster:
         eq. (1) coefficient when the terrain hides the sun from its surface point (exact:
         kernels/terrain_ray.h, as for quadric pixels), else 1.  Run it after the terrain's
         shadow pass and before the quadrics' and the meshes' own shadows, which only darken."""
+        if isinstance(sun, PointLight):
+            raise TypeError("sun: MeshCaster.shadow is the sun's; a point light's terrain shadows (every pixel) "
+                            "are oclshade.quadrics.caster.terrain_point_shadow")
         n = gbuffer.shape[0] * gbuffer.shape[1]
         kernel = self.runtime.kernel("mesh.cl", "mesh_terrain_shadow", self._defines)
         kernel.set_args(np.int32(n), gbuffer.buffers["position"], ids.buffer,

@@ -137,7 +137,10 @@ class QuadricCaster:
                k_dark: float = 0.0, k_bright: float = 0.0) -> None:
         """Quadric shadows into a shadow-coefficient buffer (one float per pixel, 1 = lit) in
         place: see the module doc.  A shadowed pixel gets paper 000's eq. (1),
-        k_dark + (k_bright - k_dark) max(sin elevation, 0)."""
+        k_dark + (k_bright - k_dark) max(sin elevation, 0).  A point light: :meth:`point_shadow`."""
+        if isinstance(sun, PointLight):
+            raise TypeError("sun: QuadricCaster.shadow is the sun's; for a point light use point_shadow (and "
+                            "terrain_point_shadow for the terrain)")
         rt = self.runtime
         n = gbuffer.shape[0] * gbuffer.shape[1]
         tables = self._tables_on_device(camera)
