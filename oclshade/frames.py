@@ -14,9 +14,9 @@ pass            inputs                                          skipped when
 ==============  ==============================================  =========================
 gbuffer         heights (fixed per scene), camera, ray caster   never needed twice
 normals         G-buffer                                        ``normals="geometric"``
-shadows         G-buffer, sun, method, Algo 1 settings          ``shadows=False``
+shadows         G-buffer, light, method, Algo 1 settings        ``shadows=False``
 ao              G-buffer, AO settings                           ``ao=None`` or radius 0
-compose         all of the above, lighting                      never needed twice
+compose         all of the above, lighting (the light too)      never needed twice
 ==============  ==============================================  =========================
 
 Supersampling (``ssaa=N``): every pass before compose runs on a frame of N x N samples
