@@ -192,44 +192,52 @@ def run_grass(hm: Heightmap, n: int) -> dict:
     return {"seconds": float(lines[-1].split()[-1]), "angles": ccw[order]}
 
 
-def grass_first_sample(heights: np.ndarray, dx: float, dy: float, azimuth: float) -> np.ndarray:
-    """The angle (degrees) r.horizon gives each cell's first sample at ``azimuth``: the cell nearest
-    to the point one step ((dx + dy) / 2) from the cell's centre along the azimuth (further steps
-    while that is the cell itself), seen at the distance of its centre, lowered by r.horizon's
-    curvature; NaN where that cell is off the map."""
+#: cells from the cell within which the two models' differences are called near-field
+NEAR_CELLS = 3.0
+
+
+def grass_near_samples(heights: np.ndarray, dx: float, dy: float, azimuth: float,
+                       reach: float = NEAR_CELLS) -> np.ndarray:
+    """The highest angle (degrees) r.horizon gives each cell's samples at ``azimuth`` whose cells'
+    centres lie within ``reach`` times the larger cell size: its steps of (dx + dy) / 2 from the
+    cell's centre, each reading the nearest cell, seen at the distance of that cell's centre and
+    lowered by r.horizon's curvature; -inf where none is on the map."""
     a = np.radians(90.0 - azimuth)                   # r.horizon's direction: counter-clockwise from east
     c, s = np.cos(a), np.sin(a)
     c, s = (0.0 if abs(c) < 1e-7 else c), (0.0 if abs(s) < 1e-7 else s)
-    step, m = 0.5 * (dx + dy), 1
-    while True:
-        dj, dn = int(np.floor(0.5 + m * step * c / dx)), int(np.floor(0.5 + m * step * s / dy))
-        if (dj, dn) != (0, 0):
-            break
-        m += 1
-    di = -dn                                         # rows count southwards
-    length = float(np.hypot(dj * dx, dn * dy))
+    step = 0.5 * (dx + dy)
     h = np.asarray(heights, np.float64)
     rows, cols = h.shape
-    z = np.full(h.shape, np.nan)
-    r0, r1, c0, c1 = max(0, -di), rows - max(0, di), max(0, -dj), cols - max(0, dj)
-    if r0 < r1 and c0 < c1:
-        z[r0:r1, c0:c1] = h[r0 + di:r1 + di, c0 + dj:c1 + dj]
-    drop = length * length / (2.0 * GRASS_EARTH_RADIUS)
-    return np.degrees(np.arctan((z - h - drop) / length))
+    best = np.full(h.shape, -np.inf)
+    seen = set()
+    for m in range(1, int(np.ceil(reach * max(dx, dy) / step)) + 2):
+        dj, dn = int(np.floor(0.5 + m * step * c / dx)), int(np.floor(0.5 + m * step * s / dy))
+        length = float(np.hypot(dj * dx, dn * dy))
+        if (dj, dn) in seen or length == 0.0 or length > reach * max(dx, dy):
+            continue
+        seen.add((dj, dn))
+        di = -dn                                     # rows count southwards
+        z = np.full(h.shape, np.nan)
+        r0, r1, c0, c1 = max(0, -di), rows - max(0, di), max(0, -dj), cols - max(0, dj)
+        if r0 < r1 and c0 < c1:
+            z[r0:r1, c0:c1] = h[r0 + di:r1 + di, c0 + dj:c1 + dj]
+        best = np.fmax(best, (z - h - length * length / (2.0 * GRASS_EARTH_RADIUS)) / length)
+    return np.degrees(np.arctan(best))
 
 
-def near_horizon(hm: Heightmap, azimuth: float, curvature: float, reach: float = 1.5,
-                 samples: int = 16) -> np.ndarray:
+def near_horizon(hm: Heightmap, azimuth: float, curvature: float, reach: float = NEAR_CELLS,
+                 samples: int = 8) -> np.ndarray:
     """A lower bound (degrees) of the highest angle of the bilinear surface within ``reach`` cells
-    of each cell along ``azimuth`` (the first patch the ray crosses and its exit): the surface
-    sampled at t = 1e-6 and 1e-3 cell, every 1 / samples cell, and where the ray crosses grid lines
-    (the kinks of the profile), in units of the smaller cell size; -inf where it leaves the map."""
+    of each cell along ``azimuth``: the surface sampled at t = 1e-6 and 1e-3 cell, every
+    1 / samples cell, and where the ray crosses grid lines (the kinks of the profile), in units of
+    the smaller cell size; -inf where it leaves the map."""
     h = hm.heights.astype(np.float64)
     rows, cols = h.shape
     ux, uy = np.sin(np.radians(azimuth)) / hm.dx, -np.cos(np.radians(azimuth)) / hm.dy   # cells per metre
     cell = min(hm.dx, hm.dy)
     ts = [1e-6 * cell, 1e-3 * cell] + list(np.arange(1, int(reach * samples) + 1) / samples * cell)
-    ts += [k / abs(u) for u in (ux, uy) if abs(u) > 1e-12 for k in (1, 2) if k / abs(u) <= reach * cell]
+    ts += [k / abs(u) for u in (ux, uy) if abs(u) > 1e-12
+           for k in range(1, int(reach) + 2) if k / abs(u) <= reach * cell]
     ii, jj = np.indices(h.shape, dtype=np.float64)
     best = np.full(h.shape, -np.inf)
     for t in sorted(ts):
@@ -249,7 +257,7 @@ def grass_rim_samples(heights: np.ndarray, dx: float, dy: float, azimuth: float)
     """The highest angle (degrees) r.horizon gives each cell's samples in the rim of the map, the
     half cell between the outermost cell centres (where oclshade's bilinear surface ends) and the
     map's border (where r.horizon's cells end); -inf where none.  A sample there reads the edge
-    cell, seen at the distance of its centre (as :func:`grass_first_sample`)."""
+    cell, seen at the distance of its centre (as :func:`grass_near_samples`)."""
     h = np.asarray(heights, np.float64)
     rows, cols = h.shape
     a = np.radians(90.0 - azimuth)
@@ -298,17 +306,17 @@ def _summary(parts: list[np.ndarray]) -> dict:
 
 def peer_difference(hm: Heightmap, ours: np.ndarray, theirs: np.ndarray, curvature: float) -> dict:
     """r.horizon - oclshade (degrees) on the cells where both see terrain: all of them, then split
-    in three classes (docs/solar.md, "r.horizon"): ``near``, r.horizon's angle is its first
-    sample's (the cell nearest one step away, off the ray by up to half a cell) or oclshade's is
-    reached within 1.5 cells (:func:`near_horizon`); ``rim``, else r.horizon's angle is set by a
-    sample in the half cell of map past the outermost cell centres, beyond oclshade's surface;
-    ``far``, the rest.  One band at a time (the maps can be large)."""
+    in three classes (docs/solar.md, "r.horizon"): ``near``, r.horizon's angle is set by a sample
+    within :data:`NEAR_CELLS` cells (nearest cells, off the ray by up to half a cell:
+    :func:`grass_near_samples`) or oclshade's is reached within that reach (:func:`near_horizon`);
+    ``rim``, else r.horizon's angle is set by a sample in the half cell of map past the outermost
+    cell centres, beyond oclshade's surface; ``far``, the rest.  One band at a time."""
     parts: dict[str, list[np.ndarray]] = {"near": [], "rim": [], "far": []}
     for k, az in enumerate(azimuth_grid(ours.shape[0])):
         o, t = ours[k], theirs[k]
         both = np.isfinite(o) & np.isfinite(t) & (o > -90.0) & (t > -90.0)     # both see terrain
         with np.errstate(invalid="ignore"):
-            near = ((np.abs(grass_first_sample(hm.heights, hm.dx, hm.dy, az) - t) <= 1e-4)
+            near = ((grass_near_samples(hm.heights, hm.dx, hm.dy, az) >= t - 1e-4)
                     | (o <= near_horizon(hm, az, curvature) + 0.05))
             rim = grass_rim_samples(hm.heights, hm.dx, hm.dy, az) >= t - 1e-4
         d = t - o
@@ -422,12 +430,12 @@ def markdown(res: dict) -> str:
               "nearest cells within its radius, mirrored edges.", ""]
     if any("grass_vs_oclshade" in row for e in res["maps"].values() for row in e["runs"].values()):
         lines += ["r.horizon - oclshade curved by class, cells and mean / p99 / max |difference| (deg): *near*, "
-                  "r.horizon's angle is its first sample's (the nearest cell one step away, off the ray by up to "
-                  "half a cell, at the distance of its centre) or oclshade's is reached within 1.5 cells (its "
-                  "bilinear surface's slope at the cell); *rim*, r.horizon's angle comes from the half cell of map "
-                  "past the outermost cell centres, where oclshade's surface ends; *far*, the rest (nearest-cell "
-                  "samples further out on steep ground; r.horizon's 100x100-cell skip, which misses terrain "
-                  "under a negative horizon).", "",
+                  f"either angle is set within {NEAR_CELLS:g} cells of the cell (r.horizon: by a nearest cell, "
+                  "off the ray by up to half a cell, seen at the distance of its centre; oclshade: by the bilinear "
+                  "surface, e.g. its slope at the cell); *rim*, else r.horizon's angle comes from the half cell of "
+                  "map past the outermost cell centres, where oclshade's surface ends; *far*, the rest "
+                  "(nearest-cell samples further out on steep ground; r.horizon's 100x100-cell skip, which misses "
+                  "terrain under a negative horizon).", "",
                   "| map | N | voids filled | all | near | rim | far |", "|---|---|---|---|---|---|---|"]
         for name, e in res["maps"].items():
             for n, row in e["runs"].items():

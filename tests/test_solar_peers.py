@@ -34,10 +34,10 @@ def bench():
     return module
 
 
-def replica(h: np.ndarray, dx: float, dy: float, row: int, col: int, azimuth: float) -> tuple[float, bool, bool]:
+def replica(h: np.ndarray, dx: float, dy: float, row: int, col: int, azimuth: float) -> tuple[float, float, bool]:
     """r.horizon's angle (degrees) for one cell of a map with no terrain past its border (-90: no
-    sample), whether its maximum is the first sample, and whether it is a sample whose point lies
-    past the outermost cell centres.  Maps under 100 cells a side (no low-resolution skip)."""
+    sample), the distance of the cell that sets it, and whether that sample's point lies past the
+    outermost cell centres.  Maps under 100 cells a side (no low-resolution skip)."""
     rows, cols = h.shape
     a = math.radians(90.0 - azimuth)
     c, s = math.cos(a), math.sin(a)
@@ -45,7 +45,7 @@ def replica(h: np.ndarray, dx: float, dy: float, row: int, col: int, azimuth: fl
     step = 0.5 * (dx + dy)
     z0, zmax = h[row, col], h.max()
     maxlength = (zmax - z0) / 0.008727
-    best, first, rim, count, last = -math.inf, False, False, 0, (row, col)
+    best, where, rim, last = -math.inf, math.inf, False, (row, col)
     m = 0
     while True:
         m += 1
@@ -59,13 +59,12 @@ def replica(h: np.ndarray, dx: float, dy: float, row: int, col: int, azimuth: fl
         length = math.hypot((cell[1] - col) * dx, (cell[0] - row) * dy)
         drop = length * length / (2.0 * R_GRASS)
         line = z0 + drop + length * best
-        count += 1
         if line < h[cell]:
             best = (h[cell] - z0 - drop) / length
-            first, rim = count == 1, not (0 <= x <= cols - 1 and 0 <= y <= rows - 1)
+            where, rim = length, not (0 <= x <= cols - 1 and 0 <= y <= rows - 1)
         if line >= zmax or length >= maxlength:
             break
-    return (math.degrees(math.atan(best)) if best > -math.inf else -90.0), first, rim
+    return (math.degrees(math.atan(best)) if best > -math.inf else -90.0), where, rim
 
 
 def test_fill_voids(bench):
@@ -121,7 +120,7 @@ def test_rhorizon_matches_its_model_everywhere(bench):
 
 @needs_grass
 def test_peer_classes(bench):
-    """peer_difference's classes partition the compared cells, r.horizon's first-sample and rim
+    """peer_difference's classes partition the compared cells, r.horizon's near-sample and rim
     flags agree with the replica, and oclshade's near-field flag holds where its exact angle is
     the bilinear surface's slope at the cell (a saddle patch; the r.horizon example in docs)."""
     h = canyon_crater(40, 48, seed=3, relief=900.0)
@@ -136,13 +135,13 @@ def test_peer_classes(bench):
     assert res["near"]["cells"] > 0 and res["far"]["cells"] > 0
     h64 = h.astype(np.float64)
     for k, az in enumerate(azimuth_grid(n)):
-        first = np.abs(bench.grass_first_sample(h, dx, dy, az) - theirs[k]) <= 1e-4
+        near = bench.grass_near_samples(h, dx, dy, az) >= theirs[k] - 1e-4
         rim = bench.grass_rim_samples(h, dx, dy, az) >= theirs[k] - 1e-4
         for i in range(h.shape[0]):
             for j in range(h.shape[1]):
-                angle, is_first, is_rim = replica(h64, dx, dy, i, j, az)
+                angle, where, is_rim = replica(h64, dx, dy, i, j, az)
                 if angle > -90.0:
-                    assert (not is_first) or first[i, j], (az, i, j)
+                    assert near[i, j] == (where <= bench.NEAR_CELLS * max(dx, dy)), (az, i, j)
                     assert (not is_rim) or rim[i, j], (az, i, j)
     # a saddle: the cell's west neighbour 191 m higher, its north neighbour 107 m lower, the
     # north-west one 23 m lower: at 315 degrees the bilinear surface rises at once, at
