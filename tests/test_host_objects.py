@@ -271,8 +271,12 @@ def test_c_reflect_equals_python(host: dict, tmp_path: Path, ssaa: int, projecti
 
 def test_c_objects_under_valgrind_lose_nothing(host: dict, tmp_path: Path) -> None:
     """host_objects reflect (the reflection entry points and the specialised builds, pitched
-    fields included) under memcheck: exit 0 and 0 bytes definitely lost.  A plain run first lets PoCL write the kernel
-    binaries, so memcheck does not watch LLVM compile them.  Only ``reflect``: valgrind 3.19
+    fields included) under memcheck: exit 0 and 0 bytes definitely lost.  A run under
+    valgrind's null tool first lets PoCL write the kernel binaries a run under valgrind asks
+    for, so memcheck does not watch LLVM compile them (LLVM's leaks are not ours).  A plain
+    run is not enough: valgrind's CPU hides some of the host's features (AVX-512 on the
+    Xeons), PoCL then builds for another target and misses its cache (CI on 2026-11-28:
+    16 bytes lost inside pocl_llvm_generate_workgroup_function).  Only ``reflect``: valgrind 3.19
     cannot decode an AVX instruction (vmovq xmm, xmm: C5 79 D6) that PoCL's LLVM emits in
     quadric_cast's binary (SIGILL), so the quadric passes are not run under it."""
     import re
@@ -286,8 +290,9 @@ def test_c_objects_under_valgrind_lose_nothing(host: dict, tmp_path: Path) -> No
     _reflect_case(cases["reflect"], 2, "perspective", 1, 10.0)
     for command, folder in cases.items():
         args = [str(host["build"] / "host_objects"), command, str(folder / "out"), str(folder)]
-        proc = subprocess.run(args, capture_output=True, text=True, env=host["env"], timeout=600)
-        assert proc.returncode == 0, proc.stderr[-4000:]          # PoCL's binaries for these sizes, cached
+        proc = subprocess.run(["valgrind", "--tool=none", *args], capture_output=True, text=True, env=host["env"],
+                              timeout=600)
+        assert proc.returncode == 0, proc.stderr[-4000:]          # PoCL's binaries for valgrind's CPU, cached
         proc = subprocess.run(["valgrind", "--leak-check=full", *args], capture_output=True, text=True,
                               env=host["env"], timeout=600)
         assert proc.returncode == 0, proc.stderr[-4000:]
