@@ -3,6 +3,8 @@ light against its float64 twin and by hand, the frame's shadows against the twin
 caster, the pass keys, the sun's frames unchanged, [[light]] tables and `oclshade render`."""
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pyopencl as cl
 import pytest
@@ -225,6 +227,11 @@ def test_light_tables(tmp_path):
         path.write_text(SCENE + text)
         with pytest.raises(SceneError, match=match):
             load_scene(path)
+    for position, distance, match in (((0, 0), None, "position"), ((0, 0, math.nan), None, "position"),
+                                      ((0, 0, 1), 0.0, "distance"), ((0, 0, 1), math.inf, "distance")):
+        with pytest.raises(ValueError, match=match):
+            PointLight(position, distance)
+    assert repr(PointLight((1, 2, 3), 4)) == "PointLight([1.0, 2.0, 3.0], distance=4.0)"
 
 
 def pixel(camera: Camera, world) -> tuple[int, int]:
