@@ -347,6 +347,68 @@ def test_compose(host: dict, tmp_path: Path, ssaa: int, shadow: bool, ao: bool, 
     assert (out / "image.f32").read_bytes() == want.tobytes()
 
 
+def _light_at(hm: Heightmap, where: str) -> np.ndarray:
+    """A point light's world position relative to the map's bounding box."""
+    rows, cols = hm.shape
+    lo, hi = float(np.nanmin(hm.heights)), float(np.nanmax(hm.heights))
+    x, y = 0.55 * (cols - 1) * hm.dx, -0.45 * (rows - 1) * hm.dy
+    return {"above": np.array([x, y, hi + 400.0]),
+            "inside": np.array([0.3 * (cols - 1) * hm.dx, -0.6 * (rows - 1) * hm.dy, 0.5 * (lo + hi)]),
+            "below": np.array([x, y, lo - 150.0]),
+            "off": np.array([-300.0, 250.0, lo + 20.0])}[where]
+
+
+@pytest.mark.parametrize("where, distance, ssaa, shadow, ao, linear", [
+    ("above", None, 1, True, True, 0), ("above", 500.0, 2, True, False, 0), ("inside", 300.0, 1, False, True, 0),
+    ("inside", None, 1, True, True, 1), ("below", None, 1, True, False, 0), ("off", 1000.0, 2, False, False, 1)])
+def test_compose_point_light(host: dict, tmp_path: Path, where: str, distance: float | None, ssaa: int,
+                             shadow: bool, ao: bool, linear: int) -> None:
+    """compose with a point light (-D OCLS_POINT_LIGHT: point_light, light_position,
+    light_distance, translation) equals the Python host's compose / compose_linear bit for bit:
+    lights over, inside and under the map's bounding box and off the map, with and without
+    the falloff."""
+    from oclshade.lights import PointLight
+
+    hm = random_map()
+    cam = camera_over(hm, 24 * ssaa, 17 * ssaa)
+    renderer = TerrainRenderer(Heightfield(hm))
+    gbuf = renderer.render(cam)
+    normals = renderer.shading_normals(cam, gbuf)
+    rng = np.random.default_rng(10 + ssaa)
+    shadow_map = rng.random(gbuf.shape).astype(np.float32) if shadow else None
+    ao_map = rng.random(gbuf.shape).astype(np.float32) if ao else None
+    inputs = tmp_path / "in"
+    inputs.mkdir()
+    gbuf.position.tofile(inputs / "position.f32")
+    normals.tofile(inputs / "normal.f32")
+    gbuf.albedo.tofile(inputs / "albedo.f32")
+    cam.rotation.astype(np.float64).tofile(inputs / "rotation.f64")
+    np.ascontiguousarray(cam.view[:3, 3], np.float64).tofile(inputs / "translation.f64")
+    for name, arr in (("shadow", shadow_map), ("ao", ao_map)):
+        if arr is not None:
+            arr.tofile(inputs / f"{name}.f32")
+    light = PointLight(_light_at(hm, where), distance)
+    lighting = Lighting(sun=light, sun_intensity=1.7, sky=(0.2, 0.3, 0.4), background=(0.5, 0.6, 0.7))
+    out = tmp_path / "out"
+    out.mkdir()
+    spec = ",".join(repr(float(v)) for v in (*light.position, distance or 0.0))
+    run_program(host, "host_passes", "compose", out, inputs, 24, 17, ssaa, "130.0,25.0", "1.7", "0.2,0.3,0.4",
+                "0.5,0.6,0.7", int(shadow), int(ao), linear, spec)
+    if not linear:
+        want = compose(gbuf, cam, lighting, shadow=shadow_map, ao=ao_map, normal=normals, ssaa=ssaa)
+        sun = compose(gbuf, cam, Lighting(sun=(130.0, 25.0), sun_intensity=1.7, sky=(0.2, 0.3, 0.4),
+                                          background=(0.5, 0.6, 0.7)), shadow=shadow_map, ao=ao_map, normal=normals,
+                      ssaa=ssaa)
+        assert want.tobytes() != sun.tobytes(), "the point light must shade otherwise than the sun"
+    else:
+        rt = renderer.runtime
+        buf = compose_linear(gbuf, cam, lighting, shadow=shadow_map, ao=ao_map, normal=normals, device=rt, ssaa=ssaa)
+        want = np.empty((17, 24, 4), np.float32)
+        cl.enqueue_copy(rt.queue, want, buf)
+        rt.queue.finish()
+    assert (out / ("image.f32" if linear else "image.u8")).read_bytes() == want.tobytes()
+
+
 # ------------------------------------------------------------------------ the example
 def png_pixels(path: Path) -> np.ndarray:
     from PIL import Image

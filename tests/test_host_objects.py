@@ -8,6 +8,8 @@ fixture of tests/test_host_api.py).
 * ``oclshade_quadric_tables`` + cast, merge, object normals and shadows against
   :class:`oclshade.quadrics.QuadricCaster` (every kind, perspective and orthographic, suns
   above, at and below the horizon); the C program also checks pitched fields at offsets.
+* a point light's terrain and quadric shadows against ``terrain_point_shadow`` and
+  ``QuadricCaster.point_shadow`` (lights over, inside, under and off the map; no terrain).
 * ``oclshade_reflect_tables`` + weights, apply, finish against
   :class:`oclshade.envmap.reflect.Reflections` (every material kind, two stacked maps, ssaa);
   the reflection calls also under valgrind's memcheck.
@@ -186,6 +188,60 @@ def test_c_quadrics_equal_python(host: dict, tmp_path: Path, projection: str, su
     got = (out / "coef.out").read_bytes()
     assert got == _read(rt, coef_d, 4 * n)
     assert got != coef.tobytes(), "the shadow pass must change some coefficients"
+
+
+def _light(hm: Heightmap, where: str) -> np.ndarray:
+    """A point light's world position relative to the map's bounding box (x 0..240 m, y
+    -160..0 m) and heights."""
+    lo, hi = float(np.nanmin(hm.heights)), float(np.nanmax(hm.heights))
+    return {"above": np.array([120.0, -80.0, hi + 150.0]), "inside": np.array([100.0, -60.0, 0.5 * (lo + hi)]),
+            "below": np.array([150.0, -100.0, lo - 20.0]), "off": np.array([-80.0, 60.0, hi + 10.0])}[where]
+
+
+@pytest.mark.parametrize("projection,where,terrain", [("perspective", "above", True), ("orthographic", "above", True),
+                                                      ("perspective", "inside", True), ("perspective", "below", True),
+                                                      ("perspective", "off", True), ("perspective", "above", False)])
+def test_c_point_shadows_equal_python(host: dict, tmp_path: Path, projection: str, where: str, terrain: bool) -> None:
+    """A point light's terrain and quadric shadows (oclshade_enqueue_terrain_point_shadow,
+    oclshade_enqueue_quadric_point_shadow) on the terrain's G-buffer with the quadrics merged
+    equal terrain_point_shadow's and QuadricCaster.point_shadow's bit for bit: lights over,
+    inside and under the map's bounding box, off the map, and without a terrain."""
+    from oclshade.lights import PointLight
+    from oclshade.quadrics.caster import terrain_point_shadow
+    from oclshade.terrain import Heightfield, TerrainRenderer
+
+    hm, cam, _, _, coef, (k_dark, _) = _quadric_case(tmp_path, projection, (135.0, 25.0))
+    w, hh = cam.width, cam.height
+    n = w * hh
+    gbuf = TerrainRenderer(Heightfield(hm)).render(cam)   # terrain pixels: surface starts
+    dst = {k: np.ascontiguousarray(getattr(gbuf, k), np.float32) for k in CHANNELS}
+    dst["object"] = np.zeros(n, np.int32)
+    _write_gbuffer(tmp_path, "dst", dst)
+    light = PointLight(_light(hm, where))
+    with open(tmp_path / "scene.txt", "a") as f:
+        f.write(" ".join(map(repr, map(float, light.position))) + f" {int(terrain)}\n")
+    out = tmp_path / "out"
+    out.mkdir()
+    run_program(host, "host_objects", "point", out, tmp_path)
+
+    caster = QuadricCaster(QUADRICS, hm if terrain else None)
+    rt = caster.runtime
+    objects = caster.cast(cam)
+    into = DeviceGBuffer(rt, (hh, w), {k: rt.to_device(dst[k], k) for k in CHANNELS})
+    ids = caster.merge(objects, into, ObjectIds(rt.to_device(dst["object"], "ids"), (hh, w)))
+    coef_d = rt.to_device(coef, "coef")
+    terrain_point_shadow(rt, cam, hm if terrain else None, caster.heights, into, ids, light, coef_d, k_dark)
+    want = _read(rt, coef_d, 4 * n)
+    got = (out / "tps.out").read_bytes()
+    assert got == want
+    tps = np.frombuffer(got, np.float32)
+    assert set(np.unique(tps).tolist()) <= {np.float32(k_dark), 1.0}
+    assert np.any(tps == np.float32(k_dark)) == terrain, "the terrain shadows some pixels (none without one)"
+    caster.point_shadow(cam, into, ids, light, coef_d, k_dark)
+    got = (out / "pps.out").read_bytes()
+    assert got == _read(rt, coef_d, 4 * n)
+    if where == "above":
+        assert np.count_nonzero(np.frombuffer(got, np.float32) != tps), "the quadrics shadow some pixels"
 
 
 def _read(rt, buf: cl.Buffer, nbytes: int) -> bytes:

@@ -696,18 +696,31 @@ typedef struct oclshade_compose_params {
     int linear;                 /* 0: 8-bit sRGB, each sample clamped to [0, 1]; 1: the unclamped
                                    mean in float4 (-D OCLS_LINEAR; oclshade.compose.compose_linear:
                                    what generated cube maps are made of) */
+    /* The light: the sun (azimuth, elevation) unless point_light is 1, a point light
+     * (oclshade.lights.PointLight; -D OCLS_POINT_LIGHT, docs/meshes.md "Point lights"): per
+     * sample the direction to light_position, sun_intensity (light_distance / d)^2 at d metres
+     * (the inverse-square falloff about its reference distance), or sun_intensity at every
+     * distance with light_distance 0 (PointLight(distance=None)). */
+    int point_light;            /* 0: the sun; 1: a point light */
+    double light_position[3];   /* point light: world position (x east, y north, z up; metres), finite */
+    double light_distance;      /* point light: reference distance of the falloff (m), > 0; 0: none */
+    double translation[3];      /* point light: world -> view translation (the camera view's last
+                                   column, oclshade_compose_set_camera sets it with the rotation) */
     cl_mem scratch;
 } oclshade_compose_params;
 
 /* Defaults: oclshade/compose.py Lighting(): sun (315, 45), intensity 2.0, sky (0.21, 0.24,
- * 0.30), background (0.45, 0.62, 0.85); ssaa 1; identity rotation. */
+ * 0.30), background (0.45, 0.62, 0.85); ssaa 1; identity rotation, zero translation; no point
+ * light. */
 void oclshade_compose_params_init(oclshade_compose_params *params);
-/* Sets rotation from the camera's view matrix. */
+/* Sets rotation and translation from the camera's view matrix. */
 void oclshade_compose_set_camera(oclshade_compose_params *params, const oclshade_camera *camera);
 oclshade_status oclshade_compose_scratch_size(oclshade *lib, const oclshade_compose_params *params, size_t *bytes);
 /* One launch of compose, one work-item per output pixel (-D OCLS_SHADOW / OCLS_AO for the
  * inputs given): albedo x (sun x max(n.s, 0) x shadow + sky x AO x (1 + n.up) / 2),
- * kernels/compose.cl. */
+ * kernels/compose.cl; a point light (-D OCLS_POINT_LIGHT): s per sample towards the light's
+ * view-space position (view rotation @ light_position + translation, float64 rounded once:
+ * Lighting.light_view), falloff = light_distance^2 rounded to float32 (Lighting.falloff). */
 oclshade_status oclshade_enqueue_compose(oclshade *lib, cl_command_queue queue, const oclshade_compose_params *params,
                                          cl_uint num_events_in_wait_list, const cl_event *event_wait_list,
                                          cl_event *event);
@@ -902,30 +915,39 @@ typedef struct oclshade_object_gbuffer {
     oclshade_field object;             /* int32: quadric index + 1, 0 none (a terrain G-buffer: all 0) */
 } oclshade_object_gbuffer;
 
-/* One params struct for the four quadric calls; each reads the members its comment names. */
+/* One params struct for the six quadric calls; each reads the members its comment names
+ * ("point shadows": the terrain's and the quadrics' shadows of a point light). */
 typedef struct oclshade_quadric_params {
-    oclshade_camera camera;            /* all: the frame (width x height); cast and shadow: the view */
-    int count;                         /* cast, shadow: quadrics, 1..OCLSHADE_MAX_QUADRICS */
-    cl_mem qf, qi;                     /* cast, shadow: oclshade_quadric_tables for this camera, uploaded */
-    /* the terrain (cast: the uv of hits; shadow: the sun rays of object pixels); heights.buffer
-     * NULL: no terrain (uv 0, no terrain test) */
+    oclshade_camera camera;            /* all: the frame (width x height); cast, shadow, point shadows: the view */
+    int count;                         /* cast, shadow, quadric point shadow: quadrics, 1..OCLSHADE_MAX_QUADRICS */
+    cl_mem qf, qi;                     /* cast, shadow, quadric point shadow: oclshade_quadric_tables for this
+                                          camera, uploaded */
+    /* the terrain (cast: the uv of hits; shadow: the sun rays of object pixels; terrain point
+     * shadow: the segments to the light); heights.buffer NULL: no terrain (uv 0, no terrain
+     * test: the terrain point shadow sets every pixel to 1) */
     oclshade_field heights;            /* rows x cols relative float32 heights, NaN = hole */
     int rows, cols;
     double dx, dy, offset;             /* cell sizes; offset of oclshade_relative_heights */
-    float hmax;                        /* shadow: oclshade_height_range's hi (0 when no height is finite) */
+    float hmax;                        /* shadow, terrain point shadow: oclshade_height_range's hi (0 when no
+                                          height is finite) */
     oclshade_object_gbuffer objects;   /* cast: written; merge: read (the source) */
     oclshade_object_gbuffer gbuffer;   /* merge: read and written (nearest wins; a tie keeps it);
-                                          normals: normal, object read; shadow: position, object read */
+                                          normals: normal, object read; shadow, point shadows: position,
+                                          object read */
     oclshade_field shading;            /* normals: float4 shading normals, read and written */
     double azimuth, elevation;         /* shadow: the sun (degrees) */
-    double k_dark, k_bright;           /* shadow: paper 000 eq. (1) for shadowed pixels, in [0, 1] */
-    oclshade_field coefficient;        /* shadow: float per pixel, the terrain shadow pass's, read and written */
+    double k_dark, k_bright;           /* shadow: paper 000 eq. (1) for shadowed pixels, in [0, 1];
+                                          point shadows: k_dark, a shadowed pixel's coefficient */
+    oclshade_field coefficient;        /* shadow: float per pixel, the terrain shadow pass's, read and written;
+                                          terrain point shadow: written (every pixel); quadric point
+                                          shadow: read and written */
+    double light_position[3];          /* point shadows: the point light's world position (metres), finite */
     cl_mem scratch;                    /* >= oclshade_quadric_scratch_size (packed copies of pitched fields) */
 } oclshade_quadric_params;
 
-/* Zeroes (no terrain, sun (0, 0), k_dark = k_bright = 0). */
+/* Zeroes (no terrain, sun (0, 0), k_dark = k_bright = 0, light at the origin). */
 void oclshade_quadric_params_init(oclshade_quadric_params *params);
-/* Scratch of the largest of the four calls for these parameters (0 when every field is packed
+/* Scratch of the largest of the six calls for these parameters (0 when every field is packed
  * at offset 0). */
 oclshade_status oclshade_quadric_scratch_size(oclshade *lib, const oclshade_quadric_params *params, size_t *bytes);
 /* quadric_cast over (width, height) (-D OCLS_ORTHO for an orthographic camera): the objects'
@@ -951,6 +973,24 @@ oclshade_status oclshade_enqueue_quadric_shadow(oclshade *lib, cl_command_queue 
                                                 const oclshade_quadric_params *params,
                                                 cl_uint num_events_in_wait_list, const cl_event *event_wait_list,
                                                 cl_event *event);
+/* A point light (docs/meshes.md "Point lights"), first of the two passes: terrain_point_shadow
+ * (oclshade.quadrics.caster.terrain_point_shadow) on every pixel of a merged G-buffer (terrain,
+ * quadric and mesh pixels): coefficient = k_dark where the terrain rises above the segment
+ * from the pixel's surface point to light_position (exact, every patch under it; a terrain
+ * pixel, object 0, starts on the surface), else 1 (empty pixels too; no terrain: every pixel
+ * 1).  Replaces the sun's per-pixel and quadric shadow calls for a point light. */
+oclshade_status oclshade_enqueue_terrain_point_shadow(oclshade *lib, cl_command_queue queue,
+                                                      const oclshade_quadric_params *params,
+                                                      cl_uint num_events_in_wait_list, const cl_event *event_wait_list,
+                                                      cl_event *event);
+/* Second pass: quadric_point_shadow (QuadricCaster.point_shadow): every hit pixel whose segment
+ * to light_position meets a quadric (its own closed shape excluded) gets k_dark; the others
+ * keep their coefficient.  The meshes' shadows of a point light: oclshade_mesh_light_table
+ * with point 1 and the mesh shadow rays (apply at elevation 0), or the shadow volumes. */
+oclshade_status oclshade_enqueue_quadric_point_shadow(oclshade *lib, cl_command_queue queue,
+                                                      const oclshade_quadric_params *params,
+                                                      cl_uint num_events_in_wait_list, const cl_event *event_wait_list,
+                                                      cl_event *event);
 
 /* ----------------------------------------------------------- reflections (kernels/reflect.cl) */
 

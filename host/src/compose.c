@@ -20,8 +20,10 @@ void oclshade_compose_params_init(oclshade_compose_params *p)
 void oclshade_compose_set_camera(oclshade_compose_params *p, const oclshade_camera *camera)
 {
     if (p == NULL || camera == NULL) return;
-    for (int r = 0; r < 3; ++r)
+    for (int r = 0; r < 3; ++r) {
         for (int c = 0; c < 3; ++c) p->rotation[3 * r + c] = camera->view[4 * r + c];
+        p->translation[r] = camera->view[4 * r + 3];
+    }
 }
 
 #define MAX_SSAA 8   /* oclshade/compose.py MAX_SSAA */
@@ -30,6 +32,7 @@ typedef struct compose_job {
     const oclshade_compose_params *p;
     int sample_rows, sample_cols;   /* the inputs: height * ssaa x width * ssaa */
     cl_float4 sun, sky, up, background;
+    cl_float falloff;               /* point light: r0^2 (0: none) */
 } compose_job;
 
 static oclshade_status compose_job_for(oclshade *lib, const oclshade_compose_params *p, compose_job *j)
@@ -48,10 +51,23 @@ static oclshade_status compose_job_for(oclshade *lib, const oclshade_compose_par
         return st;
     j->sample_rows = p->height * p->ssaa;
     j->sample_cols = p->width * p->ssaa;
+    if (p->point_light != 0 && p->point_light != 1)
+        return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "point_light must be 0 (the sun: azimuth, elevation) or 1 "
+                         "(a point light at light_position), got %d", p->point_light);
     double s[3];
-    if (oclshade_sun_vector(p->azimuth, p->elevation, s) != OCLSHADE_OK)
+    if (!p->point_light && oclshade_sun_vector(p->azimuth, p->elevation, s) != OCLSHADE_OK)
         return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "azimuth must be finite and elevation in [-90, 90] degrees, "
                          "got %g, %g", p->azimuth, p->elevation);
+    if (p->point_light) {
+        for (int i = 0; i < 3; ++i)
+            if (!isfinite(p->light_position[i]) || !isfinite(p->translation[i]))
+                return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "light_position and translation must be finite "
+                                 "(world metres; the view's translation), got light_position[%d] %g, translation[%d] %g",
+                                 i, p->light_position[i], i, p->translation[i]);
+        if (!(isfinite(p->light_distance) && p->light_distance >= 0.0))
+            return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "light_distance must be the falloff's reference "
+                             "distance, > 0 metres, or 0 for no falloff, got %g", p->light_distance);
+    }
     if (!(isfinite(p->sun_intensity) && p->sun_intensity >= 0.0))
         return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "sun_intensity must be >= 0, got %g", p->sun_intensity);
     for (int i = 0; i < 3; ++i)
@@ -61,11 +77,16 @@ static oclshade_status compose_job_for(oclshade *lib, const oclshade_compose_par
     for (int i = 0; i < 9; ++i)
         if (!isfinite(p->rotation[i]))
             return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "rotation must be finite, element %d is %g", i, p->rotation[i]);
-    /* Lighting.sun_view: camera.rotation @ sun.vector(); Lighting.up_view: rotation[:, 2] */
+    /* Lighting.light_view: camera.rotation @ sun.vector(), or a point light's
+     * view[:3, :3] @ position + view[:3, 3]; Lighting.up_view: rotation[:, 2] */
+    const double *R = p->rotation, *L = p->light_position;
     for (int r = 0; r < 3; ++r) {
-        j->sun.s[r] = (cl_float)(p->rotation[3 * r] * s[0] + p->rotation[3 * r + 1] * s[1] + p->rotation[3 * r + 2] * s[2]);
-        j->up.s[r] = (cl_float)p->rotation[3 * r + 2];
+        j->sun.s[r] = p->point_light
+                          ? (cl_float)((R[3 * r] * L[0] + R[3 * r + 1] * L[1] + R[3 * r + 2] * L[2]) + p->translation[r])
+                          : (cl_float)(R[3 * r] * s[0] + R[3 * r + 1] * s[1] + R[3 * r + 2] * s[2]);
+        j->up.s[r] = (cl_float)R[3 * r + 2];
     }
+    j->falloff = (cl_float)(p->light_distance * p->light_distance);   /* Lighting.falloff: d * d, then float32 */
     j->sun.s[3] = (cl_float)p->sun_intensity;
     for (int i = 0; i < 3; ++i) {
         j->sky.s[i] = (cl_float)p->sky[i];
@@ -96,12 +117,14 @@ static oclshade_status compose_body(ocls_pass *ps, const void *params)
     ocls_def_flag(&d, "OCLS_SHADOW", shadow != NULL);
     ocls_def_flag(&d, "OCLS_AO", ao != NULL);
     ocls_def_flag(&d, "OCLS_LINEAR", p->linear);
+    ocls_def_flag(&d, "OCLS_POINT_LIGHT", p->point_light);
     kernel_entry *k;
     if ((st = ocls_kernel(ps, "compose.cl", &d, "compose", &k)) != OCLSHADE_OK) return st;
     const cl_int width = p->width, height = p->height, ssaa = p->ssaa;
-    ocls_arg a[13] = {OCLS_ARG(pos), OCLS_ARG(nrm), OCLS_ARG(alb), OCLS_ARG(width), OCLS_ARG(height), OCLS_ARG(ssaa),
+    ocls_arg a[14] = {OCLS_ARG(pos), OCLS_ARG(nrm), OCLS_ARG(alb), OCLS_ARG(width), OCLS_ARG(height), OCLS_ARG(ssaa),
                       OCLS_ARG(j->sun), OCLS_ARG(j->sky), OCLS_ARG(j->up), OCLS_ARG(j->background)};
     int na = 10;
+    if (p->point_light) { a[na].size = sizeof j->falloff; a[na++].value = &j->falloff; }
     if (shadow) { a[na].size = sizeof shadow; a[na++].value = &shadow; }
     if (ao) { a[na].size = sizeof ao; a[na++].value = &ao; }
     a[na].size = sizeof image;

@@ -1,6 +1,7 @@
 /* quadrics.c — quadrics on the terrain (kernels/quadric.cl quadric_cast, gbuffer_merge,
- * object_normals, quadric_shadow; oclshade/quadrics/caster.py QuadricCaster), and the host
- * tables of their shapes (QuadricCaster.tables, screen_rect). */
+ * object_normals, quadric_shadow, and a point light's terrain_point_shadow and
+ * quadric_point_shadow; oclshade/quadrics/caster.py QuadricCaster, terrain_point_shadow), and
+ * the host tables of their shapes (QuadricCaster.tables, screen_rect). */
 #include "internal.h"
 
 #include <math.h>
@@ -183,12 +184,13 @@ oclshade_status ocls_sun_args_for(oclshade *lib, const oclshade_camera *camera, 
 
 /* ------------------------------------------------------------------ passes */
 
-enum { CAST, MERGE, NORMALS, SHADOW };
+enum { CAST, MERGE, NORMALS, SHADOW, TPOINT, QPOINT };
 
 typedef struct quadric_job {
     const oclshade_quadric_params *p;
     int op;
     cl_float4 hm[3];   /* rows of view -> (u, v, z - offset) (zeros without a terrain) */
+    cl_float4 light;   /* TPOINT: the light in (u, v, z - offset); QPOINT: in view space (w 0) */
 } quadric_job;
 
 /* caster.py heightmap_rows: heightmap_from_world(hm) @ inv(view), the view rigid: inv = [R^T | -R^T t]
@@ -212,8 +214,24 @@ void ocls_heightmap_rows(const double *V, int terrain, double dx, double dy, dou
         }
 }
 
+/* caster.py terrain_point_shadow: heightmap_from_world(hm) @ (light, 1), summed in index order
+ * (one or two non-zero terms a row: the same bits in any order); zeros without a terrain. */
+static void light_in_heightmap(const oclshade_quadric_params *p, cl_float4 *out)
+{
+    memset(out, 0, sizeof *out);
+    if (p->heights.buffer == NULL) return;
+    const double m[3][4] = {{1.0 / p->dx, 0.0, 0.0, -0.0}, {0.0, -1.0 / p->dy, 0.0, -0.0}, {0.0, 0.0, 1.0, -p->offset}};
+    const double v[4] = {p->light_position[0], p->light_position[1], p->light_position[2], 1.0};
+    for (int r = 0; r < 3; ++r) {
+        double sum = 0.0;
+        for (int k = 0; k < 4; ++k) sum += m[r][k] * v[k];
+        out->s[r] = (cl_float)sum;
+    }
+}
+
 static oclshade_status quadric_job_for(oclshade *lib, const oclshade_quadric_params *p, int op, quadric_job *j)
 {
+    memset(j, 0, sizeof *j);
     j->p = p;
     j->op = op;
     if (p == NULL) return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "params must point to oclshade_quadric_params, got NULL");
@@ -222,8 +240,8 @@ static oclshade_status quadric_job_for(oclshade *lib, const oclshade_quadric_par
     if (p->camera.width > 32768 || p->camera.height > 32768)
         return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "camera width and height must be in 1..32768, got %d, %d",
                          p->camera.width, p->camera.height);
-    if (op == CAST || op == SHADOW) {
-        if (p->count < 1 || p->count > OCLSHADE_MAX_QUADRICS)
+    if (op == CAST || op == SHADOW || op == TPOINT || op == QPOINT) {
+        if (op != TPOINT && (p->count < 1 || p->count > OCLSHADE_MAX_QUADRICS))
             return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "count must be the number of quadrics, 1..%d, got %d",
                              OCLSHADE_MAX_QUADRICS, p->count);
         if (!(p->camera.sx > 0.0) || !(p->camera.sy > 0.0) || !(p->camera.far_depth > p->camera.near_depth))
@@ -240,7 +258,24 @@ static oclshade_status quadric_job_for(oclshade *lib, const oclshade_quadric_par
         if ((st = ocls_check_sun(lib, p->azimuth, p->elevation, p->k_dark, p->k_bright)) != OCLSHADE_OK) return st;
         if (!isfinite(p->hmax)) return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "hmax must be finite, got %g", p->hmax);
     }
+    if (op == TPOINT || op == QPOINT) {
+        for (int i = 0; i < 3; ++i)
+            if (!isfinite(p->light_position[i]))
+                return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "light_position must be the point light's finite "
+                                 "world position (metres), got light_position[%d] = %g", i, p->light_position[i]);
+        if (!(p->k_dark >= 0.0 && p->k_dark <= 1.0))
+            return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "k_dark must be in [0, 1] (a shadowed pixel's "
+                             "coefficient), got %g", p->k_dark);
+        if (op == TPOINT && !isfinite(p->hmax))
+            return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "hmax must be finite, got %g", p->hmax);
+    }
     ocls_heightmap_rows(p->camera.view, p->heights.buffer != NULL, p->dx, p->dy, p->offset, j->hm);
+    if (op == TPOINT) light_in_heightmap(p, &j->light);
+    if (op == QPOINT) {   /* caster.py light_view: view[:3, :3] @ position + view[:3, 3], rounded once */
+        double v[3];
+        to_view(p->camera.view, p->light_position, v);
+        for (int i = 0; i < 3; ++i) j->light.s[i] = (cl_float)v[i];
+    }
     return OCLSHADE_OK;
 }
 
@@ -288,15 +323,16 @@ static oclshade_status quadric_body(ocls_pass *ps, const void *params)
             st = ocls_bind_in(ps, gb_field(&p->objects, i), H, row, GB_NAMES[0][i], &src[i]);
             if (st == OCLSHADE_OK) st = ocls_bind_inout(ps, gb_field(&p->gbuffer, i), H, row, GB_NAMES[1][i], &dst[i]);
         }
-        if ((j->op == NORMALS && (i == 1 || i == 6)) || (j->op == SHADOW && (i == 0 || i == 6)))
+        if ((j->op == NORMALS && (i == 1 || i == 6)) || (j->op >= SHADOW && (i == 0 || i == 6)))
             st = ocls_bind_in(ps, gb_field(&p->gbuffer, i), H, row, GB_NAMES[1][i], &dst[i]);
     }
     if (st == OCLSHADE_OK && j->op == NORMALS) st = ocls_bind_inout(ps, &p->shading, H, 16 * (size_t)W, "shading", &extra);
-    if (st == OCLSHADE_OK && j->op == SHADOW) {
+    if (st == OCLSHADE_OK && (j->op == SHADOW || j->op == QPOINT))
         st = ocls_bind_inout(ps, &p->coefficient, H, 4 * (size_t)W, "coefficient", &extra);
-        if (st == OCLSHADE_OK && p->heights.buffer != NULL)
-            st = ocls_bind_in(ps, &p->heights, p->rows, 4 * (size_t)p->cols, "heights", &heights);
-    }
+    if (st == OCLSHADE_OK && j->op == TPOINT)   /* every pixel written */
+        st = ocls_bind_out(ps, &p->coefficient, H, 4 * (size_t)W, "coefficient", &extra);
+    if (st == OCLSHADE_OK && (j->op == SHADOW || j->op == TPOINT) && p->heights.buffer != NULL)
+        st = ocls_bind_in(ps, &p->heights, p->rows, 4 * (size_t)p->cols, "heights", &heights);
     if (st != OCLSHADE_OK || !ps->run) return st;
     ocls_defines d = {0};
     kernel_entry *k;
@@ -332,6 +368,27 @@ static oclshade_status quadric_body(ocls_pass *ps, const void *params)
             return st;
         return ocls_launch(ps, k, n, 0, 64, 0);
     }
+    if (j->op == TPOINT) {   /* caster.py terrain_point_shadow's arguments */
+        const cl_int rows = p->heights.buffer ? p->rows : 0, cols = p->heights.buffer ? p->cols : 0;
+        const cl_float zmax = p->heights.buffer ? p->hmax : 0.0f, kshadow = (cl_float)p->k_dark;
+        const cl_mem h = heights ? heights : dst[0];   /* not read without a terrain (rows, cols 0) */
+        const ocls_arg a[13] = {OCLS_ARG(n), OCLS_ARG(dst[0]), OCLS_ARG(dst[6]), OCLS_ARG(j->light), OCLS_ARG(h),
+                                OCLS_ARG(rows), OCLS_ARG(cols), OCLS_ARG(zmax), OCLS_ARG(j->hm[0]), OCLS_ARG(j->hm[1]),
+                                OCLS_ARG(j->hm[2]), OCLS_ARG(kshadow), OCLS_ARG(extra)};
+        if ((st = ocls_kernel(ps, "quadric.cl", &d, "terrain_point_shadow", &k)) != OCLSHADE_OK ||
+            (st = ocls_set_args(ps, k, a, 13)) != OCLSHADE_OK)
+            return st;
+        return ocls_launch(ps, k, n, 0, 64, 0);
+    }
+    if (j->op == QPOINT) {   /* QuadricCaster.point_shadow's arguments */
+        const cl_float kshadow = (cl_float)p->k_dark;
+        const ocls_arg a[9] = {OCLS_ARG(n), OCLS_ARG(p->count), OCLS_ARG(p->qf), OCLS_ARG(p->qi), OCLS_ARG(dst[0]),
+                               OCLS_ARG(dst[6]), OCLS_ARG(j->light), OCLS_ARG(kshadow), OCLS_ARG(extra)};
+        if ((st = ocls_kernel(ps, "quadric.cl", &d, "quadric_point_shadow", &k)) != OCLSHADE_OK ||
+            (st = ocls_set_args(ps, k, a, 9)) != OCLSHADE_OK)
+            return st;
+        return ocls_launch(ps, k, n, 0, 64, 0);
+    }
     /* SHADOW: QuadricCaster.shadow's arguments */
     ocls_sun_args sa;
     if ((st = ocls_sun_args_for(ps->lib, &p->camera, p->heights.buffer != NULL, p->dx, p->dy, p->azimuth, p->elevation,
@@ -356,10 +413,10 @@ oclshade_status oclshade_quadric_scratch_size(oclshade *lib, const oclshade_quad
     if (st == OCLSHADE_OK && bytes == NULL) st = ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "bytes must not be NULL");
     if (st != OCLSHADE_OK) return st;
     *bytes = 0;
-    for (int op = CAST; op <= SHADOW; ++op) {
+    for (int op = CAST; op <= QPOINT; ++op) {
         quadric_job j;
         size_t b = 0;
-        if (op == CAST || op == SHADOW) {   /* checked only for the calls whose members are set */
+        if (op == CAST || op == SHADOW || op == QPOINT) {   /* checked only for the calls whose members are set */
             if (params != NULL && (params->count < 1 || params->qf == NULL)) continue;
         }
         if ((st = quadric_job_for(lib, params, op, &j)) != OCLSHADE_OK || (st = ocls_plan(lib, quadric_body, &j, &b)) != OCLSHADE_OK)
@@ -387,7 +444,7 @@ static oclshade_status quadric_enqueue(oclshade *lib, cl_command_queue queue, co
     if (st == OCLSHADE_OK) st = quadric_job_for(lib, p, op, &j);
     if (st != OCLSHADE_OK) return st;
     const int W = p->camera.width, H = p->camera.height;
-    if (op == CAST || op == SHADOW) {
+    if (op == CAST || op == SHADOW || op == QPOINT) {
         if ((st = ocls_use_buffer(lib, &uses, "qf", p->qf, 80 * (size_t)p->count, OCLS_IN)) != OCLSHADE_OK ||
             (st = ocls_use_buffer(lib, &uses, "qi", p->qi, 32 * (size_t)p->count, OCLS_IN)) != OCLSHADE_OK)
             return st;
@@ -397,9 +454,10 @@ static oclshade_status quadric_enqueue(oclshade *lib, cl_command_queue queue, co
         st = gb_uses(lib, &uses, &p->gbuffer, 1, H, W, OCLS_INOUT, 0x7f);
     if (op == NORMALS && (st = gb_uses(lib, &uses, &p->gbuffer, 1, H, W, OCLS_IN, 0x42)) == OCLSHADE_OK)
         st = ocls_use_field(lib, &uses, "shading", &p->shading, H, 16 * (size_t)W, OCLS_INOUT);
-    if (op == SHADOW && (st = gb_uses(lib, &uses, &p->gbuffer, 1, H, W, OCLS_IN, 0x41)) == OCLSHADE_OK) {
-        st = ocls_use_field(lib, &uses, "coefficient", &p->coefficient, H, 4 * (size_t)W, OCLS_INOUT);
-        if (st == OCLSHADE_OK && p->heights.buffer != NULL)
+    if (op >= SHADOW && (st = gb_uses(lib, &uses, &p->gbuffer, 1, H, W, OCLS_IN, 0x41)) == OCLSHADE_OK) {
+        st = ocls_use_field(lib, &uses, "coefficient", &p->coefficient, H, 4 * (size_t)W,
+                            op == TPOINT ? OCLS_OUT : OCLS_INOUT);
+        if (st == OCLSHADE_OK && op != QPOINT && p->heights.buffer != NULL)
             st = ocls_use_field(lib, &uses, "heights", &p->heights, p->rows, 4 * (size_t)p->cols, OCLS_IN);
     }
     if (st != OCLSHADE_OK) return st;
@@ -434,4 +492,20 @@ oclshade_status oclshade_enqueue_quadric_shadow(oclshade *lib, cl_command_queue 
                                                 cl_event *event)
 {
     return quadric_enqueue(lib, queue, params, SHADOW, num_events_in_wait_list, event_wait_list, event);
+}
+
+oclshade_status oclshade_enqueue_terrain_point_shadow(oclshade *lib, cl_command_queue queue,
+                                                      const oclshade_quadric_params *params,
+                                                      cl_uint num_events_in_wait_list, const cl_event *event_wait_list,
+                                                      cl_event *event)
+{
+    return quadric_enqueue(lib, queue, params, TPOINT, num_events_in_wait_list, event_wait_list, event);
+}
+
+oclshade_status oclshade_enqueue_quadric_point_shadow(oclshade *lib, cl_command_queue queue,
+                                                      const oclshade_quadric_params *params,
+                                                      cl_uint num_events_in_wait_list, const cl_event *event_wait_list,
+                                                      cl_event *event)
+{
+    return quadric_enqueue(lib, queue, params, QPOINT, num_events_in_wait_list, event_wait_list, event);
 }

@@ -12,6 +12,12 @@
  *       qi.i32), the cast (obj_*.bin), the merged G-buffer (mrg_*.bin), the shading normals
  *       (shading.out) and the coefficients (coef.out).  Checks itself that pitched fields at
  *       offsets give the same bits.
+ *   host_objects point OUTDIR INDIR
+ *       the inputs of quadrics (no shading.f32 needed) with a point light line in scene.txt
+ *       ("X Y Z TERRAIN"; TERRAIN 0: no heights): cast and merge into dst_*.bin, then the
+ *       terrain's point-light shadows (tps.out: coef.f32 overwritten) and the quadrics'
+ *       (pps.out).  Checks itself that pitched fields at offsets give the same bits and that
+ *       the bytes between a pitched coefficient field's rows stay untouched.
  *   host_objects expand OUTDIR REFLECT FILE...
  *       a handle from sources: REFLECT as reflect.cl, the FILEs (the other kernel files and
  *       includes of a test's own) by their base names; the library's expansion of
@@ -188,21 +194,20 @@ static oclshade_field *gb_at(oclshade_object_gbuffer *g, int i)
     return f[i];
 }
 
-static void run_quadrics(int argc, char **argv)
+/* INDIR/scene.txt: the camera, the terrain's size and cell sizes, the sun, the quadrics, and
+ * (with light) a point light line "X Y Z TERRAIN" (TERRAIN 0: the passes without heights). */
+static oclshade_quadric *read_quadric_scene(const char *in, oclshade_quadric_params *p, int *rows, int *cols,
+                                            double *dx, double *dy, int *terrain)
 {
-    if (argc != 1) fail("usage: host_objects quadrics OUTDIR INDIR");
-    const char *in = argv[0];
     char path[4096];
     snprintf(path, sizeof path, "%s/scene.txt", in);
     FILE *f = fopen(path, "r");
     if (f == NULL) fail(path);
-    oclshade_quadric_params p;
-    oclshade_quadric_params_init(&p);
-    read_camera(f, &p.camera);
-    int rows, cols, count;
-    double dx, dy;
-    if (fscanf(f, "%d %d %lf %lf", &rows, &cols, &dx, &dy) != 4) fail("terrain line");
-    if (fscanf(f, "%lf %lf %lf %lf", &p.azimuth, &p.elevation, &p.k_dark, &p.k_bright) != 4) fail("sun line");
+    oclshade_quadric_params_init(p);
+    read_camera(f, &p->camera);
+    int count;
+    if (fscanf(f, "%d %d %lf %lf", rows, cols, dx, dy) != 4) fail("terrain line");
+    if (fscanf(f, "%lf %lf %lf %lf", &p->azimuth, &p->elevation, &p->k_dark, &p->k_bright) != 4) fail("sun line");
     if (fscanf(f, "%d", &count) != 1 || count < 1) fail("count");
     oclshade_quadric *qs = (oclshade_quadric *)xmalloc((size_t)count * sizeof *qs);
     for (int k = 0; k < count; ++k) {
@@ -214,7 +219,24 @@ static void run_quadrics(int argc, char **argv)
             fail("quadric line");
         q->kind = (oclshade_quadric_kind)kind;
     }
+    if (terrain != NULL && fscanf(f, "%lf %lf %lf %d", &p->light_position[0], &p->light_position[1],
+                                  &p->light_position[2], terrain) != 4)
+        fail("light line");
     fclose(f);
+    p->count = count;
+    return qs;
+}
+
+static void run_quadrics(int argc, char **argv)
+{
+    if (argc != 1) fail("usage: host_objects quadrics OUTDIR INDIR");
+    const char *in = argv[0];
+    char path[4096];
+    oclshade_quadric_params p;
+    int rows, cols;
+    double dx, dy;
+    oclshade_quadric *qs = read_quadric_scene(in, &p, &rows, &cols, &dx, &dy, NULL);
+    const int count = p.count;
     const int W = p.camera.width, H = p.camera.height, n = W * H;
     /* tables */
     cl_float4 *qf = (cl_float4 *)xmalloc(80 * (size_t)count);
@@ -222,7 +244,6 @@ static void run_quadrics(int argc, char **argv)
     if (oclshade_quadric_tables(qs, count, &p.camera, qf, qi) != OCLSHADE_OK) fail("oclshade_quadric_tables");
     write_file("qf.f32", qf, 80 * (size_t)count);
     write_file("qi.i32", qi, 32 * (size_t)count);
-    p.count = count;
     p.qf = buffer(80 * (size_t)count, qf);
     p.qi = buffer(32 * (size_t)count, qi);
     /* the terrain */
@@ -294,6 +315,89 @@ static void run_quadrics(int argc, char **argv)
     for (int i = 0; i < 7; ++i) free(dst[i]);
     release(p.qf); release(p.qi);
     free(qf); free(qi); free(qs); free(heights); free(rel); free(shading); free(coef);
+}
+
+/* A point light: cast, merge into the given G-buffer, terrain_point_shadow into the
+ * coefficients (tps.out), then quadric_point_shadow (pps.out); packed and pitched. */
+static void run_point(int argc, char **argv)
+{
+    if (argc != 1) fail("usage: host_objects point OUTDIR INDIR");
+    const char *in = argv[0];
+    char path[4096];
+    oclshade_quadric_params p;
+    int rows, cols, terrain;
+    double dx, dy;
+    oclshade_quadric *qs = read_quadric_scene(in, &p, &rows, &cols, &dx, &dy, &terrain);
+    const int count = p.count, W = p.camera.width, H = p.camera.height, n = W * H;
+    cl_float4 *qf = (cl_float4 *)xmalloc(80 * (size_t)count);
+    cl_int4 *qi = (cl_int4 *)xmalloc(32 * (size_t)count);
+    if (oclshade_quadric_tables(qs, count, &p.camera, qf, qi) != OCLSHADE_OK) fail("oclshade_quadric_tables");
+    p.qf = buffer(80 * (size_t)count, qf);
+    p.qi = buffer(32 * (size_t)count, qi);
+    double *heights = (double *)read_file(in, "heights.f64", 8 * (size_t)rows * cols);
+    float *rel = (float *)xmalloc(4 * (size_t)rows * cols);
+    float lo, hi;
+    CHECK(oclshade_relative_heights(heights, (size_t)rows * cols, rel, &p.offset));
+    if (oclshade_height_range(rel, (size_t)rows * cols, &lo, &hi) != OCLSHADE_OK) hi = 0.0f;
+    p.hmax = hi;
+    p.rows = rows; p.cols = cols; p.dx = dx; p.dy = dy;
+    void *dst[7];
+    for (int i = 0; i < 7; ++i) {
+        snprintf(path, sizeof path, "dst_%s.bin", GB_NAME[i]);
+        dst[i] = read_file(in, path, GB[i] * (size_t)n);
+    }
+    void *coef = read_file(in, "coef.f32", 4 * (size_t)n);
+    void *first[2] = {NULL};   /* the packed run's coefficients after each pass */
+    for (int pitched = 0; pitched < 2; ++pitched) {
+        p.heights = terrain ? field_of(rel, rows, 4 * (size_t)cols, pitched) : oclshade_field_of(NULL);
+        for (int i = 0; i < 7; ++i) {
+            void *zero = xmalloc(GB[i] * (size_t)n);
+            *gb_at(&p.objects, i) = field_of(zero, H, GB[i] * (size_t)W, pitched);
+            *gb_at(&p.gbuffer, i) = field_of(dst[i], H, GB[i] * (size_t)W, pitched);
+            free(zero);
+        }
+        p.coefficient = field_of(coef, H, 4 * (size_t)W, pitched);   /* overwritten by the terrain pass */
+        size_t bytes = 0;
+        CHECK(oclshade_quadric_scratch_size(lib, &p, &bytes));
+        if ((bytes != 0) != pitched) fail("point: scratch only for pitched fields");
+        p.scratch = bytes ? buffer(bytes, NULL) : NULL;
+        cl_event ev[4];
+        CHECK(oclshade_enqueue_quadric_cast(lib, queue, &p, 0, NULL, &ev[0]));
+        CHECK(oclshade_enqueue_gbuffer_merge(lib, queue, &p, 1, &ev[0], &ev[1]));
+        CHECK(oclshade_enqueue_terrain_point_shadow(lib, queue, &p, 1, &ev[1], &ev[2]));
+        CLCHECK(clWaitForEvents(1, &ev[2]));
+        void *out[2];
+        out[0] = read_field(&p.coefficient, H, 4 * (size_t)W);
+        CHECK(oclshade_enqueue_quadric_point_shadow(lib, queue, &p, 1, &ev[2], &ev[3]));
+        CLCHECK(clWaitForEvents(1, &ev[3]));
+        for (int e = 0; e < 4; ++e) clReleaseEvent(ev[e]);
+        out[1] = read_field(&p.coefficient, H, 4 * (size_t)W);
+        if (pitched) {   /* the bytes between a pitched output's rows are left untouched */
+            unsigned char *raw = (unsigned char *)read_back(p.coefficient.buffer, p.coefficient.offset +
+                                                            (size_t)H * p.coefficient.row_pitch);
+            for (int r = 0; r < H; ++r)
+                for (size_t b = 4 * (size_t)W; b < p.coefficient.row_pitch; ++b)
+                    if (raw[p.coefficient.offset + (size_t)r * p.coefficient.row_pitch + b] != 0xAB)
+                        fail("point: bytes between the coefficient's rows were written");
+            free(raw);
+        }
+        for (int i = 0; i < 2; ++i) {
+            if (!pitched) {
+                first[i] = out[i];
+            } else {
+                if (memcmp(out[i], first[i], 4 * (size_t)n) != 0) fail("point: pitched fields give other bits");
+                free(out[i]);
+            }
+        }
+        release(p.heights.buffer); release(p.coefficient.buffer); release(p.scratch);
+        for (int i = 0; i < 7; ++i) { release(gb_at(&p.objects, i)->buffer); release(gb_at(&p.gbuffer, i)->buffer); }
+    }
+    write_file("tps.out", first[0], 4 * (size_t)n);
+    write_file("pps.out", first[1], 4 * (size_t)n);
+    for (int i = 0; i < 2; ++i) free(first[i]);
+    for (int i = 0; i < 7; ++i) free(dst[i]);
+    release(p.qf); release(p.qi);
+    free(qf); free(qi); free(qs); free(heights); free(rel); free(coef);
 }
 
 /* ------------------------------------------------------------------ reflections */
@@ -557,6 +661,7 @@ int main(int argc, char **argv)
     CHECK(oclshade_create(ctx, device, NULL, &lib));
     if (strcmp(argv[1], "specialize") == 0) run_specialize(argc - 3, argv + 3);
     else if (strcmp(argv[1], "quadrics") == 0) run_quadrics(argc - 3, argv + 3);
+    else if (strcmp(argv[1], "point") == 0) run_point(argc - 3, argv + 3);
     else if (strcmp(argv[1], "reflect") == 0) run_reflect(argc - 3, argv + 3);
     else if (strcmp(argv[1], "errors") == 0) run_errors();
     else if (strcmp(argv[1], "expand") == 0) run_expand(argc - 3, argv + 3);

@@ -30,10 +30,12 @@
  *       the relative heights (device), read back, the coarse grids (host), uploaded, then
  *       per-pixel shadows: mip.bin, coarse.f32, coarse_offsets.i32, flag.u8, coef.f32,
  *       lod.u8; checks itself that pitched fields and another group give the same bits.
- *   compose OUTDIR INDIR WIDTH HEIGHT SSAA AZ,EL INTENSITY SKY_R,G,B BG_R,G,B SHADOW AO
+ *   compose OUTDIR INDIR WIDTH HEIGHT SSAA AZ,EL INTENSITY SKY_R,G,B BG_R,G,B SHADOW AO LINEAR [LIGHT]
  *       INDIR holds position.f32, normal.f32, albedo.f32, rotation.f64 (3 x 3) and, where
  *       SHADOW / AO is 1, shadow.f32 / ao.f32 (samples: WIDTH SSAA x HEIGHT SSAA); writes
- *       image.u8; checks itself that pitched fields give the same image.
+ *       image.u8 (image.f32 with LINEAR 1); checks itself that pitched fields give the same
+ *       image.  LIGHT X,Y,Z,DISTANCE: a point light at world (X, Y, Z), falloff reference
+ *       distance DISTANCE (0: none) instead of the sun; INDIR then holds translation.f64 (3).
  *   horizon OUTDIR HEIGHTS.f64 ROWS COLS DX DY CURVATURE DEFINITION N
  *       horizon angles at the N azimuths 360 k / N (angle_<k>.f32) and the sky-view factor
  *       sums over them (svf.f32: float2 per cell, zeroed by oclshade_enqueue_zero); checks
@@ -604,7 +606,8 @@ static void *compose_once(oclshade_compose_params *p, float *host[5], int pitche
 
 static void run_compose(int argc, char **argv)
 {
-    if (argc != 11) fail("usage: host_passes compose OUTDIR INDIR WIDTH HEIGHT SSAA AZ,EL INTENSITY SKY BG SHADOW AO LINEAR");
+    if (argc != 11 && argc != 12)
+        fail("usage: host_passes compose OUTDIR INDIR WIDTH HEIGHT SSAA AZ,EL INTENSITY SKY BG SHADOW AO LINEAR [LIGHT]");
     const char *indir = argv[0];
     oclshade_compose_params p;
     oclshade_compose_params_init(&p);
@@ -618,6 +621,15 @@ static void run_compose(int argc, char **argv)
     double *rot = read_doubles(indir, "rotation.f64", 9);
     memcpy(p.rotation, rot, sizeof p.rotation);
     free(rot);
+    if (argc == 12) {
+        p.point_light = 1;
+        if (sscanf(argv[11], "%lf,%lf,%lf,%lf", &p.light_position[0], &p.light_position[1], &p.light_position[2],
+                   &p.light_distance) != 4)
+            fail("bad light");
+        double *t = read_doubles(indir, "translation.f64", 3);
+        memcpy(p.translation, t, sizeof p.translation);
+        free(t);
+    }
     const size_t samples = (size_t)p.width * (size_t)p.height * (size_t)p.ssaa * (size_t)p.ssaa;
     float *host[5] = {(float *)read_file(indir, "position.f32", 16 * samples, 0),
                       (float *)read_file(indir, "normal.f32", 16 * samples, 0),
