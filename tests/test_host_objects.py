@@ -363,7 +363,7 @@ def test_c_objects_argument_and_contract_checks(host: dict, tmp_path: Path) -> N
     stdout = run_program(host, "host_objects", "errors", tmp_path)
     lines = stdout.splitlines()
     assert not [line for line in lines if line.startswith("FAIL")], stdout
-    assert sum(line.startswith("ok ") for line in lines) >= 23, stdout
+    assert sum(line.startswith("ok ") for line in lines) >= 35, stdout
 
 
 def _python_expansion(files: dict[str, str], name: str) -> str:

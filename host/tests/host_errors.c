@@ -503,6 +503,29 @@ int main(int argc, char **argv)
         expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "elevation in [-90, 90]", "compose: sun below -90 / above 90");
         st = oclshade_enqueue_compose(lib, queue, &cp, 0, NULL, NULL);
         expect_status(lib, st, OCLSHADE_OK, "", "compose: valid (normal and albedo may share a buffer: both read)");
+        cq = cp;
+        cq.point_light = 2;
+        st = oclshade_enqueue_compose(lib, queue, &cq, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "point_light must be 0 (the sun: azimuth, elevation) or 1",
+                      "compose: point_light 2");
+        cq.point_light = 1;
+        cq.elevation = 95;   /* the sun is not read with a point light */
+        cq.light_position[2] = INFINITY;
+        st = oclshade_enqueue_compose(lib, queue, &cq, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "light_position and translation must be finite",
+                      "compose: a point light at infinity");
+        cq.light_position[2] = 100.0;
+        cq.translation[0] = NAN;
+        st = oclshade_enqueue_compose(lib, queue, &cq, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "translation[0] nan", "compose: a NaN view translation");
+        cq.translation[0] = 0.0;
+        cq.light_distance = -1.0;
+        st = oclshade_enqueue_compose(lib, queue, &cq, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "light_distance must be the falloff's reference distance, "
+                      "> 0 metres, or 0 for no falloff, got -1", "compose: light_distance -1");
+        cq.light_distance = 50.0;
+        st = oclshade_enqueue_compose(lib, queue, &cq, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_OK, "", "compose: a valid point light (the sun's elevation unread)");
 
         oclshade_terrain_params tp;
         oclshade_terrain_params_init(&tp);

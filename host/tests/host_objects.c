@@ -582,6 +582,64 @@ static void run_errors(void)
     size_t bytes = 1;
     CHECK(oclshade_quadric_scratch_size(lib, &p, &bytes));
     expect(bytes == 0, "quadrics: no scratch for packed fields");
+    /* a point light's passes */
+    p.light_position[0] = 1.0; p.light_position[1] = NAN; p.light_position[2] = 5.0;
+    expect_status(oclshade_enqueue_terrain_point_shadow(lib, queue, &p, 0, NULL, NULL), OCLSHADE_INVALID_ARGUMENT,
+                  "light_position must be the point light's finite world position (metres), got light_position[1]",
+                  "terrain point shadow: a NaN light");
+    expect_status(oclshade_enqueue_quadric_point_shadow(lib, queue, &p, 0, NULL, NULL), OCLSHADE_INVALID_ARGUMENT,
+                  "light_position must be", "quadric point shadow: a NaN light");
+    p.light_position[1] = -30.0;
+    p.k_dark = -0.5;
+    expect_status(oclshade_enqueue_terrain_point_shadow(lib, queue, &p, 0, NULL, NULL), OCLSHADE_INVALID_ARGUMENT,
+                  "k_dark must be in [0, 1] (a shadowed pixel's coefficient), got -0.5", "terrain point shadow: k_dark -0.5");
+    p.k_dark = 0.2;
+    p.heights = oclshade_field_of(buffer(4 * 12, NULL));
+    p.rows = 3; p.cols = 4; p.dx = 0.0; p.dy = 1.0;
+    expect_status(oclshade_enqueue_terrain_point_shadow(lib, queue, &p, 0, NULL, NULL), OCLSHADE_INVALID_ARGUMENT,
+                  "dx, dy must be positive finite cell sizes", "terrain point shadow: dx 0");
+    p.dx = 1.0; p.rows = 4;
+    expect_status(oclshade_enqueue_terrain_point_shadow(lib, queue, &p, 0, NULL, NULL), OCLSHADE_INVALID_ARGUMENT,
+                  "heights must hold at least 64 bytes", "terrain point shadow: heights too small for rows x cols");
+    p.rows = 3;
+    p.hmax = NAN;
+    expect_status(oclshade_enqueue_terrain_point_shadow(lib, queue, &p, 0, NULL, NULL), OCLSHADE_INVALID_ARGUMENT,
+                  "hmax must be finite", "terrain point shadow: hmax NaN");
+    p.hmax = 0.0f;
+    CHECK(oclshade_enqueue_terrain_point_shadow(lib, queue, &p, 0, NULL, NULL));
+    release(p.heights.buffer);
+    p.heights = oclshade_field_of(NULL);
+    const oclshade_field coefficient = p.coefficient;
+    p.coefficient = oclshade_field_of(clCreateBuffer(ctx, CL_MEM_READ_ONLY, 4 * (size_t)n, NULL, &err));
+    CLCHECK(err);
+    expect_status(oclshade_enqueue_terrain_point_shadow(lib, queue, &p, 0, NULL, NULL), OCLSHADE_INVALID_ARGUMENT,
+                  "coefficient is written by the kernels but was created CL_MEM_READ_ONLY",
+                  "terrain point shadow: read-only coefficient");
+    release(p.coefficient.buffer);
+    p.coefficient = p.gbuffer.object;
+    expect_status(oclshade_enqueue_quadric_point_shadow(lib, queue, &p, 0, NULL, NULL), OCLSHADE_INVALID_ARGUMENT,
+                  "overlap", "quadric point shadow: coefficient aliases gbuffer.object");
+    p.coefficient = coefficient;
+    p.count = 0;
+    expect_status(oclshade_enqueue_quadric_point_shadow(lib, queue, &p, 0, NULL, NULL), OCLSHADE_INVALID_ARGUMENT,
+                  "count must be the number of quadrics", "quadric point shadow: count 0");
+    CHECK(oclshade_enqueue_terrain_point_shadow(lib, queue, &p, 0, NULL, NULL));   /* reads no quadric */
+    p.count = 2;
+    expect_status(oclshade_enqueue_quadric_point_shadow(lib, queue, &p, 0, NULL, NULL), OCLSHADE_INVALID_ARGUMENT,
+                  "qf must hold at least 160 bytes", "quadric point shadow: a table too small for count");
+    p.count = 1;
+    const oclshade_field coef_pitched = {coefficient.buffer, 4, 4 * (size_t)W};
+    p.coefficient = coef_pitched;
+    p.coefficient.buffer = buffer(4 * (size_t)n + 4, NULL);
+    expect_status(oclshade_enqueue_terrain_point_shadow(lib, queue, &p, 0, NULL, NULL), OCLSHADE_INVALID_ARGUMENT,
+                  "scratch", "terrain point shadow: a coefficient at an offset needs scratch");
+    release(p.coefficient.buffer);
+    p.coefficient = coefficient;
+    CHECK(oclshade_enqueue_terrain_point_shadow(lib, queue, &p, 0, NULL, NULL));
+    CHECK(oclshade_enqueue_quadric_point_shadow(lib, queue, &p, 0, NULL, NULL));
+    bytes = 1;
+    CHECK(oclshade_quadric_scratch_size(lib, &p, &bytes));
+    expect(bytes == 0, "quadrics with a point light: no scratch for packed fields");
 
     /* reflections */
     oclshade_material m[2] = {{OCLSHADE_MIRROR, {1.0, 1.0, 1.0}, 0.0, 0.04, 0},
