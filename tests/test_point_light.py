@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 import pyopencl as cl
-from hypothesis import given, settings, strategies as st
+from hypothesis import assume, given, settings, strategies as st
 
 from oclshade.camera import Camera, heightmap_from_world
 from oclshade.gbuffer import CHANNELS
@@ -209,7 +209,8 @@ def test_quadric_segment_shadows_match_the_twin(seed):
             for i in np.flatnonzero(~tie):
                 tie[i] |= ref.quadric_segment_occludes(quadrics, w32[i:i + 1], moved[i])[0] != want[i]
     assert np.array_equal(got[~tie], np.where(want[~tie], np.float32(0.2), np.float32(0.5)))
-    assert want.any() and (~want).any() and tie.mean() < 0.05
+    assume(want.any() and (~want).any())   # a light inside a closed quadric shades every point (seed 252)
+    assert tie.mean() < 0.05
 
 
 def test_quadric_segment_rules():
