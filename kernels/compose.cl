@@ -45,7 +45,8 @@
  *     __global const float *ao       one float per sample, only with -D OCLS_AO
  *     __global uchar4 *out     width * height sRGB pixels (r, g, b, 255); with -D OCLS_LINEAR
  *                              __global float4 *out, width * height linear pixels (r, g, b, 1)
- *   -D options: OCLS_SHADOW, OCLS_AO, OCLS_LINEAR, OCLS_POINT_LIGHT (Python host only for now).
+ *   -D options: OCLS_SHADOW, OCLS_AO, OCLS_LINEAR, OCLS_POINT_LIGHT (C: oclshade_compose_params
+ *   point_light, linear).
  */
 #include "common.h"
 

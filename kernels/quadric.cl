@@ -80,7 +80,7 @@
  *     quadric_shadow.  A hit pixel gets kshadow when the terrain rises above its segment to
  *     the light (terrain_ray.h terrain_segment_blocks: exact, every patch under the segment;
  *     a terrain pixel, object 0, starts on the surface), else 1; an empty pixel gets 1.
- *     global size >= n (1-D).  The two point-light kernels have no C entry points yet.
+ *     global size >= n (1-D).  C: oclshade_enqueue_terrain_point_shadow, _quadric_point_shadow.
  *   -D OCLS_ORTHO: orthographic camera.  Build with -cl-std=CL1.2, no fast-math.
  */
 #include "common.h"
