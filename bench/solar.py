@@ -3,6 +3,7 @@
 
     python bench/solar.py                 # the record: SRTM N22W160 and S16E166 (1201^2), canyon 4096^2
     python bench/solar.py --reduced       # a check that the script works: 256^2 crops, canyon 256^2
+    python bench/solar.py --maps N22W160,S16E166   # a subset of the maps
 
 Writes bench/results/solar.{md,json,png} (``--out`` to change).  Per map and for
 16 and 64 azimuths in the same run:
@@ -71,17 +72,23 @@ SVF_COUNTS = (16, 32, 64, 128)
 SVF_FINE = 1024
 
 
-def maps(reduced: bool) -> dict[str, Heightmap]:
-    """The benchmark's maps: the shared SRTM tiles (when present) and the generated canyon."""
+#: the maps --maps can name
+MAP_KEYS = ("N22W160", "S16E166", "canyon")
+
+
+def maps(reduced: bool, keys: tuple[str, ...] = MAP_KEYS) -> dict[str, Heightmap]:
+    """The benchmark's maps: the shared SRTM tiles (when present) and the generated canyon
+    (those of ``keys``)."""
     out = {}
     for tile, (r0, c0) in (("N22W160", (896, 384)), ("S16E166", (320, 704))):   # crops: the roughest 256^2
         path = SRTM / f"{tile}v2.3a.hgt.zip"
-        if path.exists():
+        if tile in keys and path.exists():
             r = read_dem(path)
             h = r.heights[r0:r0 + 256, c0:c0 + 256] if reduced else r.heights
             out[f"SRTM {tile}"] = Heightmap.from_array(h, (r.dx, r.dy))
     side = 256 if reduced else 4096
-    out[f"canyon {side}^2"] = Heightmap.from_array(canyon_crater(side, side, seed=0, relief=1500.0), 30.0)
+    if "canyon" in keys:
+        out[f"canyon {side}^2"] = Heightmap.from_array(canyon_crater(side, side, seed=0, relief=1500.0), 30.0)
     return out
 
 
@@ -336,10 +343,26 @@ def rvt_svf(hm: Heightmap, n: int, radius: int) -> tuple[float, np.ndarray]:
     return time.perf_counter() - start, out
 
 
-def svf_errors(hm: Heightmap, crop: int) -> dict:
-    """Mean and max |SVF(N) - SVF(1024)| for both definitions on the map's centre crop."""
-    rows, cols = hm.shape
-    r0, c0 = max(0, rows // 2 - crop // 2), max(0, cols // 2 - crop // 2)
+def roughest_crop(heights: np.ndarray, crop: int) -> tuple[int, int]:
+    """(row, column) of the crop x crop window, on a grid of half-crop steps, with the largest
+    standard deviation of its valid heights (a centre crop of a coastal tile can be all sea,
+    where every N gives the same SVF)."""
+    rows, cols = heights.shape
+    best, at = -1.0, (0, 0)
+    for r0 in range(0, max(rows - crop, 0) + 1, max(crop // 2, 1)):
+        for c0 in range(0, max(cols - crop, 0) + 1, max(crop // 2, 1)):
+            window = heights[r0:r0 + crop, c0:c0 + crop]
+            if np.isfinite(window).any():
+                spread = float(np.nanstd(window))
+                if spread > best:
+                    best, at = spread, (r0, c0)
+    return at
+
+
+def svf_errors(hm: Heightmap, crop: int) -> tuple[list[int], dict]:
+    """([row, column, side] of the map's roughest crop, mean and max |SVF(N) - SVF(1024)| there
+    for both definitions)."""
+    r0, c0 = roughest_crop(hm.heights, crop)
     sub = Heightmap.from_array(hm.heights[r0:r0 + crop, c0:c0 + crop], (hm.dx, hm.dy))
     caster = HorizonCaster(sub, cache=False)
     out = {}
@@ -349,11 +372,11 @@ def svf_errors(hm: Heightmap, crop: int) -> dict:
         for n in SVF_COUNTS:
             d = np.abs(caster.sky_view_factor(n, definition) - fine)
             out[definition][n] = {"mean_abs": float(np.nanmean(d)), "max_abs": float(np.nanmax(d))}
-    return out
+    return [r0, c0, min(crop, hm.shape[0] - r0, hm.shape[1] - c0)], out
 
 
 # ----------------------------------------------------------------------------- report
-def run(reduced: bool, samples: int, svf_crop: int, rvt_radius: int) -> dict:
+def run(reduced: bool, samples: int, svf_crop: int, rvt_radius: int, keys: tuple[str, ...] = MAP_KEYS) -> dict:
     rt = get_runtime()
     gv = grass_version()
     try:
@@ -363,8 +386,9 @@ def run(reduced: bool, samples: int, svf_crop: int, rvt_radius: int) -> dict:
         rvt_ok = False
     result = {"machine": {"device": rt.label, "platform": platform.platform(), "cpus": os.cpu_count()},
               "reduced": reduced, "grass": gv or "not installed (apt-get install grass-core)",
-              "rvt": "rvt-py" if rvt_ok else "not installed (pip install rvt-py --no-deps)", "maps": {}}
-    for name, hm in maps(reduced).items():
+              "rvt": "rvt-py" if rvt_ok else "not installed (pip install rvt-py --no-deps)", "maps": {},
+              "map_keys": list(keys)}
+    for name, hm in maps(reduced, keys).items():
         print(f"{name}: {hm.shape[1]}x{hm.shape[0]}, dx {hm.dx:.2f} dy {hm.dy:.2f}", flush=True)
         caster = HorizonCaster(hm, rt, cache=False)
         voids = int(np.isnan(hm.heights).sum())
@@ -391,7 +415,7 @@ def run(reduced: bool, samples: int, svf_crop: int, rvt_radius: int) -> dict:
                                              "max_abs": float(np.nanmax(d))}
             entry["runs"][n] = row
             print(f"  N={n}: {json.dumps(row)}", flush=True)
-        entry["svf_error_of_n"] = svf_errors(hm, svf_crop)
+        entry["svf_crop"], entry["svf_error_of_n"] = svf_errors(hm, svf_crop)
         result["maps"][name] = entry
     return result
 
@@ -406,7 +430,9 @@ def markdown(res: dict) -> str:
     m = res["machine"]
     lines = ["# Horizon angles and sky-view factor (issue 19)", "",
              f"Machine: {m['device']}, {m['cpus']} CPUs, {m['platform']}. GRASS: {res['grass']}. RVT: {res['rvt']}."
-             + (" **Reduced run** (crops; a check of the script, not the record)." if res["reduced"] else ""), "",
+             + (" **Reduced run** (crops; a check of the script, not the record)." if res["reduced"] else "")
+             + ("" if res.get("map_keys", list(MAP_KEYS)) == list(MAP_KEYS) else
+                f" **Maps of this run: {', '.join(res['map_keys'])}** (`--maps`; the others not run)."), "",
              "| map | N | oclshade s | ref. max diff (deg) | band (deg) | outside band | oclshade curved s | "
              "r.horizon s | r.horizon - oclshade curved mean / p99 / max abs (deg) | RVT r10 SVF mean / max abs diff |",
              "|---" * 10 + "|"]
@@ -443,12 +469,15 @@ def markdown(res: dict) -> str:
                 if g:
                     lines.append(f"| {name} {e['shape'][1]}x{e['shape'][0]} | {n} | {e['voids_filled_for_peers']} | "
                                  + " | ".join(_class_cell(c) for c in (g, g["near"], g["rim"], g["far"])) + " |")
-    lines += ["", "Error of N azimuths: mean / max |SVF(N) - SVF(1024)| on a centre crop.", "",
-              "| map | definition | " + " | ".join(f"N = {n}" for n in SVF_COUNTS) + " |",
-              "|---|---|" + "---|" * len(SVF_COUNTS)]
+    lines += ["", "Error of N azimuths: mean / max |SVF(N) - SVF(1024)| on the map's roughest crop (the window "
+              "of largest height spread, rows / columns from its corner).", "",
+              "| map | crop | definition | " + " | ".join(f"N = {n}" for n in SVF_COUNTS) + " |",
+              "|---|---|---|" + "---|" * len(SVF_COUNTS)]
     for name, e in res["maps"].items():
+        r0, c0, side = e.get("svf_crop", (None, None, None))
+        where = f"{side}^2 at {r0}, {c0}" if side else "centre"
         for definition, errs in e["svf_error_of_n"].items():
-            lines.append(f"| {name} | {definition} | " + " | ".join(
+            lines.append(f"| {name} | {where} | {definition} | " + " | ".join(
                 f"{errs[n]['mean_abs']:.1e} / {errs[n]['max_abs']:.1e}" for n in SVF_COUNTS) + " |")
     return "\n".join(lines) + "\n"
 
@@ -491,10 +520,15 @@ def main() -> None:
                                                                    "(default 256, reduced 64)")
     parser.add_argument("--rvt-radius", type=int, default=None, help="the larger RVT radius in cells "
                                                                      "(default 100, reduced 30)")
+    parser.add_argument("--maps", default=",".join(MAP_KEYS),
+                        help=f"comma-separated subset of {', '.join(MAP_KEYS)} (default all)")
     parser.add_argument("--out", type=Path, default=ROOT / "bench" / "results" / "solar")
     args = parser.parse_args()
+    keys = tuple(k.strip() for k in args.maps.split(",") if k.strip())
+    if not keys or not set(keys) <= set(MAP_KEYS):
+        parser.error(f"--maps takes a comma-separated subset of {', '.join(MAP_KEYS)}, got {args.maps!r}")
     res = run(args.reduced, args.samples or (200 if args.reduced else 2000),
-              args.svf_crop or (64 if args.reduced else 256), args.rvt_radius or (30 if args.reduced else 100))
+              args.svf_crop or (64 if args.reduced else 256), args.rvt_radius or (30 if args.reduced else 100), keys)
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.with_suffix(".json").write_text(json.dumps(res, indent=1) + "\n")
     args.out.with_suffix(".md").write_text(markdown(res))
