@@ -159,6 +159,9 @@ def run_unused(args, field, camera) -> dict:
     env = environment(args.face)
     out = {}
     plain, hooked = TerrainScene(field, caching=False), ObjectScene(field, caching=False)
+    twin = TerrainScene(field, caching=False)
+    out["noise floor: TerrainScene vs another TerrainScene (same code)"] = interleaved(
+        lambda: frame_ms(plain, camera)[0], lambda: frame_ms(twin, camera)[0], args.reps)
     out["no objects: ObjectScene vs TerrainScene"] = interleaved(lambda: frame_ms(plain, camera)[0],
                                                                  lambda: frame_ms(hooked, camera)[0], args.reps)
     diffuse = spheres(field, 8, ("diffuse",))
@@ -394,9 +397,11 @@ def markdown(res: dict) -> str:
                   "| comparison | A ms | B ms | cost |", "|---|---|---|---|"]
         for name, r in res["unused"].items():
             lines.append(f"| {name} | {r['a_ms']:.1f} | {r['b_ms']:.1f} | {r['cost_percent']:+.1f} % |")
-        lines += ["", "Rows 1-2: the system with the feature available and unused (no launch, no upload); "
-                  "rows 3-4: an uber-program (every feature compiled in, switched at run time) against the "
-                  "specialised one: what paper 002's static specialisation saves.", ""]
+        lines += ["", "Row 1: two identical scenes, the noise floor of this machine and method (frames of "
+                  "two objects running the same code differ by this much); rows 2-3: the system with the "
+                  "feature available and unused (no launch, no upload); rows 4-5: an uber-program (every "
+                  "feature compiled in, switched at run time) against the specialised one: what paper 002's "
+                  "static specialisation saves.", ""]
     if "generate" in res:
         g = res["generate"]
         lines += ["## Generated cube maps (a mirror sphere's centre)", "",
