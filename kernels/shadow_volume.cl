@@ -48,32 +48,43 @@
  * near are dropped.  Two passes of sv_bin: count per tile,
  * the host's prefix sums, fill.
  *
- * ABI
- *   __global const float4 *verts  view-space vertex positions (xyz; w unused)
- *   __global const int4 *tris     (a, b, c, kind) vertex indices, wound outwards; kind 0 side,
- *                                 1 cap
- *   float4 cam                    (sx, sy, near, maxdepth): pixel-ray slopes (pinhole) or half
- *                                 extents (-D OCLS_ORTHO), the near plane, the largest depth
- *                                 of a hit pixel
- *   sv_bin(ntri, tris, verts, cam, IW, IH, T, TW, TH, fill, count, offset, list)
- *     fill 0: count[t] += 1 for every tile t of each face (count zeroed by the host);
- *     fill 1: list[offset[t] + k] = face, k = count[t]++ (count zeroed again; offset: the
- *     exclusive prefix sums of the first pass).  global size >= ntri (1-D).
- *   sv_prepare(ntri, tris, verts, planes)            (pinhole only)
- *     __global float4 *planes  out, 4 per face: (m0, kind), (m1, 0), (m2, 0), (N, a . N): the
- *     edge vectors of its edges a->b, b->c, c->a (edge function d . m) and its plane; the
- *     eye is every pixel's start, so they serve every pixel.  global size >= ntri (1-D).
- *   sv_count(verts, tris, planes, offset, list, position, cam, zs, w0, IW, IH, T, TW, mask)
- *     planes     sv_prepare's (pinhole; orthographic: unused, the faces are read from
- *                verts and tris per pixel, whose start differs)
- *     position   the G-buffer's view-space float4 (w = 1 hit); float zs the orthographic
- *                start height; int w0 the eye's winding number (pinhole);
- *     __global uchar *mask  out: 1 the light is hidden by a caster, 0 lit or empty
- *     offset has TW*TH + 1 entries.  global size (>= IW, >= IH), any local size.
- *   sv_apply(n, mask, kshadow, coef)
- *     coef[i] = kshadow where mask[i] (a shadow-coefficient buffer, 1 = lit; paper 000
- *     eq. (1)).  global size >= n (1-D).
- *   -D OCLS_ORTHO: orthographic camera.  Build with -cl-std=CL1.2, no fast-math.
+ * ABI (every buffer row-major, packed; IW x IH the frame in pixels; T the tile side in pixels,
+ * TW = ceil(IW / T), TH = ceil(IH / T) tiles, tile t = ty * TW + tx)
+ *   shared arguments
+ *     __global const float4 *verts  view-space vertex positions (xyz; w unused)
+ *     __global const int4 *tris     ntri faces (a, b, c, kind): vertex indices wound outwards;
+ *                                   kind 0 side, 1 cap
+ *     const float4 cam              (sx, sy, near, maxdepth): pixel-ray slopes (pinhole) or
+ *                                   half extents (-D OCLS_ORTHO), the near plane, the largest
+ *                                   depth of a hit pixel
+ *   sv_bin(int ntri, tris, verts, cam, int IW, int IH, int T, int TW, int TH, int fill,
+ *          __global int *count, __global const int *offset, __global int *list)
+ *     count   TW*TH ints, zeroed by the host before each pass
+ *     fill 0: count[t] += 1 (atomic) for every tile t of each face; offset, list unused
+ *     fill 1: list[offset[t] + k] = face, k = count[t]++ (atomic; order within a tile free); offset: TW*TH + 1 exclusive prefix
+ *             sums of pass 0's counts (host), list: offset[TW*TH] ints
+ *     global size >= ntri (1-D), any local size (the host: Runtime.local_size(k, 64))
+ *   sv_prepare(int ntri, tris, verts, __global float4 *planes)          (pinhole only)
+ *     planes  out, 4 float4 per face: (m0, kind), (m1, 0), (m2, 0), (N, a . N): the edge
+ *             vectors of its edges a->b, b->c, c->a (edge function d . m) and its plane; the
+ *             eye is every pixel's start, so they serve every pixel
+ *     global size >= ntri (1-D), any local size
+ *   sv_count(verts, tris, __global const float4 *planes, __global const int *offset,
+ *            __global const int *list, __global const float4 *position, cam, float zs,
+ *            int w0, int IW, int IH, int T, int TW, __global uchar *mask)
+ *     planes    sv_prepare's (pinhole; orthographic: unused, may be any buffer: the faces are
+ *               read from verts and tris per pixel, whose start differs)
+ *     offset, list  sv_bin's pass 1 (TW*TH + 1 and offset[TW*TH] ints)
+ *     position  the G-buffer's view-space float4 per pixel, IW*IH (w = 1 hit)
+ *     zs        the orthographic start height (above every volume vertex); w0 the eye's
+ *               winding number (pinhole, from the host's float64 count)
+ *     mask      out, IW*IH uchar: 1 the light is hidden by a caster, 0 lit or empty
+ *     global size (>= IW, >= IH), any local size (the host: Runtime.grid_2d)
+ *   sv_apply(int n, __global const uchar *mask, float kshadow, __global float *coef)
+ *     coef[i] = kshadow where mask[i], else unchanged (n floats, a shadow-coefficient buffer,
+ *     1 = lit; kshadow paper 000 eq. (1)).  global size >= n (1-D), any local size
+ *   -D options: OCLS_ORTHO (orthographic camera); no others.
+ *   Build with -cl-std=CL1.2, no fast-math.  C host: host/src/shadow_volumes.c.
  */
 #include "common.h"
 
