@@ -48,27 +48,36 @@ OCLS_INLINE int patch_above(__global const float *h, int W, int pr, int pc, floa
     return 0;
 }
 
+/* Clip the line p + t dir (dir.xy) to the map's sample box [0, W-1] x [0, H-1], narrowing
+ * [t0, t1]; 0 when nothing is left, else 1 with (pr, pc) the patch the line enters at t0. */
+OCLS_INLINE int clip_to_map(int H, int W, float3 p, float4 dir, float *t0, float *t1, int *pc, int *pr)
+{
+    const float lo[2] = {0.0f, 0.0f}, hi[2] = {(float)(W - 1), (float)(H - 1)};
+    const float pos[2] = {p.x, p.y}, d[2] = {dir.x, dir.y};
+    for (int a = 0; a < 2; ++a) {
+        if (d[a] == 0.0f) {
+            if (pos[a] < lo[a] || pos[a] > hi[a]) return 0;
+        } else {
+            const float ta = (lo[a] - pos[a]) / d[a], tb = (hi[a] - pos[a]) / d[a];
+            *t0 = fmax(*t0, fmin(ta, tb));
+            *t1 = fmin(*t1, fmax(ta, tb));
+        }
+    }
+    if (!(*t0 < *t1)) return 0;
+    const float x = p.x + dir.x * *t0, y = p.y + dir.y * *t0;
+    *pc = clamp(dir.x < 0.0f ? ocls_ceil_int(x) - 1 : ocls_floor_int(x), 0, W - 2);
+    *pr = clamp(dir.y < 0.0f ? ocls_ceil_int(y) - 1 : ocls_floor_int(y), 0, H - 2);
+    return 1;
+}
+
 /* 1 iff the terrain occludes the sun ray from p = (u, v, z) (every patch under the ray). */
 OCLS_INLINE int terrain_blocks(__global const float *h, int H, int W, float zmax, float3 p, float4 ray)
 {
     if (H < 2 || W < 2 || (ray.x == 0.0f && ray.y == 0.0f)) return 0;
     float t0 = 0.0f, t1 = ray.z > 0.0f ? (zmax - p.z) / ray.z : INFINITY;   /* above zmax: lit */
-    const float lo[2] = {0.0f, 0.0f}, hi[2] = {(float)(W - 1), (float)(H - 1)};
-    const float pos[2] = {p.x, p.y}, dir[2] = {ray.x, ray.y};
-    for (int a = 0; a < 2; ++a) {
-        if (dir[a] == 0.0f) {
-            if (pos[a] < lo[a] || pos[a] > hi[a]) return 0;
-        } else {
-            const float ta = (lo[a] - pos[a]) / dir[a], tb = (hi[a] - pos[a]) / dir[a];
-            t0 = fmax(t0, fmin(ta, tb));
-            t1 = fmin(t1, fmax(ta, tb));
-        }
-    }
-    if (!(t0 < t1)) return 0;
+    int pc, pr;
+    if (!clip_to_map(H, W, p, ray, &t0, &t1, &pc, &pr)) return 0;
     const int sx = ray.x > 0.0f ? 1 : (ray.x < 0.0f ? -1 : 0), sy = ray.y > 0.0f ? 1 : (ray.y < 0.0f ? -1 : 0);
-    const float x = p.x + ray.x * t0, y = p.y + ray.y * t0;
-    int pc = clamp(sx < 0 ? ocls_ceil_int(x) - 1 : ocls_floor_int(x), 0, W - 2);
-    int pr = clamp(sy < 0 ? ocls_ceil_int(y) - 1 : ocls_floor_int(y), 0, H - 2);
     float t = t0;
     for (int it = 0; it < H + W + 4; ++it) {
         const float tx = sx != 0 ? ((float)(sx > 0 ? pc + 1 : pc) - p.x) / ray.x : INFINITY;
@@ -90,22 +99,9 @@ OCLS_INLINE int terrain_segment_blocks(__global const float *h, int H, int W, fl
 {
     if (H < 2 || W < 2) return 0;
     float t0 = 0.0f, t1 = 1.0f;
-    const float lo[2] = {0.0f, 0.0f}, hi[2] = {(float)(W - 1), (float)(H - 1)};
-    const float pos[2] = {p.x, p.y}, dir[2] = {seg.x, seg.y};
-    for (int a = 0; a < 2; ++a) {
-        if (dir[a] == 0.0f) {
-            if (pos[a] < lo[a] || pos[a] > hi[a]) return 0;
-        } else {
-            const float ta = (lo[a] - pos[a]) / dir[a], tb = (hi[a] - pos[a]) / dir[a];
-            t0 = fmax(t0, fmin(ta, tb));
-            t1 = fmin(t1, fmax(ta, tb));
-        }
-    }
-    if (!(t0 < t1)) return 0;
+    int pc, pr;
+    if (!clip_to_map(H, W, p, seg, &t0, &t1, &pc, &pr)) return 0;
     const int sx = seg.x > 0.0f ? 1 : (seg.x < 0.0f ? -1 : 0), sy = seg.y > 0.0f ? 1 : (seg.y < 0.0f ? -1 : 0);
-    const float x = p.x + seg.x * t0, y = p.y + seg.y * t0;
-    int pc = clamp(sx < 0 ? ocls_ceil_int(x) - 1 : ocls_floor_int(x), 0, W - 2);
-    int pr = clamp(sy < 0 ? ocls_ceil_int(y) - 1 : ocls_floor_int(y), 0, H - 2);
     float z0 = p.z;
     int near = 0, first = 0;
     if (surface && t0 < seg.w) {            /* the start patch: the first valid one within t_near */

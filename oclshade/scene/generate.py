@@ -24,8 +24,9 @@ import numpy as np
 import pyopencl as cl
 
 from ..camera import Camera
-from ..compose import Lighting, compose_linear
+from ..compose import compose_linear
 from ..envmap.cube import DeviceCubeMap, cube_frame
+from ..envmap.reflect import Reflections
 from ..frames import FrameSettings
 from ..sun import SunLike
 from .render import ObjectScene
@@ -40,13 +41,11 @@ class FaceScene(ObjectScene):
     light: ``frame(...).image`` is a ``cl.Buffer`` of float4 (r, g, b, 1) per pixel, row-major
     (compose_linear, plus the reflections and the environment's background added in place)."""
 
-    def _compose(self, camera: Camera, settings: FrameSettings, lighting: Lighting) -> cl.Buffer:
-        gbuf, refl = self._out["gbuffer"], self.reflections
-        shown = refl.weights(gbuf, self.ids, camera) if refl is not None else gbuf
-        image = compose_linear(shown, camera, lighting, shadow=self._out["shadows"], ao=self._out["ao"],
-                               device=self.runtime, normal=self._out["normals"], ssaa=settings.ssaa)
-        if refl is not None and refl.active:
-            refl.accumulate(gbuf, self.ids, camera, settings.ssaa, into=image)
+    compose_pass = staticmethod(compose_linear)
+
+    def _add_reflections(self, refl: Reflections, image: cl.Buffer, gbuf, camera: Camera, ssaa: int) -> cl.Buffer:
+        if refl.active:                           # into the linear frame, in place
+            refl.accumulate(gbuf, self.ids, camera, ssaa, into=image)
         return image
 
 

@@ -244,12 +244,18 @@ class ObjectScene(TerrainScene):
         cl.enqueue_fill_buffer(self.runtime.queue, self.ids.buffer, np.int32(0), 0, 4 * n)
         return self.ids
 
-    def _compose(self, camera: Camera, settings: FrameSettings, lighting: Lighting) -> np.ndarray:
+    #: compose's form of the frame (oclshade.compose.compose: 8-bit sRGB on the host)
+    compose_pass = staticmethod(compose)
+
+    def _compose(self, camera: Camera, settings: FrameSettings, lighting: Lighting) -> object:
         gbuf, refl = self._out["gbuffer"], self.reflections
         shown = refl.weights(gbuf, self.ids, camera) if refl is not None else gbuf
-        image = compose(shown, camera, lighting, shadow=self._out["shadows"], ao=self._out["ao"], device=self.runtime,
-                        normal=self._out["normals"], ssaa=settings.ssaa)
-        return refl.apply(image, gbuf, self.ids, camera, settings.ssaa) if refl is not None else image
+        image = self.compose_pass(shown, camera, lighting, shadow=self._out["shadows"], ao=self._out["ao"],
+                                  device=self.runtime, normal=self._out["normals"], ssaa=settings.ssaa)
+        return image if refl is None else self._add_reflections(refl, image, gbuf, camera, settings.ssaa)
+
+    def _add_reflections(self, refl: Reflections, image: np.ndarray, gbuf, camera: Camera, ssaa: int) -> np.ndarray:
+        return refl.apply(image, gbuf, self.ids, camera, ssaa)
 
 
 def scene_camera(desc: SceneDescription, heightmap: Heightmap) -> Camera:
