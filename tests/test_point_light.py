@@ -18,6 +18,7 @@ from oclshade.quadrics.caster import terrain_point_shadow
 from oclshade.reference import quadrics as ref
 from oclshade.runtime import get_runtime
 from oclshade.terrain import DeviceGBuffer
+from test_quadrics import random_quadric  # noqa: E402  (the same random shapes)
 
 EPS = float(np.finfo(np.float32).eps)
 CAMERA = Camera((60, -250, 150), (60, -90, 0), 8, 8, near=1, far=1e4)
@@ -90,19 +91,6 @@ def twin_terrain(hm: Heightmap, view32: np.ndarray, ids: np.ndarray, light: Poin
             if tie[i]:
                 break
     return out, tie
-
-
-def random_quadric(rng: np.random.Generator, kind: str, spread: float) -> Quadric:
-    centre = rng.uniform(-spread, spread, 3)
-    axis = rng.normal(size=3)
-    r = rng.uniform(0.5, 3.0, 3)
-    if kind == "sphere":
-        return Quadric.sphere(centre, r[0])
-    if kind == "ellipsoid":
-        return Quadric.ellipsoid(centre, r, axis)
-    if kind == "cylinder":
-        return Quadric.cylinder(centre, r[0], 2 * r[2], axis)
-    return Quadric.paraboloid(centre, r[0], r[2], axis)
 
 
 def random_map(rng: np.random.Generator) -> Heightmap:

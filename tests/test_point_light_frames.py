@@ -25,6 +25,7 @@ from oclshade.sun import Sun
 from oclshade.terrain import Heightfield, TerrainRenderer
 from test_mesh_scene import CUBE_OBJ, cube
 from test_point_light import twin_terrain
+from test_terrain_compose import scene  # noqa: F401  (the module's wavy terrain and its G-buffer)
 
 
 def read(buf: cl.Buffer, shape: tuple[int, int], runtime) -> np.ndarray:
@@ -34,21 +35,10 @@ def read(buf: cl.Buffer, shape: tuple[int, int], runtime) -> np.ndarray:
     return out
 
 
-@pytest.fixture(scope="module")
-def terrain():
-    rng = np.random.default_rng(11)
-    y, x = np.mgrid[0:50, 0:60]
-    h = 30.0 * np.sin(x / 7.0) * np.cos(y / 9.0) + rng.random((50, 60))
-    field = Heightfield.from_array(h, 5.0)
-    cam = frame_heightmap(field.heightmap, 80, 60, azimuth=160.0, elevation=35.0, crop=0.0)
-    renderer = TerrainRenderer(field)
-    return field, cam, renderer, renderer.render(cam)
-
-
 @pytest.mark.parametrize("distance,ssaa", [(None, 1), (40.0, 1), (40.0, 2)])
-def test_compose_with_a_point_light_matches_the_twin(terrain, distance, ssaa):
+def test_compose_with_a_point_light_matches_the_twin(scene, distance, ssaa):
     """-D OCLS_POINT_LIGHT against the twin (per-sample direction, falloff), 8-bit and linear."""
-    _, cam, renderer, g = terrain
+    _, cam, renderer, g = scene
     rng = np.random.default_rng(4)
     shadow = (rng.random(g.shape) < 0.7).astype(np.float32)
     light = Lighting(sun=PointLight((150.0, -120.0, 60.0), distance), sun_intensity=1.5)
