@@ -12,7 +12,7 @@ from hypothesis import given, settings, strategies as st
 from PIL import Image
 
 from oclshade import reference as ref
-from oclshade.camera import Camera, frame_heightmap
+from oclshade.camera import Camera
 from oclshade.cli import main
 from oclshade.compose import Lighting, compose, compose_linear
 from oclshade.frames import FrameSettings, TerrainScene
