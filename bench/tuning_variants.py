@@ -162,7 +162,7 @@ def frame_rows(data: Path, reps: int, quick: bool) -> list[dict]:
         caster = ScreenShadowCaster(hm, pyramid=renderer.pyramid, **knobs)
         bufs = caster.shade_to_device(gbuf, (37.0, 10.0))
         return lambda: caster.shade_to_device(gbuf, (37.0, 10.0), out=bufs)
-    rows.append(summarise("screen_shadows", SCREEN, f"{width}x{height} exact, auto q, sun 37/10", sets,
+    rows.append(summarise("screen_shadows", SCREEN, f"{width}x{height} exact (q = 0, the default), sun 37/10", sets,
                           rotate(screen_case, sets, reps, rt.queue.finish)))
 
     inputs = AOInputs(gbuf.shape, gbuf.buffers["position"], gbuf.buffers["normal"])
