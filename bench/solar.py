@@ -4,6 +4,8 @@
     python bench/solar.py                 # the record: SRTM N22W160 and S16E166 (1201^2), canyon 4096^2
     python bench/solar.py --reduced       # a check that the script works: 256^2 crops, canyon 256^2
     python bench/solar.py --maps N22W160,S16E166   # a subset of the maps
+    python bench/solar.py --azimuths 16 --maps N22W160,S16E166 --out bench/results/solar_whitebox
+    python bench/solar.py --maps canyon --grass-directions 4 --out bench/results/solar_canyon4096
 
 Writes bench/results/solar.{md,json,png} (``--out`` to change).  Per map and for
 16 and 64 azimuths in the same run:
@@ -25,13 +27,20 @@ Writes bench/results/solar.{md,json,png} (``--out`` to change).  Per map and for
   step=360/N`` (its directions counter-clockwise from east are converted to
   azimuths); time of the r.horizon call alone (import and export outside it) and
   its difference from oclshade's exact angles on every cell where both see
-  terrain, in all and split into the near field (either angle set within one cell
+  terrain (``--grass-directions K``: r.horizon computes only K of the N
+  azimuths, every (N / K)-th from north, its time is scaled by N / K and marked
+  as an estimate, and the differences are taken on those K bands: r.horizon's
+  time per azimuth grows with the cells times the map's side, hours for 64
+  azimuths at 4096^2), in all and split into the near field (either angle set within one cell
   of the cell) and the far field (docs/solar.md, "r.horizon").  Maps with nodata
   are compared with their voids filled (:func:`fill_voids`, both sides): the two
   models differ there by design.  r.horizon always lowers distant terrain by the
   Earth's curvature (checked: a 500 m tower 30 km away on flat ground reads
   0.81998 degrees, the curved value, not 0.95484), so it is compared with
   oclshade's ``Curvature()`` run (timed too);
+* **WhiteboxTools** ``HorizonAngle`` (PyPI ``whitebox-workflows``; skipped when absent): the
+  same N azimuths on the map as it is, rays to the map's edge, time of its N calls and its
+  difference from oclshade's flat-Earth angles (:func:`run_whitebox`);
 * **sky-view factor**: oclshade's solid-angle SVF (the definition RVT uses) from the
   same horizons against ``rvt.vis.sky_view_factor`` (PyPI ``rvt-py``, the bench
   extra; it requires the GDAL Python bindings, which build only where GDAL's
@@ -61,7 +70,7 @@ import numpy as np
 from oclshade import reference as ref
 from oclshade.heightmap import Heightmap
 from oclshade.horizon import Curvature, HorizonCaster, azimuth_grid
-from oclshade.io import read_dem
+from oclshade.io import Raster, read_dem, write_raster
 from oclshade.runtime import get_runtime
 from oclshade.synthetic import canyon_crater
 
@@ -166,7 +175,8 @@ def fill_voids(heights: np.ndarray) -> np.ndarray:
 
 
 def run_grass(hm: Heightmap, n: int) -> dict:
-    """r.horizon's angles as (n, rows, cols) azimuth-ordered (band i at 360 i / n), and its time.
+    """r.horizon's angles as (n, rows, cols) azimuth-ordered (band i at 360 i / n), and its time
+    (r.horizon's directions are independent searches, so its time grows with n).
 
     The map gets a one-cell border of nulls on its west and south sides: r.horizon tests "outside
     the map" on its sample's cell index truncated towards zero ((int)(x / dx + 0.5)), so without
@@ -175,6 +185,8 @@ def run_grass(hm: Heightmap, n: int) -> dict:
     those edges; docs/solar.md).  With it such a sample reads a null (-9999 m: never the horizon
     unless it is the only sample), as past the north and east edges, where the test is exact.
     """
+    if n % 4:
+        raise ValueError(f"n must be a multiple of 4 (r.horizon's directions start in the east), got {n}")
     rows, cols = hm.shape
     padded = np.full((rows + 1, cols + 1), -9999.0, np.float32)     # row 0 is north: the border is
     padded[:rows, 1:] = np.nan_to_num(hm.heights, nan=-9999.0)     # the last row and column 0
@@ -333,6 +345,57 @@ def peer_difference(hm: Heightmap, ours: np.ndarray, theirs: np.ndarray, curvatu
     return {**_summary([x for v in parts.values() for x in v]), **{c: _summary(v) for c, v in parts.items()}}
 
 
+# ----------------------------------------------------------------------------- WhiteboxTools
+def whitebox_version() -> str | None:
+    try:
+        import whitebox_workflows as wbw
+    except ImportError:
+        return None
+    return f"whitebox-workflows {wbw.WbEnvironment().version()}"
+
+
+def run_whitebox(hm: Heightmap, n: int) -> dict:
+    """WhiteboxTools' HorizonAngle (PyPI ``whitebox-workflows``) at the n azimuths as (n, rows, cols)
+    degrees (band i at 360 i / n, NaN = nodata), rays traced to the map's edge (``max_dist`` left
+    unset), and the time of the n tool calls (the DEM is read once, before).  Its rays read the
+    DEM by linear interpolation where they cross grid lines, without the Earth's curvature: it is
+    compared with oclshade's flat-Earth run."""
+    import whitebox_workflows as wbw
+    wbe = wbw.WbEnvironment()
+    wbe.verbose = False
+    rows = hm.shape[0]
+    like = Raster(hm.heights, hm.dx, hm.dy, georef={33550: (hm.dx, hm.dy, 0.0),
+                                                    33922: (0.0, 0.0, 0.0, 0.0, rows * hm.dy, 0.0)})
+    with tempfile.TemporaryDirectory(prefix="oclshade-wbt-") as tmp:
+        path = Path(tmp) / "dem.tif"
+        # plain strips: whitebox-workflows 2.0.6 reads a tiled, compressed GeoTIFF as zeros
+        write_raster(path, np.nan_to_num(hm.heights, nan=-9999.0).astype(np.float32), like=like, nodata=-9999.0,
+                     options={"TILED": "NO", "COMPRESS": "NONE"})
+        dem = wbe.read_raster(str(path))
+        start = time.perf_counter()
+        rasters = [wbe.horizon_angle(dem, azimuth=float(az)) for az in azimuth_grid(n)]
+        seconds = time.perf_counter() - start
+        angles = np.stack([np.asarray(r.to_numpy(), np.float32).reshape(hm.shape) for r in rasters])
+    angles[:, np.isnan(hm.heights)] = np.nan
+    return {"seconds": seconds, "angles": angles}
+
+
+def whitebox_difference(hm: Heightmap, ours: np.ndarray, theirs: np.ndarray) -> dict:
+    """WhiteboxTools - oclshade (degrees) on the cells where oclshade sees terrain: all of them,
+    ``near`` where oclshade's angle is reached within :data:`NEAR_CELLS` cells (:func:`near_horizon`:
+    the bilinear surface between grid lines, e.g. its slope at the cell, which WhiteboxTools'
+    samples at grid-line crossings do not see) and ``far``, the rest.  One band at a time."""
+    parts: dict[str, list[np.ndarray]] = {"near": [], "far": []}
+    for k, az in enumerate(azimuth_grid(ours.shape[0])):
+        o, t = ours[k], theirs[k]
+        both = np.isfinite(o) & np.isfinite(t) & (o > -90.0)
+        with np.errstate(invalid="ignore"):
+            near = o <= near_horizon(hm, az, 0.0) + 0.05
+        parts["near"].append((t - o)[both & near])
+        parts["far"].append((t - o)[both & ~near])
+    return {**_summary([x for v in parts.values() for x in v]), **{c: _summary(v) for c, v in parts.items()}}
+
+
 # ----------------------------------------------------------------------------- sky-view factor
 def rvt_svf(hm: Heightmap, n: int, radius: int) -> tuple[float, np.ndarray]:
     import rvt.vis
@@ -376,9 +439,11 @@ def svf_errors(hm: Heightmap, crop: int) -> tuple[list[int], dict]:
 
 
 # ----------------------------------------------------------------------------- report
-def run(reduced: bool, samples: int, svf_crop: int, rvt_radius: int, keys: tuple[str, ...] = MAP_KEYS) -> dict:
+def run(reduced: bool, samples: int, svf_crop: int, rvt_radius: int, keys: tuple[str, ...] = MAP_KEYS,
+        grass_directions: int | None = None, azimuth_counts: tuple[int, ...] = AZIMUTH_COUNTS) -> dict:
     rt = get_runtime()
     gv = grass_version()
+    wv = whitebox_version()
     try:
         import rvt  # noqa: F401
         rvt_ok = True
@@ -386,26 +451,39 @@ def run(reduced: bool, samples: int, svf_crop: int, rvt_radius: int, keys: tuple
         rvt_ok = False
     result = {"machine": {"device": rt.label, "platform": platform.platform(), "cpus": os.cpu_count()},
               "reduced": reduced, "grass": gv or "not installed (apt-get install grass-core)",
-              "rvt": "rvt-py" if rvt_ok else "not installed (pip install rvt-py --no-deps)", "maps": {},
-              "map_keys": list(keys)}
+              "rvt": "rvt-py" if rvt_ok else "not installed (pip install rvt-py --no-deps)",
+              "whitebox": wv or "not installed (pip install whitebox-workflows)", "maps": {},
+              "map_keys": list(keys), "grass_directions": grass_directions, "azimuth_counts": list(azimuth_counts)}
     for name, hm in maps(reduced, keys).items():
         print(f"{name}: {hm.shape[1]}x{hm.shape[0]}, dx {hm.dx:.2f} dy {hm.dy:.2f}", flush=True)
         caster = HorizonCaster(hm, rt, cache=False)
         voids = int(np.isnan(hm.heights).sum())
         peer_map = Heightmap.from_array(fill_voids(hm.heights), (hm.dx, hm.dy)) if voids else hm
         curved_caster = HorizonCaster(peer_map, rt, cache=False, curvature=Curvature())
+        flat_peer_caster = HorizonCaster(peer_map, rt, cache=False) if voids else caster
         for c in (caster, curved_caster):
             c.horizons([0.0])             # warm-up: pyramid and kernel build
         entry = {"shape": list(hm.shape), "dx": hm.dx, "dy": hm.dy, "voids_filled_for_peers": voids, "runs": {}}
-        for n in AZIMUTH_COUNTS:
+        grass_runs: dict[int, dict] = {}
+        for n in azimuth_counts:
             seconds, angles = time_ours(caster, n)
             row = {"oclshade_s": seconds, "reference": reference_error(hm, angles, samples)}
             if gv:     # r.horizon lowers distant terrain by the Earth's curvature: so does this run
                 row["oclshade_curved_s"], curved = time_ours(curved_caster, n)
-                g = run_grass(peer_map, n)
-                row["grass_s"] = g["seconds"]
-                row["grass_vs_oclshade"] = peer_difference(peer_map, curved, g["angles"],
+                k = min(grass_directions or n, n)            # r.horizon on every (n / k)-th azimuth
+                if k not in grass_runs:                      # the same k azimuths serve every n
+                    grass_runs[k] = run_grass(peer_map, k)
+                g = grass_runs[k]
+                row["grass_s"] = g["seconds"] * n / k
+                if k < n:
+                    row["grass_directions"] = k
+                row["grass_vs_oclshade"] = peer_difference(peer_map, curved[::n // k], g["angles"],
                                                            curved_caster.coefficient)
+            if wv:     # on the filled map too (its rays read a void's -9999 m as terrain)
+                flat = angles if peer_map is hm else flat_peer_caster.horizons(n)
+                w = run_whitebox(peer_map, n)
+                row["whitebox_s"] = w["seconds"]
+                row["whitebox_vs_oclshade"] = whitebox_difference(peer_map, flat, w["angles"])
             ours_svf = ref.sky_view_factor(angles, "solid-angle")
             if rvt_ok:
                 for radius in (10, rvt_radius):
@@ -429,7 +507,8 @@ def _class_cell(c: dict) -> str:
 def markdown(res: dict) -> str:
     m = res["machine"]
     lines = ["# Horizon angles and sky-view factor (issue 19)", "",
-             f"Machine: {m['device']}, {m['cpus']} CPUs, {m['platform']}. GRASS: {res['grass']}. RVT: {res['rvt']}."
+             f"Machine: {m['device']}, {m['cpus']} CPUs, {m['platform']}. GRASS: {res['grass']}. RVT: {res['rvt']}. "
+             f"WhiteboxTools: {res.get('whitebox', 'not run')}."
              + (" **Reduced run** (crops; a check of the script, not the record)." if res["reduced"] else "")
              + ("" if res.get("map_keys", list(MAP_KEYS)) == list(MAP_KEYS) else
                 f" **Maps of this run: {', '.join(res['map_keys'])}** (`--maps`; the others not run)."), "",
@@ -440,7 +519,8 @@ def markdown(res: dict) -> str:
         for n, row in e["runs"].items():
             r = row["reference"]
             g = row.get("grass_vs_oclshade")
-            grass = (f"{row['oclshade_curved_s']:.2f} | {row['grass_s']:.2f} | {g['mean_abs_deg']:.3f} / "
+            est = f" (est. from {row['grass_directions']} of {n} az.)" if "grass_directions" in row else ""
+            grass = (f"{row['oclshade_curved_s']:.2f} | {row['grass_s']:.2f}{est} | {g['mean_abs_deg']:.3f} / "
                      f"{g['p99_abs_deg']:.3f} / {g['max_abs_deg']:.2f}") if g else "- | - | -"
             rv = row.get("rvt_r10")
             rvt = f"{rv['mean_abs']:.4f} / {rv['max_abs']:.3f}" if rv else "-"
@@ -469,6 +549,24 @@ def markdown(res: dict) -> str:
                 if g:
                     lines.append(f"| {name} {e['shape'][1]}x{e['shape'][0]} | {n} | {e['voids_filled_for_peers']} | "
                                  + " | ".join(_class_cell(c) for c in (g, g["near"], g["rim"], g["far"])) + " |")
+    if any("whitebox_vs_oclshade" in row for e in res["maps"].values() for row in e["runs"].values()):
+        lines += ["", "WhiteboxTools HorizonAngle (whitebox-workflows; rays to the map's edge, linear interpolation "
+                  "where they cross grid lines, flat Earth) against oclshade's flat-Earth angles, on the cells "
+                  "where oclshade sees terrain (maps with voids: both on the filled map); time of its N tool "
+                  f"calls, the DEM already read. *near*: oclshade's angle is reached within {NEAR_CELLS:g} cells "
+                  "(the bilinear surface between grid lines, e.g. its slope at the cell, which samples at "
+                  "grid-line crossings miss); *far*: the rest.", "",
+                  "| map | N | oclshade s | WhiteboxTools s | WhiteboxTools / oclshade | WhiteboxTools - oclshade "
+                  "mean / p99 / max abs (deg): all | near | far |", "|---|---|---|---|---|---|---|---|"]
+        for name, e in res["maps"].items():
+            for n, row in e["runs"].items():
+                w = row.get("whitebox_vs_oclshade")
+                if w:
+                    lines.append(f"| {name} {e['shape'][1]}x{e['shape'][0]} | {n} | {row['oclshade_s']:.2f} | "
+                                 f"{row['whitebox_s']:.2f} | {row['whitebox_s'] / row['oclshade_s']:.1f}x | "
+                                 + " | ".join(f"{c['mean_deg']:+.3f} / {c['p99_abs_deg']:.3f} / {c['max_abs_deg']:.2f}"
+                                              if c["cells"] else "-" for c in (w, w["near"], w["far"])) + " |")
+        lines.append("")
     lines += ["", "Error of N azimuths: mean / max |SVF(N) - SVF(1024)| on the map's roughest crop (the window "
               "of largest height spread, rows / columns from its corner).", "",
               "| map | crop | definition | " + " | ".join(f"N = {n}" for n in SVF_COUNTS) + " |",
@@ -487,15 +585,17 @@ def plot(res: dict, path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     fig, (a, b) = plt.subplots(1, 2, figsize=(11, 4))
-    labels, ours, grass = [], [], []
+    labels, ours, grass, wbt = [], [], [], []
     for name, e in res["maps"].items():
         for n, row in e["runs"].items():
             labels.append(f"{name}\nN={n}")
             ours.append(row["oclshade_s"])
             grass.append(row.get("grass_s", np.nan))
+            wbt.append(row.get("whitebox_s", np.nan))
     x = np.arange(len(labels))
-    a.bar(x - 0.2, ours, 0.4, label="oclshade (exact)")
-    a.bar(x + 0.2, grass, 0.4, label="GRASS r.horizon")
+    a.bar(x - 0.27, ours, 0.27, label="oclshade (exact)")
+    a.bar(x, grass, 0.27, label="GRASS r.horizon")
+    a.bar(x + 0.27, wbt, 0.27, label="WhiteboxTools")
     a.set_xticks(x, labels, fontsize=7)
     a.set_ylabel("seconds")
     a.set_yscale("log")
@@ -522,13 +622,28 @@ def main() -> None:
                                                                      "(default 100, reduced 30)")
     parser.add_argument("--maps", default=",".join(MAP_KEYS),
                         help=f"comma-separated subset of {', '.join(MAP_KEYS)} (default all)")
+    parser.add_argument("--azimuths", default=",".join(map(str, AZIMUTH_COUNTS)),
+                        help="comma-separated azimuth counts N (default 16,64)")
+    parser.add_argument("--grass-directions", type=int, default=None, metavar="K",
+                        help="r.horizon on K of the N azimuths (K a multiple of 4 dividing every N), its time scaled by N / K "
+                             "(default: all N)")
     parser.add_argument("--out", type=Path, default=ROOT / "bench" / "results" / "solar")
     args = parser.parse_args()
+    try:
+        counts = tuple(int(n) for n in args.azimuths.split(",") if n.strip())
+    except ValueError:
+        counts = ()
+    if not counts or min(counts) < 1:
+        parser.error(f"--azimuths takes comma-separated positive counts, got {args.azimuths!r}")
+    k = args.grass_directions
+    if k is not None and (k < 4 or k % 4 or any(n % k for n in counts)):
+        parser.error(f"--grass-directions must be a multiple of 4 dividing every azimuth count {counts}, got {k}")
     keys = tuple(k.strip() for k in args.maps.split(",") if k.strip())
     if not keys or not set(keys) <= set(MAP_KEYS):
         parser.error(f"--maps takes a comma-separated subset of {', '.join(MAP_KEYS)}, got {args.maps!r}")
     res = run(args.reduced, args.samples or (200 if args.reduced else 2000),
-              args.svf_crop or (64 if args.reduced else 256), args.rvt_radius or (30 if args.reduced else 100), keys)
+              args.svf_crop or (64 if args.reduced else 256), args.rvt_radius or (30 if args.reduced else 100), keys,
+              args.grass_directions, counts)
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.with_suffix(".json").write_text(json.dumps(res, indent=1) + "\n")
     args.out.with_suffix(".md").write_text(markdown(res))

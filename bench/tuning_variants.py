@@ -171,7 +171,8 @@ def frame_rows(data: Path, reps: int, quick: bool) -> list[dict]:
     def ao_case(knobs: dict) -> Callable[[], None]:
         ssao = SSAO(rt, **knobs)
         return lambda: ssao.run(inputs, view.projection_matrix, radius=120.0, m=DEFAULT_M, features=DEFAULT_FEATURES)
-    rows.append(summarise("ssao", AO, f"{width}x{height} default AO (m = {DEFAULT_M} lines), radius 120 m", sets,
+    what = f"{width}x{height} default AO (m = {DEFAULT_M}, {DEFAULT_FEATURES.distribution}), radius 120 m"
+    rows.append(summarise("ssao", AO, what, sets,
                           rotate(ao_case, sets, reps, rt.queue.finish)))
     return rows
 

@@ -1,6 +1,7 @@
-"""bench/solar.py against GRASS r.horizon: the comparison's conventions (docs/solar.md, "r.horizon").
+"""bench/solar.py against GRASS r.horizon and WhiteboxTools: the comparisons' conventions (docs/solar.md).
 
-The r.horizon tests skip without GRASS (``apt-get install grass-core``); none needs shared/.
+The r.horizon tests skip without GRASS (``apt-get install grass-core``), the WhiteboxTools ones without
+whitebox-workflows (a test extra); none needs shared/.
 Expected values come from geometry (a tower on flat ground) and from a replica of r.horizon's
 search written here from its documented method (raster/r.horizon/main.c in GRASS 8.2: steps of
 (dx + dy) / 2 from the cell's centre, the nearest cell's height seen at the distance of that
@@ -158,3 +159,36 @@ def test_peer_classes(bench):
     rh = bench.run_grass(saddle, 8)["angles"][7]
     assert rh[4, 4] == pytest.approx(math.degrees(math.atan((377.0 - 400.0 - 3600.0 / (4 * R_GRASS))
                                                             / (30.0 * math.sqrt(2.0)))), abs=1e-4)
+
+
+# ----------------------------------------------------------------------------- WhiteboxTools
+needs_whitebox = pytest.mark.skipif(importlib.util.find_spec("whitebox_workflows") is None,
+                                    reason="whitebox-workflows not installed (a test extra)")
+
+
+@needs_whitebox
+def test_whitebox_reads_the_map_and_its_azimuths_are_ours(bench):
+    """A tower east and a wall north of a cell on flat ground: WhiteboxTools' HorizonAngle, run as
+    bench/solar.py runs it (a plain GeoTIFF it can read, azimuths clockwise from north), gives the
+    flat-Earth angles atan(dz / d) at those azimuths and 0 on the flat sides."""
+    h = np.zeros((61, 61), np.float32)
+    h[30, 50] = 400.0                        # 20 cells east of (30, 30)
+    h[10, 25:36] = 250.0                     # 20 cells north
+    hm = Heightmap.from_array(h, 25.0)
+    angles = bench.run_whitebox(hm, 4)["angles"]            # azimuths 0, 90, 180, 270
+    assert angles.shape == (4, 61, 61)
+    expect = [math.degrees(math.atan(250.0 / 500.0)), math.degrees(math.atan(400.0 / 500.0)), 0.0, 0.0]
+    np.testing.assert_allclose(angles[:, 30, 30], expect, atol=1e-4)
+
+
+@needs_whitebox
+def test_whitebox_agrees_with_oclshade_off_the_near_field(bench):
+    """On a smooth map (no kinks the bilinear surface and grid-line samples see differently)
+    WhiteboxTools' angles equal oclshade's flat-Earth angles where oclshade's horizon is set
+    beyond the near field, to a small fraction of a degree in the mean."""
+    hm = Heightmap.from_array(canyon_crater(96, 96, seed=3, relief=400.0), 30.0)
+    ours = HorizonCaster(hm, cache=False).horizons(8)
+    theirs = bench.run_whitebox(hm, 8)["angles"]
+    d = bench.whitebox_difference(hm, ours, theirs)
+    assert d["cells"] > 8 * 96 * 96 // 2                    # most cells see terrain
+    assert d["far"]["cells"] > 0 and abs(d["far"]["mean_deg"]) < 0.05, d["far"]
