@@ -323,6 +323,11 @@ def _summary(parts: list[np.ndarray]) -> dict:
             "p99_abs_deg": float(np.percentile(a, 99)), "max_abs_deg": float(a.max())}
 
 
+def _class_summaries(parts: dict[str, list[np.ndarray]]) -> dict:
+    """The summary of all differences, and of each class's under its name."""
+    return {**_summary([x for v in parts.values() for x in v]), **{c: _summary(v) for c, v in parts.items()}}
+
+
 def peer_difference(hm: Heightmap, ours: np.ndarray, theirs: np.ndarray, curvature: float) -> dict:
     """r.horizon - oclshade (degrees) on the cells where both see terrain: all of them, then split
     in three classes (docs/solar.md, "r.horizon"): ``near``, r.horizon's angle is set by a sample
@@ -342,7 +347,7 @@ def peer_difference(hm: Heightmap, ours: np.ndarray, theirs: np.ndarray, curvatu
         parts["near"].append(d[both & near])
         parts["rim"].append(d[both & ~near & rim])
         parts["far"].append(d[both & ~near & ~rim])
-    return {**_summary([x for v in parts.values() for x in v]), **{c: _summary(v) for c, v in parts.items()}}
+    return _class_summaries(parts)
 
 
 # ----------------------------------------------------------------------------- WhiteboxTools
@@ -393,7 +398,7 @@ def whitebox_difference(hm: Heightmap, ours: np.ndarray, theirs: np.ndarray) -> 
             near = o <= near_horizon(hm, az, 0.0) + 0.05
         parts["near"].append((t - o)[both & near])
         parts["far"].append((t - o)[both & ~near])
-    return {**_summary([x for v in parts.values() for x in v]), **{c: _summary(v) for c, v in parts.items()}}
+    return _class_summaries(parts)
 
 
 # ----------------------------------------------------------------------------- sky-view factor
@@ -504,6 +509,12 @@ def _class_cell(c: dict) -> str:
     return f"{c['cells']}: {c['mean_abs_deg']:.3f} / {c['p99_abs_deg']:.2f} / {c['max_abs_deg']:.1f}"
 
 
+def _rows_with(res: dict, key: str) -> list[tuple[str, object, dict, dict, dict]]:
+    """(map label with its size, N, map entry, run row, row[key]) of every run that has ``key``."""
+    return [(f"{name} {e['shape'][1]}x{e['shape'][0]}", n, e, row, row[key])
+            for name, e in res["maps"].items() for n, row in e["runs"].items() if key in row]
+
+
 def markdown(res: dict) -> str:
     m = res["machine"]
     lines = ["# Horizon angles and sky-view factor (issue 19)", "",
@@ -534,7 +545,8 @@ def markdown(res: dict) -> str:
               "directions) with a null border on the west and south (its edge test reads one cell past those "
               "edges); differences split by class below, explained in docs/solar.md, \"r.horizon\". RVT: "
               "nearest cells within its radius, mirrored edges.", ""]
-    if any("grass_vs_oclshade" in row for e in res["maps"].values() for row in e["runs"].values()):
+    grass_rows, whitebox_rows = _rows_with(res, "grass_vs_oclshade"), _rows_with(res, "whitebox_vs_oclshade")
+    if grass_rows:
         lines += ["r.horizon - oclshade curved by class, cells and mean / p99 / max |difference| (deg): *near*, "
                   f"either angle is set within {NEAR_CELLS:g} cells of the cell (r.horizon: by a nearest cell, "
                   "off the ray by up to half a cell, seen at the distance of its centre; oclshade: by the bilinear "
@@ -543,13 +555,10 @@ def markdown(res: dict) -> str:
                   "(nearest-cell samples further out on steep ground; r.horizon's 100x100-cell skip, which misses "
                   "terrain under a negative horizon).", "",
                   "| map | N | voids filled | all | near | rim | far |", "|---|---|---|---|---|---|---|"]
-        for name, e in res["maps"].items():
-            for n, row in e["runs"].items():
-                g = row.get("grass_vs_oclshade")
-                if g:
-                    lines.append(f"| {name} {e['shape'][1]}x{e['shape'][0]} | {n} | {e['voids_filled_for_peers']} | "
-                                 + " | ".join(_class_cell(c) for c in (g, g["near"], g["rim"], g["far"])) + " |")
-    if any("whitebox_vs_oclshade" in row for e in res["maps"].values() for row in e["runs"].values()):
+        for label, n, e, row, g in grass_rows:
+            lines.append(f"| {label} | {n} | {e['voids_filled_for_peers']} | "
+                         + " | ".join(_class_cell(c) for c in (g, g["near"], g["rim"], g["far"])) + " |")
+    if whitebox_rows:
         lines += ["", "WhiteboxTools HorizonAngle (whitebox-workflows; rays to the map's edge, linear interpolation "
                   "where they cross grid lines, flat Earth) against oclshade's flat-Earth angles, on the cells "
                   "where oclshade sees terrain (maps with voids: both on the filled map); time of its N tool "
@@ -558,14 +567,11 @@ def markdown(res: dict) -> str:
                   "grid-line crossings miss); *far*: the rest.", "",
                   "| map | N | oclshade s | WhiteboxTools s | WhiteboxTools / oclshade | WhiteboxTools - oclshade "
                   "mean / p99 / max abs (deg): all | near | far |", "|---|---|---|---|---|---|---|---|"]
-        for name, e in res["maps"].items():
-            for n, row in e["runs"].items():
-                w = row.get("whitebox_vs_oclshade")
-                if w:
-                    lines.append(f"| {name} {e['shape'][1]}x{e['shape'][0]} | {n} | {row['oclshade_s']:.2f} | "
-                                 f"{row['whitebox_s']:.2f} | {row['whitebox_s'] / row['oclshade_s']:.1f}x | "
-                                 + " | ".join(f"{c['mean_deg']:+.3f} / {c['p99_abs_deg']:.3f} / {c['max_abs_deg']:.2f}"
-                                              if c["cells"] else "-" for c in (w, w["near"], w["far"])) + " |")
+        for label, n, e, row, w in whitebox_rows:
+            lines.append(f"| {label} | {n} | {row['oclshade_s']:.2f} | {row['whitebox_s']:.2f} | "
+                         f"{row['whitebox_s'] / row['oclshade_s']:.1f}x | "
+                         + " | ".join(f"{c['mean_deg']:+.3f} / {c['p99_abs_deg']:.3f} / {c['max_abs_deg']:.2f}"
+                                      if c["cells"] else "-" for c in (w, w["near"], w["far"])) + " |")
         lines.append("")
     lines += ["", "Error of N azimuths: mean / max |SVF(N) - SVF(1024)| on the map's roughest crop (the window "
               "of largest height spread, rows / columns from its corner).", "",
@@ -638,7 +644,7 @@ def main() -> None:
     k = args.grass_directions
     if k is not None and (k < 4 or k % 4 or any(n % k for n in counts)):
         parser.error(f"--grass-directions must be a multiple of 4 dividing every azimuth count {counts}, got {k}")
-    keys = tuple(k.strip() for k in args.maps.split(",") if k.strip())
+    keys = tuple(key.strip() for key in args.maps.split(",") if key.strip())
     if not keys or not set(keys) <= set(MAP_KEYS):
         parser.error(f"--maps takes a comma-separated subset of {', '.join(MAP_KEYS)}, got {args.maps!r}")
     res = run(args.reduced, args.samples or (200 if args.reduced else 2000),
