@@ -140,7 +140,7 @@ TUNING = tuning.register(tuning.Family(
     "pyramid",
     (tuning.Param("base_lanes", (1, 4, 8, 16), 1, "level-1 texels per work-item (-D OCLS_BASE_LANES)", vector=True,
                   rule="width"),
-     tuning.OWN_BUILTINS,
+     tuning.OWN_BUILTINS_WHERE_CALLED,
      tuning.Param("in_place", (0, 1), 0, "read the heights in place from host memory (CL_MEM_USE_HOST_PTR)",
                   rule="host_memory")),
     ("pyramid.cl",), _smoke, _workload, "extrema pyramid build (paper 000)"))

@@ -372,5 +372,5 @@ def _workload(rt: Runtime, knobs: tuning.Values, quick: bool) -> Callable[[], No
 #: per-pixel shadows' knobs (kernels/shadow.cl shadow_pixels)
 TUNING = tuning.register(tuning.Family(
     "screen_shadows", (tuning.Param("group", (16, 64, 256), 64, "work-group size (work-items)"),
-                       tuning.OWN_BUILTINS),
+                       tuning.OWN_BUILTINS_WHERE_CALLED),
     ("shadow.cl",), _smoke, _workload, "per-pixel shadows over a G-buffer (paper 000)"))

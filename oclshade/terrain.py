@@ -399,5 +399,5 @@ TUNING = tuning.register(tuning.Family(
     (tuning.Param("descend", (1, 2, 3, 4, 5), 3, "levels a split voxel descends at once (-D OCLS_DESCEND)"),
      tuning.Param("leaf", (0, 1, 2, 3, 4), 2, "level at or below which voxels are walked patch by patch (-D OCLS_LEAF)"),
      tuning.Param("group", (16, 64, 256), 64, "work-group size (work-items)"),
-     tuning.OWN_BUILTINS),
+     tuning.OWN_BUILTINS_WHERE_CALLED),
     ("terrain.cl",), _smoke, _workload, "terrain ray casting (paper 004)"))

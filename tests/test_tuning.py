@@ -68,6 +68,30 @@ def test_target_lanes_come_from_the_compiler_target_not_the_host(target, lanes):
     assert float_lanes(FakeDevice("OpenCL 3.0 CUDA", 1)) == 1
 
 
+class FakeDriver:
+    def __init__(self, version: str, driver: str, type_: int = cl.device_type.CPU):
+        self.version, self.driver_version, self.type = version, driver, type_
+        self.native_vector_width_float, self.host_unified_memory = 8, True
+
+
+@pytest.mark.parametrize("version,driver,inline", [
+    ("OpenCL 3.0 PoCL HSTR: pthread-x86_64-unknown-linux-gnu-znver1", "3.0-rc2", 1),        # the PyPI wheel
+    ("OpenCL 3.0 PoCL HSTR: pthread-x86_64-pc-linux-gnu-haswell", "3.1+debian", 0),        # Debian's 3.1
+    ("OpenCL 3.0 PoCL HSTR: pthread-x86_64-pc-linux-gnu-haswell", "4.0", 0),
+    ("OpenCL 3.0 CUDA", "3.0.1", 0)])                                                      # not PoCL
+def test_inline_builtins_follow_the_driver_that_leaves_them_as_calls(version, driver, inline):
+    """The rule turns own_builtins on, on PoCL 3.0's CPU devices, for the families that declare
+    rule="library_calls" (pyramid, terrain, screen_shadows, horizon), and never for the ray
+    packets or SSAO."""
+    device = FakeDriver(version, driver)
+    for name in ("pyramid", "terrain", "screen_shadows", "horizon"):
+        assert rule_values(tuning.family(name), device)["own_builtins"] == inline, name
+    for name in ("shadow", "ssao"):
+        assert rule_values(tuning.family(name), device)["own_builtins"] == 0, name
+    gpu = FakeDriver(version, driver, cl.device_type.GPU)
+    assert rule_values(tuning.family("terrain"), gpu)["own_builtins"] == 0
+
+
 def test_lookup_order_user_then_shipped_then_rule(cache, monkeypatch):
     rt = get_runtime()
     fam, key = shadow_family(), DeviceKey.of(rt.device)

@@ -8,35 +8,40 @@
 
 /* ------------------------------------------------------------------ knobs */
 
+/* What the rule sets a knob to (params.py Param.rule). */
+enum { RULE_SAFE, RULE_WIDTH, RULE_LIBRARY_CALLS };
+
 /* The knobs of the Python host's tuning families the C host has (the TUNING of each oclshade module):
- * legal values, safe value, and whether the rule sets it from the target's float lanes. */
+ * legal values, safe value, and the rule that sets it for a device without an entry:
+ * RULE_WIDTH (rule="width"): on a CPU the widest legal value in 4..lanes;
+ * RULE_LIBRARY_CALLS (rule="library_calls"): 1 where the driver leaves built-ins as calls. */
 typedef struct knob_def {
     const char *family, *name;
     int nlegal;
     int legal[5];
     int safe;
-    int width_rule;   /* rules.py rule="width": on a CPU the widest legal value in 4..lanes */
+    int rule;
 } knob_def;
 
 static const knob_def KNOBS[N_KNOBS] = {
-    [K_PYRAMID_BASE_LANES] = {"pyramid", "base_lanes", 4, {1, 4, 8, 16}, 1, 1},
-    [K_PYRAMID_OWN_BUILTINS] = {"pyramid", "own_builtins", 2, {0, 1}, 0, 0},
-    [K_SHADOW_LANES] = {"shadow", "lanes", 4, {0, 4, 8, 16}, 0, 1},
-    [K_SHADOW_OWN_BUILTINS] = {"shadow", "own_builtins", 2, {0, 1}, 0, 0},
-    [K_SHADOW_CERT_TILE] = {"shadow", "cert_tile", 3, {16, 32, 64}, 16, 0},
-    [K_SHADOW_RUN] = {"shadow", "run", 4, {16, 64, 256, 1024}, 1024, 0},
-    [K_SHADOW_GROUP] = {"shadow", "group", 3, {16, 64, 256}, 64, 0},
-    [K_TERRAIN_DESCEND] = {"terrain", "descend", 5, {1, 2, 3, 4, 5}, 3, 0},
-    [K_TERRAIN_LEAF] = {"terrain", "leaf", 5, {0, 1, 2, 3, 4}, 2, 0},
-    [K_TERRAIN_GROUP] = {"terrain", "group", 3, {16, 64, 256}, 64, 0},
-    [K_TERRAIN_OWN_BUILTINS] = {"terrain", "own_builtins", 2, {0, 1}, 0, 0},
-    [K_PIXELS_GROUP] = {"screen_shadows", "group", 3, {16, 64, 256}, 64, 0},
-    [K_PIXELS_OWN_BUILTINS] = {"screen_shadows", "own_builtins", 2, {0, 1}, 0, 0},
-    [K_SSAO_LANES] = {"ssao", "lanes", 3, {4, 8, 16}, 8, 0},
-    [K_SSAO_GROUP] = {"ssao", "group", 3, {16, 64, 256}, 64, 0},
-    [K_SSAO_OWN_BUILTINS] = {"ssao", "own_builtins", 2, {0, 1}, 0, 0},
-    [K_HORIZON_GROUP] = {"horizon", "group", 3, {16, 64, 256}, 64, 0},
-    [K_HORIZON_OWN_BUILTINS] = {"horizon", "own_builtins", 2, {0, 1}, 0, 0},
+    [K_PYRAMID_BASE_LANES] = {"pyramid", "base_lanes", 4, {1, 4, 8, 16}, 1, RULE_WIDTH},
+    [K_PYRAMID_OWN_BUILTINS] = {"pyramid", "own_builtins", 2, {0, 1}, 0, RULE_LIBRARY_CALLS},
+    [K_SHADOW_LANES] = {"shadow", "lanes", 4, {0, 4, 8, 16}, 0, RULE_WIDTH},
+    [K_SHADOW_OWN_BUILTINS] = {"shadow", "own_builtins", 2, {0, 1}, 0, RULE_SAFE},
+    [K_SHADOW_CERT_TILE] = {"shadow", "cert_tile", 3, {16, 32, 64}, 16, RULE_SAFE},
+    [K_SHADOW_RUN] = {"shadow", "run", 4, {16, 64, 256, 1024}, 1024, RULE_SAFE},
+    [K_SHADOW_GROUP] = {"shadow", "group", 3, {16, 64, 256}, 64, RULE_SAFE},
+    [K_TERRAIN_DESCEND] = {"terrain", "descend", 5, {1, 2, 3, 4, 5}, 3, RULE_SAFE},
+    [K_TERRAIN_LEAF] = {"terrain", "leaf", 5, {0, 1, 2, 3, 4}, 2, RULE_SAFE},
+    [K_TERRAIN_GROUP] = {"terrain", "group", 3, {16, 64, 256}, 64, RULE_SAFE},
+    [K_TERRAIN_OWN_BUILTINS] = {"terrain", "own_builtins", 2, {0, 1}, 0, RULE_LIBRARY_CALLS},
+    [K_PIXELS_GROUP] = {"screen_shadows", "group", 3, {16, 64, 256}, 64, RULE_SAFE},
+    [K_PIXELS_OWN_BUILTINS] = {"screen_shadows", "own_builtins", 2, {0, 1}, 0, RULE_LIBRARY_CALLS},
+    [K_SSAO_LANES] = {"ssao", "lanes", 3, {4, 8, 16}, 8, RULE_SAFE},
+    [K_SSAO_GROUP] = {"ssao", "group", 3, {16, 64, 256}, 64, RULE_SAFE},
+    [K_SSAO_OWN_BUILTINS] = {"ssao", "own_builtins", 2, {0, 1}, 0, RULE_SAFE},
+    [K_HORIZON_GROUP] = {"horizon", "group", 3, {16, 64, 256}, 64, RULE_SAFE},
+    [K_HORIZON_OWN_BUILTINS] = {"horizon", "own_builtins", 2, {0, 1}, 0, RULE_LIBRARY_CALLS},
 };
 
 /* oclshade/tuning/rules.py TARGET_FLOAT_LANES: float lanes of the LLVM CPU target PoCL names in
@@ -72,6 +77,17 @@ static cl_uint target_float_lanes(cl_device_id device)
     return 0;
 }
 
+/* rules.py builtins_are_calls: a PoCL CPU device whose driver version is 3.0 (the PyPI wheel leaves
+ * the built-ins as calls into its library; Debian's 3.1 inlines them). */
+static int builtins_are_calls(cl_device_id device, cl_device_type type)
+{
+    char version[512] = {0}, driver[128] = {0};
+    if (!(type & CL_DEVICE_TYPE_CPU)) return 0;
+    if (clGetDeviceInfo(device, CL_DEVICE_VERSION, sizeof version - 1, version, NULL) != CL_SUCCESS) return 0;
+    if (clGetDeviceInfo(device, CL_DRIVER_VERSION, sizeof driver - 1, driver, NULL) != CL_SUCCESS) return 0;
+    return strstr(version, "PoCL") != NULL && strncmp(driver, "3.0", 3) == 0;
+}
+
 /* rules.py rule_values for every knob into values[]; the safe values when a query fails. */
 cl_int ocls_rule_values(cl_device_id device, int values[N_KNOBS])
 {
@@ -85,8 +101,10 @@ cl_int ocls_rule_values(cl_device_id device, int values[N_KNOBS])
     if (target) width = target;
     if (width < 1) width = 1;   /* rules.py: native_vector_width_float or 1 */
     if (!(type & CL_DEVICE_TYPE_CPU)) return CL_SUCCESS;
+    const int calls = builtins_are_calls(device, type);
     for (int k = 0; k < N_KNOBS; ++k) {
-        if (!KNOBS[k].width_rule) continue;
+        if (KNOBS[k].rule == RULE_LIBRARY_CALLS) values[k] = calls;
+        if (KNOBS[k].rule != RULE_WIDTH) continue;
         int best = -1, least = KNOBS[k].legal[0];
         for (int i = 0; i < KNOBS[k].nlegal; ++i) {
             const int v = KNOBS[k].legal[i];

@@ -264,6 +264,6 @@ def _workload(rt: Runtime, knobs: tuning.Values, quick: bool) -> Callable[[], No
 #: the horizon kernel's knobs (kernels/horizon.cl)
 TUNING = tuning.register(tuning.Family(
     "horizon",
-    (tuning.OWN_BUILTINS,
+    (tuning.OWN_BUILTINS_WHERE_CALLED,
      tuning.Param("group", (16, 64, 256), 64, "work-group size (work-items)")),
     ("horizon.cl",), _smoke, _workload, "horizon angles and sky-view factor (issue 19)"))

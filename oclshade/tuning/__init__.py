@@ -25,13 +25,14 @@ from dataclasses import dataclass, field
 
 from ..runtime import Runtime, get_runtime
 from .device import DeviceKey
-from .params import OWN_BUILTINS, Family, Param, Values, families, family, register, standard_heightmap
+from .params import (OWN_BUILTINS, OWN_BUILTINS_WHERE_CALLED, Family, Param, Values, families, family, register,
+                     standard_heightmap)
 from .probe import CHILD_ENV, run_probe
 from .rules import rule_values
 from . import store
 
-__all__ = ["OWN_BUILTINS", "Decision", "DeviceKey", "Family", "Param", "Values", "families", "family", "register",
-           "settings", "decide", "clear", "standard_heightmap"]
+__all__ = ["OWN_BUILTINS", "OWN_BUILTINS_WHERE_CALLED", "Decision", "DeviceKey", "Family", "Param", "Values", "families",
+           "family", "register", "settings", "decide", "clear", "standard_heightmap"]
 
 NO_PROBE_ENV = "OCLSHADE_NO_PROBE"
 

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import functools
 import importlib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Callable, Mapping
 
 Values = dict[str, int]
@@ -25,6 +25,10 @@ Values = dict[str, int]
 #: the modules that register a family, imported on demand by :func:`families`
 FAMILY_MODULES = ("oclshade.pyramid", "oclshade.shadows", "oclshade.terrain", "oclshade.screen_shadows",
                   "oclshade.ssao", "oclshade.horizon.caster")
+
+
+#: the rules a knob can follow (Param.rule; oclshade/tuning/rules.py applies them)
+RULES = ("safe", "width", "host_memory", "library_calls")
 
 
 @dataclass(frozen=True)
@@ -39,15 +43,16 @@ class Param:
     #: counts, inline built-ins): a value that fails a probe falls back to the next smaller one
     vector: bool = False
     #: what the rule from device properties sets it to (oclshade/tuning/rules.py): "safe" (its
-    #: safe value), "width" (a lane count: the compiler target's float vector width on CPUs) or
-    #: "host_memory" (1 on CPU devices that share the host's memory)
+    #: safe value), "width" (a lane count: the compiler target's float vector width on CPUs),
+    #: "host_memory" (1 on CPU devices that share the host's memory) or "library_calls" (1 on
+    #: drivers that leave the built-ins as library calls: PoCL 3.0's CPU devices)
     rule: str = "safe"
 
     def __post_init__(self) -> None:
         if self.safe not in self.values:
             raise ValueError(f"Param {self.name}: safe value {self.safe} is not among {self.values}")
-        if self.rule not in ("safe", "width", "host_memory"):
-            raise ValueError(f"Param {self.name}: rule must be 'safe', 'width' or 'host_memory', got {self.rule!r}")
+        if self.rule not in RULES:
+            raise ValueError(f"Param {self.name}: rule must be one of {', '.join(RULES)}, got {self.rule!r}")
 
     def check(self, value: object, family: str) -> int:
         if isinstance(value, bool) or not isinstance(value, int) or value not in self.values:
@@ -64,6 +69,11 @@ class Param:
 #: when the kernel's CPU target differs from its library's (AMD CPUs)
 OWN_BUILTINS = Param("own_builtins", (0, 1), 0, "inline built-ins (-D OCLS_OWN_BUILTINS, kernels/common.h)",
                      vector=True)
+#: the same knob for the families whose kernels gained from it on every CPU measured with PoCL 3.0
+#: (pyramid, terrain, screen_shadows, horizon: the tuner chose it on a Zen 1, a Zen 3 and an
+#: AVX-512 Xeon, docs/tuning.md "The rule"); the rule turns it on there.  The ray packets (mixed:
+#: 16-lane packets lost) and SSAO (lost on all three) keep OWN_BUILTINS.
+OWN_BUILTINS_WHERE_CALLED = replace(OWN_BUILTINS, rule="library_calls")
 
 
 @dataclass(frozen=True)

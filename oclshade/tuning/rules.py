@@ -9,9 +9,13 @@ a Zen 3 (16 lanes on znver3).  So on a CPU the ray-packet and
 pyramid lane knobs follow :func:`float_lanes` (below 4: no packets).  The
 SSAO kernel keeps its 8 lanes everywhere (its safe value): 4 lanes were 11 %
 slower than 8 on an SSE4.1 target and 16 were 40 % slower on AVX2
-(bench/results/tuning_variants_*.md).  Inline built-ins stay off (measured
-both ways on the PyPI PoCL: faster for the scalar kernels, not for the
-packets); the tuner turns them on where they win.  On other
+(bench/results/tuning_variants_*.md).  Inline built-ins (kernels/common.h)
+are on where the driver leaves the built-ins as library calls, PoCL 3.0 (the
+PyPI wheel: its kernel target and its built-in library's differ, and LLVM does
+not inline across them), for the families whose knob says rule="library_calls":
+the tuner chose them there on all three CPUs measured (pyramid, terrain,
+per-pixel shadows 12-25 % faster, horizons 1.45x on a Zen 1); the ray packets
+and SSAO keep them off (mixed, or slower).  On other
 devices (GPUs) the hardware runs work-items in lockstep already: the scalar
 kernels.  A probe (oclshade.tuning.probe) still checks the rule's choice
 builds and runs before it is used.
@@ -57,6 +61,14 @@ def _lanes(width: int, legal: tuple[int, ...]) -> int:
     return max(fitting) if fitting else min(legal)
 
 
+def builtins_are_calls(device: cl.Device) -> bool:
+    """True for a driver that leaves the OpenCL built-ins as calls into its library: PoCL 3.0's
+    CPU devices (driver version 3.0, e.g. "3.0-rc2" of the PyPI wheel; measured, docs/tuning.md
+    "Inline built-ins").  Debian's PoCL 3.1 inlines them."""
+    return (bool(device.type & cl.device_type.CPU) and "PoCL" in device.version
+            and device.driver_version.startswith("3.0"))
+
+
 def rule_values(family: Family, device: cl.Device) -> Values:
     """The rule's values for every knob of ``family`` (the safe value where it says nothing)."""
     values = family.safe()
@@ -67,4 +79,6 @@ def rule_values(family: Family, device: cl.Device) -> Values:
             values[p.name] = _lanes(width, p.values)
         elif p.rule == "host_memory":
             values[p.name] = int(is_cpu and bool(device.host_unified_memory))
+        elif p.rule == "library_calls":
+            values[p.name] = int(builtins_are_calls(device))
     return family.check(values)
