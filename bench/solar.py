@@ -5,7 +5,8 @@
     python bench/solar.py --reduced       # a check that the script works: 256^2 crops, canyon 256^2
     python bench/solar.py --maps N22W160,S16E166   # a subset of the maps
     python bench/solar.py --azimuths 16 --maps N22W160,S16E166 --out bench/results/solar_whitebox
-    python bench/solar.py --maps canyon --grass-directions 4 --out bench/results/solar_canyon4096
+    python bench/solar.py --maps canyon --azimuths 16 --grass-directions 4 --peers grass,rvt \
+        --out bench/results/solar_canyon4096   # 4096^2: WhiteboxTools left out (6 min per azimuth)
 
 Writes bench/results/solar.{md,json,png} (``--out`` to change).  Per map and for
 16 and 64 azimuths in the same run:
@@ -83,6 +84,8 @@ SVF_FINE = 1024
 
 #: the maps --maps can name
 MAP_KEYS = ("N22W160", "S16E166", "canyon")
+#: the outside peers the record runs (each skipped when not installed, or left out with --peers)
+PEERS = ("grass", "whitebox", "rvt")
 
 
 def maps(reduced: bool, keys: tuple[str, ...] = MAP_KEYS) -> dict[str, Heightmap]:
@@ -445,19 +448,26 @@ def svf_errors(hm: Heightmap, crop: int) -> tuple[list[int], dict]:
 
 # ----------------------------------------------------------------------------- report
 def run(reduced: bool, samples: int, svf_crop: int, rvt_radius: int, keys: tuple[str, ...] = MAP_KEYS,
-        grass_directions: int | None = None, azimuth_counts: tuple[int, ...] = AZIMUTH_COUNTS) -> dict:
+        grass_directions: int | None = None, azimuth_counts: tuple[int, ...] = AZIMUTH_COUNTS,
+        peers: tuple[str, ...] = PEERS) -> dict:
     rt = get_runtime()
-    gv = grass_version()
-    wv = whitebox_version()
-    try:
-        import rvt  # noqa: F401
-        rvt_ok = True
-    except ImportError:
-        rvt_ok = False
+    gv = grass_version() if "grass" in peers else None
+    wv = whitebox_version() if "whitebox" in peers else None
+    rvt_ok = False
+    if "rvt" in peers:
+        try:
+            import rvt  # noqa: F401
+            rvt_ok = True
+        except ImportError:
+            pass
+
+    def absent(peer: str, install: str) -> str:
+        return "not run (--peers)" if peer not in peers else f"not installed ({install})"
+
     result = {"machine": {"device": rt.label, "platform": platform.platform(), "cpus": os.cpu_count()},
-              "reduced": reduced, "grass": gv or "not installed (apt-get install grass-core)",
-              "rvt": "rvt-py" if rvt_ok else "not installed (pip install rvt-py --no-deps)",
-              "whitebox": wv or "not installed (pip install whitebox-workflows)", "maps": {},
+              "reduced": reduced, "grass": gv or absent("grass", "apt-get install grass-core"),
+              "rvt": "rvt-py" if rvt_ok else absent("rvt", "pip install rvt-py --no-deps"),
+              "whitebox": wv or absent("whitebox", "pip install whitebox-workflows"), "maps": {},
               "map_keys": list(keys), "grass_directions": grass_directions, "azimuth_counts": list(azimuth_counts)}
     for name, hm in maps(reduced, keys).items():
         print(f"{name}: {hm.shape[1]}x{hm.shape[0]}, dx {hm.dx:.2f} dy {hm.dy:.2f}", flush=True)
@@ -633,6 +643,9 @@ def main() -> None:
     parser.add_argument("--grass-directions", type=int, default=None, metavar="K",
                         help="r.horizon on K of the N azimuths (K a multiple of 4 dividing every N), its time scaled by N / K "
                              "(default: all N)")
+    parser.add_argument("--peers", default=",".join(PEERS),
+                        help=f"comma-separated subset of {', '.join(PEERS)} to run (default all; WhiteboxTools "
+                             "takes about 6 minutes per azimuth of a 4096^2 map on 2 cores)")
     parser.add_argument("--out", type=Path, default=ROOT / "bench" / "results" / "solar")
     args = parser.parse_args()
     try:
@@ -647,9 +660,12 @@ def main() -> None:
     keys = tuple(key.strip() for key in args.maps.split(",") if key.strip())
     if not keys or not set(keys) <= set(MAP_KEYS):
         parser.error(f"--maps takes a comma-separated subset of {', '.join(MAP_KEYS)}, got {args.maps!r}")
+    peers = tuple(peer.strip() for peer in args.peers.split(",") if peer.strip())
+    if not set(peers) <= set(PEERS):
+        parser.error(f"--peers takes a comma-separated subset of {', '.join(PEERS)}, got {args.peers!r}")
     res = run(args.reduced, args.samples or (200 if args.reduced else 2000),
               args.svf_crop or (64 if args.reduced else 256), args.rvt_radius or (30 if args.reduced else 100), keys,
-              args.grass_directions, counts)
+              args.grass_directions, counts, peers)
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.with_suffix(".json").write_text(json.dumps(res, indent=1) + "\n")
     args.out.with_suffix(".md").write_text(markdown(res))

@@ -192,3 +192,20 @@ def test_whitebox_agrees_with_oclshade_off_the_near_field(bench):
     d = bench.whitebox_difference(hm, ours, theirs)
     assert d["cells"] > 8 * 96 * 96 // 2                    # most cells see terrain
     assert d["far"]["cells"] > 0 and abs(d["far"]["mean_deg"]) < 0.05, d["far"]
+
+
+def test_peers_option_runs_only_the_named_peers(bench, monkeypatch, tmp_path):
+    """--peers leaves the others out, saying so in the record; a name it does not know is a usage
+    error naming the choices."""
+    called = []
+    monkeypatch.setattr(bench, "grass_version", lambda: called.append("grass") or None)
+    monkeypatch.setattr(bench, "whitebox_version", lambda: called.append("whitebox") or None)
+    res = bench.run(True, 10, 16, 5, ("canyon",), None, (4,), ("rvt",))
+    assert called == []
+    assert res["grass"] == res["whitebox"] == "not run (--peers)"
+    run = res["maps"]["canyon 256^2"]["runs"][4]
+    assert "grass_s" not in run and "whitebox_s" not in run
+    monkeypatch.setattr("sys.argv", ["solar.py", "--peers", "grass,saga", "--out", str(tmp_path / "x")])
+    with pytest.raises(SystemExit) as stop:
+        bench.main()
+    assert stop.value.code == 2
