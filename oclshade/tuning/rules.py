@@ -13,8 +13,8 @@ slower than 8 on an SSE4.1 target and 16 were 40 % slower on AVX2
 are on where the driver leaves the built-ins as library calls, PoCL 3.0 (the
 PyPI wheel: its kernel target and its built-in library's differ, and LLVM does
 not inline across them), for the families whose knob says rule="library_calls":
-the tuner chose them there on all three CPUs measured (pyramid, terrain,
-per-pixel shadows 12-25 % faster, horizons 1.45x on a Zen 1); the ray packets
+the tuner chose them there on all three CPUs measured (pyramid, terrain and
+per-pixel shadows 11-22 % faster, horizons 1.45x on a Zen 1); the ray packets
 and SSAO keep them off (mixed, or slower).  On other
 devices (GPUs) the hardware runs work-items in lockstep already: the scalar
 kernels.  A probe (oclshade.tuning.probe) still checks the rule's choice
@@ -64,7 +64,8 @@ def _lanes(width: int, legal: tuple[int, ...]) -> int:
 def builtins_are_calls(device: cl.Device) -> bool:
     """True for a driver that leaves the OpenCL built-ins as calls into its library: PoCL 3.0's
     CPU devices (driver version 3.0, e.g. "3.0-rc2" of the PyPI wheel; measured, docs/tuning.md
-    "Inline built-ins").  Debian's PoCL 3.1 inlines them."""
+    "Inline built-ins").  On Debian's PoCL 3.1 two full tunes chose them for one family only
+    (per-pixel shadows, SSE4.1 target on a Zen 1), so the rule leaves other drivers to the tuner."""
     return (bool(device.type & cl.device_type.CPU) and "PoCL" in device.version
             and device.driver_version.startswith("3.0"))
 
