@@ -42,6 +42,10 @@ Writes bench/results/solar.{md,json,png} (``--out`` to change).  Per map and for
 * **WhiteboxTools** ``HorizonAngle`` (PyPI ``whitebox-workflows``; skipped when absent): the
   same N azimuths on the map as it is, rays to the map's edge, time of its N calls and its
   difference from oclshade's flat-Earth angles (:func:`run_whitebox`);
+* **HORAYZON** (PyPI ``horayzon-extpar``, Steger's Embree horizon code; skipped when absent): the
+  map triangulated on a sphere of the Earth's radius (:func:`horayzon_mesh`), the N azimuths at
+  ``--horayzon-accuracy`` (0.1 degrees), time of its horizon call and its difference from
+  oclshade's ``Curvature()`` angles (:func:`run_horayzon`);
 * **sky-view factor**: oclshade's solid-angle SVF (the definition RVT uses) from the
   same horizons against ``rvt.vis.sky_view_factor`` (PyPI ``rvt-py``, the bench
   extra; it requires the GDAL Python bindings, which build only where GDAL's
@@ -58,10 +62,12 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import platform
 import shutil
 import subprocess
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -71,6 +77,7 @@ import numpy as np
 from oclshade import reference as ref
 from oclshade.heightmap import Heightmap
 from oclshade.horizon import Curvature, HorizonCaster, azimuth_grid
+from oclshade.horizon.caster import EARTH_RADIUS
 from oclshade.io import Raster, read_dem, write_raster
 from oclshade.runtime import get_runtime
 from oclshade.synthetic import canyon_crater
@@ -82,15 +89,19 @@ SVF_COUNTS = (16, 32, 64, 128)
 SVF_FINE = 1024
 
 
-#: the maps --maps can name
-MAP_KEYS = ("N22W160", "S16E166", "canyon")
+#: the maps --maps can name (puget: the shared Puget Sound heightmap, 4096^2 at 40 m, as bench/headlines.py)
+MAP_KEYS = ("N22W160", "S16E166", "canyon", "puget")
+#: the maps a run takes without --maps
+DEFAULT_MAPS = ("N22W160", "S16E166", "canyon")
 #: the outside peers the record runs (each skipped when not installed, or left out with --peers)
-PEERS = ("grass", "whitebox", "rvt")
+PEERS = ("grass", "whitebox", "rvt", "horayzon")
+HORAYZON_ACCURACY = 0.1       # degrees: HORAYZON's horizon_acc (its angles within this of its surface's)
+HORAYZON_LOWEST = -45.0       # degrees: HORAYZON's elev_angle_min (no search below)
 
 
-def maps(reduced: bool, keys: tuple[str, ...] = MAP_KEYS) -> dict[str, Heightmap]:
-    """The benchmark's maps: the shared SRTM tiles (when present) and the generated canyon
-    (those of ``keys``)."""
+def maps(reduced: bool, keys: tuple[str, ...] = DEFAULT_MAPS) -> dict[str, Heightmap]:
+    """The benchmark's maps: the shared SRTM tiles and Puget Sound (when present) and the
+    generated canyon (those of ``keys``)."""
     out = {}
     for tile, (r0, c0) in (("N22W160", (896, 384)), ("S16E166", (320, 704))):   # crops: the roughest 256^2
         path = SRTM / f"{tile}v2.3a.hgt.zip"
@@ -99,6 +110,14 @@ def maps(reduced: bool, keys: tuple[str, ...] = MAP_KEYS) -> dict[str, Heightmap
             h = r.heights[r0:r0 + 256, c0:c0 + 256] if reduced else r.heights
             out[f"SRTM {tile}"] = Heightmap.from_array(h, (r.dx, r.dy))
     side = 256 if reduced else 4096
+    if "puget" in keys:
+        sys.path.insert(0, str(ROOT / "bench"))
+        from shadow_masks import Skip, load_dataset
+        try:
+            d = load_dataset("puget", side, ROOT.parent / "shared" / "data")
+            out[f"Puget {side}^2"] = Heightmap.from_array(d["heights"].astype(np.float32), (d["dx"], d["dy"]))
+        except Skip:
+            pass
     if "canyon" in keys:
         out[f"canyon {side}^2"] = Heightmap.from_array(canyon_crater(side, side, seed=0, relief=1500.0), 30.0)
     return out
@@ -404,6 +423,92 @@ def whitebox_difference(hm: Heightmap, ours: np.ndarray, theirs: np.ndarray) -> 
     return _class_summaries(parts)
 
 
+# ----------------------------------------------------------------------------- HORAYZON
+def horayzon_version() -> str | None:
+    try:
+        import horayzon_extpar  # noqa: F401
+    except ImportError:
+        return None
+    from importlib.metadata import version
+    return f"horayzon-extpar {version('horayzon-extpar')} (Embree)"
+
+
+def horayzon_mesh(hm: Heightmap, radius: float = EARTH_RADIUS) -> tuple[np.ndarray, np.ndarray, np.ndarray,
+                                                                        np.ndarray]:
+    """The heightmap as HORAYZON's triangle mesh on a sphere of ``radius``: (vertices float32 (n, 3)
+    in metres, faces uint32 (m, 3), the sphere's centre, its north pole).  The map lies on the
+    equator at the prime meridian, its centre at the origin: column j at longitude x / R, row i at
+    latitude y / R (x east, y north of the centre, in metres), sample height h at radius R + h;
+    so north is +y everywhere (meridians along the columns) and the coordinates stay small enough
+    for float32 (HORAYZON's own practice: a local frame).  Two triangles per patch, split along
+    its south-west to north-east diagonal, wound anticlockwise seen from above (HORAYZON checks);
+    the bilinear surface and this one agree on every grid line."""
+    rows, cols = hm.shape
+    x = (np.arange(cols) - 0.5 * (cols - 1)) * hm.dx
+    y = -(np.arange(rows) - 0.5 * (rows - 1)) * hm.dy
+    lam, phi = np.meshgrid(x / radius, y / radius)
+    r = radius + hm.heights.astype(np.float64)
+    verts = np.stack([r * np.cos(phi) * np.sin(lam), r * np.sin(phi),
+                      r * np.cos(phi) * np.cos(lam) - radius], axis=-1).reshape(-1, 3).astype(np.float32)
+    idx = np.arange(rows * cols, dtype=np.uint32).reshape(rows, cols)
+    nw, ne, sw, se = idx[:-1, :-1], idx[:-1, 1:], idx[1:, :-1], idx[1:, 1:]
+    faces = np.concatenate([np.stack([sw, se, ne], -1).reshape(-1, 3),
+                            np.stack([sw, ne, nw], -1).reshape(-1, 3)])
+    centre = np.array([0.0, 0.0, -radius], np.float32)
+    pole = np.array([0.0, radius, -radius], np.float32)
+    return verts, np.ascontiguousarray(faces), centre, pole
+
+
+def run_horayzon(hm: Heightmap, n: int, accuracy: float = HORAYZON_ACCURACY,
+                 lowest: float = HORAYZON_LOWEST) -> dict:
+    """HORAYZON's horizons (PyPI ``horayzon-extpar``: Embree ray casting, the terrain a triangle mesh
+    on the sphere, :func:`horayzon_mesh`) at the n azimuths as (n, rows, cols) degrees (band i at
+    360 i / n, clockwise from north), each within ``accuracy`` degrees of its surface's horizon
+    (HORAYZON steps the elevation by 2 ``accuracy`` from the last azimuth's angle and reports the
+    middle of the bracket), angles below ``lowest`` not searched; rays to the map's edge.  Its time
+    is the horizon call's alone (the BVH built before); ``rays`` is its rays per cell and azimuth.
+    Nodata cells are not supported (the caller passes a filled map)."""
+    import horayzon_extpar.horizon as hz
+    verts, faces, centre, pole = horayzon_mesh(hm)
+    terrain = hz.Terrain()
+    reach = float(np.clip(math.hypot(hm.shape[0] * hm.dy, hm.shape[1] * hm.dx) * 1.01, 1000.0, 800000.0))
+    with tempfile.TemporaryFile("w+") as log:       # its C++ prints to stdout: kept out of ours
+        sys.stdout.flush()
+        saved = os.dup(1)
+        os.dup2(log.fileno(), 1)
+        try:
+            terrain.initialise(verts, faces, centre, pole)
+            start = time.perf_counter()
+            out = terrain.horizon_vertex(n, 0.0, np.array([0, verts.shape[0]], np.uint32), reach, 1.0,
+                                         accuracy, lowest)
+            seconds = time.perf_counter() - start
+        finally:
+            os.dup2(saved, 1)
+            os.close(saved)
+        log.seek(0)
+        text = log.read()
+    rays = [float(line.rsplit(":", 1)[1]) for line in text.splitlines() if "rays per cell" in line]
+    angles = np.ascontiguousarray(np.asarray(out, np.float32).T.reshape(n, *hm.shape))
+    return {"seconds": seconds, "angles": angles, "rays": rays[0] if rays else None}
+
+
+def horayzon_difference(hm: Heightmap, ours: np.ndarray, theirs: np.ndarray, curvature: float,
+                        lowest: float = HORAYZON_LOWEST) -> dict:
+    """HORAYZON - oclshade curved (degrees) on the cells where oclshade's angle is above HORAYZON's
+    search floor ``lowest`` (plus one degree): all, ``near`` (oclshade's angle reached within
+    :data:`NEAR_CELLS` cells, where the triangles and the bilinear patches differ most) and
+    ``far``.  One band at a time."""
+    parts: dict[str, list[np.ndarray]] = {"near": [], "far": []}
+    for k, az in enumerate(azimuth_grid(ours.shape[0])):
+        o, t = ours[k], theirs[k]
+        both = np.isfinite(o) & np.isfinite(t) & (o > lowest + 1.0)
+        with np.errstate(invalid="ignore"):
+            near = o <= near_horizon(hm, az, curvature) + 0.05
+        parts["near"].append((t - o)[both & near])
+        parts["far"].append((t - o)[both & ~near])
+    return _class_summaries(parts)
+
+
 # ----------------------------------------------------------------------------- sky-view factor
 def rvt_svf(hm: Heightmap, n: int, radius: int) -> tuple[float, np.ndarray]:
     import rvt.vis
@@ -447,12 +552,13 @@ def svf_errors(hm: Heightmap, crop: int) -> tuple[list[int], dict]:
 
 
 # ----------------------------------------------------------------------------- report
-def run(reduced: bool, samples: int, svf_crop: int, rvt_radius: int, keys: tuple[str, ...] = MAP_KEYS,
+def run(reduced: bool, samples: int, svf_crop: int, rvt_radius: int, keys: tuple[str, ...] = DEFAULT_MAPS,
         grass_directions: int | None = None, azimuth_counts: tuple[int, ...] = AZIMUTH_COUNTS,
-        peers: tuple[str, ...] = PEERS) -> dict:
+        peers: tuple[str, ...] = PEERS, horayzon_accuracy: float = HORAYZON_ACCURACY) -> dict:
     rt = get_runtime()
     gv = grass_version() if "grass" in peers else None
     wv = whitebox_version() if "whitebox" in peers else None
+    hv = horayzon_version() if "horayzon" in peers else None
     rvt_ok = False
     if "rvt" in peers:
         try:
@@ -467,7 +573,9 @@ def run(reduced: bool, samples: int, svf_crop: int, rvt_radius: int, keys: tuple
     result = {"machine": {"device": rt.label, "platform": platform.platform(), "cpus": os.cpu_count()},
               "reduced": reduced, "grass": gv or absent("grass", "apt-get install grass-core"),
               "rvt": "rvt-py" if rvt_ok else absent("rvt", "pip install rvt-py --no-deps"),
-              "whitebox": wv or absent("whitebox", "pip install whitebox-workflows"), "maps": {},
+              "whitebox": wv or absent("whitebox", "pip install whitebox-workflows"),
+              "horayzon": (f"{hv}, accuracy {horayzon_accuracy} deg, floor {HORAYZON_LOWEST} deg" if hv else
+                           absent("horayzon", "pip install horayzon-extpar")), "maps": {},
               "map_keys": list(keys), "grass_directions": grass_directions, "azimuth_counts": list(azimuth_counts)}
     for name, hm in maps(reduced, keys).items():
         print(f"{name}: {hm.shape[1]}x{hm.shape[0]}, dx {hm.dx:.2f} dy {hm.dy:.2f}", flush=True)
@@ -483,8 +591,14 @@ def run(reduced: bool, samples: int, svf_crop: int, rvt_radius: int, keys: tuple
         for n in azimuth_counts:
             seconds, angles = time_ours(caster, n)
             row = {"oclshade_s": seconds, "reference": reference_error(hm, angles, samples)}
-            if gv:     # r.horizon lowers distant terrain by the Earth's curvature: so does this run
+            if gv or hv:   # r.horizon and HORAYZON lower distant terrain by the Earth's curvature
                 row["oclshade_curved_s"], curved = time_ours(curved_caster, n)
+            if hv:
+                z = run_horayzon(peer_map, n, horayzon_accuracy)
+                row["horayzon_s"], row["horayzon_rays"] = z["seconds"], z["rays"]
+                row["horayzon_vs_oclshade"] = horayzon_difference(peer_map, curved, z["angles"],
+                                                                  curved_caster.coefficient)
+            if gv:
                 k = min(grass_directions or n, n)            # r.horizon on every (n / k)-th azimuth
                 if k not in grass_runs:                      # the same k azimuths serve every n
                     grass_runs[k] = run_grass(peer_map, k)
@@ -531,7 +645,7 @@ def markdown(res: dict) -> str:
              f"Machine: {m['device']}, {m['cpus']} CPUs, {m['platform']}. GRASS: {res['grass']}. RVT: {res['rvt']}. "
              f"WhiteboxTools: {res.get('whitebox', 'not run')}."
              + (" **Reduced run** (crops; a check of the script, not the record)." if res["reduced"] else "")
-             + ("" if res.get("map_keys", list(MAP_KEYS)) == list(MAP_KEYS) else
+             + ("" if res.get("map_keys", list(DEFAULT_MAPS)) == list(DEFAULT_MAPS) else
                 f" **Maps of this run: {', '.join(res['map_keys'])}** (`--maps`; the others not run)."), "",
              "| map | N | oclshade s | ref. max diff (deg) | band (deg) | outside band | oclshade curved s | "
              "r.horizon s | r.horizon - oclshade curved mean / p99 / max abs (deg) | RVT r10 SVF mean / max abs diff |",
@@ -583,6 +697,24 @@ def markdown(res: dict) -> str:
                          + " | ".join(f"{c['mean_deg']:+.3f} / {c['p99_abs_deg']:.3f} / {c['max_abs_deg']:.2f}"
                                       if c["cells"] else "-" for c in (w, w["near"], w["far"])) + " |")
         lines.append("")
+    horayzon_rows = _rows_with(res, "horayzon_vs_oclshade")
+    if horayzon_rows:
+        lines += ["", f"HORAYZON ({res['horayzon']}: Embree rays against the map triangulated on a sphere of "
+                  "the same radius, its elevation stepped by twice the accuracy from the last azimuth's angle; "
+                  "rays to the map's edge) against oclshade's curved angles, on the cells where oclshade's "
+                  "angle is above HORAYZON's floor plus 1 degree (maps with voids: both on the filled map); "
+                  "time of its horizon call, the BVH built before. *near*: oclshade's angle is reached within "
+                  f"{NEAR_CELLS:g} cells (bilinear patches against two triangles each); *far*: the rest.", "",
+                  "| map | N | oclshade curved s (exact) | HORAYZON s | HORAYZON / oclshade | rays per cell and "
+                  "azimuth | HORAYZON - oclshade mean / p99 / max abs (deg): all | near | far |",
+                  "|---|---|---|---|---|---|---|---|---|"]
+        for label, n, e, row, z in horayzon_rows:
+            rays = f"{row['horayzon_rays']:.1f}" if row.get("horayzon_rays") else "-"
+            lines.append(f"| {label} | {n} | {row['oclshade_curved_s']:.2f} | {row['horayzon_s']:.2f} | "
+                         f"{row['horayzon_s'] / row['oclshade_curved_s']:.1f}x | {rays} | "
+                         + " | ".join(f"{c['mean_deg']:+.3f} / {c['p99_abs_deg']:.3f} / {c['max_abs_deg']:.2f}"
+                                      if c["cells"] else "-" for c in (z, z["near"], z["far"])) + " |")
+        lines.append("")
     lines += ["", "Error of N azimuths: mean / max |SVF(N) - SVF(1024)| on the map's roughest crop (the window "
               "of largest height spread, rows / columns from its corner).", "",
               "| map | crop | definition | " + " | ".join(f"N = {n}" for n in SVF_COUNTS) + " |",
@@ -601,17 +733,19 @@ def plot(res: dict, path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     fig, (a, b) = plt.subplots(1, 2, figsize=(11, 4))
-    labels, ours, grass, wbt = [], [], [], []
+    labels, ours, grass, wbt, hzn = [], [], [], [], []
     for name, e in res["maps"].items():
         for n, row in e["runs"].items():
             labels.append(f"{name}\nN={n}")
             ours.append(row["oclshade_s"])
             grass.append(row.get("grass_s", np.nan))
             wbt.append(row.get("whitebox_s", np.nan))
+            hzn.append(row.get("horayzon_s", np.nan))
     x = np.arange(len(labels))
-    a.bar(x - 0.27, ours, 0.27, label="oclshade (exact)")
-    a.bar(x, grass, 0.27, label="GRASS r.horizon")
-    a.bar(x + 0.27, wbt, 0.27, label="WhiteboxTools")
+    a.bar(x - 0.3, ours, 0.2, label="oclshade (exact)")
+    a.bar(x - 0.1, grass, 0.2, label="GRASS r.horizon")
+    a.bar(x + 0.1, wbt, 0.2, label="WhiteboxTools")
+    a.bar(x + 0.3, hzn, 0.2, label="HORAYZON (Embree)")
     a.set_xticks(x, labels, fontsize=7)
     a.set_ylabel("seconds")
     a.set_yscale("log")
@@ -636,8 +770,8 @@ def main() -> None:
                                                                    "(default 256, reduced 64)")
     parser.add_argument("--rvt-radius", type=int, default=None, help="the larger RVT radius in cells "
                                                                      "(default 100, reduced 30)")
-    parser.add_argument("--maps", default=",".join(MAP_KEYS),
-                        help=f"comma-separated subset of {', '.join(MAP_KEYS)} (default all)")
+    parser.add_argument("--maps", default=",".join(DEFAULT_MAPS),
+                        help=f"comma-separated subset of {', '.join(MAP_KEYS)} (default {','.join(DEFAULT_MAPS)})")
     parser.add_argument("--azimuths", default=",".join(map(str, AZIMUTH_COUNTS)),
                         help="comma-separated azimuth counts N (default 16,64)")
     parser.add_argument("--grass-directions", type=int, default=None, metavar="K",
@@ -646,6 +780,8 @@ def main() -> None:
     parser.add_argument("--peers", default=",".join(PEERS),
                         help=f"comma-separated subset of {', '.join(PEERS)} to run (default all; WhiteboxTools "
                              "takes about 6 minutes per azimuth of a 4096^2 map on 2 cores)")
+    parser.add_argument("--horayzon-accuracy", type=float, default=HORAYZON_ACCURACY, metavar="DEG",
+                        help=f"HORAYZON's horizon accuracy in degrees (default {HORAYZON_ACCURACY})")
     parser.add_argument("--out", type=Path, default=ROOT / "bench" / "results" / "solar")
     args = parser.parse_args()
     try:
@@ -665,7 +801,7 @@ def main() -> None:
         parser.error(f"--peers takes a comma-separated subset of {', '.join(PEERS)}, got {args.peers!r}")
     res = run(args.reduced, args.samples or (200 if args.reduced else 2000),
               args.svf_crop or (64 if args.reduced else 256), args.rvt_radius or (30 if args.reduced else 100), keys,
-              args.grass_directions, counts, peers)
+              args.grass_directions, counts, peers, args.horayzon_accuracy)
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.with_suffix(".json").write_text(json.dumps(res, indent=1) + "\n")
     args.out.with_suffix(".md").write_text(markdown(res))

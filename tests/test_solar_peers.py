@@ -1,7 +1,9 @@
-"""bench/solar.py against GRASS r.horizon and WhiteboxTools: the comparisons' conventions (docs/solar.md).
+"""bench/solar.py against GRASS r.horizon, WhiteboxTools and HORAYZON: the comparisons' conventions
+(docs/solar.md).
 
 The r.horizon tests skip without GRASS (``apt-get install grass-core``), the WhiteboxTools ones without
-whitebox-workflows (a test extra); none needs shared/.
+whitebox-workflows, the HORAYZON ones without horayzon-extpar (test extras, the latter on x86-64
+Linux, where its wheels are); none needs shared/.
 Expected values come from geometry (a tower on flat ground) and from a replica of r.horizon's
 search written here from its documented method (raster/r.horizon/main.c in GRASS 8.2: steps of
 (dx + dy) / 2 from the cell's centre, the nearest cell's height seen at the distance of that
@@ -194,17 +196,60 @@ def test_whitebox_agrees_with_oclshade_off_the_near_field(bench):
     assert d["far"]["cells"] > 0 and abs(d["far"]["mean_deg"]) < 0.05, d["far"]
 
 
+def test_horayzon_mesh_lies_on_the_sphere_wound_anticlockwise(bench):
+    """The mesh handed to HORAYZON: every vertex at radius R + h from the centre, the map's centre
+    at the origin, north (the pole's side) along -rows and east along +columns, every triangle's
+    normal pointing away from the centre (HORAYZON refuses other windings), two per patch."""
+    h = canyon_crater(9, 12, seed=2, relief=300.0).astype(np.float32)
+    hm = Heightmap.from_array(h, (20.0, 30.0))
+    verts, faces, centre, pole = bench.horayzon_mesh(hm, radius=1.0e6)
+    v = verts.astype(np.float64).reshape(9, 12, 3)
+    radius = np.linalg.norm(v - centre, axis=-1)
+    np.testing.assert_allclose(radius, 1.0e6 + h.astype(np.float64), rtol=0, atol=0.02)   # float32 coordinates
+    assert np.linalg.norm(pole - centre) == pytest.approx(1.0e6)
+    assert v[0, 5, 1] > v[8, 5, 1] and v[4, 11, 0] > v[4, 0, 0]            # row 0 north, column 0 west
+    np.testing.assert_allclose(v[4, 5, 0] + v[4, 6, 0], 0.0, atol=0.01)   # centre between columns 5, 6
+    assert faces.shape == (2 * 8 * 11, 3) and faces.max() == 9 * 12 - 1
+    p = verts.astype(np.float64)[faces]
+    normal = np.cross(p[:, 2] - p[:, 1], p[:, 0] - p[:, 1])
+    assert np.all(np.einsum("ij,ij->i", normal, p.mean(axis=1) - centre) > 0)
+
+
+needs_horayzon = pytest.mark.skipif(importlib.util.find_spec("horayzon_extpar") is None,
+                                    reason="horayzon-extpar not installed (a test extra on x86-64 Linux)")
+
+
+@needs_horayzon
+def test_horayzon_agrees_with_oclshade_along_grid_lines(bench):
+    """At azimuths 0, 90, 180 and 270 degrees every ray runs along a grid line, where the bilinear
+    surface and HORAYZON's triangles are the same polyline: off the map's border its angles are
+    oclshade's curved ones within its accuracy (plus the sphere's departure from the d^2 / 2R drop,
+    and its ray origin's offset off the vertex: under 0.005 degrees on a 2 km map).  Border cells
+    are left out: a ray along the mesh's edge line can miss it in HORAYZON (docs/solar.md)."""
+    hm = Heightmap.from_array(canyon_crater(64, 64, seed=5, relief=350.0), 30.0)
+    ours = HorizonCaster(hm, cache=False, curvature=Curvature()).horizons(4)
+    z = bench.run_horayzon(hm, 4, accuracy=0.01)
+    inner = np.zeros(hm.shape, bool)
+    inner[1:-1, 1:-1] = True
+    seen = (ours > bench.HORAYZON_LOWEST + 1.0) & inner
+    assert seen.mean() > 0.5
+    d = np.abs(z["angles"] - ours)[seen]
+    assert d.max() <= 0.015, np.quantile(d, [0.5, 0.99, 0.999, 1.0])
+    assert z["seconds"] > 0 and z["rays"] >= 1
+
+
 def test_peers_option_runs_only_the_named_peers(bench, monkeypatch, tmp_path):
     """--peers leaves the others out, saying so in the record; a name it does not know is a usage
     error naming the choices."""
     called = []
     monkeypatch.setattr(bench, "grass_version", lambda: called.append("grass") or None)
     monkeypatch.setattr(bench, "whitebox_version", lambda: called.append("whitebox") or None)
+    monkeypatch.setattr(bench, "horayzon_version", lambda: called.append("horayzon") or None)
     res = bench.run(True, 10, 16, 5, ("canyon",), None, (4,), ("rvt",))
     assert called == []
-    assert res["grass"] == res["whitebox"] == "not run (--peers)"
+    assert res["grass"] == res["whitebox"] == res["horayzon"] == "not run (--peers)"
     run = res["maps"]["canyon 256^2"]["runs"][4]
-    assert "grass_s" not in run and "whitebox_s" not in run
+    assert "grass_s" not in run and "whitebox_s" not in run and "horayzon_s" not in run
     monkeypatch.setattr("sys.argv", ["solar.py", "--peers", "grass,saga", "--out", str(tmp_path / "x")])
     with pytest.raises(SystemExit) as stop:
         bench.main()
