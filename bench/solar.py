@@ -7,6 +7,8 @@
     python bench/solar.py --azimuths 16 --maps N22W160,S16E166 --out bench/results/solar_whitebox
     python bench/solar.py --maps canyon --azimuths 16 --grass-directions 4 --peers grass,rvt \
         --out bench/results/solar_canyon4096   # 4096^2: WhiteboxTools left out (6 min per azimuth)
+    python bench/solar.py --maps puget --azimuths 16 --grass-directions 4 --peers grass,horayzon,rvt \
+        --out bench/results/solar_puget4096    # the shared Puget Sound 4096^2 (not in the default maps)
 
 Writes bench/results/solar.{md,json,png} (``--out`` to change).  Per map and for
 16 and 64 azimuths in the same run:
