@@ -2,6 +2,17 @@
  * Host: oclshade/meshes/shadow_volumes.py (volumes, start count, tiles' prefix sums).
  * Float64 twin: oclshade/reference/mesh_shadows.py (shadow rays against every triangle).
  *
+ * ABI summary (every argument, layout and work size under "ABI" below):
+ *   sv_bin      one work-item per volume face, 1-D global >= ntri: counts (fill 0) or lists
+ *               (fill 1) the faces of each T x T pixel tile (int count / offset / list buffers)
+ *   sv_prepare  one work-item per face, 1-D global >= ntri (pinhole only): 4 float4 edge and
+ *               plane vectors per face
+ *   sv_count    one work-item per pixel, global (>= IW, >= IH): the uchar shadow mask from the
+ *               float4 view-space G-buffer positions and the tiles' face lists
+ *   sv_apply    one work-item per pixel, 1-D global >= n: coef[i] = kshadow where mask[i]
+ *   Vertices float4 (xyz view space), faces int4 (a, b, c, kind), cam float4 (sx, sy, near,
+ *   maxdepth).  -D options: OCLS_ORTHO (orthographic camera) only; -cl-std=CL1.2, no fast-math.
+ *
  * Volumes.  One closed oriented triangle surface per light (paper 003 sections 3-4): light
  * caps (the caster faces, kind 1), sides (the silhouette edges extruded away from the light,
  * kind 0) and dark caps (the casters at the extrusion's end, reversed, kind 1).  Vertices are
