@@ -113,7 +113,8 @@ def maps(reduced: bool, keys: tuple[str, ...] = DEFAULT_MAPS) -> dict[str, Heigh
             out[f"SRTM {tile}"] = Heightmap.from_array(h, (r.dx, r.dy))
     side = 256 if reduced else 4096
     if "puget" in keys:
-        sys.path.insert(0, str(ROOT / "bench"))
+        if str(ROOT / "bench") not in sys.path:
+            sys.path.insert(0, str(ROOT / "bench"))
         from shadow_masks import Skip, load_dataset
         try:
             d = load_dataset("puget", side, ROOT.parent / "shared" / "data")
@@ -409,17 +410,19 @@ def run_whitebox(hm: Heightmap, n: int) -> dict:
     return {"seconds": seconds, "angles": angles}
 
 
-def whitebox_difference(hm: Heightmap, ours: np.ndarray, theirs: np.ndarray) -> dict:
-    """WhiteboxTools - oclshade (degrees) on the cells where oclshade sees terrain: all of them,
-    ``near`` where oclshade's angle is reached within :data:`NEAR_CELLS` cells (:func:`near_horizon`:
-    the bilinear surface between grid lines, e.g. its slope at the cell, which WhiteboxTools'
-    samples at grid-line crossings do not see) and ``far``, the rest.  One band at a time."""
+def near_far_difference(hm: Heightmap, ours: np.ndarray, theirs: np.ndarray, curvature: float = 0.0,
+                        floor: float = -90.0) -> dict:
+    """A peer - oclshade (degrees) on the cells where oclshade's angle is above ``floor`` (-90: it
+    sees terrain): all of them, ``near`` where oclshade's angle is reached within
+    :data:`NEAR_CELLS` cells (:func:`near_horizon`: the bilinear surface between grid lines, e.g.
+    its slope at the cell, which WhiteboxTools' samples at grid-line crossings do not see and
+    HORAYZON's triangles see differently) and ``far``, the rest.  One band at a time."""
     parts: dict[str, list[np.ndarray]] = {"near": [], "far": []}
     for k, az in enumerate(azimuth_grid(ours.shape[0])):
         o, t = ours[k], theirs[k]
-        both = np.isfinite(o) & np.isfinite(t) & (o > -90.0)
+        both = np.isfinite(o) & np.isfinite(t) & (o > floor)
         with np.errstate(invalid="ignore"):
-            near = o <= near_horizon(hm, az, 0.0) + 0.05
+            near = o <= near_horizon(hm, az, curvature) + 0.05
         parts["near"].append((t - o)[both & near])
         parts["far"].append((t - o)[both & ~near])
     return _class_summaries(parts)
@@ -492,23 +495,6 @@ def run_horayzon(hm: Heightmap, n: int, accuracy: float = HORAYZON_ACCURACY,
     rays = [float(line.rsplit(":", 1)[1]) for line in text.splitlines() if "rays per cell" in line]
     angles = np.ascontiguousarray(np.asarray(out, np.float32).T.reshape(n, *hm.shape))
     return {"seconds": seconds, "angles": angles, "rays": rays[0] if rays else None}
-
-
-def horayzon_difference(hm: Heightmap, ours: np.ndarray, theirs: np.ndarray, curvature: float,
-                        lowest: float = HORAYZON_LOWEST) -> dict:
-    """HORAYZON - oclshade curved (degrees) on the cells where oclshade's angle is above HORAYZON's
-    search floor ``lowest`` (plus one degree): all, ``near`` (oclshade's angle reached within
-    :data:`NEAR_CELLS` cells, where the triangles and the bilinear patches differ most) and
-    ``far``.  One band at a time."""
-    parts: dict[str, list[np.ndarray]] = {"near": [], "far": []}
-    for k, az in enumerate(azimuth_grid(ours.shape[0])):
-        o, t = ours[k], theirs[k]
-        both = np.isfinite(o) & np.isfinite(t) & (o > lowest + 1.0)
-        with np.errstate(invalid="ignore"):
-            near = o <= near_horizon(hm, az, curvature) + 0.05
-        parts["near"].append((t - o)[both & near])
-        parts["far"].append((t - o)[both & ~near])
-    return _class_summaries(parts)
 
 
 # ----------------------------------------------------------------------------- sky-view factor
@@ -598,8 +584,8 @@ def run(reduced: bool, samples: int, svf_crop: int, rvt_radius: int, keys: tuple
             if hv:
                 z = run_horayzon(peer_map, n, horayzon_accuracy)
                 row["horayzon_s"], row["horayzon_rays"] = z["seconds"], z["rays"]
-                row["horayzon_vs_oclshade"] = horayzon_difference(peer_map, curved, z["angles"],
-                                                                  curved_caster.coefficient)
+                row["horayzon_vs_oclshade"] = near_far_difference(    # above its search floor
+                    peer_map, curved, z["angles"], curved_caster.coefficient, floor=HORAYZON_LOWEST + 1.0)
             if gv:
                 k = min(grass_directions or n, n)            # r.horizon on every (n / k)-th azimuth
                 if k not in grass_runs:                      # the same k azimuths serve every n
@@ -614,7 +600,7 @@ def run(reduced: bool, samples: int, svf_crop: int, rvt_radius: int, keys: tuple
                 flat = angles if peer_map is hm else flat_peer_caster.horizons(n)
                 w = run_whitebox(peer_map, n)
                 row["whitebox_s"] = w["seconds"]
-                row["whitebox_vs_oclshade"] = whitebox_difference(peer_map, flat, w["angles"])
+                row["whitebox_vs_oclshade"] = near_far_difference(peer_map, flat, w["angles"])
             ours_svf = ref.sky_view_factor(angles, "solid-angle")
             if rvt_ok:
                 for radius in (10, rvt_radius):
@@ -633,6 +619,12 @@ def _class_cell(c: dict) -> str:
     if not c["cells"]:
         return "0"
     return f"{c['cells']}: {c['mean_abs_deg']:.3f} / {c['p99_abs_deg']:.2f} / {c['max_abs_deg']:.1f}"
+
+
+def _near_far_cells(d: dict) -> str:
+    """Table cells 'mean / p99 / max abs' of a :func:`near_far_difference`: all | near | far."""
+    return " | ".join(f"{c['mean_deg']:+.3f} / {c['p99_abs_deg']:.3f} / {c['max_abs_deg']:.2f}" if c["cells"] else "-"
+                      for c in (d, d["near"], d["far"]))
 
 
 def _rows_with(res: dict, key: str) -> list[tuple[str, object, dict, dict, dict]]:
@@ -696,8 +688,7 @@ def markdown(res: dict) -> str:
         for label, n, e, row, w in whitebox_rows:
             lines.append(f"| {label} | {n} | {row['oclshade_s']:.2f} | {row['whitebox_s']:.2f} | "
                          f"{row['whitebox_s'] / row['oclshade_s']:.1f}x | "
-                         + " | ".join(f"{c['mean_deg']:+.3f} / {c['p99_abs_deg']:.3f} / {c['max_abs_deg']:.2f}"
-                                      if c["cells"] else "-" for c in (w, w["near"], w["far"])) + " |")
+                         + _near_far_cells(w) + " |")
         lines.append("")
     horayzon_rows = _rows_with(res, "horayzon_vs_oclshade")
     if horayzon_rows:
@@ -714,8 +705,7 @@ def markdown(res: dict) -> str:
             rays = f"{row['horayzon_rays']:.1f}" if row.get("horayzon_rays") else "-"
             lines.append(f"| {label} | {n} | {row['oclshade_curved_s']:.2f} | {row['horayzon_s']:.2f} | "
                          f"{row['horayzon_s'] / row['oclshade_curved_s']:.1f}x | {rays} | "
-                         + " | ".join(f"{c['mean_deg']:+.3f} / {c['p99_abs_deg']:.3f} / {c['max_abs_deg']:.2f}"
-                                      if c["cells"] else "-" for c in (z, z["near"], z["far"])) + " |")
+                         + _near_far_cells(z) + " |")
         lines.append("")
     lines += ["", "Error of N azimuths: mean / max |SVF(N) - SVF(1024)| on the map's roughest crop (the window "
               "of largest height spread, rows / columns from its corner).", "",
