@@ -9,6 +9,13 @@
  *     for DEMs far from sea level;
  *   - extrema pyramids are one buffer of float2 (x = max, y = min) holding all
  *     levels back to back, with a table of level offsets (see pyramid.cl);
+ *   - with -D OCLS_IMAGES (shadow.cl's shadow_cells / shadow_certify only) the
+ *     heights are an image2d_t instead (CL_R, CL_FLOAT; texel (column, row))
+ *     and the extrema pyramid an atlas image2d_t (CL_RG or CL_RGBA, CL_FLOAT;
+ *     .x = max, .y = min) holding level l at columns [0, cols_l), rows
+ *     [rows_off[l], rows_off[l] + rows_l); the level table then holds those row
+ *     offsets.  Helpers take OCLS_HEIGHTS / OCLS_EXTREMA and read through
+ *     OCLS_H_AT / OCLS_EXT_AT, so one source serves both storages;
  *   - no -cl-fast-relaxed-math; contraction into FMA is off so results do not
  *     depend on the device's FMA choices.
  */
@@ -39,13 +46,31 @@ OCLS_INLINE int ocls_ceil_int(float p)
     return (float)i < p ? i + 1 : i;
 }
 
+/* Height and extrema storage: buffers (default) or images (-D OCLS_IMAGES, see
+ * above).  OCLS_H_AT(h, W, r, c): sample (r, c) of a map W wide;
+ * OCLS_EXT_AT(ext, off, l, Wl, r, c): texel (r, c) of pyramid level l, Wl
+ * texels wide.  Images are read with unnormalised integer coordinates and
+ * nearest filtering: the stored float, bit for bit (callers stay in range). */
+#ifdef OCLS_IMAGES
+#define OCLS_HEIGHTS __read_only image2d_t
+#define OCLS_EXTREMA __read_only image2d_t
+__constant sampler_t ocls_texel = CLK_NORMALIZED_COORDS_FALSE | CLK_ADDRESS_NONE | CLK_FILTER_NEAREST;
+#define OCLS_H_AT(h, W, r, c) (read_imagef((h), ocls_texel, (int2)((c), (r))).x)
+#define OCLS_EXT_AT(ext, off, l, Wl, r, c) (read_imagef((ext), ocls_texel, (int2)((c), (off)[l] + (r))).xy)
+#else
+#define OCLS_HEIGHTS __global const float *
+#define OCLS_EXTREMA __global const float2 *
+#define OCLS_H_AT(h, W, r, c) ((h)[(r) * (W) + (c)])
+#define OCLS_EXT_AT(ext, off, l, Wl, r, c) ((ext)[(off)[l] + (r) * (Wl) + (c)])
+#endif
+
 /* Rows/cols of pyramid level l for a base grid of n0 rows (or cols): ceil(n0 / 2^l). */
 OCLS_INLINE int ocls_level_extent(int n0, int l) { return ((n0 - 1) >> l) + 1; }
 
 /* Height sample (r, c) of an H x W map; NaN outside the map. */
-OCLS_INLINE float ocls_sample(__global const float *h, int H, int W, int r, int c)
+OCLS_INLINE float ocls_sample(OCLS_HEIGHTS h, int H, int W, int r, int c)
 {
-    return (r >= 0 && r < H && c >= 0 && c < W) ? h[r * W + c] : NAN;
+    return (r >= 0 && r < H && c >= 0 && c < W) ? OCLS_H_AT(h, W, r, c) : NAN;
 }
 
 /* Inline definitions of the OpenCL built-ins the hot loops call
@@ -175,9 +200,9 @@ OCLS_LANE_BUILTINS(16)
  * is then (-gx, gy, 1) in (east, north, up), and the sun s = (east, north,
  * up) is above the tangent plane iff s.z - gx s.x + gy s.y > 0 (the
  * self-shadow test of shadow.cl and the facing test of sunshine.cl). */
-OCLS_INLINE float2 ocls_gradient(__global const float *h, int H, int W, int i, int j, float2 cell)
+OCLS_INLINE float2 ocls_gradient(OCLS_HEIGHTS h, int H, int W, int i, int j, float2 cell)
 {
-    const float hc = h[i * W + j];
+    const float hc = OCLS_H_AT(h, W, i, j);
     const float he = ocls_sample(h, H, W, i, j + 1), hw = ocls_sample(h, H, W, i, j - 1);
     const float hs = ocls_sample(h, H, W, i + 1, j), hn = ocls_sample(h, H, W, i - 1, j);
     float gx = 0.0f, gy = 0.0f;

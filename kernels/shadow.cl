@@ -27,7 +27,15 @@
  *                  global size (ceil(W / run), H).
  *   -D options OCLS_METHOD, OCLS_OUT_MASK, OCLS_OUT_SELF (cells only),
  *   OCLS_OUT_COEF, OCLS_OUT_LOD (pixels only), OCLS_STATS, OCLS_CERT (cells
- *   only, with OCLS_CERT_K / _D0 / _SUB / _SPAN), OCLS_CURVATURE (both).
+ *   only, with OCLS_CERT_K / _D0 / _SUB / _SPAN), OCLS_CURVATURE (both),
+ *   OCLS_IMAGES (shadow_cells and shadow_certify only, not with OCLS_PACKET;
+ *   shadow_pixels is then not compiled): h is a __read_only image2d_t
+ *   (CL_R / CL_FLOAT, W x H) and ext an atlas image2d_t (CL_RG or CL_RGBA /
+ *   CL_FLOAT, .x max, .y min; level l at columns [0, cols_l), rows from
+ *   lvl_off[l]), lvl_off holding atlas rows instead of offsets (layout in
+ *   common.h; the Python host's shadow knob "images", oclshade/pyramid_images.py).
+ *   Same outputs bit for bit: an image texel read at integer coordinates with
+ *   nearest filtering is the stored float.
  *
  * Geometry (all methods).  Sample (i, j) sits at x = j (east), y = i (south)
  * in cell units; the surface is bilinear over patches (see pyramid.cl).  The
@@ -287,7 +295,7 @@ OCLS_INLINE Ray make_cell_ray(int i, int j, int2 origin, float z0, float4 ray)
  * value carried from the previous patch, see Ray) instead of the heights'
  * difference, unless *f is NaN (after a hole).  *f gets f(t_out) (NaN in a
  * hole). */
-OCLS_INLINE int patch_hits(__global const float *h, int H, int W, int pr, int pc, const Ray *ray,
+OCLS_INLINE int patch_hits(OCLS_HEIGHTS h, int H, int W, int pr, int pc, const Ray *ray,
                            float t_in, float t_out, int first, int near, float *f)
 {
     const float ux = ray->ux, uy = ray->uy, w = ray->w, hb = ray->hb;
@@ -314,8 +322,8 @@ OCLS_INLINE int patch_hits(__global const float *h, int H, int W, int pr, int pc
     } else {
         float h00, h01, h10, h11;
         if (H > 1 && W > 1) {          /* every patch has its four samples: no bounds checks */
-            __global const float *p = h + pr * W + pc;
-            h00 = p[0]; h01 = p[1]; h10 = p[W]; h11 = p[W + 1];
+            h00 = OCLS_H_AT(h, W, pr, pc); h01 = OCLS_H_AT(h, W, pr, pc + 1);
+            h10 = OCLS_H_AT(h, W, pr + 1, pc); h11 = OCLS_H_AT(h, W, pr + 1, pc + 1);
         } else {
             h00 = ocls_sample(h, H, W, pr, pc); h01 = ocls_sample(h, H, W, pr, pc + 1);
             h10 = ocls_sample(h, H, W, pr + 1, pc); h11 = ocls_sample(h, H, W, pr + 1, pc + 1);
@@ -383,7 +391,7 @@ OCLS_INLINE void step_out(int *pr, int *pc, const Ray *ray, float t, int r0, int
     else if (OCLS_SY(ray->uy) != 0) *pr = patch_along(ray->yb, ray->y0, ray->uy, OCLS_SY(ray->uy), t, r0, r0 + size - 1);
 }
 
-OCLS_INLINE int patch_valid(__global const float *h, int H, int W, int pr, int pc)
+OCLS_INLINE int patch_valid(OCLS_HEIGHTS h, int H, int W, int pr, int pc)
 {
     return !(isnan(ocls_sample(h, H, W, pr, pc)) || isnan(ocls_sample(h, H, W, pr, pc + 1)) ||
              isnan(ocls_sample(h, H, W, pr + 1, pc)) || isnan(ocls_sample(h, H, W, pr + 1, pc + 1)));
@@ -392,7 +400,7 @@ OCLS_INLINE int patch_valid(__global const float *h, int H, int W, int pr, int p
 /* Corner pass out of a hole patch (pr, pc): the ray touches the two side
  * neighbours only at the corner sample; it occludes if a side neighbour is a
  * valid patch and the sample is above the ray (z, relative to the height hb). */
-OCLS_INLINE int corner_hits(__global const float *h, int H, int W, int pr, int pc, float ux, float uy,
+OCLS_INLINE int corner_hits(OCLS_HEIGHTS h, int H, int W, int pr, int pc, float ux, float uy,
                             float hb, float z)
 {
     const int vr = OCLS_SY(uy) > 0 ? pr + 1 : pr, vc = OCLS_SX(ux) > 0 ? pc + 1 : pc;
@@ -406,10 +414,10 @@ OCLS_INLINE int corner_hits(__global const float *h, int H, int W, int pr, int p
 
 /* Extrema of the level-l tile holding patch (pr, pc), both counted from the
  * base level q of the traversal (l = 0 is level q; Wp = patch columns at q). */
-OCLS_INLINE float2 ext_at(__global const float2 *ext, __global const int *lvl_off, int q, int Wp, int l,
+OCLS_INLINE float2 ext_at(OCLS_EXTREMA ext, __global const int *lvl_off, int q, int Wp, int l,
                           int pr, int pc)
 {
-    return ext[lvl_off[q + l] + (pr >> l) * ocls_level_extent(Wp, l) + (pc >> l)];
+    return OCLS_EXT_AT(ext, lvl_off, q + l, ocls_level_extent(Wp, l), pr >> l, pc >> l);
 }
 
 /* Start patch of the ray (the patch it enters from its origin, which may sit
@@ -432,7 +440,7 @@ OCLS_INLINE int start_patch(int H, int W, const Ray *ray, int *pr, int *pc)
  * global max.  Levels inside are counted from q. */
 #if OCLS_METHOD == OCLS_PAPER
 /* Algo 3 as printed in paper 000. */
-OCLS_INLINE int trace(__global const float *h, int H, int W, __global const float2 *ext,
+OCLS_INLINE int trace(OCLS_HEIGHTS h, int H, int W, OCLS_EXTREMA ext,
                       __global const int *lvl_off, int nlev, int q, float z_top, float t_lim,
                       const Ray *ray, uint *steps)
 {
@@ -477,7 +485,7 @@ OCLS_INLINE int trace(__global const float *h, int H, int W, __global const floa
 }
 #else
 /* EXACT / MAXMIP / DDA: conservative multilevel traversal with climbing. */
-OCLS_INLINE int trace(__global const float *h, int H, int W, __global const float2 *ext,
+OCLS_INLINE int trace(OCLS_HEIGHTS h, int H, int W, OCLS_EXTREMA ext,
                       __global const int *lvl_off, int nlev, int q, float z_top, float t_lim,
                       const Ray *ray, uint *steps)
 {
@@ -590,7 +598,7 @@ OCLS_INLINE int trace(__global const float *h, int H, int W, __global const floa
 #define OCLS_CERT_SPAN 5
 #endif
 
-__kernel void shadow_certify(const int H, const int W, const int2 origin, __global const float2 *ext,
+__kernel void shadow_certify(const int H, const int W, const int2 origin, OCLS_EXTREMA ext,
                              __global const int *lvl_off, const int nlev, const float4 ray,
                              __global float *cert)
 {
@@ -599,7 +607,7 @@ __kernel void shadow_certify(const int H, const int W, const int2 origin, __glob
     if (tc >= nc || tr >= nr) return;
     const int Hp = max(H - 1, 1), Wp = max(W - 1, 1), top = nlev - 1;
     const float ux = ray.x, uy = ray.y, w = ray.z, major = fmax(fabs(ux), fabs(uy));
-    const float z_top = ext[lvl_off[top]].x;
+    const float z_top = ext_at(ext, lvl_off, 0, Wp, top, 0, 0).x;
     /* the box in the whole map's columns and rows (origin: the window's first cell) */
     const float bx0 = (float)(tc * s + origin.x), bx1 = (float)(min(tc * s + s - 1, W - 1) + origin.x);
     const float by0 = (float)(tr * s + origin.y), by1 = (float)(min(tr * s + s - 1, H - 1) + origin.y);
@@ -678,7 +686,7 @@ OCLS_INLINE float cert_limit(__global const float *cert, int W, int i, int j, fl
 /* Self-shadow: sun at or below the tangent plane of the central-difference
  * normal (one-sided next to holes and at the edges, 0 slope if neither;
  * ocls_gradient in common.h). */
-OCLS_INLINE int self_shadowed(__global const float *h, int H, int W, int i, int j, float2 cell, float4 s)
+OCLS_INLINE int self_shadowed(OCLS_HEIGHTS h, int H, int W, int i, int j, float2 cell, float4 s)
 {
     const float2 g = ocls_gradient(h, H, W, i, j, cell);   /* dz/d(east), dz/d(south) */
     /* n ~ (-dz/dE, -dz/dN, 1) with dz/dN = -gy */
@@ -686,23 +694,23 @@ OCLS_INLINE int self_shadowed(__global const float *h, int H, int W, int i, int 
 }
 
 /* Cast shadow of cell (i, j) of height z0 (not nodata) by the scalar traversal. */
-OCLS_INLINE int cell_shadow(__global const float *h, int H, int W, int2 origin, __global const float2 *ext,
+OCLS_INLINE int cell_shadow(OCLS_HEIGHTS h, int H, int W, int2 origin, OCLS_EXTREMA ext,
                             __global const int *lvl_off, int nlev, float4 ray, int mode,
                             __global const float *cert, int i, int j, float z0, uint *steps)
 {
     if (mode != 0) return mode == 2;
     const Ray r = make_cell_ray(i, j, origin, z0, ray);
-    return trace(h, H, W, ext, lvl_off, nlev, 0, ext[lvl_off[nlev - 1]].x,
+    return trace(h, H, W, ext, lvl_off, nlev, 0, ext_at(ext, lvl_off, 0, max(W - 1, 1), nlev - 1, 0, 0).x,
                  cert_limit(cert, W, i, j, z0, ray), &r, steps);
 }
 
 /* The outputs of cell (i, j) from its cast-shadow flag (ignored for nodata). */
-OCLS_INLINE void write_cell(__global const float *h, int H, int W, int i, int j, int shadow, int mode,
+OCLS_INLINE void write_cell(OCLS_HEIGHTS h, int H, int W, int i, int j, int shadow, int mode,
                             float4 sunvec, float2 cell, float2 kcoef,
                             __global uchar *mask, __global uchar *self, __global float *coef)
 {
     const int idx = i * W + j;
-    const int nodata = isnan(h[idx]);
+    const int nodata = isnan(OCLS_H_AT(h, W, i, j));
 #ifdef OCLS_OUT_MASK
     mask[idx] = nodata ? (uchar)255 : (uchar)shadow;
 #endif
@@ -726,7 +734,7 @@ OCLS_INLINE void write_cell(__global const float *h, int H, int W, int i, int j,
 #define OCLS_CERT_PARAM
 #endif
 #define OCLS_CELLS_PARAMS \
-    __global const float *h, const int H, const int W, const int2 origin, __global const float2 *ext, \
+    OCLS_HEIGHTS h, const int H, const int W, const int2 origin, OCLS_EXTREMA ext, \
     __global const int *lvl_off, const int nlev, const float4 ray, const float4 sunvec, const float2 cell, \
     const float2 kcoef, const int mode, __global uchar *mask, __global uchar *self, __global float *coef \
     OCLS_CERT_PARAM
@@ -740,7 +748,7 @@ __kernel void shadow_cells(OCLS_CELLS_PARAMS
     OCLS_STEPS_BEGIN;
     const int j = get_global_id(0), i = get_global_id(1);
     if (j >= W || i >= H) return;
-    const float z0 = h[i * W + j];
+    const float z0 = OCLS_H_AT(h, W, i, j);
     int shadow = 0;
 #if defined(OCLS_OUT_MASK) || defined(OCLS_OUT_COEF)
     if (!isnan(z0)) shadow = cell_shadow(h, H, W, origin, ext, lvl_off, nlev, ray, mode, OCLS_CERT_BUF, i, j, z0,
@@ -786,6 +794,9 @@ __kernel void shadow_cells(OCLS_CELLS_PARAMS
  *   The hosts take run and lanes from the device's tuning entry
  *   (oclshade.tuning); the results never depend on them. */
 #if defined(OCLS_PACKET) && (OCLS_METHOD == OCLS_EXACT || OCLS_METHOD == OCLS_MAXMIP) && !defined(OCLS_STATS)
+#ifdef OCLS_IMAGES
+#error "OCLS_IMAGES is for the one-ray kernel: the packets read buffers (do not define both)"
+#endif
 #define OCLS_RUN OCLS_PACKET
 #ifndef OCLS_LANES
 #define OCLS_LANES 16
@@ -1088,7 +1099,9 @@ __kernel void shadow_cells_packet(OCLS_CELLS_PARAMS)
 }
 #endif
 
-/* ---------------------------------------------------------------- per pixel */
+/* ---------------------------------------------------------------- per pixel
+ * (not compiled with -D OCLS_IMAGES: the level-q grids are buffers) */
+#ifndef OCLS_IMAGES
 
 /* Algo 1: minimal LOD q of a pixel from its heightmap-coordinate derivatives
  * g = (du/dc, dv/dc, du/dr, dv/dr) (sample units per pixel, so the paper's
@@ -1191,3 +1204,4 @@ __kernel void shadow_pixels(__global const float *h, __global const float *coars
     lod_out[idx] = valid ? (uchar)q : (uchar)255;
 #endif
 }
+#endif

@@ -6,8 +6,8 @@ the same heightmap.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Callable, Mapping
 
 import numpy as np
 import pyopencl as cl
@@ -15,6 +15,9 @@ import pyopencl as cl
 from . import tuning
 from .heightmap import Heightmap
 from .runtime import Runtime, get_runtime
+
+if TYPE_CHECKING:
+    from .pyramid_images import PyramidImages
 
 
 def level_shapes(rows: int, cols: int) -> list[tuple[int, int]]:
@@ -41,6 +44,15 @@ class ExtremaPyramid:
     offsets: cl.Buffer            # int32 level offsets
     shapes: list[tuple[int, int]]  # stored levels 1..L
     map_shape: tuple[int, int]
+    _images: PyramidImages | None | bool = field(default=None, repr=False, compare=False)
+
+    def images(self) -> PyramidImages | None:
+        """The heights and levels as device images (built on first use, then kept with the
+        pyramid); None where the device cannot hold them (:mod:`oclshade.pyramid_images`)."""
+        if self._images is None:
+            from .pyramid_images import build_pyramid_images
+            self._images = build_pyramid_images(self) or False
+        return self._images or None
 
     @property
     def levels(self) -> int:

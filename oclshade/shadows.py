@@ -13,7 +13,7 @@ Definitions are in ``kernels/shadow.cl``; the float64 twin is
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Callable, Iterable, Iterator, Mapping, Sequence
 
 import numpy as np
@@ -105,6 +105,7 @@ class ShadowFeatures:
     own_builtins: bool = False  # inline built-ins (kernels/common.h; tuning knob)
     cert_tile: int = CERT_TILE  # cells per side of a certificate tile (tuning knob)
     curvature: bool = False    # Earth curvature along the rays (the drop per m^2 rides in the ray's 4th value)
+    images: bool = False       # heights and pyramid read from images (tuning knob; one-ray kernel only)
 
     @property
     def certified(self) -> bool:
@@ -114,6 +115,11 @@ class ShadowFeatures:
     def packeted(self) -> bool:
         """Ray packets (exact and maxmip without stats, when the lanes knob asks for them)."""
         return self.lanes > 0 and self.method in PACKET_METHODS and not self.stats
+
+    @property
+    def imaged(self) -> bool:
+        """Heights and pyramid from images (-D OCLS_IMAGES): the one-ray kernel, when asked."""
+        return self.images and not self.packeted
 
     @property
     def cells_kernel(self) -> str:
@@ -133,6 +139,7 @@ class ShadowFeatures:
             "OCLS_OUT_COEF": "coefficient" in self.outputs,
             "OCLS_OWN_BUILTINS": self.own_builtins,
             "OCLS_CURVATURE": self.curvature,
+            "OCLS_IMAGES": self.imaged,
         }
 
 
@@ -161,7 +168,8 @@ class ShadowCaster:
     knobs: the ``shadow`` family's tuning values (:data:`TUNING`: ``lanes``, rays
     per work-item on vector lanes for ``exact`` and ``maxmip``, 0 for one ray per
     work-item; ``run``, cells per packet work-item; ``cert_tile``, certificate
-    tile size; ``group``, work-group size; ``own_builtins``), any subset; the rest, or all when None, from the device's tuning
+    tile size; ``group``, work-group size; ``own_builtins``; ``images``, heights and pyramid
+    read from OpenCL images by the one-ray kernel), any subset; the rest, or all when None, from the device's tuning
     entry (:func:`oclshade.tuning.settings`).  Results never depend on them.
     curvature: None for a flat Earth (default), or a :class:`oclshade.horizon.Curvature`:
     terrain at horizontal distance d from a cell drops by (1 - k) d^2 / (2 R) below its ray
@@ -353,16 +361,20 @@ class ShadowCaster:
                                             wanted=self.knobs["group"])
 
         def enqueue(sun: Sun, k_dark: float, k_bright: float) -> None:
-            kernel.set_args(*self._args(sun, k_dark, k_bright), bufs["mask"], bufs["self"], bufs["coefficient"],
-                            *certify(sun))
+            kernel.set_args(*self._args(sun, k_dark, k_bright, features.imaged), bufs["mask"], bufs["self"],
+                            bufs["coefficient"], *certify(sun))
             cl.enqueue_nd_range_kernel(rt.queue, kernel, gsize, lsize)
 
         return enqueue, bufs
 
     def _features(self, method: str, outs: tuple[str, ...]) -> ShadowFeatures:
-        return ShadowFeatures(method, outs, certificate=self.certificates, lanes=self.knobs["lanes"],
-                              run=self.knobs["run"], own_builtins=bool(self.knobs["own_builtins"]),
-                              cert_tile=self.knobs["cert_tile"], curvature=self.curvature is not None)
+        features = ShadowFeatures(method, outs, certificate=self.certificates, lanes=self.knobs["lanes"],
+                                  run=self.knobs["run"], own_builtins=bool(self.knobs["own_builtins"]),
+                                  cert_tile=self.knobs["cert_tile"], curvature=self.curvature is not None,
+                                  images=bool(self.knobs["images"]))
+        if features.imaged and self.pyramid.images() is None:   # the device cannot hold them: buffers
+            features = replace(features, images=False)
+        return features
 
     def step_counts(self, sun: SunLike, method: str = "exact", band_cells: int = 1 << 19) -> np.ndarray:
         """Traversal iterations per pyramid level, summed over all cells (a profiling build).
@@ -411,7 +423,7 @@ class ShadowCaster:
         gsize, lsize = rt.grid_2d(kernel, tc, tr)
 
         def certify(sun: Sun) -> tuple:
-            args = self._args(sun, 0.0, 1.0)
+            args = self._args(sun, 0.0, 1.0, features.imaged)
             if int(args[-1]) == 0:
                 kernel.set_args(*args[1:8], buf)   # H, W, origin, ext, lvl_off, nlev, ray
                 cl.enqueue_nd_range_kernel(rt.queue, kernel, gsize, lsize)
@@ -419,17 +431,23 @@ class ShadowCaster:
 
         return certify
 
-    def _args(self, sun: Sun, k_dark: float, k_bright: float) -> tuple:
-        """Kernel arguments up to (not including) the output buffers."""
+    def _args(self, sun: Sun, k_dark: float, k_bright: float, images: bool = False) -> tuple:
+        """Kernel arguments up to (not including) the output buffers; ``images``: the heights and
+        pyramid as images (-D OCLS_IMAGES builds), else as buffers."""
         hm, pyr = self.heightmap, self.pyramid
+        if images:
+            imgs = pyr.images()
+            heights, extrema, level_table = imgs.heights, imgs.extrema, imgs.level_rows
+        else:
+            heights, extrema, level_table = pyr.heights, pyr.buffer, pyr.offsets
         ux, uy, w = sun.ray(hm.dx, hm.dy)
         mode = 2 if sun.below_horizon else (1 if sun.at_zenith else 0)
         if mode:
             ux = uy = w = 0.0
         s = sun.vector()
         rows, cols = hm.shape
-        return (pyr.heights, np.int32(rows), np.int32(cols), np.array(self.origin[::-1], np.int32),
-                pyr.buffer, pyr.offsets, np.int32(pyr.levels),
+        return (heights, np.int32(rows), np.int32(cols), np.array(self.origin[::-1], np.int32),
+                extrema, level_table, np.int32(pyr.levels),
                 np.array([ux, uy, w, curvature_coefficient(self.curvature)], np.float32),
                 np.array([s[0], s[1], s[2], 0.0], np.float32),
                 np.array([hm.dx, hm.dy], np.float32), np.array([k_dark, k_bright], np.float32), np.int32(mode))
@@ -504,5 +522,7 @@ TUNING = tuning.register(tuning.Family(
      tuning.Param("cert_tile", (16, 32, 64), CERT_TILE, "cells per side of a far-field certificate tile "
                   "(-D OCLS_CERT, exact and maxmip)"),
      tuning.Param("run", (16, 64, 256, 1024), 1024, "cells per packet work-item (-D OCLS_PACKET)"),
-     tuning.Param("group", (16, 64, 256), 64, "work-group size (work-items)")),
+     tuning.Param("group", (16, 64, 256), 64, "work-group size (work-items)"),
+     tuning.Param("images", (0, 1), 0, "heights and extrema pyramid read from OpenCL images, one-ray kernel "
+                  "(-D OCLS_IMAGES; buffers where the device cannot hold them, oclshade/pyramid_images.py)")),
     ("shadow.cl",), _smoke, _workload, "heightmap shadow masks (paper 000)"))

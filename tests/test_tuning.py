@@ -103,7 +103,7 @@ def test_lookup_order_user_then_shipped_then_rule(cache, monkeypatch):
     d = tuning.decide(rt, fam)   # the knobs the entry lacks take the rule's values
     assert d.source == "shipped" and "measured with kernels old" in d.notes
     assert d.values == {**rule_values(fam, rt.device), **shipped}
-    mine = {"lanes": 0, "own_builtins": 1, "cert_tile": 32, "run": 64, "group": 256}
+    mine = {"lanes": 0, "own_builtins": 1, "cert_tile": 32, "run": 64, "group": 256, "images": 1}
     store.save_user_values(key, fam, mine, {"best_ms": 1.0})
     assert (tuning.decide(rt, fam).values, tuning.decide(rt, fam).source) == (mine, "user")
     # an entry measured with other kernels no longer counts, and says so
@@ -152,6 +152,47 @@ def test_a_variant_that_crashes_or_hangs_falls_back_and_is_remembered(cache, mon
     got = ShadowCaster(hm, cache=False, knobs=d.values).cast((37.0, 20.0)).mask
     want = ShadowCaster(hm, cache=False, knobs={"lanes": 0}).cast((37.0, 20.0)).mask
     assert np.array_equal(got, want)
+
+
+def test_a_probe_starved_of_cpu_is_not_a_verdict(cache, monkeypatch):
+    """A child that times out without running (a loaded machine, a low priority) is not a
+    hung compiler: this run falls back, nothing is remembered, the next run probes again."""
+    lanes = rule_lanes()
+    if lanes == 0:
+        pytest.skip("the rule picks no packets on this device: nothing to fall back from")
+    rt = get_runtime()
+    fam = shadow_family()
+    monkeypatch.setenv(probe.FAULT_ENV, f"stall:lanes={lanes}")
+    monkeypatch.setenv(probe.TIMEOUT_ENV, "8")
+    d = tuning.decide(rt, fam)
+    assert d.values["lanes"] < lanes
+    assert any(n.startswith(f"{store.values_id({**d.values, 'lanes': lanes})} unchecked")
+               for n in d.notes), d.notes
+    assert store.probe_record(DeviceKey.of(rt.device), fam, {**d.values, "lanes": lanes}) is None
+    calls = []
+
+    def ok(runtime, name, values):
+        calls.append(values)
+        return "ok"
+
+    monkeypatch.setattr(tuning, "run_probe", ok)
+    assert tuning.decide(rt, fam).values["lanes"] == lanes
+    assert calls and calls[0]["lanes"] == lanes
+
+
+def test_a_hung_probe_is_told_from_a_starved_one():
+    """The time-out verdict follows the child's CPU time: a spinning child is hung, a
+    sleeping one unchecked."""
+    rt = get_runtime()
+    fam = shadow_family()
+    values = {**fam.safe(), "lanes": 4}
+    with pytest.MonkeyPatch.context() as m:
+        m.setenv(probe.TIMEOUT_ENV, "6")
+        m.setenv(probe.FAULT_ENV, "hang:lanes=4")
+        assert probe.run_probe(rt, "shadow", values).startswith("failed: no answer within 6 s")
+        m.setenv(probe.TIMEOUT_ENV, "10")       # the child's imports take about 1 s of CPU
+        m.setenv(probe.FAULT_ENV, "stall:lanes=4")
+        assert probe.run_probe(rt, "shadow", values).startswith("unchecked: the probe got")
 
 
 def _child_env(cache_dir: Path, **extra: str) -> dict[str, str]:

@@ -27,7 +27,7 @@ from ..runtime import Runtime, get_runtime
 from .device import DeviceKey
 from .params import (OWN_BUILTINS, OWN_BUILTINS_WHERE_CALLED, Family, Param, Values, families, family, register,
                      standard_heightmap)
-from .probe import CHILD_ENV, run_probe
+from .probe import CHILD_ENV, UNCHECKED, run_probe
 from .rules import rule_values
 from . import store
 
@@ -79,10 +79,14 @@ def probed(fam: Family, runtime: Runtime, key: DeviceKey, values: Values, notes:
     if outcome is None:
         runtime.first_build_notice()
         outcome = run_probe(runtime, fam.name, values)
-        store.save_probe(key, fam, values, outcome)
-        if outcome != "ok":
-            print(f"oclshade: {fam.name} variant {store.values_id(values)} does not work on "
-                  f"{runtime.label}, falling back ({outcome})", file=sys.stderr)
+        if outcome.startswith(UNCHECKED):     # not a verdict: this run falls back, the next probes again
+            print(f"oclshade: {fam.name} variant {store.values_id(values)} could not be checked on "
+                  f"{runtime.label} ({outcome}); falling back for this run", file=sys.stderr)
+        else:
+            store.save_probe(key, fam, values, outcome)
+            if outcome != "ok":
+                print(f"oclshade: {fam.name} variant {store.values_id(values)} does not work on "
+                      f"{runtime.label}, falling back ({outcome})", file=sys.stderr)
     if outcome != "ok":
         notes.append(f"{store.values_id(values)} {outcome}")
     return outcome == "ok"
