@@ -168,9 +168,10 @@ class ShadowCaster:
     knobs: the ``shadow`` family's tuning values (:data:`TUNING`: ``lanes``, rays
     per work-item on vector lanes for ``exact`` and ``maxmip``, 0 for one ray per
     work-item; ``run``, cells per packet work-item; ``cert_tile``, certificate
-    tile size; ``group``, work-group size; ``own_builtins``; ``images``, heights and pyramid
-    read from OpenCL images by the one-ray kernel), any subset; the rest, or all when None, from the device's tuning
-    entry (:func:`oclshade.tuning.settings`).  Results never depend on them.
+    tile size; ``group``, work-group size; ``own_builtins``; ``images``, heights and
+    pyramid read from OpenCL images by the one-ray kernel), any subset; the rest, or all
+    when None, from the device's tuning entry (:func:`oclshade.tuning.settings`).  Results
+    never depend on them.
     curvature: None for a flat Earth (default), or a :class:`oclshade.horizon.Curvature`:
     terrain at horizontal distance d from a cell drops by (1 - k) d^2 / (2 R) below its ray
     (r.horizon's and HORAYZON's model; ``Curvature()`` is the mean Earth radius, no
