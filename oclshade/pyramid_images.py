@@ -86,21 +86,23 @@ def build_pyramid_images(pyramid: ExtremaPyramid) -> PyramidImages | None:
     if images_unavailable(rt, pyramid.map_shape, pyramid.shapes, orders) is not None:
         return None
     rows, cols = pyramid.map_shape
-    heights = np.empty((rows, cols), np.float32)
-    cl.enqueue_copy(rt.queue, heights, pyramid.heights)
     channels = 2 if cl.channel_order.RG in orders else 4
     offsets = atlas_rows(pyramid.shapes)
     atlas = np.zeros((int(offsets[-1]), pyramid.shapes[0][1], channels), np.float32)
     for level, texels in enumerate(pyramid.to_numpy(), start=1):
         r, c = texels.shape[:2]
         atlas[offsets[level]:offsets[level] + r, :c, :2] = texels
-    flags = cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR
     create_image = getattr(cl, "create_image", cl.Image)   # pyopencl >= 2024.2; cl.Image before
+    # the heights: a device-side copy (4-byte texels, the buffer's layout)
+    heights = create_image(rt.context, cl.mem_flags.READ_ONLY,
+                           cl.ImageFormat(cl.channel_order.R, cl.channel_type.FLOAT), shape=(cols, rows))
+    cl.enqueue_copy(rt.queue, heights, pyramid.heights, offset=0, origin=(0, 0), region=(cols, rows))
+    # the atlas: through the host (PoCL's CL_RGBA texels are wider than the buffer's float2)
     order = cl.channel_order.RG if channels == 2 else cl.channel_order.RGBA
     return PyramidImages(
-        create_image(rt.context, flags, cl.ImageFormat(cl.channel_order.R, cl.channel_type.FLOAT),
-                     shape=(cols, rows), hostbuf=heights),
-        create_image(rt.context, flags, cl.ImageFormat(order, cl.channel_type.FLOAT),
+        heights,
+        create_image(rt.context, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR,
+                     cl.ImageFormat(order, cl.channel_type.FLOAT),
                      shape=(atlas.shape[1], atlas.shape[0]), hostbuf=atlas),
         rt.to_device(offsets[:-1].copy(), "atlas level rows"),
         channels)

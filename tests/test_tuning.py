@@ -124,15 +124,22 @@ def test_a_shipped_entry_of_another_cpu_does_not_match(cache, monkeypatch):
     assert tuning.decide(rt, shadow_family()).source == "rule"
 
 
-@pytest.mark.parametrize("fault", ["abort", "hang", "fail"])
-def test_a_variant_that_crashes_or_hangs_falls_back_and_is_remembered(cache, monkeypatch, fault):
+def faulty_rule_lanes(monkeypatch, fault: str, timeout: str) -> int:
+    """The rule's lane count, its probe child set to misbehave (``fault``) under a time limit;
+    skips where the rule picks no packets."""
     lanes = rule_lanes()
     if lanes == 0:
         pytest.skip("the rule picks no packets on this device: nothing to fall back from")
+    monkeypatch.setenv(probe.FAULT_ENV, f"{fault}:lanes={lanes}")
+    monkeypatch.setenv(probe.TIMEOUT_ENV, timeout)
+    return lanes
+
+
+@pytest.mark.parametrize("fault", ["abort", "hang", "fail"])
+def test_a_variant_that_crashes_or_hangs_falls_back_and_is_remembered(cache, monkeypatch, fault):
+    lanes = faulty_rule_lanes(monkeypatch, fault, "20")
     rt = get_runtime()
     fam = shadow_family()
-    monkeypatch.setenv(probe.FAULT_ENV, f"{fault}:lanes={lanes}")
-    monkeypatch.setenv(probe.TIMEOUT_ENV, "20")
     t0 = time.perf_counter()
     d = tuning.decide(rt, fam)
     assert d.values["lanes"] == max(v for v in (0, 4, 8, 16) if v < lanes)
@@ -157,13 +164,9 @@ def test_a_variant_that_crashes_or_hangs_falls_back_and_is_remembered(cache, mon
 def test_a_probe_starved_of_cpu_is_not_a_verdict(cache, monkeypatch):
     """A child that times out without running (a loaded machine, a low priority) is not a
     hung compiler: this run falls back, nothing is remembered, the next run probes again."""
-    lanes = rule_lanes()
-    if lanes == 0:
-        pytest.skip("the rule picks no packets on this device: nothing to fall back from")
+    lanes = faulty_rule_lanes(monkeypatch, "stall", "8")
     rt = get_runtime()
     fam = shadow_family()
-    monkeypatch.setenv(probe.FAULT_ENV, f"stall:lanes={lanes}")
-    monkeypatch.setenv(probe.TIMEOUT_ENV, "8")
     d = tuning.decide(rt, fam)
     assert d.values["lanes"] < lanes
     assert any(n.startswith(f"{store.values_id({**d.values, 'lanes': lanes})} unchecked")
@@ -180,19 +183,18 @@ def test_a_probe_starved_of_cpu_is_not_a_verdict(cache, monkeypatch):
     assert calls and calls[0]["lanes"] == lanes
 
 
-def test_a_hung_probe_is_told_from_a_starved_one():
+def test_a_hung_probe_is_told_from_a_starved_one(monkeypatch):
     """The time-out verdict follows the child's CPU time: a spinning child is hung, a
     sleeping one unchecked."""
     rt = get_runtime()
     fam = shadow_family()
     values = {**fam.safe(), "lanes": 4}
-    with pytest.MonkeyPatch.context() as m:
-        m.setenv(probe.TIMEOUT_ENV, "6")
-        m.setenv(probe.FAULT_ENV, "hang:lanes=4")
-        assert probe.run_probe(rt, "shadow", values).startswith("failed: no answer within 6 s")
-        m.setenv(probe.TIMEOUT_ENV, "10")       # the child's imports take about 1 s of CPU
-        m.setenv(probe.FAULT_ENV, "stall:lanes=4")
-        assert probe.run_probe(rt, "shadow", values).startswith("unchecked: the probe got")
+    monkeypatch.setenv(probe.TIMEOUT_ENV, "6")
+    monkeypatch.setenv(probe.FAULT_ENV, "hang:lanes=4")
+    assert probe.run_probe(rt, "shadow", values).startswith("failed: no answer within 6 s")
+    monkeypatch.setenv(probe.TIMEOUT_ENV, "10")       # the child's imports take about 1 s of CPU
+    monkeypatch.setenv(probe.FAULT_ENV, "stall:lanes=4")
+    assert probe.run_probe(rt, "shadow", values).startswith("unchecked: the probe got")
 
 
 def _child_env(cache_dir: Path, **extra: str) -> dict[str, str]:
