@@ -45,13 +45,25 @@ class ExtremaPyramid:
     shapes: list[tuple[int, int]]  # stored levels 1..L
     map_shape: tuple[int, int]
     _images: PyramidImages | None | bool = field(default=None, repr=False, compare=False)
+    #: the process-wide cache's key when the pyramid is stored there (:func:`cached_pyramid`)
+    _cache_key: tuple | None = field(default=None, repr=False, compare=False)
+
+    @property
+    def nbytes(self) -> int:
+        """Device memory it holds: heights, levels, offsets and, once built, its images."""
+        images = self._images.nbytes if self._images else 0
+        return self.heights.size + self.buffer.size + self.offsets.size + images
 
     def images(self) -> PyramidImages | None:
         """The heights and levels as device images (built on first use, then kept with the
-        pyramid); None where the device cannot hold them (:mod:`oclshade.pyramid_images`)."""
+        pyramid and counted in the cache's size); None where the device cannot hold them
+        (:mod:`oclshade.pyramid_images`)."""
         if self._images is None:
             from .pyramid_images import build_pyramid_images
             self._images = build_pyramid_images(self) or False
+            if self._images and self._cache_key is not None:
+                from . import cache
+                cache.PYRAMIDS.put(self._cache_key, self, self.nbytes)
         return self._images or None
 
     @property
@@ -105,6 +117,21 @@ def build_extrema_pyramid(hm: Heightmap, device=None, knobs: Mapping[str, int] |
                                        np.int32(oo), np.int32(ro), np.int32(co)))
     kernel_offsets = np.concatenate([[-1], offs]).astype(np.int32)  # indexed by level, [0] unused
     return ExtremaPyramid(rt, heights_buffer, buf, rt.to_device(kernel_offsets, "level offsets"), shapes, hm.shape)
+
+
+def cached_pyramid(heightmap: Heightmap, runtime: Runtime, caching: bool) -> ExtremaPyramid:
+    """The pyramid of ``heightmap`` on ``runtime``: from the process-wide cache
+    (:mod:`oclshade.cache`) when ``caching`` and it is there, else built (and stored there
+    when ``caching``, counted by :attr:`ExtremaPyramid.nbytes`)."""
+    from . import cache
+    key = (cache.heights_digest(heightmap), id(runtime)) if caching else None
+    pyr = cache.PYRAMIDS.get(key) if key else None
+    if pyr is None:
+        pyr = build_extrema_pyramid(heightmap, runtime)
+        if key:
+            pyr._cache_key = key
+            cache.PYRAMIDS.put(key, pyr, pyr.nbytes)
+    return pyr
 
 
 def build_mip_pyramid(hm: Heightmap, device=None) -> list[np.ndarray]:

@@ -40,6 +40,11 @@ class PyramidImages:
     level_rows: cl.Buffer      # int32: atlas row of level l at [l]; [0] unused
     channels: int              # 2 (CL_RG) or 4 (CL_RGBA)
 
+    @property
+    def nbytes(self) -> int:
+        """Device memory of the images and the row table."""
+        return sum(img.row_pitch * img.height for img in (self.heights, self.extrema)) + self.level_rows.size
+
 
 def atlas_rows(shapes: list[tuple[int, int]]) -> np.ndarray:
     """The atlas row offset of each stored level, indexed by level ([0] unused: level 0 is

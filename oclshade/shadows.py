@@ -24,7 +24,7 @@ from . import cache as _cache
 from . import tuning
 from .analysis import SceneAnalysis, slope_fronts
 from .horizon.caster import Curvature
-from .pyramid import ExtremaPyramid, build_extrema_pyramid
+from .pyramid import ExtremaPyramid, cached_pyramid
 from .runtime import Runtime, get_runtime
 from .sun import Sun, SunLike, as_sun, as_suns
 
@@ -209,13 +209,7 @@ class ShadowCaster:
         """The extrema pyramid, built on first use (or found in the process-wide cache) and
         kept on the device."""
         if self._pyramid is None:
-            key = (_cache.heights_digest(self.heightmap), id(self.runtime)) if self.caching else None
-            pyr = _cache.PYRAMIDS.get(key) if key else None
-            if pyr is None:
-                pyr = build_extrema_pyramid(self.heightmap, self.runtime)
-                if key:
-                    _cache.PYRAMIDS.put(key, pyr, pyr.buffer.size + pyr.heights.size + pyr.offsets.size)
-            self._pyramid = pyr
+            self._pyramid = cached_pyramid(self.heightmap, self.runtime, self.caching)
         return self._pyramid
 
     @property

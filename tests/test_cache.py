@@ -138,3 +138,25 @@ def test_digest_follows_content_not_identity():
     h[0, 0] += 1e-3
     assert cache.heights_digest(Heightmap.from_array(h, 1.0)) != cache.heights_digest(a)
     assert cache.heights_digest(Heightmap.from_array(h[:, :-1], 1.0)) != cache.heights_digest(a)
+
+
+def test_images_built_for_a_cached_pyramid_count_in_its_size():
+    from oclshade import pyramid_images
+
+    hm = Heightmap.from_array(terrain(2), 10.0)
+    caster = ShadowCaster(hm, knobs={"lanes": 0, "images": 1})
+    pyr = caster.pyramid
+    before = cache.PYRAMIDS.stats()["bytes"]
+    assert before == pyr.heights.size + pyr.buffer.size + pyr.offsets.size
+    why = pyramid_images.images_unavailable(pyr.runtime, pyr.map_shape, pyr.shapes)
+    if why is not None:
+        pytest.skip(f"this device holds no images: {why}")
+    caster.cast(SUN)
+    imgs = pyr.images()
+    assert imgs is not None and caster._features("exact", ("mask",)).imaged
+    # the images' rows at least as wide as the map's / the atlas's texels
+    rows, cols = hm.shape
+    atlas = pyramid_images.atlas_rows(pyr.shapes)[-1]
+    assert imgs.nbytes >= 4 * rows * cols + 4 * imgs.channels * atlas * pyr.shapes[0][1]
+    assert cache.PYRAMIDS.stats()["bytes"] == before + imgs.nbytes == pyr.nbytes
+    assert cache.PYRAMIDS.get(pyr._cache_key) is pyr

@@ -28,7 +28,7 @@ import pyopencl as cl
 from .. import cache as _cache
 from .. import tuning
 from ..heightmap import Heightmap
-from ..pyramid import ExtremaPyramid, build_extrema_pyramid
+from ..pyramid import ExtremaPyramid, cached_pyramid
 from ..reference.horizons import SVF_DEFINITIONS
 from ..runtime import Runtime, get_runtime
 from ..sun import Sun, SunLike, as_sun
@@ -116,13 +116,7 @@ class HorizonCaster:
         """The extrema pyramid (built on first use, or the one the shadow casters share)."""
         if self._pyramid is None:
             caching = _cache.enabled() if self.cache is None else bool(self.cache)
-            key = (_cache.heights_digest(self.heightmap), id(self.runtime)) if caching else None
-            pyr = _cache.PYRAMIDS.get(key) if key else None
-            if pyr is None:
-                pyr = build_extrema_pyramid(self.heightmap, self.runtime)
-                if key:
-                    _cache.PYRAMIDS.put(key, pyr, pyr.buffer.size + pyr.heights.size + pyr.offsets.size)
-            self._pyramid = pyr
+            self._pyramid = cached_pyramid(self.heightmap, self.runtime, caching)
         return self._pyramid
 
     @property
