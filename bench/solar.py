@@ -132,15 +132,17 @@ def time_ours(caster: HorizonCaster, n: int) -> tuple[float, np.ndarray]:
     return time.perf_counter() - start, angles
 
 
-def reference_error(hm: Heightmap, angles: np.ndarray, samples: int, seed: int = 19) -> dict:
-    """Max |oclshade - float64 reference| over a seeded sample of valid cells, every azimuth."""
+def reference_error(hm: Heightmap, angles: np.ndarray, samples: int, seed: int = 19,
+                    max_distance: float = np.inf) -> dict:
+    """Max |oclshade - float64 reference| over a seeded sample of valid cells, every azimuth
+    (within the search radius ``max_distance``, metres)."""
     valid = np.flatnonzero(~np.isnan(hm.heights))
     pick = np.random.default_rng(seed).choice(valid, size=min(samples, valid.size), replace=False)
     rows, cols = np.unravel_index(pick, hm.shape)
     worst, outside = 0.0, 0
     band = ref.angle_tolerance(hm)
     for k, az in enumerate(azimuth_grid(angles.shape[0])):
-        expected = ref.horizon_angles(hm, az, cells=(rows, cols))
+        expected = ref.horizon_angles(hm, az, cells=(rows, cols), max_distance=max_distance)
         diff = np.abs(angles[k][rows, cols] - expected)
         worst = max(worst, float(diff.max()))
         outside += int((diff > band).sum())
@@ -507,6 +509,21 @@ def rvt_svf(hm: Heightmap, n: int, radius: int) -> tuple[float, np.ndarray]:
     return time.perf_counter() - start, out
 
 
+def within_radius(hm: Heightmap, n: int, radius: int, rvt: np.ndarray, samples: int) -> dict:
+    """oclshade's solid-angle SVF within RVT's search radius (``radius`` cells of RVT's cell size
+    0.5 (dx + dy), as ``max_distance``): its time (the kernel built first), its angles against
+    the float64 reference within the same radius, and its difference from RVT's SVF."""
+    caster = HorizonCaster(hm, max_distance=radius * 0.5 * (hm.dx + hm.dy), cache=False)
+    caster.sky_view_factor([0.0], "solid-angle")        # warm-up: pyramid and kernel build
+    start = time.perf_counter()
+    svf = caster.sky_view_factor(n, "solid-angle")
+    seconds = time.perf_counter() - start
+    d = np.abs(rvt - svf)
+    return {"seconds": seconds, "max_distance_m": caster.radius,
+            "reference": reference_error(hm, caster.horizons(n), samples, max_distance=caster.radius),
+            "rvt_mean_abs": float(np.nanmean(d)), "rvt_max_abs": float(np.nanmax(d))}
+
+
 def roughest_crop(heights: np.ndarray, crop: int) -> tuple[int, int]:
     """(row, column) of the crop x crop window, on a grid of half-crop steps, with the largest
     standard deviation of its valid heights (a centre crop of a coastal tile can be all sea,
@@ -608,6 +625,7 @@ def run(reduced: bool, samples: int, svf_crop: int, rvt_radius: int, keys: tuple
                     d = np.abs(theirs - ours_svf)
                     row[f"rvt_r{radius}"] = {"seconds": t, "mean_abs": float(np.nanmean(d)),
                                              "max_abs": float(np.nanmax(d))}
+                    row[f"oclshade_r{radius}"] = within_radius(hm, n, radius, theirs, samples)
             entry["runs"][n] = row
             print(f"  N={n}: {json.dumps(row)}", flush=True)
         entry["svf_crop"], entry["svf_error_of_n"] = svf_errors(hm, svf_crop)
@@ -690,6 +708,20 @@ def markdown(res: dict) -> str:
                          f"{row['whitebox_s'] / row['oclshade_s']:.1f}x | "
                          + _near_far_cells(w) + " |")
         lines.append("")
+    radius_rows = [(label, n, row, int(key[len("oclshade_r"):]), ours) for label, n, e, row, _ in
+                   _rows_with(res, "reference") for key, ours in row.items() if key.startswith("oclshade_r")]
+    if radius_rows:
+        lines += ["", "Within RVT's search radius (`--max-distance`): oclshade's solid-angle SVF from its exact "
+                  "horizons within R (R cells of RVT's cell size 0.5 (dx + dy)), time of `sky_view_factor` "
+                  "(kernel built before), its angles against the float64 reference within R on the sampled "
+                  "cells, and RVT's SVF at the same radius and N (nearest cells at whole-cell steps) against it.",
+                  "", "| map | N | R (cells) | oclshade s | RVT s | RVT / oclshade | ref. max diff (deg) | "
+                  "outside band | RVT - oclshade SVF mean / max abs |", "|---|---|---|---|---|---|---|---|---|"]
+        for label, n, row, radius, ours in radius_rows:
+            theirs, r = row[f"rvt_r{radius}"], ours["reference"]
+            lines.append(f"| {label} | {n} | {radius} | {ours['seconds']:.2f} | {theirs['seconds']:.2f} | "
+                         f"{theirs['seconds'] / ours['seconds']:.1f}x | {r['max_abs_deg']:.2e} | "
+                         f"{r['outside_band']} | {ours['rvt_mean_abs']:.4f} / {ours['rvt_max_abs']:.3f} |")
     horayzon_rows = _rows_with(res, "horayzon_vs_oclshade")
     if horayzon_rows:
         lines += ["", f"HORAYZON ({res['horayzon']}: Embree rays against the map triangulated on a sphere of "

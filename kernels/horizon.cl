@@ -12,11 +12,12 @@
  *                  H*W float32 relative heights (row-major, NaN = nodata), H,
  *                  W, the extrema pyramid (float2 levels 1..nlev-1 back to
  *                  back, int level offsets, nlev), the float4 ray (ux, uy, c,
- *                  0) of one azimuth, then the outputs angle (float, H*W,
+ *                  R) of one azimuth, then the outputs angle (float, H*W,
  *                  degrees) and svf (float2 (sum, compensation), H*W).
  *   -D options OCLS_OUT_ANGLE, OCLS_OUT_SVF=1|2 (cosine | solid-angle sky-view
- *   term), OCLS_CURVATURE (read c), OCLS_CLAMP (a trailing float2 argument:
- *   only T within [lo, hi] is wanted), OCLS_OWN_BUILTINS (common.h); no others.
+ *   term), OCLS_CURVATURE (read c), OCLS_MAX_DISTANCE (read R: a search
+ *   radius), OCLS_CLAMP (a trailing float2 argument: only T within [lo, hi]
+ *   is wanted), OCLS_OWN_BUILTINS (common.h); no others.
  *
  * Geometry (as shadow.cl).  Sample (i, j) sits at x = j (east), y = i
  * (south) in cell units; the surface is bilinear over patches (pyramid.cl).
@@ -30,6 +31,10 @@
  *     T = sup_{t > 0} (S(t) - z0 - c t^2) / t
  * over the valid surface inside the map, c = (1 - k) / (2 R) with
  * -D OCLS_CURVATURE (Earth radius R, refraction coefficient k), else 0.
+ * With -D OCLS_MAX_DISTANCE the sup is over 0 < t <= R, the search radius in
+ * metres (r.horizon's maxdistance, RVT's radius): the segment in the last
+ * patch ends at min(t_out, R), a tile's bound uses that end, a corner pass
+ * beyond R is not seen, and the walk stops at t >= R.
  * Without curvature shadow.cl's cell is in cast shadow at (az, e) iff
  * T > tan(e).
  *
@@ -75,10 +80,11 @@
  *     __global const float2 *ext     extrema pyramid levels 1..nlev-1 (pyramid.cl)
  *     __global const int *lvl_off    level offsets (as shadow_cells)
  *     int nlev                       levels counting level 0 (>= 2)
- *     float4 ray                     (ux, uy, c, 0): ux, uy rounded to float32 as
+ *     float4 ray                     (ux, uy, c, R): ux, uy rounded to float32 as
  *                                    shadow.cl's ray (oclshade Sun(az, 0).ray);
  *                                    c the curvature per metre^2, read only with
- *                                    -D OCLS_CURVATURE
+ *                                    -D OCLS_CURVATURE; R > 0 the search radius in
+ *                                    metres, read only with -D OCLS_MAX_DISTANCE
  *     __global float *angle          H*W (OCLS_OUT_ANGLE)
  *     __global float2 *svf           H*W (OCLS_OUT_SVF), zeroed by the host before
  *                                    the first azimuth
@@ -95,7 +101,7 @@
  *   global size (W, H) rounded up to any local size.
  *
  * Build options: -D OCLS_OUT_ANGLE, OCLS_OUT_SVF=1|2, OCLS_CURVATURE,
- *   OCLS_CLAMP, OCLS_OWN_BUILTINS (common.h) and -cl-std=CL1.2, nothing else (no
+ *   OCLS_MAX_DISTANCE, OCLS_CLAMP, OCLS_OWN_BUILTINS (common.h) and -cl-std=CL1.2, nothing else (no
  *   fast-math); the hosts paste common.h in place of its include.
  */
 #include "common.h"
@@ -113,8 +119,15 @@
  * not move on), and whether it runs along the cell's grid row / column. */
 typedef struct {
     int i, j, sx, sy, on_row, on_col;
-    float ux, uy, ix, iy, c;
+    float ux, uy, ix, iy, c, radius;
 } HRay;
+
+/* The search radius R in metres (-D OCLS_MAX_DISTANCE; else the whole map). */
+#ifdef OCLS_MAX_DISTANCE
+#define OCLS_RADIUS(r) ((r)->radius)
+#else
+#define OCLS_RADIUS(r) INFINITY
+#endif
 
 /* Ray parameter at which the ray leaves the tile [c0, c0+size] x [r0, r0+size]
  * (shadow.cl's tile_exit for a start on a sample: the same values, so the
@@ -220,15 +233,19 @@ OCLS_INLINE float horizon_tan(__global const float *h, int H, int W, __global co
         int via_x, via_y;
         const float t_out = exit_t(r, r0, c0, size, &via_x, &via_y);
         if (t > 0.0f && rise - OCLS_DROP(r->c, t) <= best * t) break;   /* nothing further is higher */
+#ifdef OCLS_MAX_DISTANCE
+        if (t >= OCLS_RADIUS(r)) break;                    /* the search radius */
+#endif
+        const float t_end = fmin(t_out, OCLS_RADIUS(r));   /* the segment's end within the radius */
         if (l > 0) {
             const float2 e = ext[lvl_off[l] + (pr >> l) * ocls_level_extent(Wp, l) + (pc >> l)];
-            if (e.x - z0 > best * (best >= 0.0f ? t : t_out) + OCLS_DROP(r->c, t)) {
+            if (e.x - z0 > best * (best >= 0.0f ? t : t_end) + OCLS_DROP(r->c, t)) {
                 l -= 1;                                    /* the tile may raise T: descend */
                 continue;
             }
         } else {
-            best = fmax(best, patch_sup(h, H, W, pr, pc, r, z0, t, t_out));
-            if (via_x && via_y && !valid_patch(h, H, W, pr, pc))
+            best = fmax(best, patch_sup(h, H, W, pr, pc, r, z0, t, t_end));
+            if (via_x && via_y && t_out <= OCLS_RADIUS(r) && !valid_patch(h, H, W, pr, pc))
                 best = fmax(best, corner_sup(h, H, W, pr, pc, r, z0, t_out));
 #ifdef OCLS_CLAMP
             if (best >= hi) break;                         /* as high as the caller asks */
@@ -266,7 +283,7 @@ __kernel void horizon_cells(__global const float *h, const int H, const int W, _
         return;
     }
     HRay r;
-    r.i = i; r.j = j; r.ux = ray.x; r.uy = ray.y; r.c = ray.z;
+    r.i = i; r.j = j; r.ux = ray.x; r.uy = ray.y; r.c = ray.z; r.radius = ray.w;
     r.sx = OCLS_SIGN(ray.x); r.sy = OCLS_SIGN(ray.y);
     r.ix = r.sx ? 1.0f / ray.x : 0.0f;
     r.iy = r.sy ? 1.0f / ray.y : 0.0f;

@@ -1050,9 +1050,13 @@ output: float32 bands, NaN = nodata; .tif/.tiff (georeferencing of the input kep
            against 256 strips in docs/methods.md "Soft shadows"
   --curvature lowers terrain at distance d by (1 - k) d^2 / (2 R) (R = --radius,
   k = --refraction), as r.horizon and HORAYZON do.
+  --max-distance D (horizon, svf) sees only the terrain within D metres of the cell
+  along each ray (r.horizon's maxdistance, RVT's radius x the cell size): exact within
+  it, and faster for small D.
 
 examples:
   oclshade horizon dem.tif horizons.tif --azimuths 64
+  oclshade svf dem.tif svf10.tif --azimuths 16 --max-distance 300 --definition solid-angle
   oclshade horizon srtm.hgt.zip far.tif --azimuths 16 --curvature --refraction 0.13
   oclshade svf dem.tif svf.tif --azimuths 32 --definition solid-angle
   oclshade sunlit dem.tif dusk.tif --sun 280,2 --sun 285,1
@@ -1070,6 +1074,13 @@ def _columns(text: str) -> int:
     if not text.isdigit() or not 1 <= int(text) <= 1024:
         raise argparse.ArgumentTypeError(f"expected an integer 1..1024, got {text!r}")
     return int(text)
+
+
+def _max_distance(text: str) -> float:
+    value = _number(text, "max distance")
+    if not (math.isfinite(value) and value > 0.0):
+        raise argparse.ArgumentTypeError(f"must be a positive number of metres, got {text}")
+    return value
 
 
 def _refraction(text: str) -> float:
@@ -1105,6 +1116,8 @@ def add_horizon_parsers(sub) -> None:
         else:
             p.add_argument("--azimuths", type=_azimuths, default=16, metavar="N",
                            help="equally spaced azimuths, 360 i / N degrees (default 16)")
+            p.add_argument("--max-distance", type=_max_distance, default=None, metavar="METRES",
+                           help="search radius: terrain farther from the cell is not seen (default: the whole map)")
         if name == "svf":
             p.add_argument("--definition", default="cosine", choices=SVF_DEFINITIONS,
                            help="cosine (default): 1 - mean sin^2 h; solid-angle: 1 - mean sin h (RVT)")
@@ -1146,7 +1159,8 @@ def run_horizon(args: argparse.Namespace) -> int:
     bar = ProgressBar(sys.stderr, "azimuths") if not args.quiet and (len(azimuths) > 1 or sunlit) else None
     with RasterWriter(args.output, (len(names), rows, cols), np.float32, like=raster, nodata=math.nan,
                       band_names=names, options=options, cog=cog) as out:
-        caster = HorizonCaster(heightmap, device=args.device, curvature=curvature, cache=False)
+        caster = HorizonCaster(heightmap, device=args.device, curvature=curvature,
+                               max_distance=getattr(args, "max_distance", None), cache=False)
         t1 = time.perf_counter()
         if svf:
             out.write(caster.sky_view_factor(azimuths, args.definition, progress=bar))
@@ -1161,6 +1175,8 @@ def run_horizon(args: argparse.Namespace) -> int:
         what = f"sky-view factor ({args.definition})" if svf else \
             f"sun disc ({args.columns} strips per sun)" if sunlit else "horizons"
         bent = "" if curvature is None else f", curvature R {curvature.radius:g} m k {curvature.refraction:g}"
+        if caster.radius is not None:
+            bent += f", within {caster.radius:g} m"
         count = f"{len(args.suns)} sun(s)" if sunlit else f"{len(azimuths)} azimuths"
         print(f"{PROG}: {cols}x{rows} cells, {count}{bent}, device {caster.runtime.label}: "
               f"{what} {t2 - t1:.2f} s (total {time.perf_counter() - t0:.2f} s) -> {args.output}", file=sys.stderr)

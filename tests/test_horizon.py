@@ -18,13 +18,15 @@ from oclshade.horizon import Curvature, HorizonCaster, azimuth_grid
 SRTM = pathlib.Path(__file__).resolve().parents[2] / "shared" / "data" / "dem" / "srtm3_srtmpy" / "N22W160v2.3a.hgt.zip"
 
 
-def assert_matches_reference(hm: Heightmap, azimuths, curvature: Curvature | None = None) -> None:
+def assert_matches_reference(hm: Heightmap, azimuths, curvature: Curvature | None = None,
+                             max_distance: float | None = None, knobs: dict | None = None) -> None:
     """Every angle within the float32 band of the reference; nodata and 'sees nothing' (-90) alike."""
-    caster = HorizonCaster(hm, curvature=curvature)
+    caster = HorizonCaster(hm, curvature=curvature, max_distance=max_distance, knobs=knobs)
     c = caster.coefficient
     band = ref.angle_tolerance(hm, c)
+    radius = math.inf if caster.radius is None else caster.radius
     for az, got in caster.iter_horizons(azimuths):
-        expected = ref.horizon_angles(hm, az, c)
+        expected = ref.horizon_angles(hm, az, c, max_distance=radius)
         assert np.array_equal(np.isnan(got), np.isnan(expected)), f"nodata differs at az {az}"
         assert np.array_equal(got == -90.0, expected == -90.0), f"'sees nothing' differs at az {az}"
         err = np.nanmax(np.abs(got - expected)) if np.isfinite(expected).any() else 0.0
@@ -144,13 +146,15 @@ def test_knobs_do_not_change_results():
     h = np.cumsum(rng.normal(size=(37, 53)), axis=0) * 20.0
     h[3:6, 7:9] = np.nan
     hm = Heightmap.from_array(h, 30.0)
-    base = HorizonCaster(hm, knobs={"group": 64, "own_builtins": 0})
-    angles, svf = base.horizons(6), base.sky_view_factor(6)
-    for group in (16, 64, 256):
-        for own in (0, 1):
-            caster = HorizonCaster(hm, knobs={"group": group, "own_builtins": own}, curvature=None)
-            assert np.array_equal(caster.horizons(6), angles, equal_nan=True)
-            assert np.array_equal(caster.sky_view_factor(6), svf, equal_nan=True)
+    for radius in (None, 400.0):
+        base = HorizonCaster(hm, max_distance=radius, knobs={"group": 64, "own_builtins": 0})
+        angles, svf = base.horizons(6), base.sky_view_factor(6)
+        for group in (16, 64, 256):
+            for own in (0, 1):
+                knobs = {"group": group, "own_builtins": own}
+                caster = HorizonCaster(hm, max_distance=radius, knobs=knobs, curvature=None)
+                assert np.array_equal(caster.horizons(6), angles, equal_nan=True), (radius, knobs)
+                assert np.array_equal(caster.sky_view_factor(6), svf, equal_nan=True), (radius, knobs)
 
 
 def test_streaming_and_arguments():
@@ -167,3 +171,61 @@ def test_streaming_and_arguments():
             caster.horizons(bad)
     with pytest.raises(ValueError, match="definition"):
         caster.sky_view_factor(4, "fisheye")
+
+
+# --- search radius (max_distance) ------------------------------------------------------------
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(h=terrains(), az=azimuths, cell=cell_sizes, cells=st.floats(0.05, 30.0), curved=st.booleans())
+def test_within_a_search_radius_equal_to_reference(h, az, cell, cells, curved):
+    hm = Heightmap.from_array(h, cell)
+    curvature = Curvature(radius=20000.0) if curved else None       # a small planet: visible drops
+    assert_matches_reference(hm, [az], curvature, max_distance=cells * min(cell))
+
+
+def test_a_search_radius_sees_only_the_terrain_within_it():
+    """A wall on a flat plain, looking at it from the west: the surface rises from 0 to 100 m over
+    the last 10 m cell before the wall, so within a radius R the horizon of a cell d metres away
+    is atan(S(s) / s) at s = min(R, d), S(s) = 10 (s - d + 10), and 0 where R <= d - 10."""
+    h = np.zeros((9, 60))
+    h[:, 40] = 100.0
+    hm = Heightmap.from_array(h, 10.0)
+    d = (40 - np.arange(40)) * 10.0                                 # metres from each cell to the wall
+    for radius in (105.0, 255.0, 385.0):
+        east = HorizonCaster(hm, max_distance=radius).horizons([90.0])[0, 4, :40]
+        s = np.minimum(radius, d)
+        want = np.where(radius > d - 10.0, np.degrees(np.arctan(10.0 * (s - d + 10.0) / s)), 0.0)
+        assert (d <= radius).any() and (radius <= d - 10.0).any() and ((d - 10.0 < radius) & (radius < d)).any()
+        np.testing.assert_allclose(east, want, atol=1e-4)
+        assert np.all(east[radius <= d - 10.0] == 0.0)              # the flat plain within the radius
+
+
+def test_a_search_radius_on_a_real_dem_with_holes():
+    from matplotlib import cbook
+
+    data = cbook.get_sample_data("jacksboro_fault_dem.npz")
+    elev = (data if hasattr(data, "files") else np.load(data))["elevation"].astype(np.float64)
+    elev[100:130, 40:95] = np.nan
+    elev[np.random.default_rng(7).random(elev.shape) < 0.01] = np.nan
+    hm = Heightmap.from_array(elev, (90.0, 90.0))
+    azimuths = [0.0, 37.0, 45.0, 90.0, 200.0, 315.0]
+    assert_matches_reference(hm, azimuths, Curvature(), max_distance=3000.0)
+    got = HorizonCaster(hm, max_distance=3000.0, curvature=Curvature()).horizons(azimuths)
+    whole = HorizonCaster(hm, curvature=Curvature()).horizons(azimuths)
+    assert np.all(got[np.isfinite(got)] <= whole[np.isfinite(got)] + ref.angle_tolerance(hm))
+    assert (got < whole - 1.0).sum() > 1000          # the radius hides terrain: the two differ
+
+
+def test_a_radius_beyond_the_map_equals_the_whole_map():
+    hm = Heightmap.from_array(np.random.default_rng(5).normal(0, 30, (50, 70)).cumsum(axis=1), 25.0)
+    band = ref.angle_tolerance(hm)
+    whole = HorizonCaster(hm).horizons(8)
+    beyond = HorizonCaster(hm, max_distance=1e6).horizons(8)
+    assert np.nanmax(np.abs(whole - beyond)) <= band
+
+
+@pytest.mark.parametrize("bad", [0, 0.0, -30.0, math.nan, math.inf, 1e-60, True, "300"])
+def test_a_bad_search_radius_is_named(bad):
+    hm = Heightmap.from_array(np.zeros((4, 4)), 1.0)
+    with pytest.raises(ValueError, match="max_distance must be None or a positive finite number of metres"):
+        HorizonCaster(hm, max_distance=bad)

@@ -79,8 +79,25 @@ def test_curvature_options(tmp_path, npy, dem):
     assert np.nanmax(flat - got) > 0.1       # the curvature lowers distant terrain
 
 
+def test_max_distance(tmp_path, npy, dem, capsys):
+    hm = Heightmap.from_array(dem, 30.0)
+    assert main(["horizon", str(npy), str(tmp_path / "r.npy"), "--cellsize", "30", "--azimuths", "4",
+                 "--max-distance", "150"]) == 0
+    assert "within 150 m" in capsys.readouterr().err
+    got = np.load(tmp_path / "r.npy")
+    assert np.array_equal(got, HorizonCaster(hm, max_distance=150.0).horizons(4), equal_nan=True)
+    assert np.nanmax(HorizonCaster(hm).horizons(4) - got) > 1.0     # farther terrain is not seen
+    assert main(["svf", str(npy), str(tmp_path / "s.npy"), "--cellsize", "30", "--azimuths", "8",
+                 "--max-distance", "150", "--definition", "solid-angle", "-q"]) == 0
+    want = HorizonCaster(hm, max_distance=150.0).sky_view_factor(8, "solid-angle")
+    assert np.array_equal(np.load(tmp_path / "s.npy"), want, equal_nan=True)
+
+
 @pytest.mark.parametrize("args, message", [
     (["horizon", "{npy}", "{out}.png", "--cellsize", "30"], "expected .tif"),
+    (["horizon", "{npy}", "{out}.npy", "--cellsize", "30", "--max-distance", "0"], "positive number of metres"),
+    (["svf", "{npy}", "{out}.npy", "--cellsize", "30", "--max-distance", "-5"], "positive number of metres"),
+    (["horizon", "{npy}", "{out}.npy", "--cellsize", "30", "--max-distance", "far"], "max distance must be a number"),
     (["horizon", "{npy}", "{out}.npy", "--cellsize", "30", "--radius", "1000"], "go with --curvature"),
     (["horizon", "{npy}", "{out}.npy", "--cellsize", "30", "--refraction", "0.2"], "go with --curvature"),
     (["horizon", "{npy}", "{out}.npy", "--cellsize", "30", "--curvature", "--refraction", "1"], "refraction"),

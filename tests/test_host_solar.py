@@ -99,16 +99,18 @@ def test_c_sunshine_equals_python(host: dict, tmp_path: Path, case: str, azimuth
         assert np.where(nodata, np.nan, values).astype(np.float32).tobytes() == want.tobytes(), name
 
 
-@pytest.mark.parametrize("definition,curved", [(1, False), (2, True)])
-def test_c_horizons_and_svf_equal_python(host: dict, tmp_path: Path, definition: int, curved: bool) -> None:
+@pytest.mark.parametrize("definition,curved,radius_cells", [(1, False, 0), (2, True, 0), (2, True, 11.5)])
+def test_c_horizons_and_svf_equal_python(host: dict, tmp_path: Path, definition: int, curved: bool,
+                                         radius_cells: float) -> None:
     hm = generated_map(*MAPS["holes"])
     rows, cols = hm.shape
     n = 8
     curvature = Curvature(radius=20000.0, refraction=0.13) if curved else None   # a small planet: visible drops
     coefficient = curvature.coefficient if curved else 0.0
+    max_distance = radius_cells * hm.dx or None
     run_program(host, "host_passes", "horizon", tmp_path, heights_file(tmp_path, hm), rows, cols, repr(hm.dx),
-                repr(hm.dy), repr(coefficient), definition, n)
-    caster = HorizonCaster(hm, curvature=curvature, cache=False)
+                repr(hm.dy), repr(coefficient), definition, n, repr(max_distance or 0.0))
+    caster = HorizonCaster(hm, curvature=curvature, max_distance=max_distance, cache=False)
     angles = caster.horizons(n)
     for k in range(n):
         assert np.fromfile(tmp_path / f"angle_{k}.f32", np.float32).tobytes() == angles[k].tobytes(), k

@@ -801,6 +801,8 @@ typedef struct oclshade_horizon_params {
     double curvature;           /* Earth curvature drop per square metre (1 - k) / (2 R), rounded to float32
                                    (the Python host's Curvature.coefficient); 0: a flat Earth (no
                                    -D OCLS_CURVATURE) */
+    double max_distance;        /* search radius in metres, rounded to float32 (HorizonCaster's radius);
+                                   0: the whole map (no -D OCLS_MAX_DISTANCE) */
     oclshade_field angle;       /* output: rows x cols float32 degrees; buffer NULL = not computed */
     cl_mem svf;                 /* rows x cols float2 (sum, compensation), read and written; NULL = none.
                                    Zero it before the first azimuth; after N equally spaced azimuths
@@ -809,13 +811,14 @@ typedef struct oclshade_horizon_params {
     cl_mem scratch;             /* >= oclshade_horizon_scratch_size (packed copies of pitched fields) */
 } oclshade_horizon_params;
 
-/* Defaults: no buffers, 0 x 0, dx = dy = 1, azimuth 0, flat Earth, the cosine definition. */
+/* Defaults: no buffers, 0 x 0, dx = dy = 1, azimuth 0, flat Earth, no search radius, the cosine
+ * definition. */
 void oclshade_horizon_params_init(oclshade_horizon_params *params);
 oclshade_status oclshade_horizon_scratch_size(oclshade *lib, const oclshade_horizon_params *params,
                                               size_t *bytes);
 /* One launch of horizon_cells, global size (cols, rows) rounded up to the local size; -D
  * OCLS_OUT_ANGLE when angle is given, OCLS_OUT_SVF=definition when svf is, OCLS_CURVATURE when
- * curvature > 0.  Knobs: horizon group, own_builtins. */
+ * curvature > 0, OCLS_MAX_DISTANCE when max_distance > 0.  Knobs: horizon group, own_builtins. */
 oclshade_status oclshade_enqueue_horizon(oclshade *lib, cl_command_queue queue,
                                          const oclshade_horizon_params *params,
                                          cl_uint num_events_in_wait_list, const cl_event *event_wait_list,

@@ -32,6 +32,10 @@ static oclshade_status horizon_job_for(oclshade *lib, const oclshade_horizon_par
     if (!(isfinite(p->curvature) && p->curvature >= 0.0))
         return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "curvature must be a finite drop per square metre >= 0 "
                          "((1 - k) / (2 R)), got %g", p->curvature);
+    if (!(isfinite(p->max_distance) && (p->max_distance == 0.0 ||
+          ((cl_float)p->max_distance > 0.0f && (cl_float)p->max_distance < INFINITY))))
+        return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "max_distance must be a finite search radius in metres "
+                         ">= 0 (0: the whole map), got %g", p->max_distance);
     if (p->angle.buffer == NULL && p->svf == NULL)
         return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "at least one of angle, svf must have a buffer");
     if (p->svf != NULL && p->svf_definition != OCLSHADE_SVF_COSINE && p->svf_definition != OCLSHADE_SVF_SOLID_ANGLE)
@@ -43,7 +47,7 @@ static oclshade_status horizon_job_for(oclshade *lib, const oclshade_horizon_par
     j->ray.s[0] = u[0];
     j->ray.s[1] = u[1];
     j->ray.s[2] = (cl_float)p->curvature;
-    j->ray.s[3] = 0.0f;
+    j->ray.s[3] = (cl_float)p->max_distance;
     j->p = p;
     return OCLSHADE_OK;
 }
@@ -64,6 +68,7 @@ static oclshade_status horizon_body(ocls_pass *ps, const void *params)
     ocls_def_flag(&d, "OCLS_OUT_ANGLE", angle != NULL);
     if (p->svf != NULL) ocls_def_int(&d, "OCLS_OUT_SVF", (int)p->svf_definition);
     ocls_def_flag(&d, "OCLS_CURVATURE", p->curvature > 0.0);
+    ocls_def_flag(&d, "OCLS_MAX_DISTANCE", j->ray.s[3] > 0.0f);
     ocls_def_flag(&d, "OCLS_OWN_BUILTINS", ocls_knob(lib, K_HORIZON_OWN_BUILTINS));
     kernel_entry *k;
     if ((st = ocls_kernel(ps, "horizon.cl", &d, "horizon_cells", &k)) != OCLSHADE_OK) return st;

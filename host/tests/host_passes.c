@@ -36,10 +36,11 @@
  *       image.u8 (image.f32 with LINEAR 1); checks itself that pitched fields give the same
  *       image.  LIGHT X,Y,Z,DISTANCE: a point light at world (X, Y, Z), falloff reference
  *       distance DISTANCE (0: none) instead of the sun; INDIR then holds translation.f64 (3).
- *   horizon OUTDIR HEIGHTS.f64 ROWS COLS DX DY CURVATURE DEFINITION N
+ *   horizon OUTDIR HEIGHTS.f64 ROWS COLS DX DY CURVATURE DEFINITION N [MAX_DISTANCE]
  *       horizon angles at the N azimuths 360 k / N (angle_<k>.f32) and the sky-view factor
- *       sums over them (svf.f32: float2 per cell, zeroed by oclshade_enqueue_zero); checks
- *       itself that a pitched angle field and another group give the same bits.
+ *       sums over them (svf.f32: float2 per cell, zeroed by oclshade_enqueue_zero), within
+ *       the search radius MAX_DISTANCE (default 0: the whole map); checks itself that a
+ *       pitched angle field and another group give the same bits.
  *   sunshine OUTDIR HEIGHTS.f64 ROWS COLS DX DY N AZ,EL,SECONDS...
  *       sunshine sums over the (daylight) suns: N 0 by each sun's exact mask (shadow pass),
  *       also with pitched heights (pitched_*); N > 0 by the horizons of N grid azimuths;
@@ -649,6 +650,8 @@ static void run_compose(int argc, char **argv)
 /* ------------------------------------------------------------------ sunshine and horizons */
 
 /* Horizon angles of azimuth 360 k / n into `angle` (a packed field when pitched is 0). */
+static double horizon_max_distance = 0.0;   /* run_horizon's MAX_DISTANCE */
+
 static void horizon_band(const map *m, double dx, double dy, double curvature, double azimuth, oclshade_field *angle,
                          cl_mem svf, int definition)
 {
@@ -659,6 +662,7 @@ static void horizon_band(const map *m, double dx, double dy, double curvature, d
     p.pyramid = m->pyramid; p.offsets = m->offsets;
     p.azimuth = azimuth;
     p.curvature = curvature;
+    p.max_distance = horizon_max_distance;
     if (angle) p.angle = *angle;
     p.svf = svf;
     p.svf_definition = (oclshade_svf_definition)definition;
@@ -672,7 +676,9 @@ static void horizon_band(const map *m, double dx, double dy, double curvature, d
 
 static void run_horizon(int argc, char **argv)
 {
-    if (argc != 8) fail("usage: host_passes horizon OUTDIR HEIGHTS.f64 ROWS COLS DX DY CURVATURE DEFINITION N");
+    if (argc != 8 && argc != 9)
+        fail("usage: host_passes horizon OUTDIR HEIGHTS.f64 ROWS COLS DX DY CURVATURE DEFINITION N [MAX_DISTANCE]");
+    if (argc == 9) horizon_max_distance = atof(argv[8]);
     map m;
     load_map(&m, argv[0], atoi(argv[1]), atoi(argv[2]));
     const double dx = atof(argv[3]), dy = atof(argv[4]), curvature = atof(argv[5]);

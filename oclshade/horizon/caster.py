@@ -11,6 +11,8 @@ the highest point of the bilinear surface seen from the cell's surface point
 (exact, as the cast-shadow masks: a cell is in cast shadow at (az, e) iff its
 horizon at az is above e); -90 where the ray sees no terrain (at the map's
 edge looking out), NaN at nodata cells.  Beyond the map there is no terrain.
+``max_distance`` limits the search to a radius in metres (r.horizon's ``maxdistance``,
+WhiteboxTools' ``max_dist``, RVT's radius): exact over the surface within it.
 One traversal of the extrema pyramid per cell and azimuth, one launch per
 azimuth; the pyramid is shared with the shadow casters over the same heights
 (process-wide cache).  Definitions: kernels/horizon.cl and docs/methods.md;
@@ -61,6 +63,17 @@ def as_azimuths(azimuths: int | Sequence[float] | np.ndarray) -> np.ndarray:
     return values
 
 
+def check_max_distance(max_distance: float | None) -> float | None:
+    """The search radius as the kernel's float32 value (None: the whole map)."""
+    if max_distance is None:
+        return None
+    ok = isinstance(max_distance, (int, float, np.floating, np.integer)) and not isinstance(max_distance, bool)
+    value = float(np.float32(max_distance)) if ok and math.isfinite(max_distance) else math.nan
+    if not value > 0.0:
+        raise ValueError(f"max_distance must be None or a positive finite number of metres, got {max_distance!r}")
+    return value
+
+
 def check_definition(definition: str) -> str:
     if definition not in SVF_DEFINITIONS:
         raise ValueError(f"definition must be one of {', '.join(SVF_DEFINITIONS)}; got {definition!r}")
@@ -92,17 +105,21 @@ class HorizonCaster:
     """Horizon angles of one heightmap for any number of azimuths, over one resident pyramid.
 
     curvature: None for a flat Earth (default), or a :class:`Curvature` (``Curvature()`` is
-    the mean Earth radius without refraction).  cache: share the pyramid through the
+    the mean Earth radius without refraction).  max_distance: None (default: the whole map)
+    or the search radius in metres, a positive number: each angle is then the highest
+    terrain within that horizontal distance of the cell (the float32 value is the one
+    used, :attr:`radius`).  cache: share the pyramid through the
     process-wide cache (:mod:`oclshade.cache`; None follows :func:`oclshade.cache.enabled`).
     knobs: the ``horizon`` family's tuning values (:data:`TUNING`: ``group``, ``own_builtins``),
     any subset; the rest from the device's tuning entry.  Results never depend on them.
     """
 
     def __init__(self, heightmap: Heightmap, device: str | int | Runtime | None = None, *,
-                 curvature: Curvature | None = None, cache: bool | None = None,
-                 knobs: Mapping[str, int] | None = None):
+                 curvature: Curvature | None = None, max_distance: float | None = None,
+                 cache: bool | None = None, knobs: Mapping[str, int] | None = None):
         if curvature is not None and not isinstance(curvature, Curvature):
             raise TypeError(f"curvature must be None or a Curvature, got {curvature!r}")
+        self.radius = check_max_distance(max_distance)
         self.heightmap = heightmap
         self.runtime = get_runtime(device)
         self.curvature = curvature
@@ -227,15 +244,16 @@ class HorizonCaster:
         pyr = self.pyramid
         rows, cols = hm.shape
         defines = {**outputs, "OCLS_CURVATURE": self.curvature is not None,
+                   "OCLS_MAX_DISTANCE": self.radius is not None,
                    "OCLS_OWN_BUILTINS": bool(self.knobs["own_builtins"])}
         kernel = rt.kernel("horizon.cl", "horizon_cells", defines)
         gsize, lsize = rt.grid_2d(kernel, cols, rows, wanted=self.knobs["group"])
         fixed = (pyr.heights, np.int32(rows), np.int32(cols), pyr.buffer, pyr.offsets, np.int32(pyr.levels))
-        c = self.coefficient
+        c, radius = self.coefficient, self.radius or 0.0
 
         def enqueue(azimuth: float, angle: cl.Buffer, svf: cl.Buffer, bounds: tuple[float, float] = ()) -> None:
             ux, uy, _ = Sun(azimuth, 0.0).ray(hm.dx, hm.dy)
-            kernel.set_args(*fixed, np.array([ux, uy, c, 0.0], np.float32), angle, svf,
+            kernel.set_args(*fixed, np.array([ux, uy, c, radius], np.float32), angle, svf,
                             *([np.array(bounds, np.float32)] if bounds else []))
             cl.enqueue_nd_range_kernel(rt.queue, kernel, gsize, lsize)
 
@@ -244,7 +262,8 @@ class HorizonCaster:
 
 def _smoke(rt: Runtime, knobs: tuning.Values) -> None:
     hm = Heightmap.from_array(tuning.standard_heightmap(64).heights[:, :45], cellsize=30.0)
-    HorizonCaster(hm, rt, cache=False, knobs=knobs).horizons([37.0, 200.0])
+    for radius in (None, 600.0):      # both builds: the whole map and a search radius
+        HorizonCaster(hm, rt, max_distance=radius, cache=False, knobs=knobs).horizons([37.0, 200.0])
 
 
 def _workload(rt: Runtime, knobs: tuning.Values, quick: bool) -> Callable[[], None]:

@@ -16,6 +16,11 @@ map at once or crosses only holes), NaN at nodata cells.  Without curvature
 T - tan(e) is :func:`cast_shadows`' margin for a sun at elevation e, so a
 cell is in cast shadow at (az, e) iff T > tan(e).
 
+Search radius.  With ``max_distance`` R (metres, as r.horizon's
+``maxdistance``, WhiteboxTools' ``max_dist``, RVT's radius in cells times the
+cell size) the sup is over 0 < t <= R: the surface seen within R of the cell
+along the ray, the last patch cut at t = R.
+
 The walk is plain: every patch the ray crosses, each tested in closed form
 (f(t) / t with f quadratic has its maximum at an end or at the tangent point,
 :func:`~oclshade.reference.shadows._segment_margin`); it stops where no
@@ -74,10 +79,12 @@ def angle_tolerance(hm: Heightmap, curvature: float = 0.0) -> float:
 
 
 def horizon_tangents(hm: Heightmap, azimuth: float, curvature: float = 0.0,
-                     cells: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+                     cells: tuple[np.ndarray, np.ndarray] | None = None,
+                     max_distance: float = np.inf) -> np.ndarray:
     """T of every cell (default) or of the cells ``(rows, cols)`` (1-D integer arrays), float64:
     shape (rows, cols) of the map, or of ``cells[0]``; -inf where the ray sees nothing, NaN at
-    nodata.  ``curvature``: c per square metre (the kernel's float32 value, for an exact match)."""
+    nodata.  ``curvature``: c per square metre (the kernel's float32 value, for an exact match);
+    ``max_distance``: the search radius R in metres (the kernel's float32 value)."""
     h = hm.heights
     if cells is None:
         ii, jj = (a.ravel() for a in np.indices(h.shape))
@@ -87,17 +94,19 @@ def horizon_tangents(hm: Heightmap, azimuth: float, curvature: float = 0.0,
         shape = np.shape(cells[0])
     out = np.full(ii.shape, np.nan)
     ok = np.flatnonzero(~np.isnan(h[ii, jj]))
-    out[ok] = _walk(hm, azimuth, curvature, ii[ok], jj[ok])
+    out[ok] = _walk(hm, azimuth, curvature, ii[ok], jj[ok], float(max_distance))
     return out.reshape(shape)
 
 
 def horizon_angles(hm: Heightmap, azimuth: float, curvature: float = 0.0,
-                   cells: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+                   cells: tuple[np.ndarray, np.ndarray] | None = None,
+                   max_distance: float = np.inf) -> np.ndarray:
     """Horizon angles in degrees (float64) as :func:`horizon_tangents`: -90 where nothing is seen."""
-    return np.degrees(np.arctan(horizon_tangents(hm, azimuth, curvature, cells)))
+    return np.degrees(np.arctan(horizon_tangents(hm, azimuth, curvature, cells, max_distance)))
 
 
-def _walk(hm: Heightmap, azimuth: float, c: float, ii: np.ndarray, jj: np.ndarray) -> np.ndarray:
+def _walk(hm: Heightmap, azimuth: float, c: float, ii: np.ndarray, jj: np.ndarray,
+          max_distance: float = np.inf) -> np.ndarray:
     """T of the valid cells (ii, jj), every ray advanced one patch per step (vectorised across rays)."""
     h = hm.heights
     hp, wp = hm.patch_shape
@@ -112,7 +121,7 @@ def _walk(hm: Heightmap, azimuth: float, c: float, ii: np.ndarray, jj: np.ndarra
     best = np.full(idx.size, -np.inf)
     while idx.size:
         with np.errstate(invalid="ignore"):    # best = -inf at t = 0
-            done = (t > 0) & ((gmax - z0) - c * t * t <= best * t)
+            done = (t > 0) & (((gmax - z0) - c * t * t <= best * t) | (t >= max_distance))
         inside = (pr >= 0) & (pr < hp) & (pc >= 0) & (pc < wp) & ~done
         if not inside.all():
             result[idx[~inside]] = best[~inside]
@@ -128,6 +137,7 @@ def _walk(hm: Heightmap, azimuth: float, c: float, ii: np.ndarray, jj: np.ndarra
         tx = np.where(snap, np.minimum(tx, ty), tx)
         ty = np.where(snap, tx, ty)
         t_out = np.minimum(tx, ty)
+        t_end = np.minimum(t_out, max_distance)          # the search radius cuts the last patch
         fx, fy = x0 + ux * t - pc, y0 + uy * t - pr
         if on_row or on_col:     # the linear profile of the grid line the ray runs along
             a0, a1, f, u = ((_sample(h, _line(y0), pc), _sample(h, _line(y0), pc + 1), fx, ux) if on_row else
@@ -143,7 +153,7 @@ def _walk(hm: Heightmap, azimuth: float, c: float, ii: np.ndarray, jj: np.ndarra
             s1 = (ex + k * fy) * ux + (ey + k * fx) * uy
             s2 = k * ux * uy
         # f(t + tau) = S - z0 - c (t + tau)^2 = f_a + a tau + b tau^2 on [0, t_out - t]
-        seg = _segment_margin(s_a - z0 - c * t * t, s1 - 2.0 * c * t, s2 - c, t, t_out - t, t == 0)
+        seg = _segment_margin(s_a - z0 - c * t * t, s1 - 2.0 * c * t, s2 - c, t, t_end - t, t == 0)
         best = np.where(valid, np.maximum(best, seg), best)
         via_x, via_y = tx <= ty, ty <= tx
         if ux != 0 and uy != 0:
@@ -151,7 +161,7 @@ def _walk(hm: Heightmap, azimuth: float, c: float, ii: np.ndarray, jj: np.ndarra
             vr, vc = pr + (uy > 0), pc + (ux > 0)
             sides = (_patch_valid(h, hp, wp, pr, pc + (1 if ux > 0 else -1)) |
                      _patch_valid(h, hp, wp, pr + (1 if uy > 0 else -1), pc))
-            corner = via_x & via_y & ~valid & sides
+            corner = via_x & via_y & ~valid & sides & (t_out <= max_distance)
             f_v = (_sample(h, vr, vc) - z0 - c * t_out * t_out) / t_out
             best = np.where(corner, np.maximum(best, np.nan_to_num(f_v, nan=-np.inf)), best)
         if ux != 0:
