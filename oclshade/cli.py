@@ -1077,10 +1077,11 @@ def _columns(text: str) -> int:
 
 
 def _max_distance(text: str) -> float:
-    value = _number(text, "max distance")
-    if not (math.isfinite(value) and value > 0.0):
-        raise argparse.ArgumentTypeError(f"must be a positive number of metres, got {text}")
-    return value
+    from .horizon.caster import check_max_distance
+    try:
+        return check_max_distance(_number(text, "max distance"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a positive number of metres, got {text}") from None
 
 
 def _refraction(text: str) -> float:

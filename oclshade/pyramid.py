@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Callable, Mapping
 import numpy as np
 import pyopencl as cl
 
-from . import tuning
+from . import cache, tuning
 from .heightmap import Heightmap
 from .runtime import Runtime, get_runtime
 
@@ -62,7 +62,6 @@ class ExtremaPyramid:
             from .pyramid_images import build_pyramid_images
             self._images = build_pyramid_images(self) or False
             if self._images and self._cache_key is not None:
-                from . import cache
                 cache.PYRAMIDS.put(self._cache_key, self, self.nbytes)
         return self._images or None
 
@@ -119,11 +118,12 @@ def build_extrema_pyramid(hm: Heightmap, device=None, knobs: Mapping[str, int] |
     return ExtremaPyramid(rt, heights_buffer, buf, rt.to_device(kernel_offsets, "level offsets"), shapes, hm.shape)
 
 
-def cached_pyramid(heightmap: Heightmap, runtime: Runtime, caching: bool) -> ExtremaPyramid:
+def cached_pyramid(heightmap: Heightmap, runtime: Runtime, use_cache: bool | None = None) -> ExtremaPyramid:
     """The pyramid of ``heightmap`` on ``runtime``: from the process-wide cache
-    (:mod:`oclshade.cache`) when ``caching`` and it is there, else built (and stored there
-    when ``caching``, counted by :attr:`ExtremaPyramid.nbytes`)."""
-    from . import cache
+    (:mod:`oclshade.cache`; ``use_cache`` None follows :func:`oclshade.cache.enabled`) when it
+    is there, else built (and stored there when caching, counted by
+    :attr:`ExtremaPyramid.nbytes`)."""
+    caching = cache.enabled() if use_cache is None else bool(use_cache)
     key = (cache.heights_digest(heightmap), id(runtime)) if caching else None
     pyr = cache.PYRAMIDS.get(key) if key else None
     if pyr is None:

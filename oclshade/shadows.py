@@ -209,7 +209,7 @@ class ShadowCaster:
         """The extrema pyramid, built on first use (or found in the process-wide cache) and
         kept on the device."""
         if self._pyramid is None:
-            self._pyramid = cached_pyramid(self.heightmap, self.runtime, self.caching)
+            self._pyramid = cached_pyramid(self.heightmap, self.runtime, self.cache)
         return self._pyramid
 
     @property

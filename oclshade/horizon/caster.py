@@ -27,7 +27,6 @@ from typing import Callable, Iterator, Mapping, Sequence
 import numpy as np
 import pyopencl as cl
 
-from .. import cache as _cache
 from .. import tuning
 from ..heightmap import Heightmap
 from ..pyramid import ExtremaPyramid, cached_pyramid
@@ -132,8 +131,7 @@ class HorizonCaster:
     def pyramid(self) -> ExtremaPyramid:
         """The extrema pyramid (built on first use, or the one the shadow casters share)."""
         if self._pyramid is None:
-            caching = _cache.enabled() if self.cache is None else bool(self.cache)
-            self._pyramid = cached_pyramid(self.heightmap, self.runtime, caching)
+            self._pyramid = cached_pyramid(self.heightmap, self.runtime, self.cache)
         return self._pyramid
 
     @property
