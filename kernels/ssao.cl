@@ -277,18 +277,20 @@ __kernel void ssao_prepare(__global const float *restrict pos, __global const fl
 #define ocls_vload4 OCLS_LANE_FN(vload, 4)
 
 #define OCLS_DOT3(ax, ay, az, bx, by, bz) ((ax) * (bx) + (ay) * (by) + (az) * (bz))
-/* The lane numbers (0, 1, ..., lanes - 1), and OCLS_QUADS(M, args): the lanes' components
- * s0 .. sf four at a time, M(args, a, b, c, d) per four lanes, separated by commas. */
+/* The lane numbers (0, 1, ..., lanes - 1), and OCLS_QUADS(M, p, q, r, t): the lanes' components
+ * s0 .. sf four at a time, M(p, q, r, t, a, b, c, d) per four lanes, separated by commas (four
+ * fixed arguments, unused ones passed as 0: OpenCL C 1.2 has no variadic macros, and NVIDIA's
+ * compiler refuses them). */
 #if OCLS_SSAO_LANES == 4
 #define OCLS_LANE_IDS (int4)(0, 1, 2, 3)
-#define OCLS_QUADS(M, ...) M(__VA_ARGS__, s0, s1, s2, s3)
+#define OCLS_QUADS(M, p, q, r, t) M(p, q, r, t, s0, s1, s2, s3)
 #elif OCLS_SSAO_LANES == 8
 #define OCLS_LANE_IDS (int8)(0, 1, 2, 3, 4, 5, 6, 7)
-#define OCLS_QUADS(M, ...) M(__VA_ARGS__, s0, s1, s2, s3), M(__VA_ARGS__, s4, s5, s6, s7)
+#define OCLS_QUADS(M, p, q, r, t) M(p, q, r, t, s0, s1, s2, s3), M(p, q, r, t, s4, s5, s6, s7)
 #else
 #define OCLS_LANE_IDS (int16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15)
-#define OCLS_QUADS(M, ...) M(__VA_ARGS__, s0, s1, s2, s3), M(__VA_ARGS__, s4, s5, s6, s7), \
-                           M(__VA_ARGS__, s8, s9, sa, sb), M(__VA_ARGS__, sc, sd, se, sf)
+#define OCLS_QUADS(M, p, q, r, t) M(p, q, r, t, s0, s1, s2, s3), M(p, q, r, t, s4, s5, s6, s7), \
+                                  M(p, q, r, t, s8, s9, sa, sb), M(p, q, r, t, sc, sd, se, sf)
 #endif
 /* OCLS_GATHER(buf, idx, stride, off): the float vector of buf[stride idx + off] per lane of the
  * int vector idx (OCLS_G4: four of its lanes) */
@@ -302,16 +304,16 @@ __kernel void ssao_prepare(__global const float *restrict pos, __global const fl
  * OCLS_P4_LOAD declares q_<a>, the records of four lanes a .. d (x, y, z, w of lane a, then of
  * b, ...); OCLS_P4_PART picks one component of the four (swizzle sw: x s048c, y s159d, z s26ae,
  * w s37bf). */
-#define OCLS_P4_LOAD(buf, j, a, b, c, d) \
+#define OCLS_P4_LOAD(buf, j, unused1, unused2, a, b, c, d) \
     q_##a = (float16)(ocls_vload4((j).a, buf), ocls_vload4((j).b, buf), \
                       ocls_vload4((j).c, buf), ocls_vload4((j).d, buf))
-#define OCLS_P4_PART(sw, a, b, c, d) q_##a.sw
+#define OCLS_P4_PART(sw, unused1, unused2, unused3, a, b, c, d) q_##a.sw
 #define OCLS_LOAD4(buf, j, lx, ly, lz, ld) { \
-    const float16 OCLS_QUADS(OCLS_P4_LOAD, buf, j); \
-    lx = (ocls_vfloat)(OCLS_QUADS(OCLS_P4_PART, s048c)); \
-    ly = (ocls_vfloat)(OCLS_QUADS(OCLS_P4_PART, s159d)); \
-    lz = (ocls_vfloat)(OCLS_QUADS(OCLS_P4_PART, s26ae)); \
-    ld = (ocls_vfloat)(OCLS_QUADS(OCLS_P4_PART, s37bf)); }
+    const float16 OCLS_QUADS(OCLS_P4_LOAD, buf, j, 0, 0); \
+    lx = (ocls_vfloat)(OCLS_QUADS(OCLS_P4_PART, s048c, 0, 0, 0)); \
+    ly = (ocls_vfloat)(OCLS_QUADS(OCLS_P4_PART, s159d, 0, 0, 0)); \
+    lz = (ocls_vfloat)(OCLS_QUADS(OCLS_P4_PART, s26ae, 0, 0, 0)); \
+    ld = (ocls_vfloat)(OCLS_QUADS(OCLS_P4_PART, s37bf, 0, 0, 0)); }
 /* OCLS_SIGHT(j, zt): step 4's pixel j (depth zt): declares its stored point Q = (qx, qy, qz) (from
  * pos), w = Q - P, its line of sight o = E.xyz - E.w Q towards the camera (E = prj[12..15], not
  * normalised) and surf: j holds a surface usable as an occluder (zt > -inf, o.z > 0, o and w finite). */

@@ -81,6 +81,8 @@ QUADRANTS = ((1, 1), (1, -1), (-1, 1), (-1, -1))
 
 PIVOT_DIRECTIONS = 4
 SAMPLE_ROWS = 16         # patch-row stride of SlopeFronts.sampled_slope
+FRONT_BAND_CELLS = 1 << 16   # cells per band of the front computation (_fronts)
+FRONT_BAND_BYTES = 96 * FRONT_BAND_CELLS   # its temporaries' bound (float64 copies, differences, sums)
 
 
 def _pareto_front(x: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -105,6 +107,19 @@ def _pareto_front(x: np.ndarray, y: np.ndarray) -> np.ndarray:
 
 
 def _fronts(h: np.ndarray) -> dict[tuple[int, int], np.ndarray]:
+    """The four quadrants' Pareto fronts of a (rows, cols) map's patches, computed over bands of
+    about :data:`FRONT_BAND_CELLS` cells (bands share their edge row) and merged: the front of
+    a union is the front of its parts' fronts, so the temporaries (about 80 bytes a cell, in
+    float64) stay within a band; a tiled run under a memory budget counts on that."""
+    rows, cols = h.shape
+    step = max(1, FRONT_BAND_CELLS // max(1, cols))
+    if rows <= step + 1:
+        return _band_fronts(h.astype(np.float64))
+    parts = [_band_fronts(h[r:min(r + step, rows - 1) + 1].astype(np.float64)) for r in range(0, rows - 1, step)]
+    return {q: _pareto_front(*np.concatenate([part[q] for part in parts]).T) for q in QUADRANTS}
+
+
+def _band_fronts(h: np.ndarray) -> dict[tuple[int, int], np.ndarray]:
     dxe, dye = np.diff(h, axis=1), np.diff(h, axis=0)
     top, bottom = dxe[:-1], dxe[1:]
     left, right = dye[:, :-1], dye[:, 1:]
@@ -189,7 +204,7 @@ class SlopeFronts:
     def fronts(self) -> dict[tuple[int, int], np.ndarray]:
         """(sign ux, sign uy) -> (k, 2) Pareto front of the patches' (x, y) corner weights."""
         if self._fronts is None:
-            self._fronts = _fronts(self._h.astype(np.float64))
+            self._fronts = _fronts(self._h)
         return self._fronts
 
     def slope_bounds(self, ux: float, uy: float) -> tuple[float, float]:

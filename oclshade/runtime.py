@@ -240,6 +240,20 @@ def kernel_source(filename: str) -> str:
     return expand(filename)
 
 
+#: asked of every device that can: a float32 divide and sqrt as IEEE 754 rounds them, as numpy and
+#: PoCL's CPU devices do.  OpenCL's default allows 2.5 ulp (divide) and 3 ulp (sqrt), and NVIDIA's
+#: driver uses that room: the mean of 3 heights in the MIP pyramid came out 1 ulp from the float64
+#: twin's rounding on an H200 without it (docs/gpu.md).  Not part of the printed options or the
+#: cache keys (a device property, like the device itself); host/src/core.c does the same.
+CORRECT_ROUNDING_OPTION = "-cl-fp32-correctly-rounded-divide-sqrt"
+
+
+def rounding_options(device: cl.Device) -> tuple[str, ...]:
+    """``(CORRECT_ROUNDING_OPTION,)`` where the device supports it, else ``()``."""
+    config = int(getattr(device, "single_fp_config", 0) or 0)
+    return (CORRECT_ROUNDING_OPTION,) if config & int(cl.device_fp_config.CORRECTLY_ROUNDED_DIVIDE_SQRT) else ()
+
+
 def define_options(defines: Mapping[str, object]) -> tuple[str, ...]:
     """``-D`` options from a mapping; ``True`` gives a bare define, ``False``/``None`` omits it."""
     opts = []
@@ -311,7 +325,8 @@ class Runtime:
                 cache = str(cachedir.kernel_cache("pyopencl"))
         with quiet_compiler():
             try:
-                return cl.Program(self.context, source).build(options=list(options), cache_dir=cache)
+                return cl.Program(self.context, source).build(
+                    options=[*options, *rounding_options(self.device)], cache_dir=cache)
             except cl.RuntimeError as exc:  # compile error: pyopencl raises RuntimeError subclasses
                 log = getattr(exc, "build_log", None) or str(exc)
                 if isinstance(log, list):

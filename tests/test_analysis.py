@@ -89,6 +89,27 @@ def test_skip_identical_to_traversal_around_the_bound(h, az, cell, rel):
         assert analysis.margin(above.ray(hm.dx, hm.dy)[2]) >= ref.tie_tolerance(hm, above)
 
 
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(h=solid_terrains(), az=azimuths, band=st.integers(1, 64))
+def test_fronts_by_bands_give_the_one_band_slopes(h, az, band):
+    """The fronts are computed over bands of rows and merged (bounded memory for tiled runs):
+    every steepest slope equals the one of the fronts of the whole map at once, exactly."""
+    import oclshade.analysis as analysis
+    hm = Heightmap.from_array(h)
+    whole = slope_fronts(hm)
+    whole.fronts                                        # default band: one band for these sizes
+    saved = analysis.FRONT_BAND_CELLS
+    try:
+        analysis.FRONT_BAND_CELLS = band
+        banded = slope_fronts(hm)
+        banded.fronts
+    finally:
+        analysis.FRONT_BAND_CELLS = saved
+    for a in (az, az + 90.0, az + 180.0, az + 270.0):
+        ux, uy = math.sin(math.radians(a)), math.cos(math.radians(a))
+        assert banded.steepest_slope(ux, uy) == whole.steepest_slope(ux, uy)
+
+
 def test_bound_is_tight_on_a_plane():
     """A plane rising toward the sun at slope s: shadowed just below s (beyond the tie band),
     skipped and lit just above."""

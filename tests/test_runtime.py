@@ -60,6 +60,32 @@ def test_kernel_sources_expand_includes_and_disable_contraction():
     assert "#include" not in src and "#pragma OPENCL FP_CONTRACT OFF" in src
 
 
+def test_kernel_sources_use_no_variadic_macros():
+    """OpenCL C 1.2 has no variadic macros: PoCL's clang lets them pass, NVIDIA's compiler refuses
+    the program (ssao.cl did, found on an H200)."""
+    import re
+    variadic = re.compile(r"^\s*#\s*define\s+\w+\([^)]*\.\.\.\s*\)", re.MULTILINE)
+    for path in sorted(runtime._kernel_root().iterdir()):
+        if path.name.endswith((".cl", ".h")):
+            assert not variadic.search(path.read_text()), f"{path.name} defines a variadic macro"
+            assert "__VA_ARGS__" not in path.read_text(), path.name
+
+
+class _FpDevice:
+    def __init__(self, config: int):
+        self.single_fp_config = config
+
+
+def test_builds_ask_for_correctly_rounded_divide_and_sqrt_where_offered():
+    exact = int(runtime.cl.device_fp_config.CORRECTLY_ROUNDED_DIVIDE_SQRT)
+    assert runtime.rounding_options(_FpDevice(exact | 1)) == (runtime.CORRECT_ROUNDING_OPTION,)
+    assert runtime.rounding_options(_FpDevice(exact ^ 0xFF)) == ()
+    rt = get_runtime()
+    prog = rt.program("pyramid.cl")
+    options = prog.get_build_info(rt.device, runtime.cl.program_build_info.OPTIONS)
+    assert (runtime.CORRECT_ROUNDING_OPTION in options) == bool(runtime.rounding_options(rt.device))
+
+
 def test_allocation_limit_is_checked():
     rt = get_runtime()
     with pytest.raises(AllocationError, match="MiB"):

@@ -336,7 +336,22 @@ static oclshade_status build(oclshade *lib, const char *file, const char *varian
     cl_program prog = clCreateProgramWithSource(lib->context, 1, &source, NULL, &err);
     free(owned);
     if (err != CL_SUCCESS) return ocls_fail_cl(lib, err, "clCreateProgramWithSource");
-    err = clBuildProgram(prog, 1, &lib->device, options, NULL, NULL);
+    /* IEEE-rounded float32 divide and sqrt where the device offers them, as the Python host
+     * (runtime.rounding_options): OpenCL's default 2.5/3 ulp lets a GPU driver round otherwise. */
+    cl_device_fp_config fp = 0;
+    const int exact = clGetDeviceInfo(lib->device, CL_DEVICE_SINGLE_FP_CONFIG, sizeof fp, &fp, NULL) == CL_SUCCESS &&
+                      (fp & CL_FP_CORRECTLY_ROUNDED_DIVIDE_SQRT);
+    char *with_rounding = NULL;
+    if (exact) {
+        const size_t n = strlen(options) + sizeof " " OCLS_ROUNDING_OPTION;
+        if ((with_rounding = (char *)malloc(n)) == NULL) {
+            clReleaseProgram(prog);
+            return ocls_fail(lib, OCLSHADE_OUT_OF_MEMORY, 0, "no memory for the build options of %s", file);
+        }
+        snprintf(with_rounding, n, "%s %s", options, OCLS_ROUNDING_OPTION);
+    }
+    err = clBuildProgram(prog, 1, &lib->device, with_rounding ? with_rounding : options, NULL, NULL);
+    free(with_rounding);
     if (err != CL_SUCCESS) {
         size_t n = 0;
         char *log = NULL;

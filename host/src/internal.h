@@ -48,6 +48,8 @@ void ocls_mutex_unlock(ocls_mutex *m);
 #define OCLS_STR2(x) #x
 #define OCLS_STR(x) OCLS_STR2(x)
 #define CL_STD_OPTION "-cl-std=CL1.2"
+/* appended at the build on devices that support it (core.c build; Python: runtime.rounding_options) */
+#define OCLS_ROUNDING_OPTION "-cl-fp32-correctly-rounded-divide-sqrt"
 #define N_ITEMS(a) (sizeof(a) / sizeof((a)[0]))
 
 /* ------------------------------------------------------------------ knobs */

@@ -137,9 +137,16 @@ def run_jobs(jobs: Sequence[TileJob], read: Reader, write: Writer, tracing: Trac
                 return
             yield item
 
+    # one window read ahead at most: the reader takes the slot before a read and the tracer frees
+    # it when it takes that window (a queue of one alone let a third window be read meanwhile)
+    slot = threading.Semaphore(1)
+
     def reader() -> None:
         try:
             for job in jobs:
+                while not slot.acquire(timeout=0.1):
+                    if stop.is_set():
+                        return
                 if not put(read_q, (job, tracing.heightmap(read(job.window)))):
                     return
             put(read_q, None)
@@ -162,6 +169,7 @@ def run_jobs(jobs: Sequence[TileJob], read: Reader, write: Writer, tracing: Trac
     try:
         done = 0
         for job, heights in items(read_q):
+            slot.release()
             results = tracing.trace(job, heights)
             del heights
             if not put(write_q, (job, results)):

@@ -14,7 +14,13 @@ decoded input blocks and the writer's partly filled output blocks are set
 aside; the rest is divided by the bytes a window cell costs
 (:func:`oclshade.tiles.plan.bytes_per_cell`, plus each job's bands held by the
 pipeline) to give the largest window, and the tile size follows
-(:func:`~oclshade.tiles.plan.auto_tile_size`).
+(:func:`~oclshade.tiles.plan.auto_tile_size`).  Under a budget the relief pass
+reads stripes of at most ``max_memory / 64`` float64 bytes (:func:`relief_stripe_bytes`),
+and glibc's malloc is told to map every block of 128 KiB or more on its own
+(:func:`return_freed_memory`): its default raises that threshold after each
+large free, and then the arrays freed between tiles stayed in the heap (a 125 MiB
+budget peaked at 141 MiB on PoCL, 200 MiB at 218 MiB on an NVIDIA H200, both
+measured; docs/tiling.md).
 """
 from __future__ import annotations
 
@@ -27,6 +33,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
+from ..analysis import FRONT_BAND_BYTES
 from ..heightmap import NODATA_SENTINELS, InputWarning, check_float32
 from ..io import DemWindows, RasterWriter
 from ..runtime import get_runtime
@@ -37,7 +44,29 @@ from .plan import TileJob, TilePlan, auto_tile_size, bytes_per_cell, plan_tiles
 from .relief import DEFAULT_BLOCK, ReliefGrid
 from .run import TileHeightmap, Tracing, run_jobs
 
-RELIEF_STRIPE_BYTES = 32 << 20      # float64 bytes per stripe of the relief pass
+RELIEF_STRIPE_BYTES = 32 << 20      # float64 bytes per stripe of the relief pass (without a budget)
+RELIEF_SHARE = 64                   # under a budget: stripes of at most budget / RELIEF_SHARE bytes
+SENTINEL_CHUNK_CELLS = 1 << 16      # cells per step of the nodata-sentinel count (bounds its temporaries)
+MMAP_THRESHOLD = 128 << 10          # malloc blocks of this size or more get their own mapping under a budget
+
+
+def relief_stripe_bytes(max_memory: int | None) -> int:
+    """Float64 bytes per stripe of the relief pass: :data:`RELIEF_STRIPE_BYTES`, at most
+    ``max_memory / RELIEF_SHARE`` under a budget."""
+    return RELIEF_STRIPE_BYTES if max_memory is None else min(RELIEF_STRIPE_BYTES, max_memory // RELIEF_SHARE)
+
+
+def return_freed_memory() -> bool:
+    """Have glibc's malloc map each block of :data:`MMAP_THRESHOLD` bytes or more on its own and
+    unmap it when freed (``mallopt(M_MMAP_THRESHOLD)``, which also stops the threshold from rising
+    after large frees), so that a tile's arrays leave the resident set when the tile is done.
+    Process-wide; True where it took effect (glibc), else False."""
+    try:
+        import ctypes
+        libc = ctypes.CDLL(None)
+        return bool(libc.mallopt(-3, MMAP_THRESHOLD))      # M_MMAP_THRESHOLD
+    except (OSError, AttributeError):
+        return False
 
 
 def rss_bytes() -> int:
@@ -63,20 +92,24 @@ def peak_rss_bytes() -> int:
     return peak if os.uname().sysname == "Darwin" else peak * 1024
 
 
-def relief_pass(windows: DemWindows, z_factor: float = 1.0, block: int = DEFAULT_BLOCK) -> ReliefGrid:
-    """The relief grid of a windowed DEM in one pass of row stripes; warns (InputWarning) of
-    undeclared nodata sentinels as :meth:`Heightmap.from_array` does."""
+def relief_pass(windows: DemWindows, z_factor: float = 1.0, block: int = DEFAULT_BLOCK,
+                stripe_bytes: int = RELIEF_STRIPE_BYTES) -> ReliefGrid:
+    """The relief grid of a windowed DEM in one pass of row stripes (at most ``stripe_bytes`` of
+    float64 heights each, one row at least); warns (InputWarning) of undeclared nodata sentinels
+    as :meth:`Heightmap.from_array` does."""
     rows, cols = windows.shape
     grid = ReliefGrid((rows, cols), block)
-    step = max(1, min(rows, RELIEF_STRIPE_BYTES // (8 * cols)))
+    step = max(1, min(rows, stripe_bytes // (8 * cols)))
     counts = dict.fromkeys(NODATA_SENTINELS, 0)
     for r in range(0, rows, step):
         stripe = windows.read(r, min(r + step, rows), 0, cols)
         if z_factor != 1.0:
             stripe *= z_factor
+        lo, hi = float(np.fmin.reduce(stripe, axis=None)), float(np.fmax.reduce(stripe, axis=None))
         for value in NODATA_SENTINELS:
             near = 1e-7 * abs(value)
-            counts[value] += int(np.count_nonzero(np.abs(stripe - value) <= near))
+            if lo - near <= value <= hi + near:        # as Heightmap: counted only where in range
+                counts[value] += _count_near(stripe, value, near)
         grid.accumulate(stripe)
     for value, count in counts.items():
         if count:
@@ -84,6 +117,13 @@ def relief_pass(windows: DemWindows, z_factor: float = 1.0, block: int = DEFAULT
                           f"declared as nodata; if those cells are holes, declare it (--nodata {value:.8g} "
                           f"or nodata={value:.8g})", InputWarning, stacklevel=2)
     return grid
+
+
+def _count_near(stripe: np.ndarray, value: float, near: float) -> int:
+    """Cells with |height - value| <= near, :data:`SENTINEL_CHUNK_CELLS` at a time."""
+    flat = stripe.reshape(-1)
+    return sum(int(np.count_nonzero(np.abs(flat[i:i + SENTINEL_CHUNK_CELLS] - value) <= near))
+               for i in range(0, flat.size, SENTINEL_CHUNK_CELLS))
 
 
 def check_relief(grid: ReliefGrid, dx: float, dy: float) -> None:
@@ -111,8 +151,9 @@ def memory_plan(budget: int, baseline: int, cols: int, segment_bytes: int, bands
                 outputs: Sequence[str], out_block: int) -> int:
     """The largest window (cells) a budget of ``budget`` bytes of resident memory allows (see the
     module docstring); raises ValueError naming what does not fit."""
-    reserved = baseline + min(RELIEF_STRIPE_BYTES, 12 * cols * DEFAULT_BLOCK) + 2 * segment_bytes + \
-        out_block * cols * bands_per_job * itemsize
+    stripe = max(relief_stripe_bytes(budget), 8 * cols)          # float64; the file's dtype beside it
+    reserved = baseline + 2 * stripe + 2 * segment_bytes + out_block * cols * bands_per_job * itemsize + \
+        FRONT_BAND_BYTES                                          # the scene analysis of a window
     per_cell = bytes_per_cell(outputs) + 2 * bands_per_job * itemsize
     cells = (budget - reserved) // per_cell
     if cells < 64 * 64:
@@ -133,7 +174,9 @@ def shadow_stream(windows: DemWindows, writer: RasterWriter, suns: Sequence[Sun]
     k); ``outputs``: what the tiles compute; ``out_block``: the output's block height (its
     partly filled blocks are budgeted)."""
     rt = get_runtime(device)
-    relief = relief_pass(windows, z_factor)
+    if max_memory is not None:
+        return_freed_memory()
+    relief = relief_pass(windows, z_factor, stripe_bytes=relief_stripe_bytes(max_memory))
     check_relief(relief, dx, dy)
     base = relief.base
     tracing = Tracing(tuple(suns), method, tuple(outputs), k_dark, k_bright, dx, dy, base, rt)
@@ -149,6 +192,12 @@ def shadow_stream(windows: DemWindows, writer: RasterWriter, suns: Sequence[Sun]
                             tracing.outputs, out_block)
     size = tile_size or auto_tile_size(relief, suns, dx, dy, cells or 4096 * 4096)
     plan = plan_tiles(relief, suns, dx, dy, size, cells)
+    if cells is not None and plan.largest_window > cells:
+        per_cell = bytes_per_cell(tracing.outputs) + 2 * len(suns) * per_sun * writer.dtype.itemsize
+        need = max_memory + (plan.largest_window - cells) * per_cell
+        raise ValueError(f"a memory budget of {max_memory / 2**20:.0f} MiB allows windows of {cells} cells, but tiles "
+                         f"of {plan.tile_size} cells a side read up to {plan.largest_window} with the halo their suns' "
+                         f"shadows need: give at least {math.ceil(need / 2**20)} MiB")
 
     def read(window: Window) -> np.ndarray:
         heights = windows.read(window.r0, window.r1, window.c0, window.c1)

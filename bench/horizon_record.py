@@ -1,0 +1,139 @@
+"""Exact horizon maps at the size of the GPU record (issue 19): Timonen & Westerholm 2010,
+1024^2 heightmap, 64 azimuths, 23 frames/s on a GTX 280 (about 43 ms a frame).
+
+Per map (1024^2: the generated canyon, and centre crops of the shared SRTM N22W160 tile
+and the Puget Sound map when ``../shared/data`` is present), on one OpenCL device:
+
+* ``frame``: a fresh caster (extrema pyramid built, caches off) and the horizon angles of
+  all 64 azimuths on the device, ``queue.finish()`` at the end: what one frame of the
+  record computes;
+* ``frame + readback``: the same, the 64 bands copied to host memory (``horizons(64)``);
+* ``svf``: the sky-view factor of the 64 azimuths summed on the device (no angles written);
+
+each the minimum (and median) of ``--reps`` runs after a warm-up that includes the builds.
+The angles are checked against the float64 reference on ``--samples`` seeded cells x every
+azimuth (bench/solar.py's ``reference_error``): the run fails if any is outside the float32
+band.  Writes ``horizon_record.json`` and ``.md`` to ``--out``.  Figures depend on the
+device; the JSON records which.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import sys
+import time
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from shadow_masks import DEFAULT_DATA, Skip, load_dataset  # noqa: E402
+from solar import reference_error  # noqa: E402
+
+from oclshade.bench.machine import machine_facts  # noqa: E402
+from oclshade.heightmap import Heightmap  # noqa: E402
+from oclshade.horizon import HorizonCaster  # noqa: E402
+from oclshade.runtime import get_runtime  # noqa: E402
+
+RECORD = {"paper": "Timonen & Westerholm 2010", "device": "NVIDIA GTX 280", "size": 1024, "azimuths": 64,
+          "frames_per_s": 23.0}
+MAPS = ("canyon", "srtm_N22W160", "puget")
+
+
+def timed(fn: Callable[[], object], reps: int) -> dict:
+    fn()                                   # warm-up: builds, first allocations
+    runs = []
+    for _ in range(reps):
+        t0 = time.perf_counter()
+        fn()
+        runs.append(1e3 * (time.perf_counter() - t0))
+    return {"min_ms": round(min(runs), 3), "median_ms": round(statistics.median(runs), 3)}
+
+
+def load(name: str, size: int, data: Path) -> Heightmap:
+    d = load_dataset(name, size, data)
+    return Heightmap.from_array(d["heights"].astype(np.float32), (d["dx"], d["dy"]))
+
+
+def measure(hm: Heightmap, device: str | None, n: int, reps: int, samples: int) -> dict:
+    rt = get_runtime(device)
+
+    def frame() -> None:
+        caster = HorizonCaster(hm, rt, cache=False)
+        for _ in caster.angles_on_device(n):
+            pass
+        rt.queue.finish()
+
+    def frame_readback() -> np.ndarray:
+        return HorizonCaster(hm, rt, cache=False).horizons(n)
+
+    def svf() -> None:
+        HorizonCaster(hm, rt, cache=False).sky_view_factor(n)
+
+    out = {"frame": timed(frame, reps), "frame_readback": timed(frame_readback, reps), "svf": timed(svf, reps)}
+    out["frames_per_s"] = round(1e3 / out["frame"]["min_ms"], 2)
+    out["check"] = reference_error(hm, frame_readback(), samples)
+    return out
+
+
+def markdown(res: dict) -> str:
+    r = res["record"]
+    lines = [f"# Exact horizons at the record's size ({res['device']['name']})", "",
+             f"{res['size']}^2, {res['azimuths']} azimuths; the record (1024^2, 64 azimuths): {r['paper']}, {r['frames_per_s']:g} frames/s "
+             f"on an {r['device']} ({1e3 / r['frames_per_s']:.1f} ms). Min (median) of {res['reps']} runs, "
+             "fresh pyramid each.", "",
+             "| map | frame (ms) | frames/s | x record | + readback (ms) | SVF (ms) | vs float64 (max deg, outside band) |",
+             "|---|---|---|---|---|---|---|"]
+    for name, m in res["maps"].items():
+        c = m["check"]
+        lines.append(f"| {name} | {m['frame']['min_ms']:.1f} ({m['frame']['median_ms']:.1f}) | {m['frames_per_s']:.1f} "
+                     f"| {m['frames_per_s'] / r['frames_per_s']:.1f} | {m['frame_readback']['min_ms']:.1f} "
+                     f"| {m['svf']['min_ms']:.1f} | {c['max_abs_deg']:.2g}, {c['outside_band']} of "
+                     f"{c['cells']} x {res['azimuths']} |")
+    d, mf = res["device"], res["machine"]
+    lines += ["", f"Device: {d['name']} ({d['platform']}, driver {d['driver']}, {d['version']}); "
+              f"host CPU {mf['cpu']}, {mf['cores']} cores; {mf['date']}.", ""]
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--device", default=None, help="OpenCL device: index or name substring")
+    ap.add_argument("--size", type=int, default=RECORD["size"])
+    ap.add_argument("--azimuths", type=int, default=RECORD["azimuths"])
+    ap.add_argument("--reps", type=int, default=5)
+    ap.add_argument("--samples", type=int, default=500, help="reference cells per map")
+    ap.add_argument("--data", type=Path, default=DEFAULT_DATA)
+    ap.add_argument("--out", type=Path, default=Path("bench/results"))
+    args = ap.parse_args(argv)
+    rt = get_runtime(args.device)
+    res = {"record": RECORD, "size": args.size, "azimuths": args.azimuths, "reps": args.reps,
+           "machine": machine_facts(), "command": " ".join(["python", *sys.argv]),
+           "device": {"name": rt.device.name, "platform": rt.device.platform.name,
+                      "driver": rt.device.driver_version, "version": rt.device.version}, "maps": {}}
+    for name in MAPS:
+        try:
+            hm = load(name, args.size, args.data)
+        except Skip as why:
+            print(f"{name}: skipped ({why})", file=sys.stderr)
+            continue
+        res["maps"][name] = m = measure(hm, args.device, args.azimuths, args.reps, args.samples)
+        print(f"{name}: frame {m['frame']['min_ms']:.1f} ms ({m['frames_per_s']:.1f}/s), "
+              f"readback {m['frame_readback']['min_ms']:.1f} ms, svf {m['svf']['min_ms']:.1f} ms, "
+              f"check {m['check']}", file=sys.stderr)
+    args.out.mkdir(parents=True, exist_ok=True)
+    (args.out / "horizon_record.json").write_text(json.dumps(res, indent=1) + "\n")
+    (args.out / "horizon_record.md").write_text(markdown(res))
+    print(markdown(res))
+    bad = [n for n, m in res["maps"].items() if m["check"]["outside_band"]]
+    if bad:
+        print(f"horizon_record: angles outside the float32 band on {', '.join(bad)}", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
