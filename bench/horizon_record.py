@@ -108,7 +108,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--samples", type=int, default=500, help="reference cells per map")
     ap.add_argument("--data", type=Path, default=DEFAULT_DATA)
     ap.add_argument("--out", type=Path, default=Path("bench/results"))
+    ap.add_argument("--quick", action="store_true", help="smoke run: 128^2, 8 azimuths, 1 rep, 20 cells")
     args = ap.parse_args(argv)
+    if args.quick:
+        args.size, args.azimuths, args.reps, args.samples = 128, 8, 1, 20
     rt = get_runtime(args.device)
     res = {"record": RECORD, "size": args.size, "azimuths": args.azimuths, "reps": args.reps,
            "machine": machine_facts(), "command": " ".join(["python", *sys.argv]),

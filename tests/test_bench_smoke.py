@@ -50,3 +50,12 @@ def test_shadow_steps_quick(tmp_path: Path) -> None:
     for sun in {s for s, _ in steps}:
         assert steps[sun, "exact"] == steps[sun, "maxmip"]           # the min early exit never fires
         assert sum(steps[sun, "dda"][1:]) == 0                       # dda walks level 0 only
+
+
+@needs_bench
+def test_horizon_record_quick(tmp_path: Path) -> None:
+    res = run_quick("horizon_record", tmp_path, plot=False)
+    assert res["size"] == 128 and res["azimuths"] == 8 and "canyon" in res["maps"]
+    for name, m in res["maps"].items():
+        assert m["frame"]["min_ms"] > 0 and m["frames_per_s"] > 0, name
+        assert m["check"]["cells"] == 20 and m["check"]["outside_band"] == 0, name
