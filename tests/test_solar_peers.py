@@ -254,3 +254,16 @@ def test_peers_option_runs_only_the_named_peers(bench, monkeypatch, tmp_path):
     with pytest.raises(SystemExit) as stop:
         bench.main()
     assert stop.value.code == 2
+
+
+def test_svf_by_band_is_the_reference_sky_view_factor(bench):
+    """bench/solar.py sums the sky-view factor one band at a time (a 4096^2 x 64 stack in float64
+    did not fit in memory); it equals the reference's up to the float64 sum's order."""
+    from oclshade import reference as ref
+    rng = np.random.default_rng(3)
+    angles = (rng.random((16, 20, 30)) * 120.0 - 30.0).astype(np.float32)
+    angles[:, 4, 5] = np.nan
+    for definition in ("cosine", "solid-angle"):
+        got, want = bench.svf_by_band(angles, definition), ref.sky_view_factor(angles, definition)
+        assert np.isnan(got[4, 5]) and np.isnan(want[4, 5])
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
