@@ -20,7 +20,7 @@ and glibc's malloc is told to map every block of 128 KiB or more on its own
 (:func:`return_freed_memory`): its default raises that threshold after each
 large free, and then the arrays freed between tiles stayed in the heap (a 125 MiB
 budget peaked at 141 MiB on PoCL, 200 MiB at 218 MiB on an NVIDIA H200, both
-measured; docs/tiling.md).
+measured; docs/scale.md).
 """
 from __future__ import annotations
 
@@ -147,6 +147,12 @@ class StreamRun:
     baseline_bytes: int              # resident memory before the tiles (runtime and kernels built)
 
 
+def window_cell_bytes(outputs: Sequence[str], bands_per_job: int, itemsize: int) -> int:
+    """Resident bytes per window cell: the tracing (:func:`~oclshade.tiles.plan.bytes_per_cell`)
+    and each job's output bands, twice (one job's being written while the next is traced)."""
+    return bytes_per_cell(outputs) + 2 * bands_per_job * itemsize
+
+
 def memory_plan(budget: int, baseline: int, cols: int, segment_bytes: int, bands_per_job: int, itemsize: int,
                 outputs: Sequence[str], out_block: int) -> int:
     """The largest window (cells) a budget of ``budget`` bytes of resident memory allows (see the
@@ -154,7 +160,7 @@ def memory_plan(budget: int, baseline: int, cols: int, segment_bytes: int, bands
     stripe = max(relief_stripe_bytes(budget), 8 * cols)          # float64; the file's dtype beside it
     reserved = baseline + 2 * stripe + 2 * segment_bytes + out_block * cols * bands_per_job * itemsize + \
         FRONT_BAND_BYTES                                          # the scene analysis of a window
-    per_cell = bytes_per_cell(outputs) + 2 * bands_per_job * itemsize
+    per_cell = window_cell_bytes(outputs, bands_per_job, itemsize)
     cells = (budget - reserved) // per_cell
     if cells < 64 * 64:
         raise ValueError(f"a memory budget of {budget / 2**20:.0f} MiB leaves no room for a tile: the process holds "
@@ -193,7 +199,7 @@ def shadow_stream(windows: DemWindows, writer: RasterWriter, suns: Sequence[Sun]
     size = tile_size or auto_tile_size(relief, suns, dx, dy, cells or 4096 * 4096)
     plan = plan_tiles(relief, suns, dx, dy, size, cells)
     if cells is not None and plan.largest_window > cells:
-        per_cell = bytes_per_cell(tracing.outputs) + 2 * len(suns) * per_sun * writer.dtype.itemsize
+        per_cell = window_cell_bytes(tracing.outputs, len(suns) * per_sun, writer.dtype.itemsize)
         need = max_memory + (plan.largest_window - cells) * per_cell
         raise ValueError(f"a memory budget of {max_memory / 2**20:.0f} MiB allows windows of {cells} cells, but tiles "
                          f"of {plan.tile_size} cells a side read up to {plan.largest_window} with the halo their suns' "
