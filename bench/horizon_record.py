@@ -20,9 +20,8 @@ from __future__ import annotations
 
 import argparse
 import json
-import statistics
+import math
 import sys
-import time
 from pathlib import Path
 from typing import Callable
 
@@ -33,6 +32,7 @@ from shadow_masks import DEFAULT_DATA, Skip, load_dataset  # noqa: E402
 from solar import reference_error  # noqa: E402
 
 from oclshade.bench.machine import machine_facts  # noqa: E402
+from oclshade.bench.timing import time_case  # noqa: E402
 from oclshade.heightmap import Heightmap  # noqa: E402
 from oclshade.horizon import HorizonCaster  # noqa: E402
 from oclshade.runtime import get_runtime  # noqa: E402
@@ -43,13 +43,9 @@ MAPS = ("canyon", "srtm_N22W160", "puget")
 
 
 def timed(fn: Callable[[], object], reps: int) -> dict:
-    fn()                                   # warm-up: builds, first allocations
-    runs = []
-    for _ in range(reps):
-        t0 = time.perf_counter()
-        fn()
-        runs.append(1e3 * (time.perf_counter() - t0))
-    return {"min_ms": round(min(runs), 3), "median_ms": round(statistics.median(runs), 3)}
+    """Min and median ms of ``reps`` runs after a warm-up (oclshade.bench.timing.time_case)."""
+    t = time_case(fn, reps, math.inf)
+    return {"min_ms": round(1e3 * t.min_s, 3), "median_ms": round(1e3 * t.median_s, 3)}
 
 
 def load(name: str, size: int, data: Path) -> Heightmap:
