@@ -133,16 +133,17 @@ def time_ours(caster: HorizonCaster, n: int) -> tuple[float, np.ndarray]:
 
 
 def reference_error(hm: Heightmap, angles: np.ndarray, samples: int, seed: int = 19,
-                    max_distance: float = np.inf) -> dict:
+                    max_distance: float = np.inf, curvature: float = 0.0) -> dict:
     """Max |oclshade - float64 reference| over a seeded sample of valid cells, every azimuth
-    (within the search radius ``max_distance``, metres)."""
+    (within the search radius ``max_distance``, metres; ``curvature`` the drop per square metre
+    the angles were computed with, :attr:`HorizonCaster.coefficient`)."""
     valid = np.flatnonzero(~np.isnan(hm.heights))
     pick = np.random.default_rng(seed).choice(valid, size=min(samples, valid.size), replace=False)
     rows, cols = np.unravel_index(pick, hm.shape)
     worst, outside = 0.0, 0
-    band = ref.angle_tolerance(hm)
+    band = ref.angle_tolerance(hm, curvature)
     for k, az in enumerate(azimuth_grid(angles.shape[0])):
-        expected = ref.horizon_angles(hm, az, cells=(rows, cols), max_distance=max_distance)
+        expected = ref.horizon_angles(hm, az, curvature, cells=(rows, cols), max_distance=max_distance)
         diff = np.abs(angles[k][rows, cols] - expected)
         worst = max(worst, float(diff.max()))
         outside += int((diff > band).sum())
@@ -412,21 +413,35 @@ def run_whitebox(hm: Heightmap, n: int) -> dict:
     return {"seconds": seconds, "angles": angles}
 
 
+def near_cells(hm: Heightmap, ours: np.ndarray, curvature: float = 0.0) -> list[np.ndarray]:
+    """Per band of ``ours``, the cells whose angle is reached within :data:`NEAR_CELLS` cells
+    (:func:`near_horizon`)."""
+    out = []
+    for k, az in enumerate(azimuth_grid(ours.shape[0])):
+        with np.errstate(invalid="ignore"):
+            out.append(ours[k] <= near_horizon(hm, az, curvature) + 0.05)
+    return out
+
+
 def near_far_difference(hm: Heightmap, ours: np.ndarray, theirs: np.ndarray, curvature: float = 0.0,
-                        floor: float = -90.0) -> dict:
+                        floor: float = -90.0, near: list[np.ndarray] | None = None) -> dict:
     """A peer - oclshade (degrees) on the cells where oclshade's angle is above ``floor`` (-90: it
     sees terrain): all of them, ``near`` where oclshade's angle is reached within
-    :data:`NEAR_CELLS` cells (:func:`near_horizon`: the bilinear surface between grid lines, e.g.
-    its slope at the cell, which WhiteboxTools' samples at grid-line crossings do not see and
-    HORAYZON's triangles see differently) and ``far``, the rest.  One band at a time."""
+    :data:`NEAR_CELLS` cells (:func:`near_cells`, or ``near`` when given: the bilinear surface
+    between grid lines, e.g. its slope at the cell, which WhiteboxTools' samples at grid-line
+    crossings do not see and HORAYZON's triangles see differently) and ``far``, the rest.  One
+    band at a time."""
     parts: dict[str, list[np.ndarray]] = {"near": [], "far": []}
     for k, az in enumerate(azimuth_grid(ours.shape[0])):
         o, t = ours[k], theirs[k]
         both = np.isfinite(o) & np.isfinite(t) & (o > floor)
-        with np.errstate(invalid="ignore"):
-            near = o <= near_horizon(hm, az, curvature) + 0.05
-        parts["near"].append((t - o)[both & near])
-        parts["far"].append((t - o)[both & ~near])
+        if near is not None:
+            near_k = near[k]
+        else:
+            with np.errstate(invalid="ignore"):
+                near_k = o <= near_horizon(hm, az, curvature) + 0.05
+        parts["near"].append((t - o)[both & near_k])
+        parts["far"].append((t - o)[both & ~near_k])
     return _class_summaries(parts)
 
 

@@ -267,3 +267,37 @@ def test_svf_by_band_is_the_reference_sky_view_factor(bench):
         got, want = bench.svf_by_band(angles, definition), ref.sky_view_factor(angles, definition)
         assert np.isnan(got[4, 5]) and np.isnan(want[4, 5])
         np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
+
+
+@pytest.fixture(scope="module")
+def frontier():
+    spec = importlib.util.spec_from_file_location("bench_horayzon_frontier", ROOT / "bench" / "horayzon_frontier.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+@needs_horayzon
+def test_horayzon_frontier_records_each_accuracy_against_the_exact_walk(frontier, tmp_path):
+    """bench/horayzon_frontier.py: oclshade's curved angles held to the float64 reference (none
+    outside the float32 band), then one HORAYZON run per accuracy, coarsest first, each with its
+    time, rays and near / far differences; JSON, Markdown and plot written."""
+    hm = Heightmap.from_array(canyon_crater(48, 48, seed=2, relief=300.0), 30.0)
+    out = tmp_path / "frontier"
+    res = frontier.measure("canyon 48^2", hm, 4, (0.1, 0.05), 40, out)
+    assert res["reference"]["cells"] == 40 and res["reference"]["outside_band"] == 0
+    assert [r["accuracy_deg"] for r in res["runs"]] == [0.1, 0.05]
+    for run in res["runs"]:
+        assert run["seconds"] > 0 and run["rays"] >= 1
+        assert run["vs_oclshade"]["near"]["cells"] + run["vs_oclshade"]["far"]["cells"] > 0
+    assert res["runs"][1]["rays"] >= res["runs"][0]["rays"]      # a finer accuracy takes more steps
+    text = out.with_suffix(".md").read_text()
+    assert "| 0.1 |" in text and "| 0.05 |" in text
+    assert out.with_suffix(".png").stat().st_size > 0 and out.with_suffix(".json").exists()
+
+
+def test_horayzon_frontier_refuses_bad_accuracies(frontier, monkeypatch, tmp_path):
+    monkeypatch.setattr("sys.argv", ["horayzon_frontier.py", "--accuracies", "0.1,-1", "--out", str(tmp_path / "x")])
+    with pytest.raises(SystemExit) as stop:
+        frontier.main()
+    assert stop.value.code == 2
