@@ -413,21 +413,23 @@ def run_whitebox(hm: Heightmap, n: int) -> dict:
     return {"seconds": seconds, "angles": angles}
 
 
+def near_band(hm: Heightmap, band: np.ndarray, azimuth: float, curvature: float = 0.0) -> np.ndarray:
+    """The cells of one band of oclshade's angles whose angle is reached within :data:`NEAR_CELLS`
+    cells (:func:`near_horizon`)."""
+    with np.errstate(invalid="ignore"):
+        return band <= near_horizon(hm, azimuth, curvature) + 0.05
+
+
 def near_cells(hm: Heightmap, ours: np.ndarray, curvature: float = 0.0) -> list[np.ndarray]:
-    """Per band of ``ours``, the cells whose angle is reached within :data:`NEAR_CELLS` cells
-    (:func:`near_horizon`)."""
-    out = []
-    for k, az in enumerate(azimuth_grid(ours.shape[0])):
-        with np.errstate(invalid="ignore"):
-            out.append(ours[k] <= near_horizon(hm, az, curvature) + 0.05)
-    return out
+    """:func:`near_band` of every band of ``ours``."""
+    return [near_band(hm, ours[k], az, curvature) for k, az in enumerate(azimuth_grid(ours.shape[0]))]
 
 
 def near_far_difference(hm: Heightmap, ours: np.ndarray, theirs: np.ndarray, curvature: float = 0.0,
                         floor: float = -90.0, near: list[np.ndarray] | None = None) -> dict:
     """A peer - oclshade (degrees) on the cells where oclshade's angle is above ``floor`` (-90: it
     sees terrain): all of them, ``near`` where oclshade's angle is reached within
-    :data:`NEAR_CELLS` cells (:func:`near_cells`, or ``near`` when given: the bilinear surface
+    :data:`NEAR_CELLS` cells (:func:`near_band`, or ``near`` when given: the bilinear surface
     between grid lines, e.g. its slope at the cell, which WhiteboxTools' samples at grid-line
     crossings do not see and HORAYZON's triangles see differently) and ``far``, the rest.  One
     band at a time."""
@@ -435,11 +437,7 @@ def near_far_difference(hm: Heightmap, ours: np.ndarray, theirs: np.ndarray, cur
     for k, az in enumerate(azimuth_grid(ours.shape[0])):
         o, t = ours[k], theirs[k]
         both = np.isfinite(o) & np.isfinite(t) & (o > floor)
-        if near is not None:
-            near_k = near[k]
-        else:
-            with np.errstate(invalid="ignore"):
-                near_k = o <= near_horizon(hm, az, curvature) + 0.05
+        near_k = near[k] if near is not None else near_band(hm, o, az, curvature)
         parts["near"].append((t - o)[both & near_k])
         parts["far"].append((t - o)[both & ~near_k])
     return _class_summaries(parts)
