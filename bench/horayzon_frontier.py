@@ -34,17 +34,14 @@ from oclshade.bench.machine import machine_facts  # noqa: E402
 from oclshade.heightmap import Heightmap  # noqa: E402
 from oclshade.horizon import Curvature, HorizonCaster  # noqa: E402
 from oclshade.runtime import get_runtime  # noqa: E402
-from oclshade.synthetic import canyon_crater  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 ACCURACIES = (0.1, 0.03, 0.01)
 
 
 def load_map(name: str, side: int) -> tuple[str, Heightmap]:
-    """The canyon at side^2 (bench/solar.py's generator and cell size) or a shared SRTM tile."""
-    if name == "canyon":
-        return f"canyon {side}^2", Heightmap.from_array(canyon_crater(side, side, seed=0, relief=1500.0), 30.0)
-    found = maps(False, (name,))
+    """The canyon at side^2 or a shared SRTM tile (bench/solar.py's maps)."""
+    found = maps(False, (name,), side)
     if not found:
         raise SystemExit(f"--map {name}: the tile is not in ../shared/data (nothing measured)")
     return next(iter(found.items()))

@@ -101,9 +101,10 @@ HORAYZON_ACCURACY = 0.1       # degrees: HORAYZON's horizon_acc (its angles with
 HORAYZON_LOWEST = -45.0       # degrees: HORAYZON's elev_angle_min (no search below)
 
 
-def maps(reduced: bool, keys: tuple[str, ...] = DEFAULT_MAPS) -> dict[str, Heightmap]:
+def maps(reduced: bool, keys: tuple[str, ...] = DEFAULT_MAPS, side: int | None = None) -> dict[str, Heightmap]:
     """The benchmark's maps: the shared SRTM tiles and Puget Sound (when present) and the
-    generated canyon (those of ``keys``)."""
+    generated canyon (those of ``keys``); ``side``: the canyon's and Puget Sound's side in cells
+    (default 4096, reduced 256)."""
     out = {}
     for tile, (r0, c0) in (("N22W160", (896, 384)), ("S16E166", (320, 704))):   # crops: the roughest 256^2
         path = SRTM / f"{tile}v2.3a.hgt.zip"
@@ -111,7 +112,7 @@ def maps(reduced: bool, keys: tuple[str, ...] = DEFAULT_MAPS) -> dict[str, Heigh
             r = read_dem(path)
             h = r.heights[r0:r0 + 256, c0:c0 + 256] if reduced else r.heights
             out[f"SRTM {tile}"] = Heightmap.from_array(h, (r.dx, r.dy))
-    side = 256 if reduced else 4096
+    side = side or (256 if reduced else 4096)
     if "puget" in keys:
         if str(ROOT / "bench") not in sys.path:
             sys.path.insert(0, str(ROOT / "bench"))

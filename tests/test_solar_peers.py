@@ -29,12 +29,17 @@ R_GRASS = 6371000.0
 needs_grass = pytest.mark.skipif(shutil.which("grass") is None, reason="GRASS (grass-core) not installed")
 
 
-@pytest.fixture(scope="module")
-def bench():
-    spec = importlib.util.spec_from_file_location("bench_solar", ROOT / "bench" / "solar.py")
+def load_bench_script(name: str):
+    """bench/<name>.py as a module (bench/ is not a package)."""
+    spec = importlib.util.spec_from_file_location(f"bench_{name}", ROOT / "bench" / f"{name}.py")
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
+
+
+@pytest.fixture(scope="module")
+def bench():
+    return load_bench_script("solar")
 
 
 def replica(h: np.ndarray, dx: float, dy: float, row: int, col: int, azimuth: float) -> tuple[float, float, bool]:
@@ -271,10 +276,7 @@ def test_svf_by_band_is_the_reference_sky_view_factor(bench):
 
 @pytest.fixture(scope="module")
 def frontier():
-    spec = importlib.util.spec_from_file_location("bench_horayzon_frontier", ROOT / "bench" / "horayzon_frontier.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_bench_script("horayzon_frontier")
 
 
 @needs_horayzon
