@@ -7,13 +7,19 @@
  * error: docs/methods.md "Horizons and sky-view factor".
  *
  * ABI summary (details under "ABI" below):
+ *   horizon_seeds  one work-item per seed cell (every 8th row and column, see
+ *                  "Seeds"), global size (Ws, Hs) rounded up to any local
+ *                  size; the exact walk there into seeds (float2, Hs*Ws).
+ *                  Enqueued before horizon_cells for each azimuth, except with
+ *                  -D OCLS_MAX_DISTANCE or OCLS_CLAMP.
  *   horizon_cells  one work-item per cell, global size (W, H) rounded up to
  *                  any local size (the tuning knob `group`); arguments: the
  *                  H*W float32 relative heights (row-major, NaN = nodata), H,
  *                  W, the extrema pyramid (float2 levels 1..nlev-1 back to
  *                  back, int level offsets, nlev), the float4 ray (ux, uy, c,
  *                  R) of one azimuth, then the outputs angle (float, H*W,
- *                  degrees) and svf (float2 (sum, compensation), H*W).
+ *                  degrees) and svf (float2 (sum, compensation), H*W), then
+ *                  the seeds and the float2 cell size (dx, dy) in metres.
  *   -D options OCLS_OUT_ANGLE, OCLS_OUT_SVF=1|2 (cosine | solid-angle sky-view
  *   term), OCLS_CURVATURE (read c), OCLS_MAX_DISTANCE (read R: a search
  *   radius), OCLS_CLAMP (a trailing float2 argument: only T within [lo, hi]
@@ -59,6 +65,34 @@
  *                the ray leaves the map.
  * A ray that sees no surface has T = -inf: angle -90 degrees.
  *
+ * Seeds (over the whole map: not with -D OCLS_MAX_DISTANCE, where a radius
+ * keeps walks short and the seeds cost more than they save, nor OCLS_CLAMP,
+ * whose caller gives the lower bound).  Most of a walk's cost is the proof
+ * that nothing further is higher, and the pruning of that proof is as strong
+ * as the threshold T it has so far.  So the walk starts from a lower bound:
+ *   step 1       horizon_seeds walks exactly from the cells (S gi, S gj),
+ *                S = OCLS_SEED_STRIDE = 8 (the last row and column clamped),
+ *                and keeps T and a ray parameter t where T is reached (its
+ *                horizon point);
+ *   step 2       a cell takes the four seed cells around it; for each, the
+ *                point of its own ray nearest that horizon point, and the
+ *                surface there (bilinear), gives a tangent that is a lower
+ *                bound of its own T (a point of the surface it sees); the
+ *                bound less a margin for its float32 rounding (1e-5 relative
+ *                plus 1e-6 of the heights over t);
+ *   step 3       the walk starts from the largest bound: tiles that cannot
+ *                beat it are pruned from the start.  The patch where T is
+ *                reached still beats the bound, so the walk ends on the
+ *                same patch values; if nothing beats it (the margin was too
+ *                thin), the cell walks again from -inf.
+ * T is exact either way; the order in which the walk meets patch boundaries
+ * can change with the start (a tile skipped whole enters the next at the
+ * tile's exit, not at a patch corner within it), so a few cells in a
+ * million differ from the unseeded walk in their last float32 bits, all
+ * within the float32 band of the float64 reference.  S is therefore part of
+ * the algorithm (the hosts mirror it), not a tuning knob.  Measured:
+ * docs/solar.md, "Seeded walks".
+ *
  * Outputs (each compiled in by its -D option; an output not compiled in is
  * not written and its argument may be a 1-byte dummy buffer):
  *   OCLS_OUT_ANGLE  angle[idx] = atan(T) in degrees (float; ocls_atan_deg, the
@@ -89,6 +123,11 @@
  *     __global float *angle          H*W (OCLS_OUT_ANGLE)
  *     __global float2 *svf           H*W (OCLS_OUT_SVF), zeroed by the host before
  *                                    the first azimuth
+ *     __global const float2 *seeds   Hs*Ws (T, t) of the seed cells, Hs = (H - 1) / 8 + 2,
+ *                                    Ws = (W - 1) / 8 + 2, written by horizon_seeds for
+ *                                    this azimuth; not read with -D OCLS_MAX_DISTANCE or
+ *                                    OCLS_CLAMP (then any buffer)
+ *     float2 cell                    (dx, dy) cell size in metres (for the seeds)
  *     float2 bounds                  (lo, hi) tangents, only with -D OCLS_CLAMP: the
  *                                    traversal starts at T = lo (terrain below it is
  *                                    pruned as if already beaten) and stops once
@@ -100,6 +139,10 @@
  *                                    oclshade/horizon/disc.py), at about the cost
  *                                    of a cast-shadow ray
  *   global size (W, H) rounded up to any local size.
+ *   __kernel horizon_seeds(h, H, W, ext, lvl_off, nlev, ray, seeds)
+ *     arguments as horizon_cells; writes seeds[gi * Ws + gj] = (T, t) of cell
+ *     (min(8 gi, H - 1), min(8 gj, W - 1)) (T = -inf at nodata or where nothing
+ *     is seen); global size (Ws, Hs) rounded up to any local size.
  *
  * Build options: -D OCLS_OUT_ANGLE, OCLS_OUT_SVF=1|2, OCLS_CURVATURE,
  *   OCLS_MAX_DISTANCE, OCLS_CLAMP, OCLS_OWN_BUILTINS (common.h) and -cl-std=CL1.2, nothing else (no
@@ -108,6 +151,10 @@
 #include "common.h"
 
 #define OCLS_MAX_ITERATIONS 1000000
+#define OCLS_SEED_STRIDE 8                 /* the seed grid's spacing in cells ("Seeds" above) */
+#if !defined(OCLS_CLAMP) && !defined(OCLS_MAX_DISTANCE)
+#define OCLS_SEEDED                        /* the whole-map walk starts from its seeds' bound */
+#endif
 #define OCLS_CORNER_EPS (4.0f * FLT_EPSILON)
 #define OCLS_SIGN(u) ((u) > 0.0f ? 1 : ((u) < 0.0f ? -1 : 0))
 #ifdef OCLS_CURVATURE
@@ -181,9 +228,10 @@ OCLS_INLINE int valid_patch(__global const float *h, int H, int W, int pr, int p
 }
 
 /* sup over [t_in, t_out] of (S(t) - z0 - c t^2) / t in patch (pr, pc) (or on the
- * grid line the ray runs along); -INFINITY for a hole. */
+ * grid line the ray runs along); -INFINITY for a hole.  *t_at: a ray parameter where it is
+ * reached (for the seeds; not written for a hole). */
 OCLS_INLINE float patch_sup(__global const float *h, int H, int W, int pr, int pc, const HRay *r, float z0,
-                            float t_in, float t_out)
+                            float t_in, float t_out, float *t_at)
 {
     const float fx = (float)(r->j - pc) + r->ux * t_in, fy = (float)(r->i - pr) + r->uy * t_in;
     float s_a, s1, s2;
@@ -217,13 +265,22 @@ OCLS_INLINE float patch_sup(__global const float *h, int H, int W, int pr, int p
 #else
     const float a = s1, b = s2;
 #endif
-    if (t_in == 0.0f) return fmax(a, a + b * len);       /* f = tau (a + b tau) from the cell itself */
+    if (t_in == 0.0f) {                                  /* f = tau (a + b tau) from the cell itself */
+        *t_at = t_out;
+        return fmax(a, a + b * len);
+    }
     const float f_a = (s_a - z0) - OCLS_DROP(r->c, t_in);
-    float best = fmax(f_a / t_in, (f_a + (a + b * len) * len) / t_out);
+    const float at_in = f_a / t_in, at_out = (f_a + (a + b * len) * len) / t_out;
+    float best = fmax(at_in, at_out);
+    *t_at = at_out >= at_in ? t_out : t_in;
     if (b < 0.0f) {                                      /* the tangent point t* = sqrt(A / C) */
         const float q = t_in * t_in + (f_a - a * t_in) / b;
         const float tau = q > 0.0f ? sqrt(q) - t_in : 0.0f;
-        if (tau > 0.0f && tau < len) best = fmax(best, (f_a + (a + b * tau) * tau) / (t_in + tau));
+        if (tau > 0.0f && tau < len) {
+            const float at_tau = (f_a + (a + b * tau) * tau) / (t_in + tau);
+            *t_at = at_tau > best ? t_in + tau : *t_at;
+            best = fmax(best, at_tau);
+        }
     }
     return best;
 }
@@ -242,9 +299,11 @@ OCLS_INLINE float corner_sup(__global const float *h, int H, int W, int pr, int 
 }
 
 /* T of cell (i, j) (height z0, not nodata), starting from lo; with -D OCLS_CLAMP
- * it stops once T >= hi. */
+ * it stops once T >= hi.  *t_best: a ray parameter where T is reached (left as it
+ * was when T = lo). */
 OCLS_INLINE float horizon_tan(__global const float *h, int H, int W, __global const float2 *ext,
-                              __global const int *lvl_off, int nlev, const HRay *r, float z0, float lo, float hi)
+                              __global const int *lvl_off, int nlev, const HRay *r, float z0, float lo, float hi,
+                              float *t_best)
 {
     const int Hp = max(H - 1, 1), Wp = max(W - 1, 1), top = nlev - 1;
     int pc = r->sx < 0 ? r->j - 1 : (r->sx > 0 ? r->j : min(r->j, Wp - 1));
@@ -269,9 +328,15 @@ OCLS_INLINE float horizon_tan(__global const float *h, int H, int W, __global co
                 continue;
             }
         } else {
-            best = fmax(best, patch_sup(h, H, W, pr, pc, r, z0, t, t_end));
-            if (via_x && via_y && t_out <= OCLS_RADIUS(r) && !valid_patch(h, H, W, pr, pc))
-                best = fmax(best, corner_sup(h, H, W, pr, pc, r, z0, t_out));
+            float t_at = t;
+            const float patch = patch_sup(h, H, W, pr, pc, r, z0, t, t_end, &t_at);
+            if (patch > best) *t_best = t_at;
+            best = fmax(best, patch);
+            if (via_x && via_y && t_out <= OCLS_RADIUS(r) && !valid_patch(h, H, W, pr, pc)) {
+                const float corner = corner_sup(h, H, W, pr, pc, r, z0, t_out);
+                if (corner > best) *t_best = t_out;
+                best = fmax(best, corner);
+            }
 #ifdef OCLS_CLAMP
             if (best >= hi) break;                         /* as high as the caller asks */
 #endif
@@ -289,9 +354,65 @@ OCLS_INLINE float horizon_tan(__global const float *h, int H, int W, __global co
     return best;
 }
 
+OCLS_INLINE void init_ray(HRay *r, int i, int j, float4 ray)
+{
+    r->i = i; r->j = j; r->ux = ray.x; r->uy = ray.y; r->c = ray.z; r->radius = ray.w;
+    r->sx = OCLS_SIGN(ray.x); r->sy = OCLS_SIGN(ray.y);
+    r->ix = r->sx ? 1.0f / ray.x : 0.0f;
+    r->iy = r->sy ? 1.0f / ray.y : 0.0f;
+    r->on_row = r->sy == 0;
+    r->on_col = r->sx == 0 && !r->on_row;
+}
+
+/* The seed grid: cells (min(S gi, H - 1), min(S gj, W - 1)), gi < ocls_seed_extent(H),
+ * gj < ocls_seed_extent(W), S = OCLS_SEED_STRIDE (so every cell has seed cells on all four
+ * sides of its S x S square, clamped at the map's last row and column). */
+OCLS_INLINE int ocls_seed_extent(int n) { return (n - 1) / OCLS_SEED_STRIDE + 2; }
+
+/* Seeds, step 1: the exact walk on the seed grid, (T, a ray parameter where T is reached). */
+__kernel void horizon_seeds(__global const float *h, const int H, const int W, __global const float2 *ext,
+                            __global const int *lvl_off, const int nlev, const float4 ray, __global float2 *seeds)
+{
+    const int gj = get_global_id(0), gi = get_global_id(1), Hs = ocls_seed_extent(H), Ws = ocls_seed_extent(W);
+    if (gj >= Ws || gi >= Hs) return;
+    const int i = min(gi * OCLS_SEED_STRIDE, H - 1), j = min(gj * OCLS_SEED_STRIDE, W - 1);
+    const float z0 = h[i * W + j];
+    float t_best = 0.0f, T = -INFINITY;
+    if (!isnan(z0)) {
+        HRay r;
+        init_ray(&r, i, j, ray);
+        T = horizon_tan(h, H, W, ext, lvl_off, nlev, &r, z0, -INFINITY, INFINITY, &t_best);
+    }
+    seeds[gi * Ws + gj] = (float2)(T, t_best);
+}
+
+/* Seeds, step 2: a lower bound on T of the ray r (cell (i, j), height z0) from the horizon
+ * point of seed cell (iq, jq) (seed: its T and parameter tq): the surface on r's ray at the
+ * parameter nearest that point, less a margin for the float32 rounding of this estimate; -inf
+ * when there is none (no horizon, behind the cell, past the radius, off the map, a hole). */
+OCLS_INLINE float seed_bound(__global const float *h, int H, int W, const HRay *r, float z0, float2 cell,
+                             int iq, int jq, float2 seed)
+{
+    if (!(seed.x > -INFINITY)) return -INFINITY;
+    /* (x, y) in metres advance by (ux dx^2, uy dy^2) per metre of t: a unit vector */
+    const float t = seed.y + (float)(jq - r->j) * (r->ux * cell.x * cell.x) +
+                    (float)(iq - r->i) * (r->uy * cell.y * cell.y);
+    if (!(t > 0.0f) || t > OCLS_RADIUS(r)) return -INFINITY;
+    const float x = (float)r->j + r->ux * t, y = (float)r->i + r->uy * t;
+    const int pc = ocls_floor_int(x), pr = ocls_floor_int(y);
+    if (pc < 0 || pr < 0 || pc >= W - 1 || pr >= H - 1) return -INFINITY;
+    __global const float *p = h + pr * W + pc;
+    const float fx = x - (float)pc, fy = y - (float)pr;
+    const float s = (p[0] * (1.0f - fx) + p[1] * fx) * (1.0f - fy) + (p[W] * (1.0f - fx) + p[W + 1] * fx) * fy;
+    if (isnan(s)) return -INFINITY;
+    const float v = ((s - z0) - OCLS_DROP(r->c, t)) / t;
+    return v - (fabs(v) * 1e-5f + (fabs(s) + fabs(z0) + 1.0f) * 1e-6f / t);
+}
+
 __kernel void horizon_cells(__global const float *h, const int H, const int W, __global const float2 *ext,
                             __global const int *lvl_off, const int nlev, const float4 ray,
-                            __global float *angle, __global float2 *svf
+                            __global float *angle, __global float2 *svf, __global const float2 *seeds,
+                            const float2 cell
 #ifdef OCLS_CLAMP
                             , const float2 bounds
 #endif
@@ -308,16 +429,26 @@ __kernel void horizon_cells(__global const float *h, const int H, const int W, _
         return;
     }
     HRay r;
-    r.i = i; r.j = j; r.ux = ray.x; r.uy = ray.y; r.c = ray.z; r.radius = ray.w;
-    r.sx = OCLS_SIGN(ray.x); r.sy = OCLS_SIGN(ray.y);
-    r.ix = r.sx ? 1.0f / ray.x : 0.0f;
-    r.iy = r.sy ? 1.0f / ray.y : 0.0f;
-    r.on_row = r.sy == 0;
-    r.on_col = r.sx == 0 && !r.on_row;
-#ifdef OCLS_CLAMP
-    const float T = horizon_tan(h, H, W, ext, lvl_off, nlev, &r, z0, bounds.x, bounds.y);
+    init_ray(&r, i, j, ray);
+    float t_best = 0.0f;
+#if defined(OCLS_CLAMP)
+    const float T = horizon_tan(h, H, W, ext, lvl_off, nlev, &r, z0, bounds.x, bounds.y, &t_best);
+#elif !defined(OCLS_SEEDED)
+    const float T = horizon_tan(h, H, W, ext, lvl_off, nlev, &r, z0, -INFINITY, INFINITY, &t_best);
 #else
-    const float T = horizon_tan(h, H, W, ext, lvl_off, nlev, &r, z0, -INFINITY, INFINITY);
+    /* Seeds, step 3: the walk from the best bound of the four seed cells around (i, j), again
+     * from -inf in the rare case that nothing beats it (the bound's margin was too thin) */
+    const int Ws = ocls_seed_extent(W);
+    const int gi = i / OCLS_SEED_STRIDE, gj = j / OCLS_SEED_STRIDE;
+    float lo = -INFINITY;
+    for (int a = 0; a < 2; ++a)
+        for (int b = 0; b < 2; ++b) {
+            const int qi = gi + a, qj = gj + b;
+            lo = fmax(lo, seed_bound(h, H, W, &r, z0, cell, min(qi * OCLS_SEED_STRIDE, H - 1),
+                                     min(qj * OCLS_SEED_STRIDE, W - 1), seeds[qi * Ws + qj]));
+        }
+    float T = horizon_tan(h, H, W, ext, lvl_off, nlev, &r, z0, lo, INFINITY, &t_best);
+    if (T == lo && lo > -INFINITY) T = horizon_tan(h, H, W, ext, lvl_off, nlev, &r, z0, -INFINITY, INFINITY, &t_best);
 #endif
 #ifdef OCLS_OUT_ANGLE
     angle[idx] = T == -INFINITY ? -90.0f : ocls_atan_deg(T);

@@ -816,9 +816,12 @@ typedef struct oclshade_horizon_params {
 void oclshade_horizon_params_init(oclshade_horizon_params *params);
 oclshade_status oclshade_horizon_scratch_size(oclshade *lib, const oclshade_horizon_params *params,
                                               size_t *bytes);
-/* One launch of horizon_cells, global size (cols, rows) rounded up to the local size; -D
- * OCLS_OUT_ANGLE when angle is given, OCLS_OUT_SVF=definition when svf is, OCLS_CURVATURE when
- * curvature > 0, OCLS_MAX_DISTANCE when max_distance > 0.  Knobs: horizon group, own_builtins. */
+/* Without a search radius two launches: horizon_seeds on the seed grid ((rows - 1) / 8 + 2 by
+ * (cols - 1) / 8 + 2 cells, float2 each, in scratch: the scratch size is then never 0), then
+ * horizon_cells (alone with a search radius), global size (cols,
+ * rows) rounded up to the local size; -D OCLS_OUT_ANGLE when angle is given, OCLS_OUT_SVF=definition
+ * when svf is, OCLS_CURVATURE when curvature > 0, OCLS_MAX_DISTANCE when max_distance > 0.  Knobs:
+ * horizon group, own_builtins. */
 oclshade_status oclshade_enqueue_horizon(oclshade *lib, cl_command_queue queue,
                                          const oclshade_horizon_params *params,
                                          cl_uint num_events_in_wait_list, const cl_event *event_wait_list,

@@ -5,6 +5,10 @@
 #include <math.h>
 #include <string.h>
 
+/* kernels/horizon.cl's OCLS_SEED_STRIDE and ocls_seed_extent (HorizonCaster's SEED_STRIDE) */
+#define SEED_STRIDE 8
+static int seed_extent(int n) { return (n - 1) / SEED_STRIDE + 2; }
+
 void oclshade_horizon_params_init(oclshade_horizon_params *p)
 {
     if (p == NULL) return;
@@ -52,17 +56,22 @@ static oclshade_status horizon_job_for(oclshade *lib, const oclshade_horizon_par
     return OCLSHADE_OK;
 }
 
-/* HorizonCaster._enqueuer: one launch of horizon_cells for one azimuth. */
+/* HorizonCaster._enqueuer: horizon_seeds on the seed grid into scratch (over the whole map, no
+ * search radius), then horizon_cells. */
 static oclshade_status horizon_body(ocls_pass *ps, const void *params)
 {
     const horizon_job *j = (const horizon_job *)params;
     const oclshade_horizon_params *p = j->p;
     oclshade *lib = ps->lib;
     const size_t W = (size_t)p->cols;
-    cl_mem h, angle;
+    const int seeded = j->ray.s[3] == 0.0f;
+    const int seed_rows = seeded ? seed_extent(p->rows) : 0, seed_cols = seeded ? seed_extent(p->cols) : 0;
+    cl_mem h, angle, seeds = NULL;
     oclshade_status st;
     if ((st = ocls_bind_in(ps, &p->heights, p->rows, 4 * W, "heights", &h)) != OCLSHADE_OK ||
-        (st = ocls_bind_out(ps, &p->angle, p->rows, 4 * W, "angle", &angle)) != OCLSHADE_OK || !ps->run)
+        (st = ocls_bind_out(ps, &p->angle, p->rows, 4 * W, "angle", &angle)) != OCLSHADE_OK ||
+        (seeded && (st = ocls_scratch(ps, 8 * (size_t)seed_rows * (size_t)seed_cols, "horizon seeds", &seeds)) != OCLSHADE_OK) ||
+        !ps->run)
         return st;
     ocls_defines d = {0};
     ocls_def_flag(&d, "OCLS_OUT_ANGLE", angle != NULL);
@@ -70,15 +79,26 @@ static oclshade_status horizon_body(ocls_pass *ps, const void *params)
     ocls_def_flag(&d, "OCLS_CURVATURE", p->curvature > 0.0);
     ocls_def_flag(&d, "OCLS_MAX_DISTANCE", j->ray.s[3] > 0.0f);
     ocls_def_flag(&d, "OCLS_OWN_BUILTINS", ocls_knob(lib, K_HORIZON_OWN_BUILTINS));
-    kernel_entry *k;
-    if ((st = ocls_kernel(ps, "horizon.cl", &d, "horizon_cells", &k)) != OCLSHADE_OK) return st;
-    /* an output not compiled in is not written: its argument is any buffer of the call */
-    cl_mem angle_arg = angle ? angle : h, svf = p->svf ? p->svf : h;
+    kernel_entry *k, *seeder = NULL;
+    if ((st = ocls_kernel(ps, "horizon.cl", &d, "horizon_cells", &k)) != OCLSHADE_OK ||
+        (seeded && (st = ocls_kernel(ps, "horizon.cl", &d, "horizon_seeds", &seeder)) != OCLSHADE_OK))
+        return st;
+    /* an output not compiled in is not written (nor are the seeds read with a search radius): its
+     * argument is any buffer of the call */
+    cl_mem angle_arg = angle ? angle : h, svf = p->svf ? p->svf : h, seeds_arg = seeds ? seeds : h;
     const cl_int H = p->rows, Wi = p->cols, nlev = j->lay.levels;
-    ocls_arg a[9] = {OCLS_ARG(h), OCLS_ARG(H), OCLS_ARG(Wi), OCLS_ARG(p->pyramid), OCLS_ARG(p->offsets),
-                     OCLS_ARG(nlev), OCLS_ARG(j->ray), OCLS_ARG(angle_arg), OCLS_ARG(svf)};
-    if ((st = ocls_set_args(ps, k, a, 9)) != OCLSHADE_OK) return st;
-    return ocls_launch(ps, k, Wi, H, (size_t)ocls_knob(lib, K_HORIZON_GROUP), 16);
+    const cl_float2 cell = {{(cl_float)p->dx, (cl_float)p->dy}};
+    const size_t group = (size_t)ocls_knob(lib, K_HORIZON_GROUP);
+    ocls_arg sa[8] = {OCLS_ARG(h), OCLS_ARG(H), OCLS_ARG(Wi), OCLS_ARG(p->pyramid), OCLS_ARG(p->offsets),
+                      OCLS_ARG(nlev), OCLS_ARG(j->ray), OCLS_ARG(seeds)};
+    if (seeded && ((st = ocls_set_args(ps, seeder, sa, 8)) != OCLSHADE_OK ||
+                   (st = ocls_launch(ps, seeder, seed_cols, seed_rows, group, 16)) != OCLSHADE_OK))
+        return st;
+    ocls_arg a[11] = {OCLS_ARG(h), OCLS_ARG(H), OCLS_ARG(Wi), OCLS_ARG(p->pyramid), OCLS_ARG(p->offsets),
+                      OCLS_ARG(nlev), OCLS_ARG(j->ray), OCLS_ARG(angle_arg), OCLS_ARG(svf), OCLS_ARG(seeds_arg),
+                      OCLS_ARG(cell)};
+    if ((st = ocls_set_args(ps, k, a, 11)) != OCLSHADE_OK) return st;
+    return ocls_launch(ps, k, Wi, H, group, 16);
 }
 
 oclshade_status oclshade_horizon_scratch_size(oclshade *lib, const oclshade_horizon_params *params, size_t *bytes)

@@ -593,6 +593,14 @@ int main(int argc, char **argv)
         hp.pyramid = pyr; hp.offsets = offs;
         hp.svf = sums;
         st = oclshade_enqueue_horizon(lib, queue, &hp, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "scratch must be a buffer of at least",
+                      "horizon: no scratch for the seeds");
+        size_t horizon_bytes = 0;
+        st = oclshade_horizon_scratch_size(lib, &hp, &horizon_bytes);
+        expect_status(lib, st, OCLSHADE_OK, "", "horizon: the scratch size");
+        cl_mem horizon_scratch = buffer(ctx, horizon_bytes);
+        hp.scratch = horizon_scratch;
+        st = oclshade_enqueue_horizon(lib, queue, &hp, 0, NULL, NULL);
         expect_status(lib, st, OCLSHADE_OK, "", "horizon: a valid call");
         hq = hp; hq.svf = NULL;
         st = oclshade_enqueue_horizon(lib, queue, &hq, 0, NULL, NULL);
@@ -620,6 +628,7 @@ int main(int argc, char **argv)
         expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "buffer must hold at least 280 bytes", "zero: buffer too small");
         clFinish(queue);
         clReleaseMemObject(sums); clReleaseMemObject(sums2); clReleaseMemObject(angles);
+        clReleaseMemObject(horizon_scratch);
     }
 
     /* ---- environment maps: face and lat-long sizes, the cube's size */

@@ -40,6 +40,9 @@ from .disc import DEFAULT_COLUMNS, SUN_RADIUS, disc_columns, visible_fraction
 STRIP_MARGIN = 1e-3
 EARTH_RADIUS = 6371008.8          # metres: the IUGG mean radius (r.horizon and HORAYZON use about this)
 MAX_AZIMUTHS = 65536
+#: kernels/horizon.cl's OCLS_SEED_STRIDE: the seed grid's spacing in cells (part of the algorithm:
+#: the angles' last bits may depend on it, so it is not a tuning knob)
+SEED_STRIDE = 8
 _SVF_CODE = {"cosine": 1, "solid-angle": 2}
 
 Progress = Callable[[int, int], None]
@@ -236,8 +239,10 @@ class HorizonCaster:
             yield band
 
     def _enqueuer(self, outputs: Mapping[str, object]) -> Callable[..., None]:
-        """A function enqueueing one azimuth's traversal into (angle, svf) buffers (and, with
-        ``OCLS_CLAMP`` among the outputs, the (lo, hi) tangents)."""
+        """A function enqueueing one azimuth's traversal into (angle, svf) buffers: over the whole
+        map, the seed grid's walk (``horizon_seeds``), then every cell's walk from its seeds' bound
+        (``horizon_cells``); with a search radius, or with ``OCLS_CLAMP`` among the outputs (then
+        ``enqueue`` takes the (lo, hi) tangents), the cells' walk alone (kernels/horizon.cl, "Seeds")."""
         rt, hm = self.runtime, self.heightmap
         pyr = self.pyramid
         rows, cols = hm.shape
@@ -247,15 +252,31 @@ class HorizonCaster:
         kernel = rt.kernel("horizon.cl", "horizon_cells", defines)
         gsize, lsize = rt.grid_2d(kernel, cols, rows, wanted=self.knobs["group"])
         fixed = (pyr.heights, np.int32(rows), np.int32(cols), pyr.buffer, pyr.offsets, np.int32(pyr.levels))
+        cell = np.array([hm.dx, hm.dy], np.float32)
         c, radius = self.coefficient, self.radius or 0.0
+        seeded = not outputs.get("OCLS_CLAMP") and self.radius is None
+        if seeded:
+            seed_rows, seed_cols = (seed_extent(n) for n in (rows, cols))
+            seeder = rt.kernel("horizon.cl", "horizon_seeds", defines)
+            seed_gsize, seed_lsize = rt.grid_2d(seeder, seed_cols, seed_rows, wanted=self.knobs["group"])
+            seeds = rt.empty(8 * seed_rows * seed_cols, "horizon seeds")
 
         def enqueue(azimuth: float, angle: cl.Buffer, svf: cl.Buffer, bounds: tuple[float, float] = ()) -> None:
             ux, uy, _ = Sun(azimuth, 0.0).ray(hm.dx, hm.dy)
-            kernel.set_args(*fixed, np.array([ux, uy, c, radius], np.float32), angle, svf,
+            ray = np.array([ux, uy, c, radius], np.float32)
+            if seeded:
+                seeder.set_args(*fixed, ray, seeds)
+                cl.enqueue_nd_range_kernel(rt.queue, seeder, seed_gsize, seed_lsize)
+            kernel.set_args(*fixed, ray, angle, svf, seeds if seeded else self._dummy, cell,
                             *([np.array(bounds, np.float32)] if bounds else []))
             cl.enqueue_nd_range_kernel(rt.queue, kernel, gsize, lsize)
 
         return enqueue
+
+
+def seed_extent(n: int) -> int:
+    """Seed cells along an axis of ``n`` cells (kernels/horizon.cl ``ocls_seed_extent``)."""
+    return (n - 1) // SEED_STRIDE + 2
 
 
 def _smoke(rt: Runtime, knobs: tuning.Values) -> None:
