@@ -134,16 +134,18 @@ def time_ours(caster: HorizonCaster, n: int) -> tuple[float, np.ndarray]:
 
 
 def reference_error(hm: Heightmap, angles: np.ndarray, samples: int, seed: int = 19,
-                    max_distance: float = np.inf, curvature: float = 0.0) -> dict:
+                    max_distance: float = np.inf, curvature: float = 0.0,
+                    azimuths: np.ndarray | None = None) -> dict:
     """Max |oclshade - float64 reference| over a seeded sample of valid cells, every azimuth
     (within the search radius ``max_distance``, metres; ``curvature`` the drop per square metre
-    the angles were computed with, :attr:`HorizonCaster.coefficient`)."""
+    the angles were computed with, :attr:`HorizonCaster.coefficient`); band k of ``angles`` at
+    ``azimuths[k]`` (default: the grid of ``angles.shape[0]`` azimuths)."""
     valid = np.flatnonzero(~np.isnan(hm.heights))
     pick = np.random.default_rng(seed).choice(valid, size=min(samples, valid.size), replace=False)
     rows, cols = np.unravel_index(pick, hm.shape)
     worst, outside = 0.0, 0
     band = ref.angle_tolerance(hm, curvature)
-    for k, az in enumerate(azimuth_grid(angles.shape[0])):
+    for k, az in enumerate(azimuth_grid(angles.shape[0]) if azimuths is None else azimuths):
         expected = ref.horizon_angles(hm, az, curvature, cells=(rows, cols), max_distance=max_distance)
         diff = np.abs(angles[k][rows, cols] - expected)
         worst = max(worst, float(diff.max()))

@@ -59,3 +59,15 @@ def test_horizon_record_quick(tmp_path: Path) -> None:
     for name, m in res["maps"].items():
         assert m["frame"]["min_ms"] > 0 and m["frames_per_s"] > 0, name
         assert m["check"]["cells"] == 20 and m["check"]["outside_band"] == 0, name
+
+
+@needs_bench
+def test_horizon_seeds_quick(tmp_path: Path) -> None:
+    res = run_quick("horizon_seeds", tmp_path, plot=False)
+    (entry,) = res["maps"].values()
+    assert entry["shape"] == [96, 96] and [r["azimuth"] for r in entry["azimuths"]] == [37.0, 200.0]
+    for r in entry["azimuths"]:
+        assert r["seeded_s"] > 0 and r["from_nothing_s"] > 0
+        assert r["cells_differing"] <= 1e-3 * r["cells"]
+        assert all(c["cells"] == 20 and c["outside_band"] == 0 for c in r["reference"].values())
+    assert "| canyon 96^2 96x96 | no | 37 |" in (tmp_path / "horizon_seeds.md").read_text()
