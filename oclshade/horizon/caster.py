@@ -15,8 +15,9 @@ edge looking out), NaN at nodata cells.  Beyond the map there is no terrain.
 WhiteboxTools' ``max_dist``, RVT's radius): exact over the surface within it.
 One traversal of the extrema pyramid per cell and azimuth; over the whole map
 it starts from a lower bound carried from an exact walk on every 8th row and
-column (a second launch per azimuth; kernels/horizon.cl, "Seeds"); the pyramid is shared with the shadow casters over the same heights
-(process-wide cache).  Definitions: kernels/horizon.cl and docs/methods.md;
+column (a second launch per azimuth; kernels/horizon.cl, "Seeds").  The
+pyramid is shared with the shadow casters over the same heights (process-wide
+cache).  Definitions: kernels/horizon.cl and docs/methods.md;
 float64 twin: :func:`oclshade.reference.horizon_angles`.
 """
 from __future__ import annotations
