@@ -32,11 +32,10 @@ from solar import maps, reference_error  # noqa: E402
 from oclshade.bench.machine import machine_facts  # noqa: E402
 from oclshade.heightmap import Heightmap  # noqa: E402
 from oclshade.horizon import Curvature, HorizonCaster  # noqa: E402
-from oclshade.runtime import get_runtime  # noqa: E402
+from oclshade.runtime import Runtime, get_runtime  # noqa: E402
 
 
-def measure(hm: Heightmap, azimuths: list[float], curved: bool, reps: int, samples: int) -> dict:
-    rt = get_runtime()
+def measure(rt: Runtime, hm: Heightmap, azimuths: list[float], curved: bool, reps: int, samples: int) -> dict:
     curvature = Curvature() if curved else None
     diagonal = math.hypot(hm.shape[0] * hm.dy, hm.shape[1] * hm.dx)
     seeded = HorizonCaster(hm, rt, cache=False, curvature=curvature)
@@ -110,7 +109,7 @@ def main(argv: list[str] | None = None) -> int:
     result = {"machine": {**machine_facts(), "device": rt.label, "device_version": rt.device.version.strip()}, "command": "python bench/horizon_seeds.py " +
               " ".join(argv if argv is not None else sys.argv[1:]), "reps": reps, "samples": samples, "maps": {}}
     for name, hm in maps(False, keys, side).items():
-        result["maps"][name] = measure(hm, azimuths, args.curved, reps, samples)
+        result["maps"][name] = measure(rt, hm, azimuths, args.curved, reps, samples)
         print(f"{name}: {json.dumps(result['maps'][name]['azimuths'], default=str)[:300]}", flush=True)
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "horizon_seeds.json").write_text(json.dumps(result, indent=1))
