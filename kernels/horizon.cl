@@ -12,6 +12,9 @@
  *                  size; the exact walk there into seeds (float2, Hs*Ws).
  *                  Enqueued before horizon_cells for each azimuth, except with
  *                  -D OCLS_MAX_DISTANCE or OCLS_CLAMP.
+ *   horizon_sweep  within a short search radius, instead of both (see "The
+ *                  sweep" at the end): -D OCLS_SWEEP=lanes, OCLS_LANES cells of
+ *                  a row per work-item, arguments (h, H, W, ray, angle, svf).
  *   horizon_cells  one work-item per cell, global size (W, H) rounded up to
  *                  any local size (the tuning knob `group`); arguments: the
  *                  H*W float32 relative heights (row-major, NaN = nodata), H,
@@ -23,7 +26,8 @@
  *   -D options OCLS_OUT_ANGLE, OCLS_OUT_SVF=1|2 (cosine | solid-angle sky-view
  *   term), OCLS_CURVATURE (read c), OCLS_MAX_DISTANCE (read R: a search
  *   radius), OCLS_CLAMP (a trailing float2 argument: only T within [lo, hi]
- *   is wanted), OCLS_OWN_BUILTINS (common.h); no others.
+ *   is wanted), OCLS_SWEEP (lanes: the sweep's build), OCLS_OWN_BUILTINS
+ *   (common.h); no others.
  *
  * Geometry (as shadow.cl).  Sample (i, j) sits at x = j (east), y = i
  * (south) in cell units; the surface is bilinear over patches (pyramid.cl).
@@ -145,8 +149,9 @@
  *     is seen); global size (Ws, Hs) rounded up to any local size.
  *
  * Build options: -D OCLS_OUT_ANGLE, OCLS_OUT_SVF=1|2, OCLS_CURVATURE,
- *   OCLS_MAX_DISTANCE, OCLS_CLAMP, OCLS_OWN_BUILTINS (common.h) and -cl-std=CL1.2, nothing else (no
- *   fast-math); the hosts paste common.h in place of its include.
+ *   OCLS_MAX_DISTANCE, OCLS_CLAMP, OCLS_SWEEP=1|4|8|16 (a build of horizon_sweep alone; the
+ *   others build horizon_seeds and horizon_cells), OCLS_OWN_BUILTINS (common.h) and
+ *   -cl-std=CL1.2, nothing else (no fast-math); the hosts paste common.h in place of its include.
  */
 #include "common.h"
 
@@ -177,9 +182,37 @@ typedef struct {
 #define OCLS_RADIUS(r) INFINITY
 #endif
 
-/* Ray parameter at which the ray leaves the tile [c0, c0+size] x [r0, r0+size]
- * (shadow.cl's tile_exit for a start on a sample: the same values, so the
- * same corner passes). */
+/* Lanes: the sweep's build (-D OCLS_SWEEP=lanes, "The sweep") steps OCLS_LANES cells at once on
+ * float / int vectors (ocls_floatv / ocls_intv); every other build has one (float / int).  The
+ * surface and patch functions below are written once over these types: the walk's scalar code
+ * and the sweep's lanes compute the same expressions. */
+#ifdef OCLS_SWEEP
+#if !defined(OCLS_MAX_DISTANCE) || defined(OCLS_CLAMP)
+#error "OCLS_SWEEP is the search radius's sweep: with -D OCLS_MAX_DISTANCE and without OCLS_CLAMP"
+#endif
+#define OCLS_LANES OCLS_SWEEP
+#else
+#define OCLS_LANES 1
+#endif
+#if OCLS_LANES == 1
+#define ocls_floatv float
+#define ocls_intv int
+#define OCLS_ROW_LOAD(p) (*(p))
+#elif OCLS_LANES == 4 || OCLS_LANES == 8 || OCLS_LANES == 16
+#define ocls_floatv OCLS_CAT(float, OCLS_LANES)
+#define ocls_intv OCLS_CAT(int, OCLS_LANES)
+#if defined(OCLS_OWN_BUILTINS) && defined(__clang__)
+/* an unaligned vector load (common.h's ocls_own_vloadN assembles the lanes one by one: the sweep
+ * took 1.6x as long with it on a Zen 1) */
+typedef float ocls_floatv_u __attribute__((ext_vector_type(OCLS_LANES), aligned(4)));
+#define OCLS_ROW_LOAD(p) ((ocls_floatv)(*(__global const ocls_floatv_u *)(p)))
+#else
+#define OCLS_ROW_LOAD(p) OCLS_LANE_FN(vload, OCLS_LANES)(0, p)
+#endif
+#else
+#error "OCLS_SWEEP (lanes) must be 1, 4, 8 or 16"
+#endif
+
 /* ocls_atan_deg(x): atan(x) in degrees from +, -, *, / alone (reduced at tan(pi/8) and tan(3 pi/8)
  * to |t| <= tan(pi/8), then t + t z P(z), z = t^2, P a cubic fitted for the least largest relative
  * error there, 2.1e-8 in float64; in degrees, 45 or 90 added last), so every device with
@@ -204,6 +237,9 @@ OCLS_INLINE float ocls_atan_deg(float x)
     return x < 0.0f ? -deg : deg;
 }
 
+/* Ray parameter at which the ray leaves the tile [c0, c0+size] x [r0, r0+size]
+ * (shadow.cl's tile_exit for a start on a sample: the same values, so the
+ * same corner passes). */
 OCLS_INLINE float exit_t(const HRay *r, int r0, int c0, int size, int *via_x, int *via_y)
 {
     const float tx = r->sx ? (float)((r->sx > 0 ? c0 + size : c0) - r->j) * r->ix : INFINITY;
@@ -227,62 +263,120 @@ OCLS_INLINE int valid_patch(__global const float *h, int H, int W, int pr, int p
              isnan(ocls_sample(h, H, W, pr + 1, pc)) || isnan(ocls_sample(h, H, W, pr + 1, pc + 1)));
 }
 
-/* sup over [t_in, t_out] of (S(t) - z0 - c t^2) / t in patch (pr, pc) (or on the
- * grid line the ray runs along); -INFINITY for a hole.  *t_at: a ray parameter where it is
- * reached (for the seeds; not written for a hole). */
+/* sup over [t_in, t_out] of f(t) / t, f(t) = S(t) - z0 - c t^2 along the ray in one patch, from
+ * the surface at t_in and its slope and curvature along the ray there (s_a, s1, s2: S(t_in + tau)
+ * = s_a + s1 tau + s2 tau^2); NaN on a hole.  *t_at: a ray parameter where it is reached.  At
+ * t_in = 0 (the cell itself, f(0) = 0) f / t is linear: the slope or the end's tangent; else the
+ * ends' tangents and the one interior critical point t* = sqrt(A / C) (f = A + B t + C t^2, a
+ * maximum iff A, C < 0: the tangent from the eye to the surface), where f / t is evaluated (an
+ * error in t* changes the value only to second order). */
+OCLS_INLINE ocls_floatv segment_sup(ocls_floatv s_a, ocls_floatv s1, ocls_floatv s2, ocls_floatv z0, const HRay *r,
+                                    float t_in, float t_out, ocls_floatv *t_at)
+{
+    const float len = t_out - t_in;
+#ifdef OCLS_CURVATURE
+    const ocls_floatv a = s1 - 2.0f * r->c * t_in, b = s2 - r->c;   /* f(t_in + tau) = f_a + a tau + b tau^2 */
+#else
+    const ocls_floatv a = s1, b = s2;
+#endif
+    if (t_in == 0.0f) {                                    /* f = tau (a + b tau) from the cell itself */
+        *t_at = (ocls_floatv)(t_out);
+        return fmax(a, a + b * len);
+    }
+    const ocls_floatv f_a = (s_a - z0) - OCLS_DROP(r->c, t_in);
+    const ocls_floatv at_in = f_a / t_in, at_out = (f_a + (a + b * len) * len) / t_out;
+    const ocls_floatv best = fmax(at_in, at_out);
+    *t_at = select((ocls_floatv)(t_in), (ocls_floatv)(t_out), at_out >= at_in);
+#if OCLS_LANES == 1
+    if (!(b < 0.0f)) return best;                          /* no interior maximum (the walk: skip its cost) */
+#endif
+    const ocls_floatv q = t_in * t_in + (f_a - a * t_in) / b;
+    const ocls_floatv tau = select((ocls_floatv)(0.0f), sqrt(q) - t_in, q > 0.0f);
+    const ocls_floatv at_tau = (f_a + (a + b * tau) * tau) / (t_in + tau);
+    const ocls_intv inner = (b < 0.0f) & (tau > 0.0f) & (tau < len) & (at_tau > best);
+    *t_at = select(*t_at, t_in + tau, inner);
+    return select(best, at_tau, inner);
+}
+
+/* segment_sup in the patch with corners h00 (its north-west), h01, h10, h11, at offset (ox, oy) =
+ * (j - pc, i - pr) from the cell (positions measured from the cell: the float32 error of a position
+ * grows with the distance, not the column) */
+OCLS_INLINE ocls_floatv patch_segment(ocls_floatv h00, ocls_floatv h01, ocls_floatv h10, ocls_floatv h11,
+                                      ocls_floatv z0, const HRay *r, int ox, int oy, float t_in, float t_out,
+                                      ocls_floatv *t_at)
+{
+    const float fx = (float)ox + r->ux * t_in, fy = (float)oy + r->uy * t_in;
+    const ocls_floatv ex = h01 - h00, ey = h10 - h00, k = (h00 - h01) - (h10 - h11);
+    return segment_sup(h00 + ex * fx + ey * fy + k * (fx * fy), (ex + k * fy) * r->ux + (ey + k * fx) * r->uy,
+                       k * (r->ux * r->uy), z0, r, t_in, t_out, t_at);
+}
+
+/* segment_sup on the grid line of a ray along a row (on_row) or column, between its samples a and
+ * b (a at the patch's west / north end) */
+OCLS_INLINE ocls_floatv line_segment(ocls_floatv a, ocls_floatv b, ocls_floatv z0, const HRay *r, int ox, int oy,
+                                     float t_in, float t_out, ocls_floatv *t_at)
+{
+    const float f = r->on_row ? (float)ox + r->ux * t_in : (float)oy + r->uy * t_in;
+    return segment_sup(a + (b - a) * f, (b - a) * (r->on_row ? r->ux : r->uy), (ocls_floatv)(0.0f), z0, r, t_in,
+                       t_out, t_at);
+}
+
+OCLS_INLINE void init_ray(HRay *r, int i, int j, float4 ray)
+{
+    r->i = i; r->j = j; r->ux = ray.x; r->uy = ray.y; r->c = ray.z; r->radius = ray.w;
+    r->sx = OCLS_SIGN(ray.x); r->sy = OCLS_SIGN(ray.y);
+    r->ix = r->sx ? 1.0f / ray.x : 0.0f;
+    r->iy = r->sy ? 1.0f / ray.y : 0.0f;
+    r->on_row = r->sy == 0;
+    r->on_col = r->sx == 0 && !r->on_row;
+}
+
+/* The outputs of one cell (index idx, not nodata) from its tangent T ("Outputs" above). */
+OCLS_INLINE void store_outputs(__global float *angle, __global float2 *svf, int idx, float T)
+{
+#ifdef OCLS_OUT_ANGLE
+    angle[idx] = T == -INFINITY ? -90.0f : ocls_atan_deg(T);
+#endif
+#ifdef OCLS_OUT_SVF
+    const float tp = fmax(T, 0.0f);
+#if OCLS_OUT_SVF == 1
+    const float term = (tp * tp) / (1.0f + tp * tp);
+#else
+    const float term = tp / sqrt(1.0f + tp * tp);
+#endif
+    float2 acc = svf[idx];
+    const float y = term - acc.y;                      /* Kahan: the term less the last rounding */
+    const float s = acc.x + y;
+    acc.y = (s - acc.x) - y;
+    acc.x = s;
+    svf[idx] = acc;
+#endif
+}
+
+#ifndef OCLS_SWEEP
+/* The walk's level 0: sup over [t_in, t_out] of f(t) / t in patch (pr, pc) (or on the grid line
+ * the ray runs along); -INFINITY for a hole.  *t_at: as segment_sup (for the seeds; not written
+ * for a hole). */
 OCLS_INLINE float patch_sup(__global const float *h, int H, int W, int pr, int pc, const HRay *r, float z0,
                             float t_in, float t_out, float *t_at)
 {
-    const float fx = (float)(r->j - pc) + r->ux * t_in, fy = (float)(r->i - pr) + r->uy * t_in;
-    float s_a, s1, s2;
+    const int ox = r->j - pc, oy = r->i - pr;
     if (r->on_row || r->on_col) {
         const float a = r->on_row ? ocls_sample(h, H, W, r->i, pc) : ocls_sample(h, H, W, pr, r->j);
         const float b = r->on_row ? ocls_sample(h, H, W, r->i, pc + 1) : ocls_sample(h, H, W, pr + 1, r->j);
         if (isnan(a) || isnan(b)) return -INFINITY;
-        const float f = r->on_row ? fx : fy;
-        s_a = a + (b - a) * f;
-        s1 = (b - a) * (r->on_row ? r->ux : r->uy);
-        s2 = 0.0f;
+        return line_segment(a, b, z0, r, ox, oy, t_in, t_out, t_at);
+    }
+    float h00, h01, h10, h11;
+    if (H > 1 && W > 1) {
+        __global const float *p = h + pr * W + pc;
+        h00 = p[0]; h01 = p[1]; h10 = p[W]; h11 = p[W + 1];
     } else {
-        float h00, h01, h10, h11;
-        if (H > 1 && W > 1) {
-            __global const float *p = h + pr * W + pc;
-            h00 = p[0]; h01 = p[1]; h10 = p[W]; h11 = p[W + 1];
-        } else {
-            h00 = ocls_sample(h, H, W, pr, pc); h01 = ocls_sample(h, H, W, pr, pc + 1);
-            h10 = ocls_sample(h, H, W, pr + 1, pc); h11 = ocls_sample(h, H, W, pr + 1, pc + 1);
-        }
-        if (isnan(h00) || isnan(h01) || isnan(h10) || isnan(h11)) return -INFINITY;
-        const float ex = h01 - h00, ey = h10 - h00, k = (h00 - h01) - (h10 - h11);
-        s_a = h00 + ex * fx + ey * fy + k * (fx * fy);
-        s1 = (ex + k * fy) * r->ux + (ey + k * fx) * r->uy;
-        s2 = k * (r->ux * r->uy);
+        h00 = ocls_sample(h, H, W, pr, pc); h01 = ocls_sample(h, H, W, pr, pc + 1);
+        h10 = ocls_sample(h, H, W, pr + 1, pc); h11 = ocls_sample(h, H, W, pr + 1, pc + 1);
     }
-    /* f(t_in + tau) = f_a + a tau + b tau^2, tau in [0, len] */
-    const float len = t_out - t_in;
-#ifdef OCLS_CURVATURE
-    const float a = s1 - 2.0f * r->c * t_in, b = s2 - r->c;
-#else
-    const float a = s1, b = s2;
-#endif
-    if (t_in == 0.0f) {                                  /* f = tau (a + b tau) from the cell itself */
-        *t_at = t_out;
-        return fmax(a, a + b * len);
-    }
-    const float f_a = (s_a - z0) - OCLS_DROP(r->c, t_in);
-    const float at_in = f_a / t_in, at_out = (f_a + (a + b * len) * len) / t_out;
-    float best = fmax(at_in, at_out);
-    *t_at = at_out >= at_in ? t_out : t_in;
-    if (b < 0.0f) {                                      /* the tangent point t* = sqrt(A / C) */
-        const float q = t_in * t_in + (f_a - a * t_in) / b;
-        const float tau = q > 0.0f ? sqrt(q) - t_in : 0.0f;
-        if (tau > 0.0f && tau < len) {
-            const float at_tau = (f_a + (a + b * tau) * tau) / (t_in + tau);
-            *t_at = at_tau > best ? t_in + tau : *t_at;
-            best = fmax(best, at_tau);
-        }
-    }
-    return best;
+    if (isnan(h00) || isnan(h01) || isnan(h10) || isnan(h11)) return -INFINITY;
+    return patch_segment(h00, h01, h10, h11, z0, r, ox, oy, t_in, t_out, t_at);
 }
 
 /* Corner pass out of the hole patch (pr, pc) at t: the ray touches the corner
@@ -354,15 +448,6 @@ OCLS_INLINE float horizon_tan(__global const float *h, int H, int W, __global co
     return best;
 }
 
-OCLS_INLINE void init_ray(HRay *r, int i, int j, float4 ray)
-{
-    r->i = i; r->j = j; r->ux = ray.x; r->uy = ray.y; r->c = ray.z; r->radius = ray.w;
-    r->sx = OCLS_SIGN(ray.x); r->sy = OCLS_SIGN(ray.y);
-    r->ix = r->sx ? 1.0f / ray.x : 0.0f;
-    r->iy = r->sy ? 1.0f / ray.y : 0.0f;
-    r->on_row = r->sy == 0;
-    r->on_col = r->sx == 0 && !r->on_row;
-}
 
 /* The seed grid: cells (min(S gi, H - 1), min(S gj, W - 1)), gi < ocls_seed_extent(H),
  * gj < ocls_seed_extent(W), S = OCLS_SEED_STRIDE (so every cell has seed cells on all four
@@ -409,6 +494,7 @@ OCLS_INLINE float seed_bound(__global const float *h, int H, int W, const HRay *
     return v - (fabs(v) * 1e-5f + (fabs(s) + fabs(z0) + 1.0f) * 1e-6f / t);
 }
 
+
 __kernel void horizon_cells(__global const float *h, const int H, const int W, __global const float2 *ext,
                             __global const int *lvl_off, const int nlev, const float4 ray,
                             __global float *angle, __global float2 *svf, __global const float2 *seeds,
@@ -450,21 +536,137 @@ __kernel void horizon_cells(__global const float *h, const int H, const int W, _
     float T = horizon_tan(h, H, W, ext, lvl_off, nlev, &r, z0, lo, INFINITY, &t_best);
     if (T == lo && lo > -INFINITY) T = horizon_tan(h, H, W, ext, lvl_off, nlev, &r, z0, -INFINITY, INFINITY, &t_best);
 #endif
-#ifdef OCLS_OUT_ANGLE
-    angle[idx] = T == -INFINITY ? -90.0f : ocls_atan_deg(T);
-#endif
-#ifdef OCLS_OUT_SVF
-    const float tp = fmax(T, 0.0f);
-#if OCLS_OUT_SVF == 1
-    const float term = (tp * tp) / (1.0f + tp * tp);
+    store_outputs(angle, svf, idx, T);
+}
+#endif /* the walk */
+
+/* ---------------------------------------------------------------- the sweep
+ * horizon_sweep (-D OCLS_SWEEP=lanes, with OCLS_MAX_DISTANCE): the outputs of
+ * horizon_cells within a search radius R, from the walk's level-0 steps
+ * without the pyramid, OCLS_LANES cells of a row per work-item on vector
+ * lanes.  Within a short radius the pyramid prunes little, and the walk's
+ * cost is its data-dependent branches (descend or step, patch or tile, the
+ * ray's end).  But the ray of every cell at one azimuth crosses the same
+ * sequence of patches relative to the cell (positions are measured from the
+ * cell, so the exits (dc + 1) / ux, the corner passes and the in-patch
+ * positions are the same float32 values for every cell): the cells of a run
+ * step through it together.  Each step is the walk's level 0 on the lanes:
+ * patch_segment / line_segment on the patch's corners (a hole or a patch off
+ * the map gives NaN, which fmax ignores: the rays leave the map for good, and
+ * their corner passes beyond it meet no sample) and, at a corner pass out of
+ * a hole, corner_sup's sample.  The walk skips the tiles whose bound cannot
+ * beat its best tangent; the sweep evaluates every patch within R.  So the
+ * outputs are horizon_cells' with the same radius bit for bit, except where
+ * a skipped tile's bound ties the best tangent in float32 and the sweep's
+ * evaluation of its patches comes out a few ulp higher (a patch edge's point
+ * is evaluated from both patches, and the entry (j - pc) + ux t cancels near
+ * 0 or 1: up to 40 ulp), and where the walk enters a patch after a skipped
+ * tile at a position rounded from the map's columns (along()), which can
+ * differ from the step-by-step sequence where the ray passes within float32
+ * rounding of a patch corner.  Measured: 45 angles in a million differ on
+ * SRTM N22W160 at 10 cells (up to 9.5e-6 degrees; tests/test_horizon.py
+ * counts them); both within the float32 band of the float64 reference.
+ * The hosts sweep where the ray crosses at most SWEEP_CELLS patch columns and
+ * rows within R (oclshade/horizon/caster.py, host/src/horizon.c: R (|ux| +
+ * |uy|) in float64 from the float32 ray) on maps of 2 rows and columns or
+ * more; measured: docs/solar.md, "The sweep".
+ *
+ *   __kernel horizon_sweep(h, H, W, ray, angle, svf)  arguments as horizon_cells
+ *     (R = ray.w > 0); built with -D OCLS_SWEEP = 1, 4, 8 or 16 (cells per
+ *     work-item: the tuning knob `lanes`) and OCLS_MAX_DISTANCE, not OCLS_CLAMP;
+ *     global size (ceil(W / OCLS_LANES), H) rounded up to any local size.  A
+ *     work-item takes columns j0 .. j0 + OCLS_LANES - 1, j0 = OCLS_LANES gid(0),
+ *     shifted left to end at column W - 1 at the right edge (it writes the
+ *     columns from j0 on). */
+#ifdef OCLS_SWEEP
+
+/* h[row, col0 + k] on lane k, NaN off the map */
+OCLS_INLINE ocls_floatv row_at(__global const float *h, int H, int W, int row, int col0)
+{
+    if (row < 0 || row >= H) return (ocls_floatv)(NAN);
+    __global const float *p = h + row * W;
+    if (col0 >= 0 && col0 + OCLS_LANES <= W) return OCLS_ROW_LOAD(p + col0);
+    float v[OCLS_LANES];
+    for (int k = 0; k < OCLS_LANES; ++k) v[k] = col0 + k >= 0 && col0 + k < W ? p[col0 + k] : NAN;
+#if OCLS_LANES == 1
+    return v[0];
 #else
-    const float term = tp / sqrt(1.0f + tp * tp);
-#endif
-    float2 acc = svf[idx];
-    const float y = term - acc.y;                          /* Kahan: the term less the last rounding */
-    const float s = acc.x + y;
-    acc.y = (s - acc.x) - y;
-    acc.x = s;
-    svf[idx] = acc;
+    return OCLS_LANE_FN(vload, OCLS_LANES)(0, v);
 #endif
 }
+
+/* a lane mask: patch (row, col0 + k) is on the map and not a hole (valid_patch) */
+OCLS_INLINE ocls_intv valid_lanes(__global const float *h, int H, int W, int row, int col0)
+{
+    return !isnan(row_at(h, H, W, row, col0) + row_at(h, H, W, row, col0 + 1) + row_at(h, H, W, row + 1, col0) +
+                  row_at(h, H, W, row + 1, col0 + 1));
+}
+
+__kernel void horizon_sweep(__global const float *h, const int H, const int W, const float4 ray,
+                            __global float *angle, __global float2 *svf)
+{
+    const int j0 = get_global_id(0) * OCLS_LANES, i = get_global_id(1);
+    if (j0 >= W || i >= H) return;
+    const int jc = max(min(j0, W - OCLS_LANES), 0);        /* the run's first column */
+    HRay r;                                                 /* the ray of a cell at (0, 0): the steps */
+    init_ray(&r, 0, 0, ray);
+    const ocls_floatv z0 = row_at(h, H, W, i, jc);
+    const float R = r.radius;
+    int dc = r.sx < 0 ? -1 : 0, dr = r.sy < 0 ? -1 : 0;     /* the patch, from the cell */
+    ocls_floatv best = (ocls_floatv)(-INFINITY), t_at;
+    for (float t = 0.0f; t < R;) {
+        /* exit_t from patch (i + dr, j + dc) of every lane */
+        const float tx = r.sx ? (float)(r.sx > 0 ? dc + 1 : dc) * r.ix : INFINITY;
+        const float ty = r.sy ? (float)(r.sy > 0 ? dr + 1 : dr) * r.iy : INFINITY;
+        const int corner = r.sx && r.sy && fabs(tx - ty) <= OCLS_CORNER_EPS * fmax(tx, ty);
+        const int via_x = corner || tx < ty, via_y = corner || ty < tx;
+        const float t_out = fmin(tx, ty), t_end = fmin(t_out, R);
+        const int pr = i + dr, pc = jc + dc;               /* lane k: patch (pr, pc + k) */
+        ocls_floatv h00, h01, h10, h11, patch;
+        if (r.on_row || r.on_col) {
+            const ocls_floatv a = r.on_row ? row_at(h, H, W, i, pc) : row_at(h, H, W, pr, jc);
+            const ocls_floatv b = r.on_row ? row_at(h, H, W, i, pc + 1) : row_at(h, H, W, pr + 1, jc);
+            patch = line_segment(a, b, z0, &r, -dc, -dr, t, t_end, &t_at);
+        } else {
+            if (pr >= 0 && pr < H - 1 && pc >= 0 && pc + OCLS_LANES < W) {   /* the run's patches on the map */
+                __global const float *p = h + pr * W + pc;
+                h00 = OCLS_ROW_LOAD(p); h01 = OCLS_ROW_LOAD(p + 1);
+                h10 = OCLS_ROW_LOAD(p + W); h11 = OCLS_ROW_LOAD(p + W + 1);
+            } else {
+                h00 = row_at(h, H, W, pr, pc); h01 = row_at(h, H, W, pr, pc + 1);
+                h10 = row_at(h, H, W, pr + 1, pc); h11 = row_at(h, H, W, pr + 1, pc + 1);
+            }
+            patch = patch_segment(h00, h01, h10, h11, z0, &r, -dc, -dr, t, t_end, &t_at);
+            if (via_x && via_y && t_out <= R) {             /* corner_sup out of a hole patch */
+                const ocls_intv hole = isnan(h00 + h01 + h10 + h11);
+                const ocls_intv side = valid_lanes(h, H, W, pr, pc + r.sx) | valid_lanes(h, H, W, pr + r.sy, pc);
+                const ocls_floatv v = r.sy > 0 ? (r.sx > 0 ? h11 : h10) : (r.sx > 0 ? h01 : h00);
+                const ocls_floatv at_corner = ((v - z0) - OCLS_DROP(r.c, t_out)) / t_out;
+                best = select(best, fmax(best, at_corner), hole & side);
+            }
+        }
+        best = fmax(best, patch);                          /* NaN (a hole, off the map): ignored */
+        if (via_x) dc += r.sx;
+        if (via_y) dr += r.sy;
+        t = t_out;
+    }
+    float T[OCLS_LANES], z[OCLS_LANES];
+#if OCLS_LANES == 1
+    T[0] = best;
+    z[0] = z0;
+#else
+    OCLS_LANE_FN(vstore, OCLS_LANES)(best, 0, T);
+    OCLS_LANE_FN(vstore, OCLS_LANES)(z0, 0, z);
+#endif
+    for (int k = j0 - jc; k < OCLS_LANES && jc + k < W; ++k) {
+        const int idx = i * W + jc + k;
+        if (isnan(z[k])) {
+#ifdef OCLS_OUT_ANGLE
+            angle[idx] = NAN;
+#endif
+        } else {
+            store_outputs(angle, svf, idx, T[k]);
+        }
+    }
+}
+#endif

@@ -71,3 +71,17 @@ def test_horizon_seeds_quick(tmp_path: Path) -> None:
         assert r["cells_differing"] <= 1e-3 * r["cells"]
         assert all(c["cells"] == 20 and c["outside_band"] == 0 for c in r["reference"].values())
     assert "| canyon 96^2 96x96 | no | 37 |" in (tmp_path / "horizon_seeds.md").read_text()
+
+
+@needs_bench
+def test_horizon_sweep_quick(tmp_path: Path) -> None:
+    res = run_quick("horizon_sweep", tmp_path, "--no-rvt", plot=False)
+    (rows,) = res["maps"].values()
+    assert [r["radius_cells"] for r in rows] == [5.0, 60.0]
+    near, far = rows
+    assert near["swept_azimuths"] == 4 and far["swept_azimuths"] == 0     # 5 cells sweep, 60 walk
+    for r in rows:
+        assert all(r["seconds"][mode] > 0 for mode in ("sweep", "walk", "default"))
+        assert r["angles_differing"] <= 1e-2 * r["angles"]      # as tests/test_horizon.py's sweep test
+        assert all(c["cells"] == 20 and c["outside_band"] == 0 for c in r["reference"].values())
+    assert "| canyon 96^2 | 5 |" in (tmp_path / "horizon_sweep.md").read_text()

@@ -99,7 +99,8 @@ def test_c_sunshine_equals_python(host: dict, tmp_path: Path, case: str, azimuth
         assert np.where(nodata, np.nan, values).astype(np.float32).tobytes() == want.tobytes(), name
 
 
-@pytest.mark.parametrize("definition,curved,radius_cells", [(1, False, 0), (2, True, 0), (2, True, 11.5)])
+@pytest.mark.parametrize("definition,curved,radius_cells", [(1, False, 0), (2, True, 0), (2, True, 11.5),
+                                                           (1, False, 40.0)])
 def test_c_horizons_and_svf_equal_python(host: dict, tmp_path: Path, definition: int, curved: bool,
                                          radius_cells: float) -> None:
     hm = generated_map(*MAPS["holes"])

@@ -244,7 +244,7 @@ const char *oclshade_program_source(const oclshade *lib, const char *file);
  *   terrain         descend 1..5, leaf 0..4, group 16|64|256, own_builtins 0|1
  *   screen_shadows  group 16|64|256, own_builtins 0|1
  *   ssao            lanes 4|8|16, group 16|64|256, own_builtins 0|1
- *   horizon         group 16|64|256, own_builtins 0|1
+ *   horizon         group 16|64|256, own_builtins 0|1, lanes 1|4|8|16
  * (the Python pyramid knob in_place, a host-memory choice, has no C counterpart).  An
  * unknown family, knob or value is INVALID_ARGUMENT naming the legal ones; nothing
  * changes then.  Applies to the commands enqueued afterwards (programs built with other

@@ -9,6 +9,7 @@
 #define SEED_STRIDE 8
 static int seed_extent(int n) { return (n - 1) / SEED_STRIDE + 2; }
 
+
 void oclshade_horizon_params_init(oclshade_horizon_params *p)
 {
     if (p == NULL) return;
@@ -22,6 +23,16 @@ typedef struct horizon_job {
     oclshade_pyramid_layout lay;
     cl_float4 ray;
 } horizon_job;
+
+/* HorizonCaster's SWEEP_CELLS and sweeps(): with a search radius, a ray crossing at most this many
+ * patch columns and rows within it (the same float64 product of the float32 ray) takes
+ * horizon_sweep (kernels/horizon.cl, "The sweep"), on maps of 2 rows and columns or more */
+#define SWEEP_CELLS 48
+static int sweeps(const horizon_job *j)
+{
+    const double ux = j->ray.s[0], uy = j->ray.s[1], radius = j->ray.s[3];
+    return j->p->rows >= 2 && j->p->cols >= 2 && radius > 0.0 && radius * (fabs(ux) + fabs(uy)) <= SWEEP_CELLS;
+}
 
 static oclshade_status horizon_job_for(oclshade *lib, const oclshade_horizon_params *p, horizon_job *j)
 {
@@ -56,15 +67,15 @@ static oclshade_status horizon_job_for(oclshade *lib, const oclshade_horizon_par
     return OCLSHADE_OK;
 }
 
-/* HorizonCaster._enqueuer: horizon_seeds on the seed grid into scratch (over the whole map, no
- * search radius), then horizon_cells. */
+/* HorizonCaster._enqueuer: within a short search radius horizon_sweep; else horizon_seeds on the
+ * seed grid into scratch (over the whole map, no search radius), then horizon_cells. */
 static oclshade_status horizon_body(ocls_pass *ps, const void *params)
 {
     const horizon_job *j = (const horizon_job *)params;
     const oclshade_horizon_params *p = j->p;
     oclshade *lib = ps->lib;
     const size_t W = (size_t)p->cols;
-    const int seeded = j->ray.s[3] == 0.0f;
+    const int sweep = sweeps(j), seeded = j->ray.s[3] == 0.0f;
     const int seed_rows = seeded ? seed_extent(p->rows) : 0, seed_cols = seeded ? seed_extent(p->cols) : 0;
     cl_mem h, angle, seeds = NULL;
     oclshade_status st;
@@ -79,16 +90,26 @@ static oclshade_status horizon_body(ocls_pass *ps, const void *params)
     ocls_def_flag(&d, "OCLS_CURVATURE", p->curvature > 0.0);
     ocls_def_flag(&d, "OCLS_MAX_DISTANCE", j->ray.s[3] > 0.0f);
     ocls_def_flag(&d, "OCLS_OWN_BUILTINS", ocls_knob(lib, K_HORIZON_OWN_BUILTINS));
+    const size_t group = (size_t)ocls_knob(lib, K_HORIZON_GROUP);
+    const cl_int H = p->rows, Wi = p->cols;
+    /* an output not compiled in is not written (nor are the seeds read with a search radius): its
+     * argument is any buffer of the call */
+    cl_mem angle_arg = angle ? angle : h, svf = p->svf ? p->svf : h, seeds_arg = seeds ? seeds : h;
+    if (sweep) {
+        const int lanes = ocls_knob(lib, K_HORIZON_LANES);
+        kernel_entry *sweeper;
+        ocls_def_int(&d, "OCLS_SWEEP", lanes);
+        if ((st = ocls_kernel(ps, "horizon.cl", &d, "horizon_sweep", &sweeper)) != OCLSHADE_OK) return st;
+        ocls_arg a[6] = {OCLS_ARG(h), OCLS_ARG(H), OCLS_ARG(Wi), OCLS_ARG(j->ray), OCLS_ARG(angle_arg), OCLS_ARG(svf)};
+        if ((st = ocls_set_args(ps, sweeper, a, 6)) != OCLSHADE_OK) return st;
+        return ocls_launch(ps, sweeper, (p->cols + lanes - 1) / lanes, H, group, 16);
+    }
     kernel_entry *k, *seeder = NULL;
     if ((st = ocls_kernel(ps, "horizon.cl", &d, "horizon_cells", &k)) != OCLSHADE_OK ||
         (seeded && (st = ocls_kernel(ps, "horizon.cl", &d, "horizon_seeds", &seeder)) != OCLSHADE_OK))
         return st;
-    /* an output not compiled in is not written (nor are the seeds read with a search radius): its
-     * argument is any buffer of the call */
-    cl_mem angle_arg = angle ? angle : h, svf = p->svf ? p->svf : h, seeds_arg = seeds ? seeds : h;
-    const cl_int H = p->rows, Wi = p->cols, nlev = j->lay.levels;
+    const cl_int nlev = j->lay.levels;
     const cl_float2 cell = {{(cl_float)p->dx, (cl_float)p->dy}};
-    const size_t group = (size_t)ocls_knob(lib, K_HORIZON_GROUP);
     ocls_arg sa[8] = {OCLS_ARG(h), OCLS_ARG(H), OCLS_ARG(Wi), OCLS_ARG(p->pyramid), OCLS_ARG(p->offsets),
                       OCLS_ARG(nlev), OCLS_ARG(j->ray), OCLS_ARG(seeds)};
     if (seeded && ((st = ocls_set_args(ps, seeder, sa, 8)) != OCLSHADE_OK ||

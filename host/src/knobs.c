@@ -42,6 +42,7 @@ static const knob_def KNOBS[N_KNOBS] = {
     [K_SSAO_OWN_BUILTINS] = {"ssao", "own_builtins", 2, {0, 1}, 0, RULE_SAFE},
     [K_HORIZON_GROUP] = {"horizon", "group", 3, {16, 64, 256}, 64, RULE_SAFE},
     [K_HORIZON_OWN_BUILTINS] = {"horizon", "own_builtins", 2, {0, 1}, 0, RULE_LIBRARY_CALLS},
+    [K_HORIZON_LANES] = {"horizon", "lanes", 4, {1, 4, 8, 16}, 1, RULE_WIDTH},
 };
 
 /* oclshade/tuning/rules.py TARGET_FLOAT_LANES: float lanes of the LLVM CPU target PoCL names in

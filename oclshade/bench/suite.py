@@ -27,6 +27,8 @@ Cases (``family/variant``) and what one timed run is:
   angles, one azimuth, the band copied to the host) on the canyon of a quarter of
   the masks' side (a horizon ray walks until nothing further can be higher: a
   horizon band costs tens of masks);
+* ``horizons/radius``: the same within a search radius of :data:`HORIZON_RADIUS_CELLS`
+  cells, on the masks' map (the sweep: kernels/horizon.cl, "The sweep");
 * ``sunshine/masks``: ``SunshineCaster(..., analyse=False).accumulate`` of the
   :data:`SUNSHINE_SUNS` (a day's path, 600 s each) over the masks' map, hours and
   cast fraction: a mask per sun traced and summed on the device, the sums copied
@@ -71,6 +73,8 @@ compose                   56 P read + 4 P written +        40 P (Lambert, sky, t
                           8 P copy
 horizons                  4 N heights + 4 N angles +       30 N (the start patch of each ray)
                           8 N copy (N: cells of its map)
+horizons/radius           4 N heights + 4 N angles +       60 K N (K patches a ray crosses within
+                          8 N copy                         the radius, 60 flops each)
 sunshine/masks            S (4 N heights + 2 N mask        S (20 N + 12 N) (each mask's start patch
                           written and read + 16 N sums     test; gradient, facing test and sums;
                           read and written) + 16 N copy    S: the number of suns)
@@ -87,7 +91,7 @@ meshes/shadow_volumes     20 P (position, depth) + P mask  30 P (the view segmen
 
 ``exact`` cases must give the same bits on every device (their results equal
 the float64 reference by construction): the pyramid (min / max only) and the
-``exact`` masks, the horizons, the sunshine sums of exact masks (integer seconds).  The other cases are compared too, for information.
+``exact`` masks, the horizons (both cases), the sunshine sums of exact masks (integer seconds).  The other cases are compared too, for information.
 """
 from __future__ import annotations
 
@@ -120,6 +124,8 @@ PIXEL_SHADOW_METHODS = ("exact", "maxmip")
 CELL_M = 30.0
 RELIEF_M = 1500.0
 MASK_SUN = Sun(37.0, 20.0)
+#: the horizons/radius case's search radius in cells (RVT's default)
+HORIZON_RADIUS_CELLS = 10
 LOW_SUN = Sun(37.0, 10.0)
 VIEW = (200.0, 35.0)      # frame_heightmap azimuth, elevation
 AO_RADIUS_CELLS = 4.0
@@ -460,6 +466,22 @@ def _horizons(w: Workload) -> Case:
                 30.0 * n, terrain_digest(side), run, lambda: [state["angles"]])
 
 
+def _horizons_radius(w: Workload) -> Case:
+    hm = w.heightmap
+    caster = HorizonCaster(hm, w.rt, cache=False, max_distance=HORIZON_RADIUS_CELLS * hm.dx)
+    ux, uy, _ = Sun(MASK_SUN.azimuth, 0.0).ray(hm.dx, hm.dy)
+    patches = caster.radius * (abs(ux) + abs(uy))
+    state: dict = {}
+
+    def run() -> None:
+        state["angles"] = caster.horizons([MASK_SUN.azimuth])
+
+    n = w.cells
+    return Case(f"horizon angles within {HORIZON_RADIUS_CELLS} cells, {_map_label(w.sizes.map_side)}, azimuth "
+                f"{MASK_SUN.azimuth:g}", "cells", n, 16.0 * n, 60.0 * patches * n, terrain_digest(w.sizes.map_side),
+                run, lambda: [state["angles"]])
+
+
 def _sunshine(w: Workload) -> Case:
     caster = SunshineCaster(w.heightmap, w.rt, analyse=False)
     caster.shadows.pyramid
@@ -531,6 +553,7 @@ SPECS: tuple[CaseSpec, ...] = (
     CaseSpec("ssao/paper", "ssao", False, _ssao("paper", PAPER_RECIPE, PAPER_M)),
     CaseSpec("compose", "compose", False, _compose),
     CaseSpec("horizons", "horizons", True, _horizons),
+    CaseSpec("horizons/radius", "horizons", True, _horizons_radius),
     CaseSpec("sunshine/masks", "sunshine", True, _sunshine),
     CaseSpec("meshes/cast", "meshes", False, _mesh_cast),
     CaseSpec("meshes/shadow_rays", "meshes", False, _mesh_shadow_rays),

@@ -15,7 +15,10 @@ edge looking out), NaN at nodata cells.  Beyond the map there is no terrain.
 WhiteboxTools' ``max_dist``, RVT's radius): exact over the surface within it.
 One traversal of the extrema pyramid per cell and azimuth; over the whole map
 it starts from a lower bound carried from an exact walk on every 8th row and
-column (a second launch per azimuth; kernels/horizon.cl, "Seeds").  The
+column (a second launch per azimuth; kernels/horizon.cl, "Seeds").  Within a
+short radius (a ray crossing at most :data:`SWEEP_CELLS` patch columns and rows)
+the cells of a row step through their patches together instead, without the
+pyramid (kernels/horizon.cl, "The sweep").  The
 pyramid is shared with the shadow casters over the same heights (process-wide
 cache).  Definitions: kernels/horizon.cl and docs/methods.md;
 float64 twin: :func:`oclshade.reference.horizon_angles`.
@@ -45,6 +48,10 @@ MAX_AZIMUTHS = 65536
 #: kernels/horizon.cl's OCLS_SEED_STRIDE: the seed grid's spacing in cells (part of the algorithm:
 #: the angles' last bits may depend on it, so it is not a tuning knob)
 SEED_STRIDE = 8
+#: kernels/horizon.cl "The sweep": with a search radius, an azimuth whose ray crosses at most this
+#: many patch columns and rows within it takes horizon_sweep instead of the walk (an algorithm
+#: choice, not a tuning knob: a few angles' last bits may differ between the two; docs/solar.md)
+SWEEP_CELLS = 48
 _SVF_CODE = {"cosine": 1, "solid-angle": 2}
 
 Progress = Callable[[int, int], None]
@@ -130,6 +137,7 @@ class HorizonCaster:
         self.cache = cache
         self.knobs = {**tuning.settings(self.runtime, "horizon").values, **TUNING.check(knobs or {}, partial=True)}
         self._pyramid: ExtremaPyramid | None = None
+        self._heights: cl.Buffer | None = None
         self._dummy = self.runtime.empty(8, "dummy")
 
     @property
@@ -138,6 +146,16 @@ class HorizonCaster:
         if self._pyramid is None:
             self._pyramid = cached_pyramid(self.heightmap, self.runtime, self.cache)
         return self._pyramid
+
+    @property
+    def heights_buffer(self) -> cl.Buffer:
+        """The relative float32 heights on the device: the pyramid's once it is built, else a copy
+        of its own (the sweep needs no pyramid)."""
+        if self._pyramid is not None:
+            return self._pyramid.heights
+        if self._heights is None:
+            self._heights = self.runtime.to_device(self.heightmap.relative32, "heightmap")
+        return self._heights
 
     @property
     def coefficient(self) -> float:
@@ -243,37 +261,62 @@ class HorizonCaster:
     def _enqueuer(self, outputs: Mapping[str, object]) -> Callable[..., None]:
         """A function enqueueing one azimuth's traversal into (angle, svf) buffers: over the whole
         map, the seed grid's walk (``horizon_seeds``), then every cell's walk from its seeds' bound
-        (``horizon_cells``); with a search radius, or with ``OCLS_CLAMP`` among the outputs (then
-        ``enqueue`` takes the (lo, hi) tangents), the cells' walk alone (kernels/horizon.cl, "Seeds")."""
+        (``horizon_cells``); with a search radius the sweep (``horizon_sweep``) where :func:`sweeps`,
+        else the cells' walk alone, as with ``OCLS_CLAMP`` among the outputs (then ``enqueue`` takes
+        the (lo, hi) tangents; kernels/horizon.cl, "Seeds" and "The sweep").  The pyramid and the
+        walk's kernels are made at the first azimuth that walks."""
         rt, hm = self.runtime, self.heightmap
-        pyr = self.pyramid
         rows, cols = hm.shape
         defines = {**outputs, "OCLS_CURVATURE": self.curvature is not None,
                    "OCLS_MAX_DISTANCE": self.radius is not None,
                    "OCLS_OWN_BUILTINS": bool(self.knobs["own_builtins"])}
-        kernel = rt.kernel("horizon.cl", "horizon_cells", defines)
-        gsize, lsize = rt.grid_2d(kernel, cols, rows, wanted=self.knobs["group"])
-        fixed = (pyr.heights, np.int32(rows), np.int32(cols), pyr.buffer, pyr.offsets, np.int32(pyr.levels))
         cell = np.array([hm.dx, hm.dy], np.float32)
         c, radius = self.coefficient, self.radius or 0.0
-        seeded = not outputs.get("OCLS_CLAMP") and self.radius is None
-        if seeded:
-            seed_rows, seed_cols = (seed_extent(n) for n in (rows, cols))
-            seeder = rt.kernel("horizon.cl", "horizon_seeds", defines)
-            seed_gsize, seed_lsize = rt.grid_2d(seeder, seed_cols, seed_rows, wanted=self.knobs["group"])
-            seeds = rt.empty(8 * seed_rows * seed_cols, "horizon seeds")
+        clamped = bool(outputs.get("OCLS_CLAMP"))
+        seeded = not clamped and self.radius is None
+        walk: dict[str, object] = {}
+
+        def walker() -> dict[str, object]:
+            if not walk:
+                pyr = self.pyramid
+                kernel = rt.kernel("horizon.cl", "horizon_cells", defines)
+                walk.update(kernel=kernel, grid=rt.grid_2d(kernel, cols, rows, wanted=self.knobs["group"]),
+                            fixed=(pyr.heights, np.int32(rows), np.int32(cols), pyr.buffer, pyr.offsets,
+                                   np.int32(pyr.levels)))
+                if seeded:
+                    seed_rows, seed_cols = (seed_extent(n) for n in (rows, cols))
+                    seeder = rt.kernel("horizon.cl", "horizon_seeds", defines)
+                    walk.update(seeder=seeder, seed_grid=rt.grid_2d(seeder, seed_cols, seed_rows,
+                                                                    wanted=self.knobs["group"]),
+                                seeds=rt.empty(8 * seed_rows * seed_cols, "horizon seeds"))
+            return walk
 
         def enqueue(azimuth: float, angle: cl.Buffer, svf: cl.Buffer, bounds: tuple[float, float] = ()) -> None:
             ux, uy, _ = Sun(azimuth, 0.0).ray(hm.dx, hm.dy)
             ray = np.array([ux, uy, c, radius], np.float32)
+            if not clamped and min(rows, cols) >= 2 and sweeps(ux, uy, radius):
+                lanes = self.knobs["lanes"]
+                sweeper = rt.kernel("horizon.cl", "horizon_sweep", {**defines, "OCLS_SWEEP": lanes})
+                sweeper.set_args(self.heights_buffer, np.int32(rows), np.int32(cols), ray, angle, svf)
+                cl.enqueue_nd_range_kernel(rt.queue, sweeper, *rt.grid_2d(sweeper, -(-cols // lanes), rows,
+                                                                          wanted=self.knobs["group"]))
+                return
+            w = walker()
             if seeded:
-                seeder.set_args(*fixed, ray, seeds)
-                cl.enqueue_nd_range_kernel(rt.queue, seeder, seed_gsize, seed_lsize)
-            kernel.set_args(*fixed, ray, angle, svf, seeds if seeded else self._dummy, cell,
-                            *([np.array(bounds, np.float32)] if bounds else []))
-            cl.enqueue_nd_range_kernel(rt.queue, kernel, gsize, lsize)
+                w["seeder"].set_args(*w["fixed"], ray, w["seeds"])
+                cl.enqueue_nd_range_kernel(rt.queue, w["seeder"], *w["seed_grid"])
+            w["kernel"].set_args(*w["fixed"], ray, angle, svf, w["seeds"] if seeded else self._dummy, cell,
+                                 *([np.array(bounds, np.float32)] if bounds else []))
+            cl.enqueue_nd_range_kernel(rt.queue, w["kernel"], *w["grid"])
 
         return enqueue
+
+
+def sweeps(ux: float, uy: float, radius: float) -> bool:
+    """Whether a ray (cells per metre ``ux``, ``uy``, as float32 values) within the search radius
+    ``radius`` (metres, float32; 0: none) takes the sweep: it crosses at most :data:`SWEEP_CELLS`
+    patch columns and rows there (host/src/horizon.c computes the same float64 product)."""
+    return radius > 0.0 and radius * (abs(ux) + abs(uy)) <= SWEEP_CELLS
 
 
 def seed_extent(n: int) -> int:
@@ -283,21 +326,26 @@ def seed_extent(n: int) -> int:
 
 def _smoke(rt: Runtime, knobs: tuning.Values) -> None:
     hm = Heightmap.from_array(tuning.standard_heightmap(64).heights[:, :45], cellsize=30.0)
-    for radius in (None, 600.0):      # both builds: the whole map and a search radius
+    for radius in (None, 600.0, 3000.0):   # the whole map, the sweep (20 cells), a walk within a radius
         HorizonCaster(hm, rt, max_distance=radius, cache=False, knobs=knobs).horizons([37.0, 200.0])
 
 
 def _workload(rt: Runtime, knobs: tuning.Values, quick: bool) -> Callable[[], None]:
     # 1024^2 and 4 azimuths, a few seconds a run: at 2048^2 and 8 azimuths (30-40 s a run on a
     # 2-core Xeon) the full tuner's rotation took half an hour for this family alone
-    caster = HorizonCaster(tuning.standard_heightmap(512 if quick else 1024), rt, cache=False, knobs=knobs)
+    # and the sweep (`lanes`): 16 azimuths within 10 cells, about a fifth of the time
+    hm = tuning.standard_heightmap(512 if quick else 1024)
+    caster = HorizonCaster(hm, rt, cache=False, knobs=knobs)
+    near = HorizonCaster(hm, rt, max_distance=300.0, cache=False, knobs=knobs)
     caster.pyramid
-    return lambda: caster.horizons(4)
+    return lambda: (caster.horizons(4), near.horizons(16))
 
 
 #: the horizon kernel's knobs (kernels/horizon.cl)
 TUNING = tuning.register(tuning.Family(
     "horizon",
     (tuning.OWN_BUILTINS_WHERE_CALLED,
-     tuning.Param("group", (16, 64, 256), 64, "work-group size (work-items)")),
+     tuning.Param("group", (16, 64, 256), 64, "work-group size (work-items)"),
+     tuning.Param("lanes", (1, 4, 8, 16), 1, "cells per work-item of the sweep on vector lanes (-D OCLS_SWEEP)",
+                  vector=True, rule="width")),
     ("horizon.cl",), _smoke, _workload, "horizon angles and sky-view factor (issue 19)"))
