@@ -20,16 +20,18 @@ Maps: the generated canyon (``--side``), and the shared SRTM tiles when ``../sha
 is present.  Writes ``horizon_sweep.json`` and ``.md`` to ``--out``.
 
     python bench/horizon_sweep.py --out bench/results
-    python bench/horizon_sweep.py --quick --out /tmp/x      # a check: canyon 96^2, 5 and 60 cells
+    python bench/horizon_sweep.py --quick --out /tmp/x      # a check: canyon 96^2, 5 and 100 cells
 """
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import math
 import sys
 import time
 from pathlib import Path
+from typing import Iterator
 
 import numpy as np
 
@@ -47,46 +49,48 @@ from oclshade.sun import Sun  # noqa: E402
 MODES = {"sweep": math.inf, "walk": 0.0, "default": caster_module.SWEEP_CELLS}
 
 
-def svf_seconds(caster: HorizonCaster, n: int, mode: str) -> tuple[float, np.ndarray]:
-    caster_module.SWEEP_CELLS = MODES[mode]
+@contextlib.contextmanager
+def mode(name: str) -> Iterator[None]:
+    """The hosts' choice as in mode ``name`` (:data:`MODES`) within the block."""
+    caster_module.SWEEP_CELLS = MODES[name]
     try:
+        yield
+    finally:
+        caster_module.SWEEP_CELLS = MODES["default"]
+
+
+def svf_seconds(caster: HorizonCaster, n: int, name: str) -> tuple[float, np.ndarray]:
+    with mode(name):
         start = time.perf_counter()
         svf = caster.sky_view_factor(n, "solid-angle")
         return time.perf_counter() - start, svf
-    finally:
-        caster_module.SWEEP_CELLS = MODES["default"]
-
-
-def angles(caster: HorizonCaster, n: int, mode: str) -> np.ndarray:
-    caster_module.SWEEP_CELLS = MODES[mode]
-    try:
-        return caster.horizons(n)
-    finally:
-        caster_module.SWEEP_CELLS = MODES["default"]
 
 
 def measure(rt: Runtime, hm: Heightmap, radius_cells: float, n: int, reps: int, samples: int,
             with_rvt: bool) -> dict:
     caster = HorizonCaster(hm, rt, cache=False, max_distance=radius_cells * 0.5 * (hm.dx + hm.dy))
-    for mode in MODES:                   # warm-up: the pyramid and every kernel build
-        svf_seconds(caster, 1, mode)
-    seconds: dict[str, list[float]] = {mode: [] for mode in MODES}
+    for name in MODES:                   # warm-up: the pyramid and every kernel build
+        svf_seconds(caster, 1, name)
+    seconds: dict[str, list[float]] = {name: [] for name in MODES}
     svf: dict[str, np.ndarray] = {}
     for _ in range(reps):                # alternate, so that drift hits all alike
-        for mode in MODES:
-            t, svf[mode] = svf_seconds(caster, n, mode)
-            seconds[mode].append(t)
+        for name in MODES:
+            t, svf[name] = svf_seconds(caster, n, name)
+            seconds[name].append(t)
     crossings = [caster.radius * (abs(ux) + abs(uy))
                  for ux, uy, _ in (Sun(float(az), 0.0).ray(hm.dx, hm.dy) for az in azimuth_grid(n))]
-    swept, walked = angles(caster, n, "sweep"), angles(caster, n, "walk")
+    with mode("sweep"):
+        swept = caster.horizons(n)
+    with mode("walk"):
+        walked = caster.horizons(n)
     differ = (swept != walked) & ~(np.isnan(swept) & np.isnan(walked))
-    checks = {mode: reference_error(hm, a, samples, max_distance=caster.radius)
-              for mode, a in (("sweep", swept), ("walk", walked))}
-    for mode, check in checks.items():
+    checks = {name: reference_error(hm, a, samples, max_distance=caster.radius)
+              for name, a in (("sweep", swept), ("walk", walked))}
+    for name, check in checks.items():
         if check["outside_band"]:
-            raise SystemExit(f"{mode}: {check['outside_band']} angles outside the float32 band "
+            raise SystemExit(f"{name}: {check['outside_band']} angles outside the float32 band "
                              f"(max {check['max_abs_deg']:.3g} deg) on {hm.shape}, R {radius_cells} cells")
-    best = {mode: min(s) for mode, s in seconds.items()}
+    best = {name: min(s) for name, s in seconds.items()}
     row = {"radius_cells": radius_cells, "radius_m": caster.radius, "azimuths": n,
            "crossings_mean": float(np.mean(crossings)), "crossings_max": float(np.max(crossings)),
            "swept_azimuths": int(sum(c <= MODES["default"] for c in crossings)),
@@ -142,12 +146,12 @@ def main() -> None:
     ap.add_argument("--reps", type=int, default=3)
     ap.add_argument("--samples", type=int, default=300, help="cells checked against the float64 reference")
     ap.add_argument("--no-rvt", action="store_true", help="leave RVT out")
-    ap.add_argument("--quick", action="store_true", help="smoke run: a 96^2 canyon, 5 and 60 cells, 4 azimuths, "
+    ap.add_argument("--quick", action="store_true", help="smoke run: a 96^2 canyon, 5 and 100 cells, 4 azimuths, "
                     "1 rep, 20 cells")
     ap.add_argument("--out", type=Path, required=True)
     args = ap.parse_args()
     if args.quick:
-        args.maps, args.side, args.radii, args.azimuths, args.reps, args.samples = "canyon", 96, "5,60", 4, 1, 20
+        args.maps, args.side, args.radii, args.azimuths, args.reps, args.samples = "canyon", 96, "5,100", 4, 1, 20
     keys = tuple(k.strip() for k in args.maps.split(",") if k.strip())
     unknown = [k for k in keys if k not in MAP_KEYS]
     if unknown:

@@ -615,12 +615,8 @@ __kernel void horizon_sweep(__global const float *h, const int H, const int W, c
     int dc = r.sx < 0 ? -1 : 0, dr = r.sy < 0 ? -1 : 0;     /* the patch, from the cell */
     ocls_floatv best = (ocls_floatv)(-INFINITY), t_at;
     for (float t = 0.0f; t < R;) {
-        /* exit_t from patch (i + dr, j + dc) of every lane */
-        const float tx = r.sx ? (float)(r.sx > 0 ? dc + 1 : dc) * r.ix : INFINITY;
-        const float ty = r.sy ? (float)(r.sy > 0 ? dr + 1 : dr) * r.iy : INFINITY;
-        const int corner = r.sx && r.sy && fabs(tx - ty) <= OCLS_CORNER_EPS * fmax(tx, ty);
-        const int via_x = corner || tx < ty, via_y = corner || ty < tx;
-        const float t_out = fmin(tx, ty), t_end = fmin(t_out, R);
+        int via_x, via_y;                                   /* the exit from patch (i + dr, j + dc) of every lane */
+        const float t_out = exit_t(&r, dr, dc, 1, &via_x, &via_y), t_end = fmin(t_out, R);
         const int pr = i + dr, pc = jc + dc;               /* lane k: patch (pr, pc + k) */
         ocls_floatv h00, h01, h10, h11, patch;
         if (r.on_row || r.on_col) {

@@ -19,7 +19,9 @@ import pyopencl as cl
 import pytest
 
 from oclshade.heightmap import Heightmap
-from oclshade.horizon import Curvature, HorizonCaster
+from oclshade.horizon import Curvature, HorizonCaster, azimuth_grid
+from oclshade.horizon.caster import sweeps
+from oclshade.sun import Sun
 from oclshade.sunshine import SunshineCaster
 
 from test_host_api import host, run_program  # noqa: F401  (the session build of host/)
@@ -100,7 +102,7 @@ def test_c_sunshine_equals_python(host: dict, tmp_path: Path, case: str, azimuth
 
 
 @pytest.mark.parametrize("definition,curved,radius_cells", [(1, False, 0), (2, True, 0), (2, True, 11.5),
-                                                           (1, False, 40.0)])
+                                                           (1, False, 60.0)])
 def test_c_horizons_and_svf_equal_python(host: dict, tmp_path: Path, definition: int, curved: bool,
                                          radius_cells: float) -> None:
     hm = generated_map(*MAPS["holes"])
@@ -112,6 +114,9 @@ def test_c_horizons_and_svf_equal_python(host: dict, tmp_path: Path, definition:
     run_program(host, "host_passes", "horizon", tmp_path, heights_file(tmp_path, hm), rows, cols, repr(hm.dx),
                 repr(hm.dy), repr(coefficient), definition, n, repr(max_distance or 0.0))
     caster = HorizonCaster(hm, curvature=curvature, max_distance=max_distance, cache=False)
+    if radius_cells == 60.0:     # both within a radius: the sweep near the axes, the walk on the diagonals
+        swept = [sweeps(*Sun(float(az), 0.0).ray(hm.dx, hm.dy)[:2], caster.radius) for az in azimuth_grid(n)]
+        assert any(swept) and not all(swept)
     angles = caster.horizons(n)
     for k in range(n):
         assert np.fromfile(tmp_path / f"angle_{k}.f32", np.float32).tobytes() == angles[k].tobytes(), k
