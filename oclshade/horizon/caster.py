@@ -25,6 +25,7 @@ float64 twin: :func:`oclshade.reference.horizon_angles`.
 """
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import Callable, Iterator, Mapping, Sequence
@@ -264,7 +265,7 @@ class HorizonCaster:
         (``horizon_cells``); with a search radius the sweep (``horizon_sweep``) where :func:`sweeps`,
         else the cells' walk alone, as with ``OCLS_CLAMP`` among the outputs (then ``enqueue`` takes
         the (lo, hi) tangents; kernels/horizon.cl, "Seeds" and "The sweep").  The pyramid and the
-        walk's kernels are made at the first azimuth that walks."""
+        walk's kernels are made at the first azimuth that walks, the sweep's at the first it sweeps."""
         rt, hm = self.runtime, self.heightmap
         rows, cols = hm.shape
         defines = {**outputs, "OCLS_CURVATURE": self.curvature is not None,
@@ -274,32 +275,34 @@ class HorizonCaster:
         c, radius = self.coefficient, self.radius or 0.0
         clamped = bool(outputs.get("OCLS_CLAMP"))
         seeded = not clamped and self.radius is None
-        walk: dict[str, object] = {}
-
+        @functools.cache
         def walker() -> dict[str, object]:
-            if not walk:
-                pyr = self.pyramid
-                kernel = rt.kernel("horizon.cl", "horizon_cells", defines)
-                walk.update(kernel=kernel, grid=rt.grid_2d(kernel, cols, rows, wanted=self.knobs["group"]),
-                            fixed=(pyr.heights, np.int32(rows), np.int32(cols), pyr.buffer, pyr.offsets,
-                                   np.int32(pyr.levels)))
-                if seeded:
-                    seed_rows, seed_cols = (seed_extent(n) for n in (rows, cols))
-                    seeder = rt.kernel("horizon.cl", "horizon_seeds", defines)
-                    walk.update(seeder=seeder, seed_grid=rt.grid_2d(seeder, seed_cols, seed_rows,
-                                                                    wanted=self.knobs["group"]),
-                                seeds=rt.empty(8 * seed_rows * seed_cols, "horizon seeds"))
+            pyr = self.pyramid
+            kernel = rt.kernel("horizon.cl", "horizon_cells", defines)
+            walk = {"kernel": kernel, "grid": rt.grid_2d(kernel, cols, rows, wanted=self.knobs["group"]),
+                    "fixed": (pyr.heights, np.int32(rows), np.int32(cols), pyr.buffer, pyr.offsets,
+                              np.int32(pyr.levels))}
+            if seeded:
+                seed_rows, seed_cols = (seed_extent(n) for n in (rows, cols))
+                seeder = rt.kernel("horizon.cl", "horizon_seeds", defines)
+                walk.update(seeder=seeder, seed_grid=rt.grid_2d(seeder, seed_cols, seed_rows,
+                                                                wanted=self.knobs["group"]),
+                            seeds=rt.empty(8 * seed_rows * seed_cols, "horizon seeds"))
             return walk
+
+        @functools.cache
+        def sweeper() -> tuple[cl.Kernel, tuple]:
+            lanes = self.knobs["lanes"]
+            kernel = rt.kernel("horizon.cl", "horizon_sweep", {**defines, "OCLS_SWEEP": lanes})
+            return kernel, rt.grid_2d(kernel, -(-cols // lanes), rows, wanted=self.knobs["group"])
 
         def enqueue(azimuth: float, angle: cl.Buffer, svf: cl.Buffer, bounds: tuple[float, float] = ()) -> None:
             ux, uy, _ = Sun(azimuth, 0.0).ray(hm.dx, hm.dy)
             ray = np.array([ux, uy, c, radius], np.float32)
             if not clamped and min(rows, cols) >= 2 and sweeps(ux, uy, radius):
-                lanes = self.knobs["lanes"]
-                sweeper = rt.kernel("horizon.cl", "horizon_sweep", {**defines, "OCLS_SWEEP": lanes})
-                sweeper.set_args(self.heights_buffer, np.int32(rows), np.int32(cols), ray, angle, svf)
-                cl.enqueue_nd_range_kernel(rt.queue, sweeper, *rt.grid_2d(sweeper, -(-cols // lanes), rows,
-                                                                          wanted=self.knobs["group"]))
+                kernel, grid = sweeper()
+                kernel.set_args(self.heights_buffer, np.int32(rows), np.int32(cols), ray, angle, svf)
+                cl.enqueue_nd_range_kernel(rt.queue, kernel, *grid)
                 return
             w = walker()
             if seeded:
