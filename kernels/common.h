@@ -67,6 +67,19 @@ __constant sampler_t ocls_texel = CLK_NORMALIZED_COORDS_FALSE | CLK_ADDRESS_NONE
 /* Rows/cols of pyramid level l for a base grid of n0 rows (or cols): ceil(n0 / 2^l). */
 OCLS_INLINE int ocls_level_extent(int n0, int l) { return ((n0 - 1) >> l) + 1; }
 
+/* sums[idx] += term as a Kahan summation: sums[idx] is (sum, compensation), so the sum's rounding
+ * does not grow with the number of terms (Kahan 1965; horizon.cl's sky-view sums, sunshine.cl's
+ * beam sums) */
+OCLS_INLINE void ocls_kahan_add(__global float2 *sums, int idx, float term)
+{
+    float2 acc = sums[idx];
+    const float y = term - acc.y;          /* the term less the last rounding */
+    const float s = acc.x + y;
+    acc.y = (s - acc.x) - y;
+    acc.x = s;
+    sums[idx] = acc;
+}
+
 /* Height sample (r, c) of an H x W map; NaN outside the map. */
 OCLS_INLINE float ocls_sample(OCLS_HEIGHTS h, int H, int W, int r, int c)
 {

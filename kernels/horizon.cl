@@ -344,12 +344,7 @@ OCLS_INLINE void store_outputs(__global float *angle, __global float2 *svf, int 
 #else
     const float term = tp / sqrt(1.0f + tp * tp);
 #endif
-    float2 acc = svf[idx];
-    const float y = term - acc.y;                      /* Kahan: the term less the last rounding */
-    const float s = acc.x + y;
-    acc.y = (s - acc.x) - y;
-    acc.x = s;
-    svf[idx] = acc;
+    ocls_kahan_add(svf, idx, term);
 #endif
 }
 

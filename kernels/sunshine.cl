@@ -73,15 +73,7 @@ OCLS_INLINE void accumulate(__global const float *h, int H, int W, int i, int j,
     if (shadow) cast[idx] += weight;
 #endif
 #ifdef OCLS_OUT_BEAM
-    if (direct) {
-        const float term = hours * (v / sqrt(1.0f + g.x * g.x + g.y * g.y));
-        float2 acc = beam[idx];
-        const float y = term - acc.y;     /* Kahan: the term less the last rounding */
-        const float t = acc.x + y;
-        acc.y = (t - acc.x) - y;
-        acc.x = t;
-        beam[idx] = acc;
-    }
+    if (direct) ocls_kahan_add(beam, idx, hours * (v / sqrt(1.0f + g.x * g.x + g.y * g.y)));
 #endif
 }
 

@@ -151,7 +151,7 @@ class HorizonCaster:
     @property
     def heights_buffer(self) -> cl.Buffer:
         """The relative float32 heights on the device: the pyramid's once it is built, else a copy
-        of its own (the sweep needs no pyramid)."""
+        of its own (the sweep needs no pyramid; dropped when a walk builds the pyramid)."""
         if self._pyramid is not None:
             return self._pyramid.heights
         if self._heights is None:
@@ -275,9 +275,11 @@ class HorizonCaster:
         c, radius = self.coefficient, self.radius or 0.0
         clamped = bool(outputs.get("OCLS_CLAMP"))
         seeded = not clamped and self.radius is None
+
         @functools.cache
         def walker() -> dict[str, object]:
             pyr = self.pyramid
+            self._heights = None             # a sweep's own copy: the pyramid's heights from now on
             kernel = rt.kernel("horizon.cl", "horizon_cells", defines)
             walk = {"kernel": kernel, "grid": rt.grid_2d(kernel, cols, rows, wanted=self.knobs["group"]),
                     "fixed": (pyr.heights, np.int32(rows), np.int32(cols), pyr.buffer, pyr.offsets,
