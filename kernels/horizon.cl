@@ -201,14 +201,7 @@ typedef struct {
 #elif OCLS_LANES == 4 || OCLS_LANES == 8 || OCLS_LANES == 16
 #define ocls_floatv OCLS_CAT(float, OCLS_LANES)
 #define ocls_intv OCLS_CAT(int, OCLS_LANES)
-#if defined(OCLS_OWN_BUILTINS) && defined(__clang__)
-/* an unaligned vector load (common.h's ocls_own_vloadN assembles the lanes one by one: the sweep
- * took 1.6x as long with it on a Zen 1) */
-typedef float ocls_floatv_u __attribute__((ext_vector_type(OCLS_LANES), aligned(4)));
-#define OCLS_ROW_LOAD(p) ((ocls_floatv)(*(__global const ocls_floatv_u *)(p)))
-#else
 #define OCLS_ROW_LOAD(p) OCLS_LANE_FN(vload, OCLS_LANES)(0, p)
-#endif
 #else
 #error "OCLS_SWEEP (lanes) must be 1, 4, 8 or 16"
 #endif

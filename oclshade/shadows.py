@@ -513,7 +513,7 @@ TUNING = tuning.register(tuning.Family(
     (tuning.Param("lanes", (0, 4, 8, 16), 0, "rays per work-item on vector lanes, exact / maxmip "
                   "(-D OCLS_LANES; 0 = one ray per work-item, shadow_cells)", vector=True,
                   rule="width"),
-     tuning.OWN_BUILTINS,
+     tuning.OWN_BUILTINS_WHERE_CALLED,
      tuning.Param("cert_tile", (16, 32, 64), CERT_TILE, "cells per side of a far-field certificate tile "
                   "(-D OCLS_CERT, exact and maxmip)"),
      tuning.Param("run", (16, 64, 256, 1024), 1024, "cells per packet work-item (-D OCLS_PACKET)"),

@@ -438,7 +438,8 @@ def _workload(rt: Runtime, knobs: tuning.Values, quick: bool) -> Callable[[], No
 #: the SSAO pass's knobs (kernels/ssao.cl)
 TUNING = tuning.register(tuning.Family(
     "ssao",
-    (tuning.Param("lanes", (4, 8, 16), 8, "pixels per work-item on vector lanes (-D OCLS_SSAO_LANES)", vector=True),
+    (tuning.Param("lanes", (4, 8, 16), 8, "pixels per work-item on vector lanes (-D OCLS_SSAO_LANES)", vector=True,
+                  rule="wider"),
      tuning.Param("group", (16, 64, 256), 64, "work-group size (work-items)"),
      tuning.OWN_BUILTINS),
     ("ssao.cl",), _smoke, _workload, "screen-space ambient occlusion (paper 001)"))

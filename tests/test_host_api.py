@@ -241,14 +241,17 @@ def test_c_error_paths_and_build_options(host: dict) -> None:
     assert tuned == {"lanes": 4, "run": 16, "group": 16}
     # build options: no packets; the handle's (ray packets for exact and maxmip iff lanes > 0);
     # after oclshade_set_tuning(lanes 4, run 16): all the Python host's for the same knobs
-    for prefix, knobs in (("options ", {"lanes": 0, "run": 1024}), ("handle_options ", default),
-                          ("tuned_options ", tuned)):
+    # (the handle's options also inline built-ins where the rule says so: rule_values above)
+    inline = {"own_builtins": rule["own_builtins"]}
+    for prefix, knobs in (("options ", {"lanes": 0, "run": 1024}), ("handle_options ", {**default, **inline}),
+                          ("tuned_options ", {**tuned, **inline})):
         options = [line.split(" ", 3) for line in lines if line.startswith(prefix)]
         assert len(options) == 4 * 7
         for _, method_code, bits, text in options:
             method = METHODS[int(method_code) - 1]
             outputs = tuple(o for bit, (o,) in OUTPUT_BITS.items() if int(bits) & bit)
-            features = ShadowFeatures(method, outputs, lanes=knobs["lanes"], run=knobs["run"])
+            features = ShadowFeatures(method, outputs, lanes=knobs["lanes"], run=knobs["run"],
+                                      own_builtins=bool(knobs.get("own_builtins", 0)))
             python = define_options(features.defines()) + ("-cl-std=CL1.2",)
             assert text == " ".join(python), (prefix, method, outputs)
 

@@ -81,16 +81,24 @@ class FakeDriver:
     ("OpenCL 3.0 CUDA", "3.0.1", 0)])                                                      # not PoCL
 def test_inline_builtins_follow_the_driver_that_leaves_them_as_calls(version, driver, inline):
     """The rule turns own_builtins on, on PoCL 3.0's CPU devices, for the families that declare
-    rule="library_calls" (pyramid, terrain, screen_shadows, horizon), and never for the ray
-    packets or SSAO."""
+    rule="library_calls" (pyramid, shadow, terrain, screen_shadows, horizon), and never for SSAO."""
     device = FakeDriver(version, driver)
-    for name in ("pyramid", "terrain", "screen_shadows", "horizon"):
+    for name in ("pyramid", "shadow", "terrain", "screen_shadows", "horizon"):
         assert rule_values(tuning.family(name), device)["own_builtins"] == inline, name
-    for name in ("shadow", "ssao"):
-        assert rule_values(tuning.family(name), device)["own_builtins"] == 0, name
+    assert rule_values(tuning.family("ssao"), device)["own_builtins"] == 0
     gpu = FakeDriver(version, driver, cl.device_type.GPU)
     assert rule_values(tuning.family("terrain"), gpu)["own_builtins"] == 0
 
+
+
+@pytest.mark.parametrize("target,lanes", [("penryn", 8), ("haswell", 8), ("znver3", 8), ("skylake-avx512", 16),
+                                          ("rocketlake", 16)])
+def test_ssao_lanes_follow_the_target_only_upwards(target, lanes):
+    """SSAO's lanes (rule="wider") are 16 on AVX-512 targets and never below their safe 8."""
+    device = FakeDriver(f"OpenCL 3.0 PoCL HSTR: pthread-x86_64-pc-linux-gnu-{target}", "3.1+debian")
+    assert rule_values(tuning.family("ssao"), device)["lanes"] == lanes
+    gpu = FakeDriver("OpenCL 3.0 CUDA", "580", cl.device_type.GPU)
+    assert rule_values(tuning.family("ssao"), gpu)["lanes"] == 8
 
 def test_lookup_order_user_then_shipped_then_rule(cache, monkeypatch):
     rt = get_runtime()

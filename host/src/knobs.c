@@ -9,11 +9,12 @@
 /* ------------------------------------------------------------------ knobs */
 
 /* What the rule sets a knob to (params.py Param.rule). */
-enum { RULE_SAFE, RULE_WIDTH, RULE_LIBRARY_CALLS };
+enum { RULE_SAFE, RULE_WIDTH, RULE_WIDER, RULE_LIBRARY_CALLS };
 
 /* The knobs of the Python host's tuning families the C host has (the TUNING of each oclshade module):
  * legal values, safe value, and the rule that sets it for a device without an entry:
  * RULE_WIDTH (rule="width"): on a CPU the widest legal value in 4..lanes;
+ * RULE_WIDER (rule="wider"): the same where it exceeds the safe value, else the safe value;
  * RULE_LIBRARY_CALLS (rule="library_calls"): 1 where the driver leaves built-ins as calls. */
 typedef struct knob_def {
     const char *family, *name;
@@ -27,7 +28,7 @@ static const knob_def KNOBS[N_KNOBS] = {
     [K_PYRAMID_BASE_LANES] = {"pyramid", "base_lanes", 4, {1, 4, 8, 16}, 1, RULE_WIDTH},
     [K_PYRAMID_OWN_BUILTINS] = {"pyramid", "own_builtins", 2, {0, 1}, 0, RULE_LIBRARY_CALLS},
     [K_SHADOW_LANES] = {"shadow", "lanes", 4, {0, 4, 8, 16}, 0, RULE_WIDTH},
-    [K_SHADOW_OWN_BUILTINS] = {"shadow", "own_builtins", 2, {0, 1}, 0, RULE_SAFE},
+    [K_SHADOW_OWN_BUILTINS] = {"shadow", "own_builtins", 2, {0, 1}, 0, RULE_LIBRARY_CALLS},
     [K_SHADOW_CERT_TILE] = {"shadow", "cert_tile", 3, {16, 32, 64}, 16, RULE_SAFE},
     [K_SHADOW_RUN] = {"shadow", "run", 4, {16, 64, 256, 1024}, 1024, RULE_SAFE},
     [K_SHADOW_GROUP] = {"shadow", "group", 3, {16, 64, 256}, 64, RULE_SAFE},
@@ -37,7 +38,7 @@ static const knob_def KNOBS[N_KNOBS] = {
     [K_TERRAIN_OWN_BUILTINS] = {"terrain", "own_builtins", 2, {0, 1}, 0, RULE_LIBRARY_CALLS},
     [K_PIXELS_GROUP] = {"screen_shadows", "group", 3, {16, 64, 256}, 64, RULE_SAFE},
     [K_PIXELS_OWN_BUILTINS] = {"screen_shadows", "own_builtins", 2, {0, 1}, 0, RULE_LIBRARY_CALLS},
-    [K_SSAO_LANES] = {"ssao", "lanes", 3, {4, 8, 16}, 8, RULE_SAFE},
+    [K_SSAO_LANES] = {"ssao", "lanes", 3, {4, 8, 16}, 8, RULE_WIDER},
     [K_SSAO_GROUP] = {"ssao", "group", 3, {16, 64, 256}, 64, RULE_SAFE},
     [K_SSAO_OWN_BUILTINS] = {"ssao", "own_builtins", 2, {0, 1}, 0, RULE_SAFE},
     [K_HORIZON_GROUP] = {"horizon", "group", 3, {16, 64, 256}, 64, RULE_SAFE},
@@ -48,7 +49,7 @@ static const knob_def KNOBS[N_KNOBS] = {
 /* oclshade/tuning/rules.py TARGET_FLOAT_LANES: float lanes of the LLVM CPU target PoCL names in
  * CL_DEVICE_VERSION ("HSTR: pthread-x86_64-...-haswell"); the first row that matches wins. */
 static const struct { cl_uint lanes; const char *names; } TARGET_FLOAT_LANES[] = {
-    {16, "avx512 cascadelake cooperlake cannonlake icelake tigerlake sapphirerapids graniterapids "
+    {16, "avx512 cascadelake cooperlake cannonlake icelake tigerlake rocketlake sapphirerapids graniterapids "
          "emeraldrapids znver4 znver5 x86-64-v4"},
     {8, "haswell broadwell skylake alderlake raptorlake meteorlake arrowlake lunarlake sandybridge ivybridge "
         "znver1 znver2 znver3 bdver btver2 x86-64-v3"},
@@ -105,7 +106,7 @@ cl_int ocls_rule_values(cl_device_id device, int values[N_KNOBS])
     const int calls = builtins_are_calls(device, type);
     for (int k = 0; k < N_KNOBS; ++k) {
         if (KNOBS[k].rule == RULE_LIBRARY_CALLS) values[k] = calls;
-        if (KNOBS[k].rule != RULE_WIDTH) continue;
+        if (KNOBS[k].rule != RULE_WIDTH && KNOBS[k].rule != RULE_WIDER) continue;
         int best = -1, least = KNOBS[k].legal[0];
         for (int i = 0; i < KNOBS[k].nlegal; ++i) {
             const int v = KNOBS[k].legal[i];
@@ -113,6 +114,7 @@ cl_int ocls_rule_values(cl_device_id device, int values[N_KNOBS])
             if (v < least) least = v;
         }
         values[k] = best > 0 ? best : least;
+        if (KNOBS[k].rule == RULE_WIDER && values[k] < KNOBS[k].safe) values[k] = KNOBS[k].safe;
     }
     return CL_SUCCESS;
 }

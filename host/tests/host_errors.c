@@ -374,6 +374,8 @@ int main(int argc, char **argv)
     const oclshade_tuning scalar = {0, 1024, 256};
     st = oclshade_set_tuning(lib, &scalar);
     expect_status(lib, st, OCLSHADE_OK, "", "set_tuning: lanes 0");
+    /* the rule inlines built-ins on PoCL 3.0 (-DOCLS_OWN_BUILTINS), which the plain options do not have */
+    expect(oclshade_set_knob(lib, "shadow", "own_builtins", 0) == OCLSHADE_OK, "set_knob shadow own_builtins 0", "");
     char plain[256];
     oclshade_shadow_build_options_for(lib, OCLSHADE_MAXMIP, 7, opts, sizeof opts);
     oclshade_shadow_build_options(OCLSHADE_MAXMIP, 7, plain, sizeof plain);
@@ -677,10 +679,11 @@ int main(int argc, char **argv)
     expect_status(fresh, st, OCLSHADE_INVALID_ARGUMENT, "in_place chooses how the Python host", "set_knob: pyramid in_place");
     st = oclshade_set_knob(fresh, "roofline", "lanes", 1);
     expect_status(fresh, st, OCLSHADE_INVALID_ARGUMENT, "family must be one of pyramid, shadow", "set_knob: unknown family");
+    int before = 0, value = 0;
+    expect(oclshade_get_knob(fresh, "ssao", "lanes", &before) == OCLSHADE_OK, "get_knob ssao lanes", "");
     st = oclshade_set_knob(fresh, "ssao", "lanes", 2);
     expect_status(fresh, st, OCLSHADE_INVALID_ARGUMENT, "knob ssao lanes must be 4, 8 or 16, got 2", "set_knob: bad value");
-    int value = 0;
-    expect(oclshade_get_knob(fresh, "ssao", "lanes", &value) == OCLSHADE_OK && value == 8,
+    expect(oclshade_get_knob(fresh, "ssao", "lanes", &value) == OCLSHADE_OK && value == before,
            "set_knob: a rejected value changes nothing", "");
     expect(oclshade_set_knob(fresh, "terrain", "descend", 5) == OCLSHADE_OK &&
            oclshade_get_knob(fresh, "terrain", "descend", &value) == OCLSHADE_OK && value == 5, "set_knob, get_knob", "");

@@ -28,7 +28,7 @@ FAMILY_MODULES = ("oclshade.pyramid", "oclshade.shadows", "oclshade.terrain", "o
 
 
 #: the rules a knob can follow (Param.rule; oclshade/tuning/rules.py applies them)
-RULES = ("safe", "width", "host_memory", "library_calls")
+RULES = ("safe", "width", "wider", "host_memory", "library_calls")
 
 
 @dataclass(frozen=True)
@@ -44,7 +44,7 @@ class Param:
     vector: bool = False
     #: what the rule from device properties sets it to (oclshade/tuning/rules.py): "safe" (its
     #: safe value), "width" (a lane count: the compiler target's float vector width on CPUs),
-    #: "host_memory" (1 on CPU devices that share the host's memory) or "library_calls" (1 on
+    #: "wider" (the same where it is wider than the safe value, else the safe value), "host_memory" (1 on CPU devices that share the host's memory) or "library_calls" (1 on
     #: drivers that leave the built-ins as library calls: PoCL 3.0's CPU devices)
     rule: str = "safe"
 
@@ -71,8 +71,9 @@ OWN_BUILTINS = Param("own_builtins", (0, 1), 0, "inline built-ins (-D OCLS_OWN_B
                      vector=True)
 #: the same knob for the families whose kernels gained from it on every CPU measured with PoCL 3.0
 #: (pyramid, terrain, screen_shadows, horizon: the tuner chose it on a Zen 1, a Zen 3 and an
-#: AVX-512 Xeon, docs/tuning.md "The rule"); the rule turns it on there.  The ray packets (mixed:
-#: 16-lane packets lost) and SSAO (lost on all three) keep OWN_BUILTINS.
+#: AVX-512 Xeon; the ray packets 1.30-1.34x faster on a Rocket Lake Xeon once common.h's lane loads
+#: and stores became vector accesses, docs/tuning.md "The rule"); the rule turns it on there.
+#: SSAO (lost or even on four CPUs) keeps OWN_BUILTINS.
 OWN_BUILTINS_WHERE_CALLED = replace(OWN_BUILTINS, rule="library_calls")
 
 

@@ -7,15 +7,18 @@ than the target's are split by the compiler and ran 2.6-3.2x slower than
 one ray per work-item on an AVX2 Zen 2 (16 lanes on znver2), 5-7x slower on
 a Zen 3 (16 lanes on znver3).  So on a CPU the ray-packet and
 pyramid lane knobs follow :func:`float_lanes` (below 4: no packets).  The
-SSAO kernel keeps its 8 lanes everywhere (its safe value): 4 lanes were 11 %
-slower than 8 on an SSE4.1 target and 16 were 40 % slower on AVX2
-(bench/results/tuning_variants_*.md).  Inline built-ins (kernels/common.h)
-are on where the driver leaves the built-ins as library calls, PoCL 3.0 (the
-PyPI wheel: its kernel target and its built-in library's differ, and LLVM does
-not inline across them), for the families whose knob says rule="library_calls":
-the tuner chose them there on all three CPUs measured (pyramid, terrain and
-per-pixel shadows 11-22 % faster, horizons 1.45x on a Zen 1); the ray packets
-and SSAO keep them off (mixed, or slower).  On other
+SSAO kernel's lanes follow it only upwards (rule="wider": 16 on AVX-512
+targets, else its safe 8): 4 lanes were 11 % slower than 8 on an SSE4.1
+target, 16 were 40 % slower on AVX2 (Zen 3) and 13-26 % faster on the
+AVX-512 targets of two Xeons (bench/results/tuning_variants_*.md).  Inline
+built-ins (kernels/common.h) are on where the driver leaves the built-ins as
+library calls, PoCL 3.0 (the PyPI wheel: its kernel target and its built-in
+library's differ, and LLVM does not inline across them), for the families
+whose knob says rule="library_calls": the tuner chose them there on all
+three CPUs measured (pyramid, terrain and per-pixel shadows 11-22 % faster,
+horizons 1.45x on a Zen 1), and the ray packets gained 1.30-1.34x on a
+Rocket Lake Xeon once common.h's lane loads and stores were vector accesses
+instead of per-lane loops; SSAO keeps them off (even, or slower).  On other
 devices (GPUs) the hardware runs work-items in lockstep already: the scalar
 kernels.  A probe (oclshade.tuning.probe) still checks the rule's choice
 builds and runs before it is used.
@@ -32,8 +35,8 @@ from .params import Family, Values
 #: compiles for an older target (Debian's 3.1 with POCL_KERNELLIB_NAME=sse41 targets penryn
 #: on an AVX2 host and still says 8), and the PyPI wheel targets znver3 on an AVX-512 Zen 4.
 TARGET_FLOAT_LANES = (
-    (16, ("avx512", "cascadelake", "cooperlake", "cannonlake", "icelake", "tigerlake", "sapphirerapids",
-          "graniterapids", "emeraldrapids", "znver4", "znver5", "x86-64-v4")),
+    (16, ("avx512", "cascadelake", "cooperlake", "cannonlake", "icelake", "tigerlake", "rocketlake",
+          "sapphirerapids", "graniterapids", "emeraldrapids", "znver4", "znver5", "x86-64-v4")),
     (8, ("haswell", "broadwell", "skylake", "alderlake", "raptorlake", "meteorlake", "arrowlake", "lunarlake",
          "sandybridge", "ivybridge", "znver1", "znver2", "znver3", "bdver", "btver2", "x86-64-v3")),
     (4, ("penryn", "nehalem", "westmere", "core2", "bonnell", "silvermont", "goldmont", "tremont", "athlon",
@@ -78,6 +81,8 @@ def rule_values(family: Family, device: cl.Device) -> Values:
     for p in family.params:
         if p.rule == "width" and is_cpu:
             values[p.name] = _lanes(width, p.values)
+        elif p.rule == "wider" and is_cpu:
+            values[p.name] = max(p.safe, _lanes(width, p.values))
         elif p.rule == "host_memory":
             values[p.name] = int(is_cpu and bool(device.host_unified_memory))
         elif p.rule == "library_calls":
