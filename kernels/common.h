@@ -178,8 +178,10 @@ OCLS_LANE_BUILTINS(4)
 OCLS_LANE_BUILTINS(8)
 OCLS_LANE_BUILTINS(16)
 
-/* any (the sign bit of some lane: halves OR-ed down to one lane), scalar clz (32 for 0, as the
- * specification says) and popcount.  Vector clz stays the library's. */
+/* any (the sign bit of some lane: halves OR-ed down to one lane), clz (32 for 0, as the
+ * specification says) and popcount.  Vector clz reads the exponent of the value converted to
+ * float, which is floor(log2 x) exactly while the conversion is exact (x < 2^24); larger values
+ * are shifted right by 8 first (then exact too).  Negative values have clz 0. */
 OCLS_OVL int ocls_any(int x) { return x < 0; }
 OCLS_OVL int ocls_any(int2 x) { return (x.s0 | x.s1) < 0; }
 OCLS_OVL int ocls_any(int4 x) { return ocls_any(x.lo | x.hi); }
@@ -187,9 +189,16 @@ OCLS_OVL int ocls_any(int8 x) { return ocls_any(x.lo | x.hi); }
 OCLS_OVL int ocls_any(int16 x) { return ocls_any(x.lo | x.hi); }
 OCLS_OVL int ocls_clz(int x) { return x == 0 ? 32 : __builtin_clz((uint)x); }
 OCLS_OVL int ocls_popcount(int x) { return __builtin_popcount((uint)x); }
-OCLS_OVL int4 ocls_clz(int4 x) { return clz(x); }
-OCLS_OVL int8 ocls_clz(int8 x) { return clz(x); }
-OCLS_OVL int16 ocls_clz(int16 x) { return clz(x); }
+#define OCLS_VECTOR_CLZ(I, F)                                                                   \
+    OCLS_OVL I ocls_clz(I x)                                                                    \
+    {                                                                                           \
+        const I big = x >= (1 << 24), y = big ? x >> 8 : x;                                    \
+        const I log2 = (as_##I(__builtin_convertvector(y, F)) >> 23) - 127 + (big & 8);         \
+        return x < 0 ? (I)(0) : (x == 0 ? (I)(32) : 31 - log2);                                 \
+    }
+OCLS_VECTOR_CLZ(int4, float4)
+OCLS_VECTOR_CLZ(int8, float8)
+OCLS_VECTOR_CLZ(int16, float16)
 
 #undef isnan
 #define isnan ocls_isnan
