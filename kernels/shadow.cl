@@ -33,7 +33,10 @@
  *   (CL_R / CL_FLOAT, W x H) and ext an atlas image2d_t (CL_RG or CL_RGBA /
  *   CL_FLOAT, .x max, .y min; level l at columns [0, cols_l), rows from
  *   lvl_off[l]), lvl_off holding atlas rows instead of offsets (layout in
- *   common.h; the Python host's shadow knob "images", oclshade/pyramid_images.py).
+ *   common.h; the Python host's shadow knob "images", oclshade/pyramid_images.py),
+ *   OCLS_HW_GATHER (with OCLS_PACKET and 16 lanes, where clang defines
+ *   __AVX512F__: the packet's lane reads as vgatherdps / vpgatherdd, the same
+ *   values; the shadow knob "gather"; elsewhere no effect).
  *   Same outputs bit for bit: an image texel read at integer coordinates with
  *   nearest filtering is the stored float.
  *
@@ -819,8 +822,12 @@ __kernel void shadow_cells(OCLS_CELLS_PARAMS
 /* start_patch's column for the ray of cell column j (an integer start) */
 OCLS_INLINE int start_col(int j, int east) { return east ? j : j - 1; }
 
-/* base[idx] on the lanes (compilers for AVX2 / AVX-512 emit gather instructions),
- * and the lane numbers 0 .. OCLS_LANES - 1 */
+/* base[idx] on the lanes, and the lane numbers 0 .. OCLS_LANES - 1.  LLVM 15 (Debian's PoCL
+ * 3.1) turns the lane-by-lane reads into gather instructions, LLVM 14 (the PyPI wheel) does
+ * not: -D OCLS_HW_GATHER asks for AVX-512's gathers by name (x86 clang built-ins; the
+ * global pointer goes through an integer because the built-ins take a private one, and CPU
+ * devices have one address space).  Measured 1.19x faster on the packet kernel with the wheel
+ * on a Rocket Lake Xeon (docs/tuning.md). */
 #define OCLS_G4(base, idx, a, b, c, d) (base)[(idx).a], (base)[(idx).b], (base)[(idx).c], (base)[(idx).d]
 #if OCLS_LANES == 4
 #define OCLS_GATHER(T, base, idx) (T)(OCLS_G4(base, idx, s0, s1, s2, s3))
@@ -829,9 +836,19 @@ OCLS_INLINE int start_col(int j, int east) { return east ? j : j - 1; }
 #define OCLS_GATHER(T, base, idx) (T)(OCLS_G4(base, idx, s0, s1, s2, s3), OCLS_G4(base, idx, s4, s5, s6, s7))
 #define OCLS_LANE_IDS ((ocls_intv)(0, 1, 2, 3, 4, 5, 6, 7))
 #else
+#if defined(OCLS_HW_GATHER) && defined(__AVX512F__) && defined(__clang__)
+OCLS_INLINE float16 ocls_gather_f(__global const float *base, int16 idx)
+{ return __builtin_ia32_gathersiv16sf((float16)(0.0f), (const void *)(size_t)base, idx, (ushort)0xffff, 4); }
+OCLS_INLINE int16 ocls_gather_i(__global const int *base, int16 idx)
+{ return __builtin_ia32_gathersiv16si((int16)(0), (const void *)(size_t)base, idx, (ushort)0xffff, 4); }
+#define OCLS_GATHER(T, base, idx) OCLS_CAT(ocls_gather_, OCLS_GATHER_KIND_##T)(base, idx)
+#define OCLS_GATHER_KIND_ocls_floatv f
+#define OCLS_GATHER_KIND_ocls_intv i
+#else
 #define OCLS_GATHER(T, base, idx) \
     (T)(OCLS_G4(base, idx, s0, s1, s2, s3), OCLS_G4(base, idx, s4, s5, s6, s7), \
         OCLS_G4(base, idx, s8, s9, sa, sb), OCLS_G4(base, idx, sc, sd, se, sf))
+#endif
 #define OCLS_LANE_IDS ((ocls_intv)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15))
 #endif
 

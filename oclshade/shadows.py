@@ -103,6 +103,7 @@ class ShadowFeatures:
     lanes: int = 0             # rays per work-item on vector lanes (0: one ray per work-item; tuning knob)
     run: int = 1024            # cells per work-item of the packet kernel (tuning knob)
     own_builtins: bool = False  # inline built-ins (kernels/common.h; tuning knob)
+    gather: bool = False       # the packets' lane reads as AVX-512 gather instructions (tuning knob)
     cert_tile: int = CERT_TILE  # cells per side of a certificate tile (tuning knob)
     curvature: bool = False    # Earth curvature along the rays (the drop per m^2 rides in the ray's 4th value)
     images: bool = False       # heights and pyramid read from images (tuning knob; one-ray kernel only)
@@ -138,6 +139,7 @@ class ShadowFeatures:
             "OCLS_OUT_SELF": "self" in self.outputs,
             "OCLS_OUT_COEF": "coefficient" in self.outputs,
             "OCLS_OWN_BUILTINS": self.own_builtins,
+            "OCLS_HW_GATHER": self.gather and self.packeted,
             "OCLS_CURVATURE": self.curvature,
             "OCLS_IMAGES": self.imaged,
         }
@@ -168,7 +170,8 @@ class ShadowCaster:
     knobs: the ``shadow`` family's tuning values (:data:`TUNING`: ``lanes``, rays
     per work-item on vector lanes for ``exact`` and ``maxmip``, 0 for one ray per
     work-item; ``run``, cells per packet work-item; ``cert_tile``, certificate
-    tile size; ``group``, work-group size; ``own_builtins``; ``images``, heights and
+    tile size; ``group``, work-group size; ``own_builtins``; ``gather``, the packets' lane
+    reads as AVX-512 gather instructions; ``images``, heights and
     pyramid read from OpenCL images by the one-ray kernel), any subset; the rest, or all
     when None, from the device's tuning entry (:func:`oclshade.tuning.settings`).  Results
     never depend on them.
@@ -365,6 +368,7 @@ class ShadowCaster:
     def _features(self, method: str, outs: tuple[str, ...]) -> ShadowFeatures:
         features = ShadowFeatures(method, outs, certificate=self.certificates, lanes=self.knobs["lanes"],
                                   run=self.knobs["run"], own_builtins=bool(self.knobs["own_builtins"]),
+                                  gather=bool(self.knobs["gather"]),
                                   cert_tile=self.knobs["cert_tile"], curvature=self.curvature is not None,
                                   images=bool(self.knobs["images"]))
         if features.imaged and self.pyramid.images() is None:   # the device cannot hold them: buffers
@@ -514,6 +518,9 @@ TUNING = tuning.register(tuning.Family(
                   "(-D OCLS_LANES; 0 = one ray per work-item, shadow_cells)", vector=True,
                   rule="width"),
      tuning.OWN_BUILTINS_WHERE_CALLED,
+     tuning.Param("gather", (0, 1), 0, "the 16-lane packets' reads as AVX-512 gather instructions "
+                  "(-D OCLS_HW_GATHER; where the compiler defines __AVX512F__, else no effect)", vector=True,
+                  rule="library_calls"),
      tuning.Param("cert_tile", (16, 32, 64), CERT_TILE, "cells per side of a far-field certificate tile "
                   "(-D OCLS_CERT, exact and maxmip)"),
      tuning.Param("run", (16, 64, 256, 1024), 1024, "cells per packet work-item (-D OCLS_PACKET)"),

@@ -235,14 +235,14 @@ def test_c_error_paths_and_build_options(host: dict) -> None:
     assert default == {k: rule[k] for k in default}, (default, device)
     # every knob the C host has starts with the Python host's rule for the device
     knobs = [line.split()[1:] for line in lines if line.startswith("default_knob ")]
-    assert len(knobs) == 18
+    assert len(knobs) == 19
     for fam, name, value in knobs:
         assert int(value) == rule_values(family(fam), device)[name], (fam, name)
     assert tuned == {"lanes": 4, "run": 16, "group": 16}
     # build options: no packets; the handle's (ray packets for exact and maxmip iff lanes > 0);
     # after oclshade_set_tuning(lanes 4, run 16): all the Python host's for the same knobs
     # (the handle's options also inline built-ins where the rule says so: rule_values above)
-    inline = {"own_builtins": rule["own_builtins"]}
+    inline = {"own_builtins": rule["own_builtins"], "gather": rule["gather"]}
     for prefix, knobs in (("options ", {"lanes": 0, "run": 1024}), ("handle_options ", {**default, **inline}),
                           ("tuned_options ", {**tuned, **inline})):
         options = [line.split(" ", 3) for line in lines if line.startswith(prefix)]
@@ -251,7 +251,8 @@ def test_c_error_paths_and_build_options(host: dict) -> None:
             method = METHODS[int(method_code) - 1]
             outputs = tuple(o for bit, (o,) in OUTPUT_BITS.items() if int(bits) & bit)
             features = ShadowFeatures(method, outputs, lanes=knobs["lanes"], run=knobs["run"],
-                                      own_builtins=bool(knobs.get("own_builtins", 0)))
+                                      own_builtins=bool(knobs.get("own_builtins", 0)),
+                                      gather=bool(knobs.get("gather", 0)))
             python = define_options(features.defines()) + ("-cl-std=CL1.2",)
             assert text == " ".join(python), (prefix, method, outputs)
 

@@ -19,9 +19,9 @@ LANES = (4, 8, 16)
 
 
 def assert_same_outputs(hm: Heightmap, sun: Sun, lanes: int, certificates: bool = True,
-                        own_builtins: int = 0) -> None:
+                        own_builtins: int = 0, gather: int = 0) -> None:
     packed = ShadowCaster(hm, cache=False, analyse=False, certificates=certificates,
-                          knobs={"lanes": lanes, "run": SHORT_RUN, "own_builtins": own_builtins})
+                          knobs={"lanes": lanes, "run": SHORT_RUN, "own_builtins": own_builtins, "gather": gather})
     single = ShadowCaster(hm, cache=False, analyse=False, certificates=certificates, knobs={"lanes": 0})
     for method in shadows.PACKET_METHODS:
         a = packed.cast(sun, method, "all")
@@ -33,13 +33,13 @@ def assert_same_outputs(hm: Heightmap, sun: Sun, lanes: int, certificates: bool 
 
 @settings(max_examples=120, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(h=terrains(), az=azimuths, alt=elevations, cell=cell_sizes, certificates=st.booleans(),
-       lanes=st.sampled_from(LANES), own_builtins=st.sampled_from((0, 1)))
-def test_packets_equal_single_rays_on_random_maps(h, az, alt, cell, certificates, lanes, own_builtins):
-    assert_same_outputs(Heightmap.from_array(h, cell), Sun(az, alt), lanes, certificates, own_builtins)
+       lanes=st.sampled_from(LANES), own_builtins=st.sampled_from((0, 1)), gather=st.sampled_from((0, 1)))
+def test_packets_equal_single_rays_on_random_maps(h, az, alt, cell, certificates, lanes, own_builtins, gather):
+    assert_same_outputs(Heightmap.from_array(h, cell), Sun(az, alt), lanes, certificates, own_builtins, gather)
 
 
-@pytest.mark.parametrize("lanes,own_builtins", [(4, 0), (8, 1), (16, 0), (0, 1)])
-def test_packets_equal_single_rays_on_a_real_dem_with_holes(lanes, own_builtins):
+@pytest.mark.parametrize("lanes,own_builtins,gather", [(4, 0, 0), (8, 1, 1), (16, 0, 1), (16, 1, 1), (0, 1, 0)])
+def test_packets_equal_single_rays_on_a_real_dem_with_holes(lanes, own_builtins, gather):
     from matplotlib import cbook
 
     data = cbook.get_sample_data("jacksboro_fault_dem.npz")
@@ -48,7 +48,7 @@ def test_packets_equal_single_rays_on_a_real_dem_with_holes(lanes, own_builtins)
     elev[np.random.default_rng(7).random(elev.shape) < 0.01] = np.nan   # scattered holes too
     hm = Heightmap.from_array(elev, (90.0, 90.0))
     for az, alt in [(37.0, 20.0), (135.0, 5.0), (45.0, 10.0), (90.0, 3.0), (250.0, 1.0), (315.0, 60.0)]:
-        assert_same_outputs(hm, Sun(az, alt), lanes, own_builtins=own_builtins)
+        assert_same_outputs(hm, Sun(az, alt), lanes, own_builtins=own_builtins, gather=gather)
 
 
 def test_the_lanes_knob_picks_the_kernel():
@@ -57,6 +57,12 @@ def test_the_lanes_knob_picks_the_kernel():
     # methods without a packet kernel, and profiling builds, trace one ray per work-item
     assert shadows.ShadowFeatures("dda", lanes=8).cells_kernel == "shadow_cells"
     assert shadows.ShadowFeatures("exact", stats=True, lanes=8).cells_kernel == "shadow_cells"
+
+
+def test_gathers_are_asked_for_only_in_packet_builds():
+    assert shadows.ShadowFeatures("exact", lanes=16, gather=True).defines()["OCLS_HW_GATHER"]
+    assert not shadows.ShadowFeatures("exact", lanes=0, gather=True).defines()["OCLS_HW_GATHER"]
+    assert not shadows.ShadowFeatures("dda", lanes=16, gather=True).defines()["OCLS_HW_GATHER"]
 
 
 KNOB_SETS = ([{"run": r, "group": g} for r in shadows.TUNING.param("run").values

@@ -111,7 +111,7 @@ def test_lookup_order_user_then_shipped_then_rule(cache, monkeypatch):
     d = tuning.decide(rt, fam)   # the knobs the entry lacks take the rule's values
     assert d.source == "shipped" and "measured with kernels old" in d.notes
     assert d.values == {**rule_values(fam, rt.device), **shipped}
-    mine = {"lanes": 0, "own_builtins": 1, "cert_tile": 32, "run": 64, "group": 256, "images": 1}
+    mine = {"lanes": 0, "own_builtins": 1, "gather": 1, "cert_tile": 32, "run": 64, "group": 256, "images": 1}
     store.save_user_values(key, fam, mine, {"best_ms": 1.0})
     assert (tuning.decide(rt, fam).values, tuning.decide(rt, fam).source) == (mine, "user")
     # an entry measured with other kernels no longer counts, and says so

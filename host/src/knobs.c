@@ -29,6 +29,7 @@ static const knob_def KNOBS[N_KNOBS] = {
     [K_PYRAMID_OWN_BUILTINS] = {"pyramid", "own_builtins", 2, {0, 1}, 0, RULE_LIBRARY_CALLS},
     [K_SHADOW_LANES] = {"shadow", "lanes", 4, {0, 4, 8, 16}, 0, RULE_WIDTH},
     [K_SHADOW_OWN_BUILTINS] = {"shadow", "own_builtins", 2, {0, 1}, 0, RULE_LIBRARY_CALLS},
+    [K_SHADOW_GATHER] = {"shadow", "gather", 2, {0, 1}, 0, RULE_LIBRARY_CALLS},
     [K_SHADOW_CERT_TILE] = {"shadow", "cert_tile", 3, {16, 32, 64}, 16, RULE_SAFE},
     [K_SHADOW_RUN] = {"shadow", "run", 4, {16, 64, 256, 1024}, 1024, RULE_SAFE},
     [K_SHADOW_GROUP] = {"shadow", "group", 3, {16, 64, 256}, 64, RULE_SAFE},

@@ -95,7 +95,7 @@ oclshade_status oclshade_sun_for(double azimuth, double elevation, double dx, do
 /* oclshade/shadows.py ShadowFeatures.defines for (method, outputs) with these knobs
  * (lanes 0: shadow_cells; packets only for EXACT and MAXMIP). */
 static void shadow_defines(oclshade_method method, unsigned outputs, int lanes, int run, int cert_tile, int own,
-                           ocls_defines *d)
+                           int gather, ocls_defines *d)
 {
     const int packets = lanes > 0 && CERTIFIED(method);
     memset(d, 0, sizeof *d);
@@ -112,6 +112,7 @@ static void shadow_defines(oclshade_method method, unsigned outputs, int lanes, 
     ocls_def_flag(d, "OCLS_OUT_SELF", (outputs & OCLSHADE_OUT_SELF) != 0);
     ocls_def_flag(d, "OCLS_OUT_COEF", (outputs & OCLSHADE_OUT_COEFFICIENT) != 0);
     ocls_def_flag(d, "OCLS_OWN_BUILTINS", own);
+    ocls_def_flag(d, "OCLS_HW_GATHER", gather && packets);
 }
 
 static int method_ok(oclshade_method method) { return method >= OCLSHADE_EXACT && method <= OCLSHADE_DDA; }
@@ -120,7 +121,7 @@ size_t oclshade_shadow_build_options(oclshade_method method, unsigned outputs, c
 {
     if (!method_ok(method) || outputs == 0 || outputs > 7u) return 0;
     ocls_defines d;
-    shadow_defines(method, outputs, 0, 1024, 16, 0, &d);
+    shadow_defines(method, outputs, 0, 1024, 16, 0, 0, &d);
     return ocls_options(&d, buf, size);
 }
 
@@ -128,7 +129,8 @@ size_t oclshade_shadow_build_options(oclshade_method method, unsigned outputs, c
 static void handle_defines(oclshade *lib, oclshade_method method, unsigned outputs, ocls_defines *d)
 {
     shadow_defines(method, outputs, ocls_knob(lib, K_SHADOW_LANES), ocls_knob(lib, K_SHADOW_RUN),
-                   ocls_knob(lib, K_SHADOW_CERT_TILE), ocls_knob(lib, K_SHADOW_OWN_BUILTINS), d);
+                   ocls_knob(lib, K_SHADOW_CERT_TILE), ocls_knob(lib, K_SHADOW_OWN_BUILTINS),
+                   ocls_knob(lib, K_SHADOW_GATHER), d);
 }
 
 size_t oclshade_shadow_build_options_for(const oclshade *clib, oclshade_method method, unsigned outputs, char *buf,

@@ -662,7 +662,7 @@ int main(int argc, char **argv)
     /* ---- knobs: the rule's values (compared with the Python host's by the test), errors */
     static const char *const knob_names[][2] = {
         {"pyramid", "base_lanes"}, {"pyramid", "own_builtins"}, {"shadow", "lanes"}, {"shadow", "run"},
-        {"shadow", "group"}, {"shadow", "cert_tile"}, {"shadow", "own_builtins"}, {"terrain", "descend"},
+        {"shadow", "group"}, {"shadow", "cert_tile"}, {"shadow", "own_builtins"}, {"shadow", "gather"}, {"terrain", "descend"},
         {"terrain", "leaf"}, {"terrain", "group"}, {"terrain", "own_builtins"}, {"screen_shadows", "group"},
         {"screen_shadows", "own_builtins"}, {"ssao", "lanes"}, {"ssao", "group"}, {"ssao", "own_builtins"},
         {"horizon", "group"}, {"horizon", "own_builtins"}};
