@@ -240,7 +240,7 @@ const char *oclshade_program_source(const oclshade *lib, const char *file);
  * (`oclshade devices --json`: [i].tuning.<family>.values.<knob>).  The C host has:
  *   pyramid         base_lanes 1|4|8|16, own_builtins 0|1
  *   shadow          lanes 0|4|8|16, run 16|64|256|1024, group 16|64|256, cert_tile 16|32|64,
- *                   own_builtins 0|1
+ *                   own_builtins 0|1, gather 0|1
  *   terrain         descend 1..5, leaf 0..4, group 16|64|256, own_builtins 0|1
  *   screen_shadows  group 16|64|256, own_builtins 0|1
  *   ssao            lanes 4|8|16, group 16|64|256, own_builtins 0|1
@@ -419,7 +419,7 @@ oclshade_status oclshade_shadows_scratch_size(oclshade *lib, const oclshade_shad
  * lanes knob > 0, EXACT and MAXMIP) of shadow_cells_packet, global size (ceil(cols / run),
  * rows) rounded up.  At least one output buffer must be non-NULL; the program variant
  * compiled is the one for that output set (an output not asked for is not in the
- * program).  Knobs: shadow lanes, run, group, cert_tile, own_builtins. */
+ * program).  Knobs: shadow lanes, run, group, cert_tile, own_builtins, gather. */
 oclshade_status oclshade_enqueue_shadows(oclshade *lib, cl_command_queue queue,
                                          const oclshade_shadow_params *params,
                                          cl_uint num_events_in_wait_list,
