@@ -150,7 +150,8 @@
  *
  * Build options: -D OCLS_OUT_ANGLE, OCLS_OUT_SVF=1|2, OCLS_CURVATURE,
  *   OCLS_MAX_DISTANCE, OCLS_CLAMP, OCLS_SWEEP=1|4|8|16 (a build of horizon_sweep alone; the
- *   others build horizon_seeds and horizon_cells), OCLS_OWN_BUILTINS (common.h) and
+ *   others build horizon_seeds and horizon_cells), OCLS_FORCE_SEED_FALLBACK (tests only: the
+ *   seeded walk's bound is +inf, so every cell takes step 3's walk from -inf), OCLS_OWN_BUILTINS (common.h) and
  *   -cl-std=CL1.2, nothing else (no fast-math); the hosts paste common.h in place of its include.
  */
 #include "common.h"
@@ -521,6 +522,9 @@ __kernel void horizon_cells(__global const float *h, const int H, const int W, _
             lo = fmax(lo, seed_bound(h, H, W, &r, z0, cell, min(qi * OCLS_SEED_STRIDE, H - 1),
                                      min(qj * OCLS_SEED_STRIDE, W - 1), seeds[qi * Ws + qj]));
         }
+#ifdef OCLS_FORCE_SEED_FALLBACK
+    lo = INFINITY;                                     /* tests only: nothing beats it, every cell falls back */
+#endif
     float T = horizon_tan(h, H, W, ext, lvl_off, nlev, &r, z0, lo, INFINITY, &t_best);
     if (T == lo && lo > -INFINITY) T = horizon_tan(h, H, W, ext, lvl_off, nlev, &r, z0, -INFINITY, INFINITY, &t_best);
 #endif

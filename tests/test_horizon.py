@@ -302,6 +302,30 @@ def test_a_radius_beyond_the_map_equals_the_whole_map(make_map, curved, radius):
         assert np.nanmax(np.abs(seeded[k] - expected)) <= ref.angle_tolerance(hm, c)
 
 
+
+@pytest.mark.parametrize("curved", [False, True])
+def test_the_seeds_fallback_is_the_walk_from_nothing(curved, monkeypatch):
+    """Where no tile beats a cell's seed bound (its margin was too thin), the cell walks again
+    from -inf (kernels/horizon.cl, "Seeds", step 3).  Rare in real runs (a few hundred cells in
+    millions), so here a test-only define makes every bound +inf: every cell falls back, and the
+    angles are those of the walk from -inf (a radius beyond the map) bit for bit."""
+    from oclshade.runtime import Runtime
+
+    build, forced = Runtime.kernel, []
+
+    def kernel(self, filename, name, defines=None):
+        if (filename, name) == ("horizon.cl", "horizon_cells") and not (defines or {}).get("OCLS_MAX_DISTANCE"):
+            forced.append(name)
+            defines = {**(defines or {}), "OCLS_FORCE_SEED_FALLBACK": True}
+        return build(self, filename, name, defines)
+
+    monkeypatch.setattr(Runtime, "kernel", kernel)
+    hm, curvature = varied_map(), Curvature() if curved else None
+    fallen_back = HorizonCaster(hm, curvature=curvature).horizons(16)
+    assert forced, "the seeded walk was not built with the fallback forced"
+    from_nothing = HorizonCaster(hm, curvature=curvature, max_distance=1e7).horizons(16)
+    assert np.array_equal(fallen_back, from_nothing, equal_nan=True)
+
 def square_map() -> Heightmap:
     """Square cells (rays at 45 degrees pass every patch corner), holes and an edge-hugging ridge."""
     rng = np.random.default_rng(31)
