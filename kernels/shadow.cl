@@ -837,13 +837,12 @@ OCLS_INLINE int start_col(int j, int east) { return east ? j : j - 1; }
 #define OCLS_LANE_IDS ((ocls_intv)(0, 1, 2, 3, 4, 5, 6, 7))
 #else
 #if defined(OCLS_HW_GATHER) && defined(__AVX512F__) && defined(__clang__)
-OCLS_INLINE float16 ocls_gather_f(__global const float *base, int16 idx)
+#define OCLS_GATHER_OVL static inline __attribute__((overloadable, always_inline))
+OCLS_GATHER_OVL float16 ocls_gather(__global const float *base, int16 idx)
 { return __builtin_ia32_gathersiv16sf((float16)(0.0f), (const void *)(size_t)base, idx, (ushort)0xffff, 4); }
-OCLS_INLINE int16 ocls_gather_i(__global const int *base, int16 idx)
+OCLS_GATHER_OVL int16 ocls_gather(__global const int *base, int16 idx)
 { return __builtin_ia32_gathersiv16si((int16)(0), (const void *)(size_t)base, idx, (ushort)0xffff, 4); }
-#define OCLS_GATHER(T, base, idx) OCLS_CAT(ocls_gather_, OCLS_GATHER_KIND_##T)(base, idx)
-#define OCLS_GATHER_KIND_ocls_floatv f
-#define OCLS_GATHER_KIND_ocls_intv i
+#define OCLS_GATHER(T, base, idx) ocls_gather(base, idx)   /* the overload of base's type is T */
 #else
 #define OCLS_GATHER(T, base, idx) \
     (T)(OCLS_G4(base, idx, s0, s1, s2, s3), OCLS_G4(base, idx, s4, s5, s6, s7), \

@@ -302,7 +302,6 @@ def test_a_radius_beyond_the_map_equals_the_whole_map(make_map, curved, radius):
         assert np.nanmax(np.abs(seeded[k] - expected)) <= ref.angle_tolerance(hm, c)
 
 
-
 @pytest.mark.parametrize("curved", [False, True])
 def test_the_seeds_fallback_is_the_walk_from_nothing(curved, monkeypatch):
     """Where no tile beats a cell's seed bound (its margin was too thin), the cell walks again
@@ -325,6 +324,7 @@ def test_the_seeds_fallback_is_the_walk_from_nothing(curved, monkeypatch):
     assert forced, "the seeded walk was not built with the fallback forced"
     from_nothing = HorizonCaster(hm, curvature=curvature, max_distance=1e7).horizons(16)
     assert np.array_equal(fallen_back, from_nothing, equal_nan=True)
+
 
 def square_map() -> Heightmap:
     """Square cells (rays at 45 degrees pass every patch corner), holes and an edge-hugging ridge."""

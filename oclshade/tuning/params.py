@@ -44,7 +44,8 @@ class Param:
     vector: bool = False
     #: what the rule from device properties sets it to (oclshade/tuning/rules.py): "safe" (its
     #: safe value), "width" (a lane count: the compiler target's float vector width on CPUs),
-    #: "wider" (the same where it is wider than the safe value, else the safe value), "host_memory" (1 on CPU devices that share the host's memory) or "library_calls" (1 on
+    #: "wider" (the same where it is wider than the safe value, else the safe value),
+    #: "host_memory" (1 on CPU devices that share the host's memory) or "library_calls" (1 on
     #: drivers that leave the built-ins as library calls: PoCL 3.0's CPU devices)
     rule: str = "safe"
 
