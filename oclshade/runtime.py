@@ -24,6 +24,7 @@ device says so in one line on stderr (:data:`NOTICES` turns that off).
 """
 from __future__ import annotations
 
+import atexit
 import contextlib
 import functools
 import hashlib
@@ -427,6 +428,16 @@ class Runtime:
 
 _default_lock = threading.Lock()
 _runtimes: dict[int, Runtime] = {}
+
+
+@atexit.register
+def _finish_queued_work() -> None:
+    """At exit, wait for the kernels still queued (e.g. ``HorizonCaster.angles_on_device``
+    returns without waiting): PoCL 3.0 and 3.1 end the process with SIGSEGV when it exits
+    while a kernel runs.  Registered after pyopencl's import, so it runs before pyopencl's
+    own exit handlers."""
+    for rt in list(_runtimes.values()):
+        rt.queue.finish()
 
 
 def get_runtime(device: str | int | Runtime | cl.Device | None = None) -> Runtime:

@@ -116,3 +116,25 @@ def test_share_reads_read_only_arrays_in_place_when_asked_and_copies_otherwise()
         out = np.empty(64, np.float32)
         cl.enqueue_copy(rt.queue, out, buf)
         np.testing.assert_array_equal(out, expected)
+
+
+_EXIT_WITH_KERNELS_RUNNING = """
+from oclshade.heightmap import Heightmap
+from oclshade.horizon import HorizonCaster
+from oclshade.synthetic import canyon_crater
+caster = HorizonCaster(Heightmap.from_array(canyon_crater(2048, 2048, seed=0, relief=1500.0), 30.0))
+caster.horizons(1)
+for azimuth in (37.0, 200.0):
+    list(caster.angles_on_device([azimuth]))     # queued, not waited for, buffers dropped
+print("queued", flush=True)
+"""
+
+
+def test_exit_while_kernels_run_is_clean():
+    """The process ends with work still queued (angles_on_device does not wait): without the
+    runtime's exit handler PoCL ended it with SIGSEGV (rc -11), every time on a 2048^2 map."""
+    import subprocess
+    import sys
+    done = subprocess.run([sys.executable, "-c", _EXIT_WITH_KERNELS_RUNNING], capture_output=True,
+                          text=True, timeout=600)
+    assert (done.returncode, done.stdout) == (0, "queued\n"), done.stderr[-2000:]
