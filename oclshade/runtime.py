@@ -435,9 +435,10 @@ def _finish_queued_work() -> None:
     """At exit, wait for the kernels still queued (e.g. ``HorizonCaster.angles_on_device``
     returns without waiting): PoCL 3.0 and 3.1 end the process with SIGSEGV when it exits
     while a kernel runs.  Registered after pyopencl's import, so it runs before pyopencl's
-    own exit handlers."""
+    own exit handlers.  A queue in error is left as it is: the call that failed has said so."""
     for rt in list(_runtimes.values()):
-        rt.queue.finish()
+        with contextlib.suppress(cl.Error):
+            rt.queue.finish()
 
 
 def get_runtime(device: str | int | Runtime | cl.Device | None = None) -> Runtime:

@@ -821,7 +821,7 @@ oclshade_status oclshade_horizon_scratch_size(oclshade *lib, const oclshade_hori
  * horizon_cells (alone with a search radius), global size (cols,
  * rows) rounded up to the local size; -D OCLS_OUT_ANGLE when angle is given, OCLS_OUT_SVF=definition
  * when svf is, OCLS_CURVATURE when curvature > 0, OCLS_MAX_DISTANCE when max_distance > 0.  Within
- * a short search radius (the ray crosses at most 64 patch columns and rows within it, rows and cols
+ * a short search radius (the ray crosses at most 128 patch columns and rows within it, rows and cols
  * >= 2: HorizonCaster's SWEEP_CELLS and sweeps()) one launch of horizon_sweep instead, -D
  * OCLS_SWEEP=lanes, global size (ceil(cols / lanes), rows) rounded up (the pyramid is then not
  * read).  Knobs: horizon group, own_builtins, lanes. */

@@ -27,7 +27,7 @@ typedef struct horizon_job {
 /* HorizonCaster's SWEEP_CELLS and sweeps(): with a search radius, a ray crossing at most this many
  * patch columns and rows within it (the same float64 product of the float32 ray) takes
  * horizon_sweep (kernels/horizon.cl, "The sweep"), on maps of 2 rows and columns or more */
-#define SWEEP_CELLS 64
+#define SWEEP_CELLS 128
 static int sweeps(const horizon_job *j)
 {
     const double ux = j->ray.s[0], uy = j->ray.s[1], radius = j->ray.s[3];

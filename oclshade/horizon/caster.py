@@ -52,7 +52,7 @@ SEED_STRIDE = 8
 #: kernels/horizon.cl "The sweep": with a search radius, an azimuth whose ray crosses at most this
 #: many patch columns and rows within it takes horizon_sweep instead of the walk (an algorithm
 #: choice, not a tuning knob: a few angles' last bits may differ between the two; docs/solar.md)
-SWEEP_CELLS = 64
+SWEEP_CELLS = 128
 _SVF_CODE = {"cosine": 1, "solid-angle": 2}
 
 Progress = Callable[[int, int], None]
