@@ -9,6 +9,8 @@
         --out bench/results/solar_canyon4096   # 4096^2: WhiteboxTools left out (6 min per azimuth)
     python bench/solar.py --maps puget --azimuths 16 --grass-directions 4 --peers grass,horayzon,rvt \
         --out bench/results/solar_puget4096    # the shared Puget Sound 4096^2 (not in the default maps)
+    python bench/solar.py --maps canyon --azimuths 16 --whitebox-directions 1 --peers whitebox \
+        --out bench/results/solar_canyon4096_whitebox   # WhiteboxTools at 4096^2 on one azimuth
 
 Writes bench/results/solar.{md,json,png} (``--out`` to change).  Per map and for
 16 and 64 azimuths in the same run:
@@ -42,8 +44,10 @@ Writes bench/results/solar.{md,json,png} (``--out`` to change).  Per map and for
   0.81998 degrees, the curved value, not 0.95484), so it is compared with
   oclshade's ``Curvature()`` run (timed too);
 * **WhiteboxTools** ``HorizonAngle`` (PyPI ``whitebox-workflows``; skipped when absent): the
-  same N azimuths on the map as it is, rays to the map's edge, time of its N calls and its
-  difference from oclshade's flat-Earth angles (:func:`run_whitebox`);
+  same N azimuths on the void-filled map, rays to the map's edge, time of its N calls and its
+  difference from oclshade's flat-Earth angles (:func:`run_whitebox`; ``--whitebox-directions
+  K``: K of the N azimuths, every (N / K)-th from north, its time scaled by N / K and marked as
+  an estimate, as r.horizon's);
 * **HORAYZON** (PyPI ``horayzon-extpar``, Steger's Embree horizon code; skipped when absent): the
   map triangulated on a sphere of the Earth's radius (:func:`horayzon_mesh`), the N azimuths at
   ``--horayzon-accuracy`` (0.1 degrees), time of its horizon call and its difference from
@@ -575,7 +579,8 @@ def svf_errors(hm: Heightmap, crop: int) -> tuple[list[int], dict]:
 # ----------------------------------------------------------------------------- report
 def run(reduced: bool, samples: int, svf_crop: int, rvt_radius: int, keys: tuple[str, ...] = DEFAULT_MAPS,
         grass_directions: int | None = None, azimuth_counts: tuple[int, ...] = AZIMUTH_COUNTS,
-        peers: tuple[str, ...] = PEERS, horayzon_accuracy: float = HORAYZON_ACCURACY) -> dict:
+        peers: tuple[str, ...] = PEERS, horayzon_accuracy: float = HORAYZON_ACCURACY,
+        whitebox_directions: int | None = None) -> dict:
     rt = get_runtime()
     gv = grass_version() if "grass" in peers else None
     wv = whitebox_version() if "whitebox" in peers else None
@@ -597,7 +602,8 @@ def run(reduced: bool, samples: int, svf_crop: int, rvt_radius: int, keys: tuple
               "whitebox": wv or absent("whitebox", "pip install whitebox-workflows"),
               "horayzon": (f"{hv}, accuracy {horayzon_accuracy} deg, floor {HORAYZON_LOWEST} deg" if hv else
                            absent("horayzon", "pip install horayzon-extpar")), "maps": {},
-              "map_keys": list(keys), "grass_directions": grass_directions, "azimuth_counts": list(azimuth_counts)}
+              "map_keys": list(keys), "grass_directions": grass_directions,
+              "whitebox_directions": whitebox_directions, "azimuth_counts": list(azimuth_counts)}
     for name, hm in maps(reduced, keys).items():
         print(f"{name}: {hm.shape[1]}x{hm.shape[0]}, dx {hm.dx:.2f} dy {hm.dy:.2f}", flush=True)
         caster = HorizonCaster(hm, rt, cache=False)
@@ -609,6 +615,7 @@ def run(reduced: bool, samples: int, svf_crop: int, rvt_radius: int, keys: tuple
             c.horizons([0.0])             # warm-up: pyramid and kernel build
         entry = {"shape": list(hm.shape), "dx": hm.dx, "dy": hm.dy, "voids_filled_for_peers": voids, "runs": {}}
         grass_runs: dict[int, dict] = {}
+        whitebox_runs: dict[int, dict] = {}
         for n in azimuth_counts:
             seconds, angles = time_ours(caster, n)
             row = {"oclshade_s": seconds, "reference": reference_error(hm, angles, samples)}
@@ -631,9 +638,14 @@ def run(reduced: bool, samples: int, svf_crop: int, rvt_radius: int, keys: tuple
                                                            curved_caster.coefficient)
             if wv:     # on the filled map too (its rays read a void's -9999 m as terrain)
                 flat = angles if peer_map is hm else flat_peer_caster.horizons(n)
-                w = run_whitebox(peer_map, n)
-                row["whitebox_s"] = w["seconds"]
-                row["whitebox_vs_oclshade"] = near_far_difference(peer_map, flat, w["angles"])
+                k = min(whitebox_directions or n, n)         # as r.horizon: every (n / k)-th azimuth
+                if k not in whitebox_runs:
+                    whitebox_runs[k] = run_whitebox(peer_map, k)
+                w = whitebox_runs[k]
+                row["whitebox_s"] = w["seconds"] * n / k
+                if k < n:
+                    row["whitebox_directions"] = k
+                row["whitebox_vs_oclshade"] = near_far_difference(peer_map, flat[::n // k], w["angles"])
             if rvt_ok:
                 ours_svf = svf_by_band(angles, "solid-angle")
                 for radius in (10, rvt_radius):
@@ -731,7 +743,8 @@ def markdown(res: dict) -> str:
                   "| map | N | oclshade s | WhiteboxTools s | WhiteboxTools / oclshade | WhiteboxTools - oclshade "
                   "mean / p99 / max abs (deg): all | near | far |", "|---|---|---|---|---|---|---|---|"]
         for label, n, e, row, w in whitebox_rows:
-            lines.append(f"| {label} | {n} | {row['oclshade_s']:.2f} | {row['whitebox_s']:.2f} | "
+            est = f" (est. from {row['whitebox_directions']} of {n} az.)" if "whitebox_directions" in row else ""
+            lines.append(f"| {label} | {n} | {row['oclshade_s']:.2f} | {row['whitebox_s']:.2f}{est} | "
                          f"{row['whitebox_s'] / row['oclshade_s']:.1f}x | "
                          + _near_far_cells(w) + " |")
         lines.append("")
@@ -828,6 +841,9 @@ def main() -> None:
     parser.add_argument("--grass-directions", type=int, default=None, metavar="K",
                         help="r.horizon on K of the N azimuths (K a multiple of 4 dividing every N), its time scaled by N / K "
                              "(default: all N)")
+    parser.add_argument("--whitebox-directions", type=int, default=None, metavar="K",
+                        help="WhiteboxTools on K of the N azimuths (K dividing every N: every (N / K)-th from "
+                             "north), its time scaled by N / K (default: all N)")
     parser.add_argument("--peers", default=",".join(PEERS),
                         help=f"comma-separated subset of {', '.join(PEERS)} to run (default all; WhiteboxTools "
                              "takes about 6 minutes per azimuth of a 4096^2 map on 2 cores)")
@@ -844,6 +860,9 @@ def main() -> None:
     k = args.grass_directions
     if k is not None and (k < 4 or k % 4 or any(n % k for n in counts)):
         parser.error(f"--grass-directions must be a multiple of 4 dividing every azimuth count {counts}, got {k}")
+    kw = args.whitebox_directions
+    if kw is not None and (kw < 1 or any(n % kw for n in counts)):
+        parser.error(f"--whitebox-directions must be a positive count dividing every azimuth count {counts}, got {kw}")
     keys = tuple(key.strip() for key in args.maps.split(",") if key.strip())
     if not keys or not set(keys) <= set(MAP_KEYS):
         parser.error(f"--maps takes a comma-separated subset of {', '.join(MAP_KEYS)}, got {args.maps!r}")
@@ -852,7 +871,7 @@ def main() -> None:
         parser.error(f"--peers takes a comma-separated subset of {', '.join(PEERS)}, got {args.peers!r}")
     res = run(args.reduced, args.samples or (200 if args.reduced else 2000),
               args.svf_crop or (64 if args.reduced else 256), args.rvt_radius or (30 if args.reduced else 100), keys,
-              args.grass_directions, counts, peers, args.horayzon_accuracy)
+              args.grass_directions, counts, peers, args.horayzon_accuracy, args.whitebox_directions)
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.with_suffix(".json").write_text(json.dumps(res, indent=1) + "\n")
     args.out.with_suffix(".md").write_text(markdown(res))

@@ -1,6 +1,9 @@
 """Host layer: device choice, program builds and their cache, resource checks."""
 from __future__ import annotations
 
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 
@@ -133,8 +136,6 @@ print("queued", flush=True)
 def test_exit_while_kernels_run_is_clean():
     """The process ends with work still queued (angles_on_device does not wait): without the
     runtime's exit handler PoCL ended it with SIGSEGV (rc -11), every time on a 2048^2 map."""
-    import subprocess
-    import sys
     done = subprocess.run([sys.executable, "-c", _EXIT_WITH_KERNELS_RUNNING], capture_output=True,
                           text=True, timeout=600)
     assert (done.returncode, done.stdout) == (0, "queued\n"), done.stderr[-2000:]
