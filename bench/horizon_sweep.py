@@ -20,7 +20,7 @@ Maps: the generated canyon (``--side``), and the shared SRTM tiles when ``../sha
 is present.  Writes ``horizon_sweep.json`` and ``.md`` to ``--out``.
 
     python bench/horizon_sweep.py --out bench/results
-    python bench/horizon_sweep.py --quick --out /tmp/x      # a check: canyon 96^2, 5 and 100 cells
+    python bench/horizon_sweep.py --quick --out /tmp/x      # a check: canyon 96^2, 5 and 200 cells
 """
 from __future__ import annotations
 
@@ -146,12 +146,12 @@ def main() -> None:
     ap.add_argument("--reps", type=int, default=3)
     ap.add_argument("--samples", type=int, default=300, help="cells checked against the float64 reference")
     ap.add_argument("--no-rvt", action="store_true", help="leave RVT out")
-    ap.add_argument("--quick", action="store_true", help="smoke run: a 96^2 canyon, 5 and 100 cells, 4 azimuths, "
+    ap.add_argument("--quick", action="store_true", help="smoke run: a 96^2 canyon, 5 and 200 cells, 4 azimuths, "
                     "1 rep, 20 cells")
     ap.add_argument("--out", type=Path, required=True)
     args = ap.parse_args()
     if args.quick:
-        args.maps, args.side, args.radii, args.azimuths, args.reps, args.samples = "canyon", 96, "5,100", 4, 1, 20
+        args.maps, args.side, args.radii, args.azimuths, args.reps, args.samples = "canyon", 96, "5,200", 4, 1, 20
     keys = tuple(k.strip() for k in args.maps.split(",") if k.strip())
     unknown = [k for k in keys if k not in MAP_KEYS]
     if unknown:

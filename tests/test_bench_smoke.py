@@ -77,9 +77,9 @@ def test_horizon_seeds_quick(tmp_path: Path) -> None:
 def test_horizon_sweep_quick(tmp_path: Path) -> None:
     res = run_quick("horizon_sweep", tmp_path, "--no-rvt", plot=False)
     (rows,) = res["maps"].values()
-    assert [r["radius_cells"] for r in rows] == [5.0, 100.0]
+    assert [r["radius_cells"] for r in rows] == [5.0, 200.0]
     near, far = rows
-    assert near["swept_azimuths"] == 4 and far["swept_azimuths"] == 0     # 5 cells sweep, 100 walk
+    assert near["swept_azimuths"] == 4 and far["swept_azimuths"] == 0     # 5 cells sweep, 200 walk (SWEEP_CELLS 128)
     for r in rows:
         assert all(r["seconds"][mode] > 0 for mode in ("sweep", "walk", "default"))
         assert r["angles_differing"] <= 1e-2 * r["angles"]      # as tests/test_horizon.py's sweep test
