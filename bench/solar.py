@@ -77,6 +77,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
@@ -627,25 +628,14 @@ def run(reduced: bool, samples: int, svf_crop: int, rvt_radius: int, keys: tuple
                 row["horayzon_vs_oclshade"] = near_far_difference(    # above its search floor
                     peer_map, curved, z["angles"], curved_caster.coefficient, floor=HORAYZON_LOWEST + 1.0)
             if gv:
-                k = min(grass_directions or n, n)            # r.horizon on every (n / k)-th azimuth
-                if k not in grass_runs:                      # the same k azimuths serve every n
-                    grass_runs[k] = run_grass(peer_map, k)
-                g = grass_runs[k]
-                row["grass_s"] = g["seconds"] * n / k
-                if k < n:
-                    row["grass_directions"] = k
+                k, g = on_subset(row, "grass", grass_runs, grass_directions, n, lambda k: run_grass(peer_map, k))
                 row["grass_vs_oclshade"] = peer_difference(peer_map, curved[::n // k], g["angles"],
                                                            curved_caster.coefficient)
             if wv:     # on the filled map too (its rays read a void's -9999 m as terrain)
-                flat = angles if peer_map is hm else flat_peer_caster.horizons(n)
-                k = min(whitebox_directions or n, n)         # as r.horizon: every (n / k)-th azimuth
-                if k not in whitebox_runs:
-                    whitebox_runs[k] = run_whitebox(peer_map, k)
-                w = whitebox_runs[k]
-                row["whitebox_s"] = w["seconds"] * n / k
-                if k < n:
-                    row["whitebox_directions"] = k
-                row["whitebox_vs_oclshade"] = near_far_difference(peer_map, flat[::n // k], w["angles"])
+                k, w = on_subset(row, "whitebox", whitebox_runs, whitebox_directions, n,
+                                 lambda k: run_whitebox(peer_map, k))
+                flat = angles[::n // k] if peer_map is hm else flat_peer_caster.horizons(azimuth_grid(n)[::n // k])
+                row["whitebox_vs_oclshade"] = near_far_difference(peer_map, flat, w["angles"])
             if rvt_ok:
                 ours_svf = svf_by_band(angles, "solid-angle")
                 for radius in (10, rvt_radius):
@@ -659,6 +649,25 @@ def run(reduced: bool, samples: int, svf_crop: int, rvt_radius: int, keys: tuple
         entry["svf_crop"], entry["svf_error_of_n"] = svf_errors(hm, svf_crop)
         result["maps"][name] = entry
     return result
+
+
+def on_subset(row: dict, peer: str, runs: dict[int, dict], directions: int | None, n: int,
+              run_peer: Callable[[int], dict]) -> tuple[int, dict]:
+    """A slow peer (r.horizon, WhiteboxTools) on k = ``directions`` (None: all) of the n azimuths,
+    every (n / k)-th from north: (k, its run), one run per k shared by every n (``runs``); its time
+    scaled by n / k in ``row[peer + "_s"]``, and k in ``row[peer + "_directions"]`` when k < n."""
+    k = min(directions or n, n)
+    if k not in runs:
+        runs[k] = run_peer(k)
+    row[f"{peer}_s"] = runs[k]["seconds"] * n / k
+    if k < n:
+        row[f"{peer}_directions"] = k
+    return k, runs[k]
+
+
+def _estimated(row: dict, peer: str, n: int) -> str:
+    """' (est. from k of n az.)' after a time :func:`on_subset` scaled, else ''."""
+    return f" (est. from {row[peer + '_directions']} of {n} az.)" if peer + "_directions" in row else ""
 
 
 def svf_by_band(angles: np.ndarray, definition: str) -> np.ndarray:
@@ -705,9 +714,8 @@ def markdown(res: dict) -> str:
         for n, row in e["runs"].items():
             r = row["reference"]
             g = row.get("grass_vs_oclshade")
-            est = f" (est. from {row['grass_directions']} of {n} az.)" if "grass_directions" in row else ""
-            grass = (f"{row['oclshade_curved_s']:.2f} | {row['grass_s']:.2f}{est} | {g['mean_abs_deg']:.3f} / "
-                     f"{g['p99_abs_deg']:.3f} / {g['max_abs_deg']:.2f}") if g else "- | - | -"
+            grass = (f"{row['oclshade_curved_s']:.2f} | {row['grass_s']:.2f}{_estimated(row, 'grass', n)} | "
+                     f"{g['mean_abs_deg']:.3f} / {g['p99_abs_deg']:.3f} / {g['max_abs_deg']:.2f}") if g else "- | - | -"
             rv = row.get("rvt_r10")
             rvt = f"{rv['mean_abs']:.4f} / {rv['max_abs']:.3f}" if rv else "-"
             lines.append(f"| {name} {e['shape'][1]}x{e['shape'][0]} | {n} | {row['oclshade_s']:.2f} | "
@@ -743,8 +751,8 @@ def markdown(res: dict) -> str:
                   "| map | N | oclshade s | WhiteboxTools s | WhiteboxTools / oclshade | WhiteboxTools - oclshade "
                   "mean / p99 / max abs (deg): all | near | far |", "|---|---|---|---|---|---|---|---|"]
         for label, n, e, row, w in whitebox_rows:
-            est = f" (est. from {row['whitebox_directions']} of {n} az.)" if "whitebox_directions" in row else ""
-            lines.append(f"| {label} | {n} | {row['oclshade_s']:.2f} | {row['whitebox_s']:.2f}{est} | "
+            lines.append(f"| {label} | {n} | {row['oclshade_s']:.2f} | "
+                         f"{row['whitebox_s']:.2f}{_estimated(row, 'whitebox', n)} | "
                          f"{row['whitebox_s'] / row['oclshade_s']:.1f}x | "
                          + _near_far_cells(w) + " |")
         lines.append("")

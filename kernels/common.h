@@ -108,9 +108,10 @@ OCLS_INLINE float ocls_sample(OCLS_HEIGHTS h, int H, int W, int r, int c)
  * Only for compilers with clang's overloadable functions; elsewhere the knob
  * is ignored.  Each built-in is renamed by an object-like macro (so nested
  * calls do not repeat their arguments) to an overloaded inline function. */
+#ifdef __clang__
+#define OCLS_OVL static inline __attribute__((overloadable, always_inline))   /* also shadow.cl's gather */
+#endif
 #if defined(OCLS_OWN_BUILTINS) && defined(__clang__)
-
-#define OCLS_OVL static inline __attribute__((overloadable, always_inline))
 
 /* float types: isnan, fabs, fmin, fmax, clamp (vector and vector-scalar forms), select */
 #define OCLS_FLOAT_BUILTINS(F, I)                                                               \

@@ -151,8 +151,9 @@
  * Build options: -D OCLS_OUT_ANGLE, OCLS_OUT_SVF=1|2, OCLS_CURVATURE,
  *   OCLS_MAX_DISTANCE, OCLS_CLAMP, OCLS_SWEEP=1|4|8|16 (a build of horizon_sweep alone; the
  *   others build horizon_seeds and horizon_cells), OCLS_FORCE_SEED_FALLBACK (tests only: the
- *   seeded walk's bound is +inf, so every cell takes step 3's walk from -inf), OCLS_OWN_BUILTINS (common.h) and
- *   -cl-std=CL1.2, nothing else (no fast-math); the hosts paste common.h in place of its include.
+ *   seeded walk's bound is +inf, so every cell takes step 3's walk from -inf),
+ *   OCLS_OWN_BUILTINS (common.h) and -cl-std=CL1.2, nothing else (no fast-math); the hosts
+ *   paste common.h in place of its include.
  */
 #include "common.h"
 

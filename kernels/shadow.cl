@@ -837,10 +837,9 @@ OCLS_INLINE int start_col(int j, int east) { return east ? j : j - 1; }
 #define OCLS_LANE_IDS ((ocls_intv)(0, 1, 2, 3, 4, 5, 6, 7))
 #else
 #if defined(OCLS_HW_GATHER) && defined(__AVX512F__) && defined(__clang__)
-#define OCLS_GATHER_OVL static inline __attribute__((overloadable, always_inline))
-OCLS_GATHER_OVL float16 ocls_gather(__global const float *base, int16 idx)
+OCLS_OVL float16 ocls_gather(__global const float *base, int16 idx)
 { return __builtin_ia32_gathersiv16sf((float16)(0.0f), (const void *)(size_t)base, idx, (ushort)0xffff, 4); }
-OCLS_GATHER_OVL int16 ocls_gather(__global const int *base, int16 idx)
+OCLS_OVL int16 ocls_gather(__global const int *base, int16 idx)
 { return __builtin_ia32_gathersiv16si((int16)(0), (const void *)(size_t)base, idx, (ushort)0xffff, 4); }
 #define OCLS_GATHER(T, base, idx) ocls_gather(base, idx)   /* the overload of base's type is T */
 #else
