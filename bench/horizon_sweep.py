@@ -2,18 +2,19 @@
 
 kernels/horizon.cl, "The sweep": within a short radius the cells of a row step through the
 same patches together on vector lanes, without the pyramid; the hosts sweep an azimuth whose
-ray crosses at most ``SWEEP_CELLS`` patch columns and rows within the radius
+ray crosses at most the tuning knob ``sweep_cells`` patch columns and rows within the radius
 (oclshade/horizon/caster.py).  This script measures where that pays.  Per map and radius
 (``--radii``, cells of RVT's cell size 0.5 (dx + dy), as bench/solar.py), ``--azimuths``
 azimuths of the solid-angle sky-view factor, alternating (minimum of ``--reps``; every kernel
 built and warmed up before):
 
-* ``sweep``: every azimuth swept; ``walk``: every azimuth walked (the pyramid walk cut at R);
-  ``default``: the hosts' choice (``SWEEP_CELLS``);
+* ``sweep``: every azimuth swept (``sweep_cells`` 256: up to 181 cells); ``walk``: every azimuth
+  walked (the pyramid walk cut at R);
+  ``default``: the hosts' choice (the device's ``sweep_cells``);
 * the mean number of patch columns and rows a ray crosses within R, R (|ux| + |uy|);
-* the angles that differ between the sweep and the walk, and both against the float64
-  reference on ``--samples`` seeded cells (bench/solar.py's ``reference_error``): the run
-  fails if any angle is outside the float32 band;
+* the angles that differ between the sweep and the walk (the run fails if any does: they are
+  the same bits), and both against the float64 reference on ``--samples`` seeded cells
+  (bench/solar.py's ``reference_error``): the run fails if any angle is outside the float32 band;
 * RVT's sky-view factor at the same radius and azimuths (``rvt-py``, when installed), same run.
 
 Maps: the generated canyon (``--side``), and the shared SRTM tiles when ``../shared/data``
@@ -25,13 +26,10 @@ is present.  Writes ``horizon_sweep.json`` and ``.md`` to ``--out``.
 from __future__ import annotations
 
 import argparse
-import contextlib
 import json
-import math
 import sys
 import time
 from pathlib import Path
-from typing import Iterator
 
 import numpy as np
 
@@ -41,49 +39,43 @@ from solar import MAP_KEYS, maps, reference_error, rvt_svf  # noqa: E402
 from oclshade.bench.machine import machine_facts  # noqa: E402
 from oclshade.heightmap import Heightmap  # noqa: E402
 from oclshade.horizon import HorizonCaster, azimuth_grid  # noqa: E402
-from oclshade.horizon import caster as caster_module  # noqa: E402
+from oclshade import tuning  # noqa: E402
 from oclshade.runtime import Runtime, get_runtime  # noqa: E402
 from oclshade.sun import Sun  # noqa: E402
 
-#: SWEEP_CELLS for each mode (the default: the module's own)
-MODES = {"sweep": math.inf, "walk": 0.0, "default": caster_module.SWEEP_CELLS}
+#: the knob ``sweep_cells`` of each mode (None: the device's own decision); 256 sweeps every
+#: azimuth up to 181 cells
+MODES = {"sweep": 256, "walk": 0, "default": None}
 
 
-@contextlib.contextmanager
-def mode(name: str) -> Iterator[None]:
-    """The hosts' choice as in mode ``name`` (:data:`MODES`) within the block."""
-    caster_module.SWEEP_CELLS = MODES[name]
-    try:
-        yield
-    finally:
-        caster_module.SWEEP_CELLS = MODES["default"]
-
-
-def svf_seconds(caster: HorizonCaster, n: int, name: str) -> tuple[float, np.ndarray]:
-    with mode(name):
-        start = time.perf_counter()
-        svf = caster.sky_view_factor(n, "solid-angle")
-        return time.perf_counter() - start, svf
+def svf_seconds(caster: HorizonCaster, n: int) -> tuple[float, np.ndarray]:
+    start = time.perf_counter()
+    svf = caster.sky_view_factor(n, "solid-angle")
+    return time.perf_counter() - start, svf
 
 
 def measure(rt: Runtime, hm: Heightmap, radius_cells: float, n: int, reps: int, samples: int,
             with_rvt: bool) -> dict:
-    caster = HorizonCaster(hm, rt, cache=False, max_distance=radius_cells * 0.5 * (hm.dx + hm.dy))
-    for name in MODES:                   # warm-up: the pyramid and every kernel build
-        svf_seconds(caster, 1, name)
+    radius = radius_cells * 0.5 * (hm.dx + hm.dy)
+    casters = {name: HorizonCaster(hm, rt, cache=False, max_distance=radius,
+                                   knobs=None if cells is None else {"sweep_cells": cells})
+               for name, cells in MODES.items()}
+    caster = casters["default"]
+    for name, c in casters.items():      # warm-up: the pyramid and every kernel build
+        svf_seconds(c, 1)
     seconds: dict[str, list[float]] = {name: [] for name in MODES}
     svf: dict[str, np.ndarray] = {}
     for _ in range(reps):                # alternate, so that drift hits all alike
-        for name in MODES:
-            t, svf[name] = svf_seconds(caster, n, name)
+        for name, c in casters.items():
+            t, svf[name] = svf_seconds(c, n)
             seconds[name].append(t)
     crossings = [caster.radius * (abs(ux) + abs(uy))
                  for ux, uy, _ in (Sun(float(az), 0.0).ray(hm.dx, hm.dy) for az in azimuth_grid(n))]
-    with mode("sweep"):
-        swept = caster.horizons(n)
-    with mode("walk"):
-        walked = caster.horizons(n)
-    differ = (swept != walked) & ~(np.isnan(swept) & np.isnan(walked))
+    swept, walked = casters["sweep"].horizons(n), casters["walk"].horizons(n)
+    differ = swept.view(np.uint32) != walked.view(np.uint32)
+    if differ.any():                     # kernels/horizon.cl, "The sweep": the same bits
+        raise SystemExit(f"{int(differ.sum())} angles differ between the sweep and the walk on {hm.shape}, "
+                         f"R {radius_cells} cells")
     checks = {name: reference_error(hm, a, samples, max_distance=caster.radius)
               for name, a in (("sweep", swept), ("walk", walked))}
     for name, check in checks.items():
@@ -93,11 +85,11 @@ def measure(rt: Runtime, hm: Heightmap, radius_cells: float, n: int, reps: int, 
     best = {name: min(s) for name, s in seconds.items()}
     row = {"radius_cells": radius_cells, "radius_m": caster.radius, "azimuths": n,
            "crossings_mean": float(np.mean(crossings)), "crossings_max": float(np.max(crossings)),
-           "swept_azimuths": int(sum(c <= MODES["default"] for c in crossings)),
+           "sweep_cells": caster.knobs["sweep_cells"],
+           "swept_azimuths": int(sum(c <= caster.knobs["sweep_cells"] for c in crossings)),
            "seconds": best, "walk_over_sweep": best["walk"] / best["sweep"],
            "walk_over_default": best["walk"] / best["default"],
            "angles_differing": int(differ.sum()), "angles": int(differ.size),
-           "max_abs_difference_deg": float(np.nanmax(np.abs(swept - walked))),
            "svf_max_abs_difference": float(np.nanmax(np.abs(svf["sweep"] - svf["walk"]))),
            "reference": checks}
     if with_rvt:
@@ -115,12 +107,12 @@ def markdown(res: dict) -> str:
              f"`{res['command']}`, {res['when']}.", "",
              f"Solid-angle sky-view factor over {res['azimuths']} azimuths within R (cells of 0.5 (dx + dy)), "
              f"minimum of {res['reps']} alternating runs: every azimuth swept, every azimuth walked (the "
-             f"pyramid walk cut at R), and the default (an azimuth is swept where its ray crosses at most "
-             f"SWEEP_CELLS = {res['sweep_cells']:g} patch columns and rows within R). Crossings: R (|ux| + |uy|), "
+             f"pyramid walk cut at R), and the default (an azimuth is swept where its ray crosses at most the "
+             f"device's knob sweep_cells = {res['sweep_cells']} patch columns and rows within R). Crossings: R (|ux| + |uy|), "
              f"mean / max over the azimuths. Angles compared bit for bit (sweep against walk) and against the "
              f"float64 reference on {res['samples']} cells x every azimuth.", "",
              "| map | R (cells) | crossings mean / max | swept azimuths | sweep s | walk s | default s | "
-             "walk / sweep | walk / default | angles differing (max deg) | ref. max diff sweep / walk (deg) | "
+             "walk / sweep | walk / default | angles differing | ref. max diff sweep / walk (deg) | "
              "RVT s | RVT / default |",
              "|---|---:|---|---:|---:|---:|---:|---:|---:|---|---|---:|---:|"]
     for name, rows in res["maps"].items():
@@ -132,7 +124,7 @@ def markdown(res: dict) -> str:
                 f"| {name} | {r['radius_cells']:g} | {r['crossings_mean']:.1f} / {r['crossings_max']:.1f} | "
                 f"{r['swept_azimuths']} of {r['azimuths']} | {s['sweep']:.2f} | {s['walk']:.2f} | {s['default']:.2f} | "
                 f"{r['walk_over_sweep']:.2f}x | {r['walk_over_default']:.2f}x | "
-                f"{r['angles_differing']} of {r['angles']} ({r['max_abs_difference_deg']:.1e}) | "
+                f"{r['angles_differing']} of {r['angles']} | "
                 f"{ref_s['max_abs_deg']:.1e} / {ref_w['max_abs_deg']:.1e} | {rvt} |")
     return "\n".join(lines) + "\n"
 
@@ -166,7 +158,8 @@ def main() -> None:
     res = {"machine": {**machine_facts(), "device": rt.label, "device_version": rt.device.version.strip()},
            "command": "python " + " ".join(sys.argv),
            "when": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "azimuths": args.azimuths, "reps": args.reps,
-           "samples": args.samples, "sweep_cells": MODES["default"], "maps": {}}
+           "samples": args.samples,
+           "sweep_cells": tuning.settings(rt, "horizon").values["sweep_cells"], "maps": {}}
     for name, hm in maps(False, keys, args.side).items():
         res["maps"][name] = []
         for radius in radii:

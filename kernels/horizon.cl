@@ -163,6 +163,9 @@
 #define OCLS_SEEDED                        /* the whole-map walk starts from its seeds' bound */
 #endif
 #define OCLS_CORNER_EPS (4.0f * FLT_EPSILON)
+#ifndef OCLS_SLACK
+#define OCLS_SLACK 1e-6f
+#endif
 #define OCLS_SIGN(u) ((u) > 0.0f ? 1 : ((u) < 0.0f ? -1 : 0))
 #ifdef OCLS_CURVATURE
 #define OCLS_DROP(c, t) ((c) * (t) * (t))
@@ -245,11 +248,31 @@ OCLS_INLINE float exit_t(const HRay *r, int r0, int c0, int size, int *via_x, in
     return fmin(tx, ty);
 }
 
-/* Patch index along one axis just after parameter t, clamped to [lo, hi]. */
-OCLS_INLINE int along(int p0, float u, int sign, float t, int lo, int hi)
+/* Whether the step-by-step sequence has crossed the grid line at parameter x by the time it
+ * crosses the other axis's line at t: before it, or with it as a corner pass (exit_t's test). */
+OCLS_INLINE int crossed(float x, float t)
 {
-    const float p = (float)p0 + u * t;
-    return clamp(sign > 0 ? ocls_floor_int(p) : ocls_ceil_int(p) - 1, lo, hi);
+    return x < t || fabs(x - t) <= OCLS_CORNER_EPS * fmax(x, t);
+}
+
+/* Patch index along one axis (origin o, reciprocal iu, sign) just after the ray crosses the
+ * other axis's grid line at *t, within [lo, hi].  The position o + u t, rounded, gives it.  With a
+ * search radius (where the walk reproduces the sweep bit for bit, "The sweep") it is the patch the
+ * step-by-step sequence of patches (the sweep's, and the walk's at level 0) is in there, so that a
+ * tile skipped whole is left as stepping through it would: where the ray passes within float32
+ * rounding of a corner, the grid lines' own parameters decide (as exit_t computes them), and a
+ * corner pass whose line comes first moves *t back to it (exit_t's fmin). */
+OCLS_INLINE int along(int o, float u, float iu, int sign, float *t, int lo, int hi)
+{
+    const float p = (float)o + u * *t;
+    int k = clamp(sign > 0 ? ocls_floor_int(p) : ocls_ceil_int(p) - 1, lo, hi);
+#ifdef OCLS_MAX_DISTANCE
+    while (k != (sign > 0 ? hi : lo) && crossed((float)((sign > 0 ? k + 1 : k) - o) * iu, *t)) k += sign;
+    while (k != (sign > 0 ? lo : hi) && !crossed((float)((sign > 0 ? k : k + 1) - o) * iu, *t)) k -= sign;
+    const float line = (float)((sign > 0 ? k : k + 1) - o) * iu;     /* the last line crossed */
+    if (line > 0.0f && line < *t && *t - line <= OCLS_CORNER_EPS * *t) *t = line;   /* a corner pass */
+#endif
+    return k;
 }
 
 OCLS_INLINE int valid_patch(__global const float *h, int H, int W, int pr, int pc)
@@ -382,6 +405,24 @@ OCLS_INLINE float corner_sup(__global const float *h, int H, int W, int pr, int 
     return (side && !isnan(v)) ? ((v - z0) - OCLS_DROP(r->c, t)) / t : -INFINITY;
 }
 
+/* A height margin above the float32 error of the patch values (segment_sup, corner_sup) in a
+ * tile of extrema e = (max, min) out to ray parameter t_end, where the test compares e.x - z0 with
+ * bar: a tile is pruned (or the walk ends) only when its patches come out at most T in float32 too,
+ * not only in exact arithmetic, so that the walk's T is the sweep's, the max over every patch,
+ * bit for bit ("The sweep").  OCLS_SLACK relative to the magnitudes the patch arithmetic rounds
+ * (bar, the heights, and the tile's relief times the positions' magnitude, t (|ux| + |uy|)
+ * cells); a flat tile's patches are exact and get no margin (a flat's ties stay pruned). */
+OCLS_INLINE float prune_slack(const HRay *r, float2 e, float z0, float bar, float t_end)
+{
+#ifdef OCLS_MAX_DISTANCE
+    const float relief = e.x - e.y;
+    return OCLS_SLACK * (fabs(bar) + (relief > 0.0f ? fabs(e.x) + fabs(z0) +
+                                      relief * (2.0f + t_end * (fabs(r->ux) + fabs(r->uy))) : 0.0f));
+#else
+    return 0.0f;      /* over the whole map there is no sweep to agree with */
+#endif
+}
+
 /* T of cell (i, j) (height z0, not nodata), starting from lo; with -D OCLS_CLAMP
  * it stops once T >= hi.  *t_best: a ray parameter where T is reached (left as it
  * was when T = lo). */
@@ -393,21 +434,24 @@ OCLS_INLINE float horizon_tan(__global const float *h, int H, int W, __global co
     int pc = r->sx < 0 ? r->j - 1 : (r->sx > 0 ? r->j : min(r->j, Wp - 1));
     int pr = r->sy < 0 ? r->i - 1 : (r->sy > 0 ? r->i : min(r->i, Hp - 1));
     if (pc < 0 || pc >= Wp || pr < 0 || pr >= Hp) return lo;
-    const float rise = ext[lvl_off[top]].x - z0;           /* z_top - z0 >= 0 */
+    const float2 e_top = ext[lvl_off[top]];
+    const float rise = e_top.x - z0;                       /* z_top - z0 >= 0 */
     float best = lo, t = 0.0f;
     int l = 0;
     for (int it = 0; it < OCLS_MAX_ITERATIONS; ++it) {
         const int size = 1 << l, r0 = (pr >> l) << l, c0 = (pc >> l) << l;
         int via_x, via_y;
         const float t_out = exit_t(r, r0, c0, size, &via_x, &via_y);
-        if (t > 0.0f && rise - OCLS_DROP(r->c, t) <= best * t) break;   /* nothing further is higher */
+        if (t > 0.0f && rise - OCLS_DROP(r->c, t) <= best * t &&
+            rise - OCLS_DROP(r->c, t) + prune_slack(r, e_top, z0, best * t, t) <= best * t) break;
 #ifdef OCLS_MAX_DISTANCE
         if (t >= OCLS_RADIUS(r)) break;                    /* the search radius */
 #endif
         const float t_end = fmin(t_out, OCLS_RADIUS(r));   /* the segment's end within the radius */
         if (l > 0) {
             const float2 e = ext[lvl_off[l] + (pr >> l) * ocls_level_extent(Wp, l) + (pc >> l)];
-            if (e.x - z0 > best * (best >= 0.0f ? t : t_end) + OCLS_DROP(r->c, t)) {
+            const float bar = best * (best >= 0.0f ? t : t_end) + OCLS_DROP(r->c, t);
+            if (e.x - z0 > bar || e.x - z0 + prune_slack(r, e, z0, bar, t_end) > bar) {
                 l -= 1;                                    /* the tile may raise T: descend */
                 continue;
             }
@@ -426,11 +470,12 @@ OCLS_INLINE float horizon_tan(__global const float *h, int H, int W, __global co
 #endif
         }
         const int opr = pr, opc = pc;
+        float t_next = t_out;
         if (via_x) pc = r->sx > 0 ? c0 + size : c0 - 1;
-        else if (r->sx) pc = along(r->j, r->ux, r->sx, t_out, c0, c0 + size - 1);
+        else if (r->sx) pc = along(r->j, r->ux, r->ix, r->sx, &t_next, c0, c0 + size - 1);
         if (via_y) pr = r->sy > 0 ? r0 + size : r0 - 1;
-        else if (r->sy) pr = along(r->i, r->uy, r->sy, t_out, r0, r0 + size - 1);
-        t = t_out;
+        else if (r->sy) pr = along(r->i, r->uy, r->iy, r->sy, &t_next, r0, r0 + size - 1);
+        t = t_next;
         if (pr < 0 || pr >= Hp || pc < 0 || pc >= Wp) break;
         const int diff = (pr ^ opr) | (pc ^ opc);          /* climb as shadow.cl */
         l = min(min(31 - (int)clz(diff), top), l + 1);

@@ -15,6 +15,7 @@ from oclshade import ShadowCaster, Sun
 from oclshade import reference as ref
 from oclshade.heightmap import Heightmap
 from oclshade.horizon import Curvature, HorizonCaster, azimuth_grid
+from oclshade.horizon.caster import sweeps
 
 SRTM = pathlib.Path(__file__).resolve().parents[2] / "shared" / "data" / "dem" / "srtm3_srtmpy" / "N22W160v2.3a.hgt.zip"
 
@@ -195,13 +196,16 @@ def test_knobs_do_not_change_results():
     h[3:6, 7:9] = np.nan
     hm = Heightmap.from_array(h, 30.0)
     for radius in (None, 400.0, 1800.0):      # the whole map, the sweep, a walk within a radius
-        base = HorizonCaster(hm, max_distance=radius, knobs={"group": 64, "own_builtins": 0, "lanes": 1})
+        base = HorizonCaster(hm, max_distance=radius, knobs={"group": 64, "own_builtins": 0, "lanes": 1,
+                                                             "sweep_cells": 128})
         angles, svf = base.horizons(6), base.sky_view_factor(6)
-        combos = [(group, own, 1) for group, own in itertools.product((16, 64, 256), (0, 1))]
+        combos = [(group, own, 1, 128) for group, own in itertools.product((16, 64, 256), (0, 1))]
         if radius == 400.0:                       # lanes are the sweep's alone
-            combos += [(64, own, lanes) for own, lanes in itertools.product((0, 1), (4, 8, 16))]
-        for group, own, lanes in combos:
-            knobs = {"group": group, "own_builtins": own, "lanes": lanes}
+            combos += [(64, own, lanes, 128) for own, lanes in itertools.product((0, 1), (4, 8, 16))]
+        if radius is not None:                    # 13 and 60 cells: swept or walked, every azimuth or some
+            combos += [(64, 0, lanes, cells) for lanes, cells in itertools.product((1, 8), (0, 64, 192, 256))]
+        for group, own, lanes, cells in combos:
+            knobs = {"group": group, "own_builtins": own, "lanes": lanes, "sweep_cells": cells}
             caster = HorizonCaster(hm, max_distance=radius, knobs=knobs, curvature=None)
             assert np.array_equal(caster.horizons(6), angles, equal_nan=True), (radius, knobs)
             assert np.array_equal(caster.sky_view_factor(6), svf, equal_nan=True), (radius, knobs)
@@ -285,9 +289,11 @@ def random_walk_map() -> Heightmap:
                                                       (random_walk_map, False, 1e6)])
 def test_a_radius_beyond_the_map_equals_the_whole_map(make_map, curved, radius):
     """The whole-map walk starts from its seeds' bound (kernels/horizon.cl, "Seeds"); a radius
-    beyond the map walks the same rays from -inf.  The two may differ only where a skipped tile
-    changes the order of patch boundaries: in the last bits of a few cells, within the float32
-    band of the reference."""
+    beyond the map walks the same rays from -inf, with the float32 margins that make a walk within
+    a radius the sweep's bits ("A height margin").  The two differ only where a tile's bound ties
+    the best tangent or the ray passes within rounding of a corner: in the last bits of a few
+    angles (0.16 % on the varied map's flats and cliffs), within the float32 band of the
+    reference."""
     hm = make_map()
     curvature = Curvature() if curved else None
     c = 0.0 if curvature is None else curvature.coefficient
@@ -295,8 +301,8 @@ def test_a_radius_beyond_the_map_equals_the_whole_map(make_map, curved, radius):
     from_nothing = HorizonCaster(hm, curvature=curvature, max_distance=radius).horizons(16)
     assert np.array_equal(np.isnan(seeded), np.isnan(from_nothing))
     differ = (seeded != from_nothing) & ~np.isnan(seeded)
-    assert differ.sum() <= 1e-4 * seeded.size, f"{differ.sum()} angles differ"
-    assert np.nanmax(np.abs(seeded - from_nothing)) <= ref.angle_tolerance(hm, c)
+    assert differ.sum() <= 5e-3 * seeded.size, f"{differ.sum()} angles differ"
+    assert np.nanmax(np.abs(seeded - from_nothing)) <= 0.1 * ref.angle_tolerance(hm, c)
     for k in (0, 5, 11):                      # and the seeded angles against the reference
         expected = ref.horizon_angles(hm, float(azimuth_grid(16)[k]), c)
         assert np.nanmax(np.abs(seeded[k] - expected)) <= ref.angle_tolerance(hm, c)
@@ -307,7 +313,8 @@ def test_the_seeds_fallback_is_the_walk_from_nothing(curved, monkeypatch):
     """Where no tile beats a cell's seed bound (its margin was too thin), the cell walks again
     from -inf (kernels/horizon.cl, "Seeds", step 3).  Rare in real runs (a few hundred cells in
     millions), so here a test-only define makes every bound +inf: every cell falls back, and the
-    angles are those of the walk from -inf (a radius beyond the map) bit for bit."""
+    angles are those of the seeded walk (the same sup: bit for bit but a few ties) and the float64
+    reference's within its float32 band (a fallback skipped would leave +inf: 90 degrees)."""
     from oclshade.runtime import Runtime
 
     build, forced = Runtime.kernel, []
@@ -320,10 +327,16 @@ def test_the_seeds_fallback_is_the_walk_from_nothing(curved, monkeypatch):
 
     monkeypatch.setattr(Runtime, "kernel", kernel)
     hm, curvature = varied_map(), Curvature() if curved else None
-    fallen_back = HorizonCaster(hm, curvature=curvature).horizons(16)
+    fallen_back = HorizonCaster(hm, curvature=curvature, cache=False).horizons(16)
     assert forced, "the seeded walk was not built with the fallback forced"
-    from_nothing = HorizonCaster(hm, curvature=curvature, max_distance=1e7).horizons(16)
-    assert np.array_equal(fallen_back, from_nothing, equal_nan=True)
+    monkeypatch.setattr(Runtime, "kernel", build)
+    seeded = HorizonCaster(hm, curvature=curvature, cache=False).horizons(16)
+    assert np.array_equal(np.isnan(fallen_back), np.isnan(seeded))
+    assert np.sum(fallen_back != seeded) <= 1e-2 * seeded.size   # 0.26 % here
+    c = 0.0 if curvature is None else curvature.coefficient
+    for k in range(16):
+        expected = ref.horizon_angles(hm, float(azimuth_grid(16)[k]), c)
+        assert np.nanmax(np.abs(fallen_back[k] - expected)) <= ref.angle_tolerance(hm, c), k
 
 
 def square_map() -> Heightmap:
@@ -337,40 +350,31 @@ def square_map() -> Heightmap:
 
 
 @pytest.mark.parametrize("make_map, curved", [(varied_map, False), (varied_map, True), (square_map, False)])
-def test_the_sweep_equals_the_walk(make_map, curved, monkeypatch):
-    """Within a short radius the cells of a row step through their patches together
-    (kernels/horizon.cl, "The sweep"): the walk's angles on maps with holes, flats, cliffs,
-    square cells (corner passes at 45 degrees) and rays along the grid axes, and the sky-view
-    sums too.  Bit for bit but where the walk skips a tile whose bound ties its best tangent in
-    float32 and the sweep evaluates the tile's patches, whose float32 rounding can come out a
-    little higher: next to a flat, an edge point entered at (j - pc) + ux t, a few ulp off the
-    edge, gave 7e-5 degrees where the surface gives 0 (0.23 % of the angles here at 6.5 cells;
-    45 in a million on SRTM N22W160 at 10 cells, up to 9.5e-6 degrees).  So: the same holes and
-    'sees nothing', at most 1 % of the angles differing, by at most 1 % of the float32 band of
-    the reference."""
-    from oclshade.horizon import caster as caster_module
-
+def test_the_sweep_equals_the_walk(make_map, curved):
+    """Within a search radius the cells of a row can step through their patches together
+    (kernels/horizon.cl, "The sweep") or walk the pyramid: the same angles and sky-view sums
+    bit for bit, on maps with holes, flats, cliffs, square cells (corner passes at 45 degrees)
+    and rays along the grid axes, flat and curved, so that the knob choosing between them
+    (``sweep_cells``) is free to follow the device.  Before the walk's margins ("A height
+    margin", and the step-by-step re-entry after a skipped tile) 0.23 % of the angles here
+    differed in their last bits at 6.5 cells."""
     hm = make_map()
     curvature = Curvature() if curved else None
     azimuths = [0.0, 37.0, 45.0, 90.0, 135.0, 180.0, 200.0, 270.0, 315.0, 333.3]
-    for cells in (1.0, 6.5, 20.0):
+    for cells in (1.0, 6.5, 20.0, 45.0):
         radius = cells * max(hm.dx, hm.dy)
-        swept = HorizonCaster(hm, curvature=curvature, max_distance=radius)
-        ux, uy, _ = Sun(37.0, 0.0).ray(hm.dx, hm.dy)
-        assert caster_module.sweeps(ux, uy, swept.radius)
-        angles, svf = swept.horizons(azimuths), swept.sky_view_factor(azimuths, "solid-angle")
-        with monkeypatch.context() as m:
-            m.setattr(caster_module, "SWEEP_CELLS", 0)          # every azimuth walks
-            walked = HorizonCaster(hm, curvature=curvature, max_distance=radius)
-            assert not caster_module.sweeps(ux, uy, walked.radius)
-            walk_angles, walk_svf = walked.horizons(azimuths), walked.sky_view_factor(azimuths, "solid-angle")
-        assert np.array_equal(np.isnan(svf), np.isnan(walk_svf)), cells
-        assert np.array_equal(np.isnan(angles), np.isnan(walk_angles)), cells
-        differ = (angles != walk_angles) & ~np.isnan(angles)
-        assert differ.sum() <= 1e-2 * angles.size, f"{cells} cells: {differ.sum()} of {angles.size} differ"
-        assert np.nanmax(np.abs(angles - walk_angles)) <= 0.01 * ref.angle_tolerance(hm, swept.coefficient), cells
-        assert np.nanmax(np.abs(svf - walk_svf)) <= 1e-5, cells
-        assert (angles > -90.0).any() and (angles == -90.0).any()
+        swept = HorizonCaster(hm, curvature=curvature, max_distance=radius, knobs={"sweep_cells": 256})
+        walked = HorizonCaster(hm, curvature=curvature, max_distance=radius, knobs={"sweep_cells": 0})
+        for az in azimuths:
+            ux, uy, _ = Sun(az, 0.0).ray(hm.dx, hm.dy)
+            assert sweeps(ux, uy, swept.radius, 256) and not sweeps(ux, uy, walked.radius, 0), (cells, az)
+        angles, walk_angles = swept.horizons(azimuths), walked.horizons(azimuths)
+        assert angles.tobytes() == walk_angles.tobytes(), \
+            f"{cells} cells: {np.sum(angles.view(np.uint32) != walk_angles.view(np.uint32))} angles differ"
+        for definition in ("cosine", "solid-angle"):
+            svf, walk_svf = swept.sky_view_factor(azimuths, definition), walked.sky_view_factor(azimuths, definition)
+            assert svf.tobytes() == walk_svf.tobytes(), (cells, definition)
+        assert (angles > -90.0).any() and (angles == -90.0).any() and np.isnan(angles).any()
 
 
 @pytest.mark.parametrize("bad", [0, 0.0, -30.0, math.nan, math.inf, 1e-60, True, "300"])

@@ -821,10 +821,10 @@ oclshade_status oclshade_horizon_scratch_size(oclshade *lib, const oclshade_hori
  * horizon_cells (alone with a search radius), global size (cols,
  * rows) rounded up to the local size; -D OCLS_OUT_ANGLE when angle is given, OCLS_OUT_SVF=definition
  * when svf is, OCLS_CURVATURE when curvature > 0, OCLS_MAX_DISTANCE when max_distance > 0.  Within
- * a short search radius (the ray crosses at most 128 patch columns and rows within it, rows and cols
- * >= 2: HorizonCaster's SWEEP_CELLS and sweeps()) one launch of horizon_sweep instead, -D
- * OCLS_SWEEP=lanes, global size (ceil(cols / lanes), rows) rounded up (the pyramid is then not
- * read).  Knobs: horizon group, own_builtins, lanes. */
+ * a short search radius (the ray crosses at most the knob sweep_cells patch columns and rows within
+ * it, rows and cols >= 2: HorizonCaster's sweeps()) one launch of horizon_sweep instead (the same
+ * angles), -D OCLS_SWEEP=lanes, global size (ceil(cols / lanes), rows) rounded up (the pyramid is
+ * then not read).  Knobs: horizon group, own_builtins, lanes, sweep_cells. */
 oclshade_status oclshade_enqueue_horizon(oclshade *lib, cl_command_queue queue,
                                          const oclshade_horizon_params *params,
                                          cl_uint num_events_in_wait_list, const cl_event *event_wait_list,

@@ -24,14 +24,15 @@ typedef struct horizon_job {
     cl_float4 ray;
 } horizon_job;
 
-/* HorizonCaster's SWEEP_CELLS and sweeps(): with a search radius, a ray crossing at most this many
- * patch columns and rows within it (the same float64 product of the float32 ray) takes
- * horizon_sweep (kernels/horizon.cl, "The sweep"), on maps of 2 rows and columns or more */
-#define SWEEP_CELLS 128
-static int sweeps(const horizon_job *j)
+/* HorizonCaster's sweeps(): with a search radius, a ray crossing at most the knob sweep_cells patch
+ * columns and rows within it (the same float64 product of the float32 ray) takes horizon_sweep
+ * (kernels/horizon.cl, "The sweep": the same angles as the walk, bit for bit), on maps of 2 rows
+ * and columns or more */
+static int sweeps(oclshade *lib, const horizon_job *j)
 {
     const double ux = j->ray.s[0], uy = j->ray.s[1], radius = j->ray.s[3];
-    return j->p->rows >= 2 && j->p->cols >= 2 && radius > 0.0 && radius * (fabs(ux) + fabs(uy)) <= SWEEP_CELLS;
+    return j->p->rows >= 2 && j->p->cols >= 2 && radius > 0.0 &&
+           radius * (fabs(ux) + fabs(uy)) <= ocls_knob(lib, K_HORIZON_SWEEP_CELLS);
 }
 
 static oclshade_status horizon_job_for(oclshade *lib, const oclshade_horizon_params *p, horizon_job *j)
@@ -75,7 +76,7 @@ static oclshade_status horizon_body(ocls_pass *ps, const void *params)
     const oclshade_horizon_params *p = j->p;
     oclshade *lib = ps->lib;
     const size_t W = (size_t)p->cols;
-    const int sweep = sweeps(j), seeded = j->ray.s[3] == 0.0f;
+    const int sweep = sweeps(lib, j), seeded = j->ray.s[3] == 0.0f;
     const int seed_rows = seeded ? seed_extent(p->rows) : 0, seed_cols = seeded ? seed_extent(p->cols) : 0;
     cl_mem h, angle, seeds = NULL;
     oclshade_status st;

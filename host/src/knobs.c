@@ -45,6 +45,7 @@ static const knob_def KNOBS[N_KNOBS] = {
     [K_HORIZON_GROUP] = {"horizon", "group", 3, {16, 64, 256}, 64, RULE_SAFE},
     [K_HORIZON_OWN_BUILTINS] = {"horizon", "own_builtins", 2, {0, 1}, 0, RULE_LIBRARY_CALLS},
     [K_HORIZON_LANES] = {"horizon", "lanes", 4, {1, 4, 8, 16}, 1, RULE_WIDTH},
+    [K_HORIZON_SWEEP_CELLS] = {"horizon", "sweep_cells", 5, {0, 64, 128, 192, 256}, 128, RULE_SAFE},
 };
 
 /* oclshade/tuning/rules.py TARGET_FLOAT_LANES: float lanes of the LLVM CPU target PoCL names in

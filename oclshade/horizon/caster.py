@@ -16,9 +16,9 @@ WhiteboxTools' ``max_dist``, RVT's radius): exact over the surface within it.
 One traversal of the extrema pyramid per cell and azimuth; over the whole map
 it starts from a lower bound carried from an exact walk on every 8th row and
 column (a second launch per azimuth; kernels/horizon.cl, "Seeds").  Within a
-short radius (a ray crossing at most :data:`SWEEP_CELLS` patch columns and rows)
-the cells of a row step through their patches together instead, without the
-pyramid (kernels/horizon.cl, "The sweep").  The
+short radius (a ray crossing at most the tuning knob ``sweep_cells`` patch columns
+and rows) the cells of a row step through their patches together instead, without
+the pyramid (kernels/horizon.cl, "The sweep": the same angles bit for bit).  The
 pyramid is shared with the shadow casters over the same heights (process-wide
 cache).  Definitions: kernels/horizon.cl and docs/methods.md;
 float64 twin: :func:`oclshade.reference.horizon_angles`.
@@ -49,10 +49,6 @@ MAX_AZIMUTHS = 65536
 #: kernels/horizon.cl's OCLS_SEED_STRIDE: the seed grid's spacing in cells (part of the algorithm:
 #: the angles' last bits may depend on it, so it is not a tuning knob)
 SEED_STRIDE = 8
-#: kernels/horizon.cl "The sweep": with a search radius, an azimuth whose ray crosses at most this
-#: many patch columns and rows within it takes horizon_sweep instead of the walk (an algorithm
-#: choice, not a tuning knob: a few angles' last bits may differ between the two; docs/solar.md)
-SWEEP_CELLS = 128
 _SVF_CODE = {"cosine": 1, "solid-angle": 2}
 
 Progress = Callable[[int, int], None]
@@ -122,8 +118,9 @@ class HorizonCaster:
     terrain within that horizontal distance of the cell (the float32 value is the one
     used, :attr:`radius`).  cache: share the pyramid through the
     process-wide cache (:mod:`oclshade.cache`; None follows :func:`oclshade.cache.enabled`).
-    knobs: the ``horizon`` family's tuning values (:data:`TUNING`: ``group``, ``own_builtins``),
-    any subset; the rest from the device's tuning entry.  Results never depend on them.
+    knobs: the ``horizon`` family's tuning values (:data:`TUNING`: ``group``, ``own_builtins``,
+    ``lanes``, ``sweep_cells``), any subset; the rest from the device's tuning entry.  Results
+    never depend on them.
     """
 
     def __init__(self, heightmap: Heightmap, device: str | int | Runtime | None = None, *,
@@ -264,7 +261,7 @@ class HorizonCaster:
         map, the seed grid's walk (``horizon_seeds``), then every cell's walk from its seeds' bound
         (``horizon_cells``); with a search radius the sweep (``horizon_sweep``) where :func:`sweeps`,
         else the cells' walk alone, as with ``OCLS_CLAMP`` among the outputs (then ``enqueue`` takes
-        the (lo, hi) tangents; kernels/horizon.cl, "Seeds" and "The sweep").  The pyramid and the
+        the (lo, hi) tangents; kernels/horizon.cl, "Seeds" and "The sweep": the same angles either way).  The pyramid and the
         walk's kernels are made at the first azimuth that walks, the sweep's at the first it sweeps."""
         rt, hm = self.runtime, self.heightmap
         rows, cols = hm.shape
@@ -301,7 +298,7 @@ class HorizonCaster:
         def enqueue(azimuth: float, angle: cl.Buffer, svf: cl.Buffer, bounds: tuple[float, float] = ()) -> None:
             ux, uy, _ = Sun(azimuth, 0.0).ray(hm.dx, hm.dy)
             ray = np.array([ux, uy, c, radius], np.float32)
-            if not clamped and min(rows, cols) >= 2 and sweeps(ux, uy, radius):
+            if not clamped and min(rows, cols) >= 2 and sweeps(ux, uy, radius, self.knobs["sweep_cells"]):
                 kernel, grid = sweeper()
                 kernel.set_args(self.heights_buffer, np.int32(rows), np.int32(cols), ray, angle, svf)
                 cl.enqueue_nd_range_kernel(rt.queue, kernel, *grid)
@@ -317,11 +314,12 @@ class HorizonCaster:
         return enqueue
 
 
-def sweeps(ux: float, uy: float, radius: float) -> bool:
+def sweeps(ux: float, uy: float, radius: float, sweep_cells: int) -> bool:
     """Whether a ray (cells per metre ``ux``, ``uy``, as float32 values) within the search radius
-    ``radius`` (metres, float32; 0: none) takes the sweep: it crosses at most :data:`SWEEP_CELLS`
-    patch columns and rows there (host/src/horizon.c computes the same float64 product)."""
-    return radius > 0.0 and radius * (abs(ux) + abs(uy)) <= SWEEP_CELLS
+    ``radius`` (metres, float32; 0: none) takes the sweep: it crosses at most ``sweep_cells`` (the
+    tuning knob) patch columns and rows there (host/src/horizon.c computes the same float64
+    product).  Either way the angles are the same bits (kernels/horizon.cl, "The sweep")."""
+    return radius > 0.0 and radius * (abs(ux) + abs(uy)) <= sweep_cells
 
 
 def seed_extent(n: int) -> int:
@@ -338,12 +336,18 @@ def _smoke(rt: Runtime, knobs: tuning.Values) -> None:
 def _workload(rt: Runtime, knobs: tuning.Values, quick: bool) -> Callable[[], None]:
     # 1024^2 and 4 azimuths, a few seconds a run: at 2048^2 and 8 azimuths (30-40 s a run on a
     # 2-core Xeon) the full tuner's rotation took half an hour for this family alone
-    # and the sweep (`lanes`): 16 azimuths within 10 cells, about a fifth of the time
+    # and the sweep (`lanes`): 16 azimuths within 10 cells, about a fifth of the time; and
+    # (`sweep_cells`) an axis and a diagonal azimuth within 120 cells (120 and 170 crossings: 128
+    # sweeps the first, 192 both, 64 neither) on the canyon and on the canyon roughened by 20 m of
+    # noise (the sweep's cost depends on the crossings alone, the walk's on the ground: rough ground
+    # prunes well, like the SRTM tiles, smooth ground badly; docs/solar.md, "The sweep")
     hm = tuning.standard_heightmap(512 if quick else 1024)
+    rough = Heightmap.from_array(hm.heights + np.random.default_rng(0).normal(0.0, 20.0, hm.shape), (hm.dx, hm.dy))
     caster = HorizonCaster(hm, rt, cache=False, knobs=knobs)
-    near = HorizonCaster(hm, rt, max_distance=300.0, cache=False, knobs=knobs)
+    near = HorizonCaster(hm, rt, max_distance=10 * hm.dx, cache=False, knobs=knobs)
+    mid = [HorizonCaster(m, rt, max_distance=120 * hm.dx, cache=False, knobs=knobs) for m in (hm, rough)]
     caster.pyramid
-    return lambda: (caster.horizons(4), near.horizons(16))
+    return lambda: (caster.horizons(4), near.horizons(16), *(c.horizons([0.0, 45.0]) for c in mid))
 
 
 #: the horizon kernel's knobs (kernels/horizon.cl)
@@ -352,5 +356,8 @@ TUNING = tuning.register(tuning.Family(
     (tuning.OWN_BUILTINS_WHERE_CALLED,
      tuning.Param("group", (16, 64, 256), 64, "work-group size (work-items)"),
      tuning.Param("lanes", (1, 4, 8, 16), 1, "cells per work-item of the sweep on vector lanes (-D OCLS_SWEEP)",
-                  vector=True, rule="width")),
+                  vector=True, rule="width"),
+     tuning.Param("sweep_cells", (0, 64, 128, 192, 256), 128,
+                  "within a search radius, the most patch columns and rows a ray crosses for the sweep "
+                  "(horizon_sweep) to run instead of the walk (0: always the walk)")),
     ("horizon.cl",), _smoke, _workload, "horizon angles and sky-view factor (issue 19)"))
