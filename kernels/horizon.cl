@@ -163,9 +163,7 @@
 #define OCLS_SEEDED                        /* the whole-map walk starts from its seeds' bound */
 #endif
 #define OCLS_CORNER_EPS (4.0f * FLT_EPSILON)
-#ifndef OCLS_SLACK
-#define OCLS_SLACK 1e-6f
-#endif
+#define OCLS_SLACK 1e-6f                   /* prune_slack's relative margin */
 #define OCLS_SIGN(u) ((u) > 0.0f ? 1 : ((u) < 0.0f ? -1 : 0))
 #ifdef OCLS_CURVATURE
 #define OCLS_DROP(c, t) ((c) * (t) * (t))
@@ -260,15 +258,16 @@ OCLS_INLINE int crossed(float x, float t)
  * search radius (where the walk reproduces the sweep bit for bit, "The sweep") it is the patch the
  * step-by-step sequence of patches (the sweep's, and the walk's at level 0) is in there, so that a
  * tile skipped whole is left as stepping through it would: where the ray passes within float32
- * rounding of a corner, the grid lines' own parameters decide (as exit_t computes them), and a
- * corner pass whose line comes first moves *t back to it (exit_t's fmin). */
+ * rounding of a corner (the rounded position is then off by at most one patch), the grid lines'
+ * own parameters decide, as exit_t computes them, and a corner pass whose line comes first moves
+ * *t back to it (exit_t's fmin). */
 OCLS_INLINE int along(int o, float u, float iu, int sign, float *t, int lo, int hi)
 {
     const float p = (float)o + u * *t;
     int k = clamp(sign > 0 ? ocls_floor_int(p) : ocls_ceil_int(p) - 1, lo, hi);
 #ifdef OCLS_MAX_DISTANCE
-    while (k != (sign > 0 ? hi : lo) && crossed((float)((sign > 0 ? k + 1 : k) - o) * iu, *t)) k += sign;
-    while (k != (sign > 0 ? lo : hi) && !crossed((float)((sign > 0 ? k : k + 1) - o) * iu, *t)) k -= sign;
+    if (k != (sign > 0 ? hi : lo) && crossed((float)((sign > 0 ? k + 1 : k) - o) * iu, *t)) k += sign;
+    else if (k != (sign > 0 ? lo : hi) && !crossed((float)((sign > 0 ? k : k + 1) - o) * iu, *t)) k -= sign;
     const float line = (float)((sign > 0 ? k : k + 1) - o) * iu;     /* the last line crossed */
     if (line > 0.0f && line < *t && *t - line <= OCLS_CORNER_EPS * *t) *t = line;   /* a corner pass */
 #endif
@@ -407,11 +406,12 @@ OCLS_INLINE float corner_sup(__global const float *h, int H, int W, int pr, int 
 
 /* A height margin above the float32 error of the patch values (segment_sup, corner_sup) in a
  * tile of extrema e = (max, min) out to ray parameter t_end, where the test compares e.x - z0 with
- * bar: a tile is pruned (or the walk ends) only when its patches come out at most T in float32 too,
- * not only in exact arithmetic, so that the walk's T is the sweep's, the max over every patch,
- * bit for bit ("The sweep").  OCLS_SLACK relative to the magnitudes the patch arithmetic rounds
- * (bar, the heights, and the tile's relief times the positions' magnitude, t (|ux| + |uy|)
- * cells); a flat tile's patches are exact and get no margin (a flat's ties stay pruned). */
+ * bar: with a search radius a tile is pruned (or the walk ends, e = the whole map's extrema) only
+ * when its patches come out at most T in float32 too, not only in exact arithmetic, so that the walk's T is the sweep's, the max over every patch
+ * within R, bit for bit ("The sweep").  OCLS_SLACK (8 ulp) relative to the magnitudes the patch
+ * arithmetic rounds: bar, the heights, and the tile's relief times the positions' magnitude,
+ * t (|ux| + |uy|) cells; a flat tile's patches are exact and get none (a flat's ties stay pruned).
+ * Measured: docs/solar.md, "The sweep and the walk: the same bits". */
 OCLS_INLINE float prune_slack(const HRay *r, float2 e, float z0, float bar, float t_end)
 {
 #ifdef OCLS_MAX_DISTANCE
@@ -442,7 +442,7 @@ OCLS_INLINE float horizon_tan(__global const float *h, int H, int W, __global co
         const int size = 1 << l, r0 = (pr >> l) << l, c0 = (pc >> l) << l;
         int via_x, via_y;
         const float t_out = exit_t(r, r0, c0, size, &via_x, &via_y);
-        if (t > 0.0f && rise - OCLS_DROP(r->c, t) <= best * t &&
+        if (t > 0.0f && rise - OCLS_DROP(r->c, t) <= best * t &&        /* nothing further is higher */
             rise - OCLS_DROP(r->c, t) + prune_slack(r, e_top, z0, best * t, t) <= best * t) break;
 #ifdef OCLS_MAX_DISTANCE
         if (t >= OCLS_RADIUS(r)) break;                    /* the search radius */
