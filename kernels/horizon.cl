@@ -594,17 +594,23 @@ __kernel void horizon_cells(__global const float *h, const int H, const int W, _
  * their corner passes beyond it meet no sample) and, at a corner pass out of
  * a hole, corner_sup's sample.  The walk skips the tiles whose bound cannot
  * beat its best tangent; the sweep evaluates every patch within R.  So the
- * outputs are horizon_cells' with the same radius bit for bit, except where
- * a skipped tile's bound ties the best tangent in float32 and the sweep's
- * evaluation of its patches comes out a few ulp higher (a patch edge's point
- * is evaluated from both patches, and the entry (j - pc) + ux t cancels near
- * 0 or 1: up to 40 ulp), and where the walk enters a patch after a skipped
- * tile at a position rounded from the map's columns (along()), which can
- * differ from the step-by-step sequence where the ray passes within float32
- * rounding of a patch corner.  Measured: 45 angles in a million differ on
- * SRTM N22W160 at 10 cells (up to 9.5e-6 degrees; tests/test_horizon.py
- * counts them); both within the float32 band of the float64 reference.
- * The hosts sweep where the ray crosses at most SWEEP_CELLS patch columns and
+ * outputs are horizon_cells' with the same radius bit for bit, because the
+ * walk with -D OCLS_MAX_DISTANCE closes the two gaps between them: a skipped
+ * tile whose bound tied the best tangent in float32 could hold patches whose
+ * evaluation comes out a few ulp higher (a patch edge's point is evaluated
+ * from both patches, and the entry (j - pc) + ux t cancels near 0 or 1: up to
+ * 40 ulp), so a tile is pruned, and the walk ends, only with prune_slack's
+ * margin; and a walk leaving a skipped tile entered the next patch at a
+ * position rounded from the map's columns, which can differ from the
+ * step-by-step sequence where the ray passes within float32 rounding of a
+ * patch corner, so along() follows the step-by-step decisions there.  Before
+ * (measured): 962 of 11.5 million angles differed on SRTM N22W160 at 10 cells,
+ * up to 9.5e-6 degrees; since, none on four maps at 5-200 cells, flat and
+ * curved (tests/test_horizon.py and bench/horizon_sweep.py fail on one).  The
+ * whole-map walk keeps the plain tests (there is no sweep to agree with, and
+ * the margins cost it 50 % on N22W160).
+ * So which of the two runs is free to follow the device: the hosts sweep where
+ * the ray crosses at most the tuning knob sweep_cells patch columns and
  * rows within R (oclshade/horizon/caster.py, host/src/horizon.c: R (|ux| +
  * |uy|) in float64 from the float32 ray) on maps of 2 rows and columns or
  * more; measured: docs/solar.md, "The sweep".

@@ -9,12 +9,14 @@
 /* ------------------------------------------------------------------ knobs */
 
 /* What the rule sets a knob to (params.py Param.rule). */
-enum { RULE_SAFE, RULE_WIDTH, RULE_WIDER, RULE_LIBRARY_CALLS };
+enum { RULE_SAFE, RULE_WIDTH, RULE_WIDER, RULE_CROSSINGS, RULE_LIBRARY_CALLS };
 
 /* The knobs of the Python host's tuning families the C host has (the TUNING of each oclshade module):
  * legal values, safe value, and the rule that sets it for a device without an entry:
  * RULE_WIDTH (rule="width"): on a CPU the widest legal value in 4..lanes;
  * RULE_WIDER (rule="wider"): the same where it exceeds the safe value, else the safe value;
+ * RULE_CROSSINGS (rule="crossings"): on a CPU the largest legal value up to 16 x the width, at least
+ * the smallest non-zero one;
  * RULE_LIBRARY_CALLS (rule="library_calls"): 1 where the driver leaves built-ins as calls. */
 typedef struct knob_def {
     const char *family, *name;
@@ -45,7 +47,7 @@ static const knob_def KNOBS[N_KNOBS] = {
     [K_HORIZON_GROUP] = {"horizon", "group", 3, {16, 64, 256}, 64, RULE_SAFE},
     [K_HORIZON_OWN_BUILTINS] = {"horizon", "own_builtins", 2, {0, 1}, 0, RULE_LIBRARY_CALLS},
     [K_HORIZON_LANES] = {"horizon", "lanes", 4, {1, 4, 8, 16}, 1, RULE_WIDTH},
-    [K_HORIZON_SWEEP_CELLS] = {"horizon", "sweep_cells", 5, {0, 64, 128, 192, 256}, 128, RULE_SAFE},
+    [K_HORIZON_SWEEP_CELLS] = {"horizon", "sweep_cells", 5, {0, 64, 128, 192, 256}, 128, RULE_CROSSINGS},
 };
 
 /* oclshade/tuning/rules.py TARGET_FLOAT_LANES: float lanes of the LLVM CPU target PoCL names in
@@ -108,6 +110,15 @@ cl_int ocls_rule_values(cl_device_id device, int values[N_KNOBS])
     const int calls = builtins_are_calls(device, type);
     for (int k = 0; k < N_KNOBS; ++k) {
         if (KNOBS[k].rule == RULE_LIBRARY_CALLS) values[k] = calls;
+        if (KNOBS[k].rule == RULE_CROSSINGS) {
+            int reach = 0, least = 0;
+            for (int i = 0; i < KNOBS[k].nlegal; ++i) {
+                const int v = KNOBS[k].legal[i];
+                if (v > 0 && (cl_uint)v <= 16 * width && v > reach) reach = v;
+                if (v > 0 && (least == 0 || v < least)) least = v;
+            }
+            values[k] = reach > 0 ? reach : least;
+        }
         if (KNOBS[k].rule != RULE_WIDTH && KNOBS[k].rule != RULE_WIDER) continue;
         int best = -1, least = KNOBS[k].legal[0];
         for (int i = 0; i < KNOBS[k].nlegal; ++i) {

@@ -359,5 +359,5 @@ TUNING = tuning.register(tuning.Family(
                   vector=True, rule="width"),
      tuning.Param("sweep_cells", (0, 64, 128, 192, 256), 128,
                   "within a search radius, the most patch columns and rows a ray crosses for the sweep "
-                  "(horizon_sweep) to run instead of the walk (0: always the walk)")),
+                  "(horizon_sweep) to run instead of the walk (0: always the walk)", rule="crossings")),
     ("horizon.cl",), _smoke, _workload, "horizon angles and sky-view factor (issue 19)"))

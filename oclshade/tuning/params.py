@@ -28,7 +28,7 @@ FAMILY_MODULES = ("oclshade.pyramid", "oclshade.shadows", "oclshade.terrain", "o
 
 
 #: the rules a knob can follow (Param.rule; oclshade/tuning/rules.py applies them)
-RULES = ("safe", "width", "wider", "host_memory", "library_calls")
+RULES = ("safe", "width", "wider", "crossings", "host_memory", "library_calls")
 
 
 @dataclass(frozen=True)
@@ -45,6 +45,8 @@ class Param:
     #: what the rule from device properties sets it to (oclshade/tuning/rules.py): "safe" (its
     #: safe value), "width" (a lane count: the compiler target's float vector width on CPUs),
     #: "wider" (the same where it is wider than the safe value, else the safe value),
+    #: "crossings" (on CPUs the largest legal value up to 16 x that width, at least the smallest
+    #: non-zero one: the horizon sweep's reach, whose cost per crossing falls with the lanes),
     #: "host_memory" (1 on CPU devices that share the host's memory) or "library_calls" (1 on
     #: drivers that leave the built-ins as library calls: PoCL 3.0's CPU devices)
     rule: str = "safe"

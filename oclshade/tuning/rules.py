@@ -64,6 +64,14 @@ def _lanes(width: int, legal: tuple[int, ...]) -> int:
     return max(fitting) if fitting else min(legal)
 
 
+def _crossings(width: int, legal: tuple[int, ...]) -> int:
+    """The largest legal value up to 16 x ``width``, at least the smallest non-zero one (rule
+    "crossings": the horizon sweep, measured faster than the walk up to about 9-11 crossings per
+    lane on rough ground and always on smooth ground; docs/solar.md, "The sweep and the walk")."""
+    nonzero = sorted(v for v in legal if v > 0)
+    return max([v for v in nonzero if v <= 16 * width] or nonzero[:1])
+
+
 def builtins_are_calls(device: cl.Device) -> bool:
     """True for a driver that leaves the OpenCL built-ins as calls into its library: PoCL 3.0's
     CPU devices (driver version 3.0, e.g. "3.0-rc2" of the PyPI wheel; measured, docs/tuning.md
@@ -83,6 +91,8 @@ def rule_values(family: Family, device: cl.Device) -> Values:
             values[p.name] = _lanes(width, p.values)
         elif p.rule == "wider" and is_cpu:
             values[p.name] = max(p.safe, _lanes(width, p.values))
+        elif p.rule == "crossings" and is_cpu:
+            values[p.name] = _crossings(width, p.values)
         elif p.rule == "host_memory":
             values[p.name] = int(is_cpu and bool(device.host_unified_memory))
         elif p.rule == "library_calls":
