@@ -407,11 +407,12 @@ OCLS_INLINE float corner_sup(__global const float *h, int H, int W, int pr, int 
 /* A height margin above the float32 error of the patch values (segment_sup, corner_sup) in a
  * tile of extrema e = (max, min) out to ray parameter t_end, where the test compares e.x - z0 with
  * bar: with a search radius a tile is pruned (or the walk ends, e = the whole map's extrema) only
- * when its patches come out at most T in float32 too, not only in exact arithmetic, so that the walk's T is the sweep's, the max over every patch
- * within R, bit for bit ("The sweep").  OCLS_SLACK (8 ulp) relative to the magnitudes the patch
- * arithmetic rounds: bar, the heights, and the tile's relief times the positions' magnitude,
- * t (|ux| + |uy|) cells; a flat tile's patches are exact and get none (a flat's ties stay pruned).
- * Measured: docs/solar.md, "The sweep and the walk: the same bits". */
+ * when its patches come out at most T in float32 too, not only in exact arithmetic, so that the
+ * walk's T is the sweep's, the max over every patch within R, bit for bit ("The sweep").
+ * OCLS_SLACK (8 ulp) relative to the magnitudes the patch arithmetic rounds: bar, the heights,
+ * and the tile's relief times the positions' magnitude, t (|ux| + |uy|) cells; a flat tile's
+ * patches are exact and get none (a flat's ties stay pruned).  Measured: docs/solar.md, "The
+ * sweep and the walk: the same bits". */
 OCLS_INLINE float prune_slack(const HRay *r, float2 e, float z0, float bar, float t_end)
 {
 #ifdef OCLS_MAX_DISTANCE
@@ -605,8 +606,9 @@ __kernel void horizon_cells(__global const float *h, const int H, const int W, _
  * step-by-step sequence where the ray passes within float32 rounding of a
  * patch corner, so along() follows the step-by-step decisions there.  Before
  * (measured): 962 of 11.5 million angles differed on SRTM N22W160 at 10 cells,
- * up to 9.5e-6 degrees; since, none on four maps at 5-200 cells, flat and
- * curved (tests/test_horizon.py and bench/horizon_sweep.py fail on one).  The
+ * up to 9.5e-6 degrees; since, none on four maps at 5-120 cells (SRTM N22W160
+ * to 200), flat and curved (tests/test_horizon.py and bench/horizon_sweep.py
+ * fail on one).  The
  * whole-map walk keeps the plain tests (there is no sweep to agree with, and
  * the margins cost it 50 % on N22W160).
  * So which of the two runs is free to follow the device: the hosts sweep where
