@@ -114,7 +114,8 @@ def test_c_horizons_and_svf_equal_python(host: dict, tmp_path: Path, definition:
     run_program(host, "host_passes", "horizon", tmp_path, heights_file(tmp_path, hm), rows, cols, repr(hm.dx),
                 repr(hm.dy), repr(coefficient), definition, n, repr(max_distance or 0.0))
     caster = HorizonCaster(hm, curvature=curvature, max_distance=max_distance, cache=False)
-    if radius_cells == 120.0:    # within sweep_cells (128): the sweep near the axes, the walk on the diagonals
+    if radius_cells == 120.0:    # at sweep_cells 128 the sweep near the axes, the walk on the diagonals (and the
+        # C side checks itself that 0 and 256, every azimuth walked or swept, give the same bits)
         swept = [sweeps(*Sun(float(az), 0.0).ray(hm.dx, hm.dy)[:2], caster.radius, 128) for az in azimuth_grid(n)]
         assert any(swept) and not all(swept)
     angles = caster.horizons(n)

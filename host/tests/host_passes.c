@@ -40,7 +40,8 @@
  *       horizon angles at the N azimuths 360 k / N (angle_<k>.f32) and the sky-view factor
  *       sums over them (svf.f32: float2 per cell, zeroed by oclshade_enqueue_zero), within
  *       the search radius MAX_DISTANCE (default 0: the whole map); checks itself that a
- *       pitched angle field and another group give the same bits.
+ *       pitched angle field, another group and (with a radius) sweep_cells 0 and 256 (every
+ *       azimuth walked, every one swept) give the same bits.
  *   sunshine OUTDIR HEIGHTS.f64 ROWS COLS DX DY N AZ,EL,SECONDS...
  *       sunshine sums over the (daylight) suns: N 0 by each sun's exact mask (shadow pass),
  *       also with pitched heights (pitched_*); N > 0 by the horizons of N grid azimuths;
@@ -707,6 +708,16 @@ static void run_horizon(int argc, char **argv)
             again = read_back(d_angle, 4 * m.n);
             if (memcmp(again, band, 4 * m.n) != 0) fail("horizon: group 16 differs");
             free(again);
+            int sweep_cells0 = 0;      /* within a radius: every azimuth walked, every one swept */
+            CHECK(oclshade_get_knob(lib, "horizon", "sweep_cells", &sweep_cells0));
+            for (int cells = 0; horizon_max_distance > 0.0 && cells <= 256; cells += 256) {
+                CHECK(oclshade_set_knob(lib, "horizon", "sweep_cells", cells));
+                horizon_band(&m, dx, dy, curvature, 360.0 * k / n, &angle, NULL, definition);
+                again = read_back(d_angle, 4 * m.n);
+                if (memcmp(again, band, 4 * m.n) != 0) fail(cells ? "horizon: sweep_cells 256 differs" : "horizon: sweep_cells 0 differs");
+                free(again);
+            }
+            CHECK(oclshade_set_knob(lib, "horizon", "sweep_cells", sweep_cells0));
         }
         free(band);
     }

@@ -261,8 +261,9 @@ class HorizonCaster:
         map, the seed grid's walk (``horizon_seeds``), then every cell's walk from its seeds' bound
         (``horizon_cells``); with a search radius the sweep (``horizon_sweep``) where :func:`sweeps`,
         else the cells' walk alone, as with ``OCLS_CLAMP`` among the outputs (then ``enqueue`` takes
-        the (lo, hi) tangents; kernels/horizon.cl, "Seeds" and "The sweep": the same angles either way).  The pyramid and the
-        walk's kernels are made at the first azimuth that walks, the sweep's at the first it sweeps."""
+        the (lo, hi) tangents; kernels/horizon.cl, "Seeds" and "The sweep": the same angles either
+        way).  The pyramid and the walk's kernels are made at the first azimuth that walks, the
+        sweep's at the first it sweeps."""
         rt, hm = self.runtime, self.heightmap
         rows, cols = hm.shape
         defines = {**outputs, "OCLS_CURVATURE": self.curvature is not None,
