@@ -25,6 +25,7 @@ from oclshade.sun import Sun
 from oclshade.sunshine import SunshineCaster
 
 from test_host_api import host, run_program  # noqa: F401  (the session build of host/)
+from test_horizon import varied_map
 
 # (azimuth, elevation, seconds): a night sun (skipped by both hosts), suns at grid azimuths
 # and between them, 45 degrees (w = 1 exactly), weights that differ
@@ -101,11 +102,15 @@ def test_c_sunshine_equals_python(host: dict, tmp_path: Path, case: str, azimuth
         assert np.where(nodata, np.nan, values).astype(np.float32).tobytes() == want.tobytes(), name
 
 
-@pytest.mark.parametrize("definition,curved,radius_cells", [(1, False, 0), (2, True, 0), (2, True, 11.5),
-                                                           (1, False, 120.0)])
+@pytest.mark.parametrize("definition,curved,radius_cells,case", [(1, False, 0, "holes"), (2, True, 0, "holes"),
+                                                                (2, True, 11.5, "holes"), (1, False, 120.0, "holes"),
+                                                                (2, False, 6.5, "varied"), (1, True, 20.0, "varied")])
 def test_c_horizons_and_svf_equal_python(host: dict, tmp_path: Path, definition: int, curved: bool,
-                                         radius_cells: float) -> None:
-    hm = generated_map(*MAPS["holes"])
+                                         radius_cells: float, case: str) -> None:
+    """With a radius host_passes also checks that sweep_cells 0 and 256 (every azimuth walked,
+    every one swept) give its default's bits; the varied map's flats and cliffs hold the float32
+    ties on which a walk without its margins (kernels/horizon.cl, prune_slack) differs."""
+    hm = varied_map() if case == "varied" else generated_map(*MAPS[case])
     rows, cols = hm.shape
     n = 8
     curvature = Curvature(radius=20000.0, refraction=0.13) if curved else None   # a small planet: visible drops
