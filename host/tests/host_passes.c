@@ -40,8 +40,8 @@
  *       horizon angles at the N azimuths 360 k / N (angle_<k>.f32) and the sky-view factor
  *       sums over them (svf.f32: float2 per cell, zeroed by oclshade_enqueue_zero), within
  *       the search radius MAX_DISTANCE (default 0: the whole map); checks itself that a
- *       pitched angle field, another group and (with a radius) sweep_cells 0 and 256 (every
- *       azimuth walked, every one swept) give the same bits.
+ *       pitched angle field and another group (at azimuth 360 / N) and, with a radius, at every
+ *       azimuth sweep_cells 0 and 256 (walked, swept) give the same bits.
  *   sunshine OUTDIR HEIGHTS.f64 ROWS COLS DX DY N AZ,EL,SECONDS...
  *       sunshine sums over the (daylight) suns: N 0 by each sun's exact mask (shadow pass),
  *       also with pitched heights (pitched_*); N > 0 by the horizons of N grid azimuths;
