@@ -709,19 +709,24 @@ static void run_horizon(int argc, char **argv)
             if (memcmp(again, band, 4 * m.n) != 0) fail("horizon: group 16 differs");
             free(again);
         }
-        int sweep_cells0 = 0;      /* within a radius, every azimuth: walked and swept give the same bits */
-        CHECK(oclshade_get_knob(lib, "horizon", "sweep_cells", &sweep_cells0));
-        for (int cells = 0; horizon_max_distance > 0.0 && cells <= 256; cells += 256) {
-            CHECK(oclshade_set_knob(lib, "horizon", "sweep_cells", cells));
-            horizon_band(&m, dx, dy, curvature, 360.0 * k / n, &angle, NULL, definition);
-            void *again = read_back(d_angle, 4 * m.n);
-            if (memcmp(again, band, 4 * m.n) != 0) {
-                fprintf(stderr, "azimuth %g: ", 360.0 * k / n);
-                fail(cells ? "horizon: sweep_cells 256 differs" : "horizon: sweep_cells 0 differs");
+        if (horizon_max_distance > 0.0) {   /* within a radius, every azimuth: walked and swept give the same bits */
+            static const struct { int cells; const char *what; } sweep[] = {
+                {0, "horizon: sweep_cells 0 (every azimuth walked) differs"},
+                {256, "horizon: sweep_cells 256 (every azimuth swept) differs"}};
+            int default_cells = 0;
+            CHECK(oclshade_get_knob(lib, "horizon", "sweep_cells", &default_cells));
+            for (size_t i = 0; i < sizeof sweep / sizeof sweep[0]; ++i) {
+                CHECK(oclshade_set_knob(lib, "horizon", "sweep_cells", sweep[i].cells));
+                horizon_band(&m, dx, dy, curvature, 360.0 * k / n, &angle, NULL, definition);
+                void *again = read_back(d_angle, 4 * m.n);
+                if (memcmp(again, band, 4 * m.n) != 0) {
+                    fprintf(stderr, "azimuth %g: ", 360.0 * k / n);
+                    fail(sweep[i].what);
+                }
+                free(again);
             }
-            free(again);
+            CHECK(oclshade_set_knob(lib, "horizon", "sweep_cells", default_cells));
         }
-        CHECK(oclshade_set_knob(lib, "horizon", "sweep_cells", sweep_cells0));
         free(band);
     }
     void *svf = read_back(d_svf, 8 * m.n);
