@@ -2,15 +2,18 @@
 
 kernels/horizon.cl, "The sweep": within a short radius the cells of a row step through the
 same patches together on vector lanes, without the pyramid; the hosts sweep an azimuth whose
-ray crosses at most the tuning knob ``sweep_cells`` patch columns and rows within the radius
-(oclshade/horizon/caster.py).  This script measures where that pays.  Per map and radius
+ray crosses at most the tuning knob ``sweep_cells`` patch columns and rows within the radius,
+and past that the knob ``sweep_far`` decides: by default (1) the Python host's pilot times both
+on bands of rows at the first such azimuth and takes the faster on that map
+(oclshade/horizon/caster.py, pilot.py).  This script measures where each pays.  Per map and radius
 (``--radii``, cells of RVT's cell size 0.5 (dx + dy), as bench/solar.py), ``--azimuths``
 azimuths of the solid-angle sky-view factor, alternating (minimum of ``--reps``; every kernel
 built and warmed up before):
 
-* ``sweep``: every azimuth swept (``sweep_cells`` 256: up to 181 cells); ``walk``: every azimuth
-  walked (the pyramid walk cut at R);
-  ``default``: the hosts' choice (the device's ``sweep_cells``);
+* ``sweep``: every azimuth swept (``sweep_far`` 2); ``walk``: every azimuth walked (the pyramid
+  walk cut at R; ``sweep_cells`` 0, ``sweep_far`` 0); ``default``: the Python host's choice (the
+  device's knobs: past ``sweep_cells`` the pilot, which runs once per caster: in the first
+  timed run, so the minimum leaves it out; its own seconds are in the table);
 * the mean number of patch columns and rows a ray crosses within R, R (|ux| + |uy|);
 * the angles that differ between the sweep and the walk (the run fails if any does: they are
   the same bits), and both against the float64 reference on ``--samples`` seeded cells
@@ -39,13 +42,13 @@ from solar import MAP_KEYS, maps, reference_error, rvt_svf  # noqa: E402
 from oclshade.bench.machine import machine_facts  # noqa: E402
 from oclshade.heightmap import Heightmap  # noqa: E402
 from oclshade.horizon import HorizonCaster, azimuth_grid  # noqa: E402
+from oclshade.horizon.pilot import RUNS as PILOT_RUNS  # noqa: E402
 from oclshade import tuning  # noqa: E402
 from oclshade.runtime import Runtime, get_runtime  # noqa: E402
 from oclshade.sun import Sun  # noqa: E402
 
-#: the knob ``sweep_cells`` of each mode (None: the device's own decision); 256 sweeps every
-#: azimuth up to 181 cells
-MODES = {"sweep": 256, "walk": 0, "default": None}
+#: the knobs of each mode (None: the device's own)
+MODES = {"sweep": {"sweep_far": 2}, "walk": {"sweep_cells": 0, "sweep_far": 0}, "default": None}
 
 
 def svf_seconds(caster: HorizonCaster, n: int) -> tuple[float, np.ndarray]:
@@ -58,8 +61,8 @@ def measure(rt: Runtime, hm: Heightmap, radius_cells: float, n: int, reps: int, 
             with_rvt: bool) -> dict:
     radius = radius_cells * 0.5 * (hm.dx + hm.dy)
     casters = {name: HorizonCaster(hm, rt, cache=False, max_distance=radius,
-                                   knobs=None if cells is None else {"sweep_cells": cells})
-               for name, cells in MODES.items()}
+                                   knobs=knobs)
+               for name, knobs in MODES.items()}
     caster = casters["default"]
     for name, c in casters.items():      # warm-up: the pyramid and every kernel build
         svf_seconds(c, 1)
@@ -86,7 +89,9 @@ def measure(rt: Runtime, hm: Heightmap, radius_cells: float, n: int, reps: int, 
     row = {"radius_cells": radius_cells, "radius_m": caster.radius, "azimuths": n,
            "crossings_mean": float(np.mean(crossings)), "crossings_max": float(np.max(crossings)),
            "sweep_cells": caster.knobs["sweep_cells"],
-           "swept_azimuths": int(sum(c <= caster.knobs["sweep_cells"] for c in crossings)),
+           "sweep_far": caster.knobs["sweep_far"],
+           "swept_azimuths": int(sum(bool(caster.takes_sweep(az)) for az in azimuth_grid(n))),
+           "pilot": None if caster.pilot is None else vars(caster.pilot),
            "seconds": best, "walk_over_sweep": best["walk"] / best["sweep"],
            "walk_over_default": best["walk"] / best["default"],
            "angles_differing": int(differ.sum()), "angles": int(differ.size),
@@ -106,24 +111,29 @@ def markdown(res: dict) -> str:
              f"Machine: {m['cpu']}, {m['cores']} cores; device {m['device']} ({m['device_version']}). "
              f"`{res['command']}`, {res['when']}.", "",
              f"Solid-angle sky-view factor over {res['azimuths']} azimuths within R (cells of 0.5 (dx + dy)), "
-             f"minimum of {res['reps']} alternating runs: every azimuth swept, every azimuth walked (the "
-             f"pyramid walk cut at R), and the default (an azimuth is swept where its ray crosses at most the "
-             f"device's knob sweep_cells = {res['sweep_cells']} patch columns and rows within R). Crossings: R (|ux| + |uy|), "
+             f"minimum of {res['reps']} alternating runs: every azimuth swept, every azimuth "
+             f"walked (the pyramid walk cut at R), and the default (an azimuth is swept where its ray crosses at "
+             f"most the device's knob sweep_cells = {res['sweep_cells']} patch columns and rows within R; past "
+             f"that, sweep_far = {res['sweep_far']}: 1 the pilot's choice, timed on bands of rows once, in the first "
+             f"run; pilot: its walk / sweep seconds, and the seconds it timed). Crossings: R (|ux| + |uy|), "
              f"mean / max over the azimuths. Angles compared bit for bit (sweep against walk) and against the "
              f"float64 reference on {res['samples']} cells x every azimuth.", "",
              "| map | R (cells) | crossings mean / max | swept azimuths | sweep s | walk s | default s | "
-             "walk / sweep | walk / default | angles differing | ref. max diff sweep / walk (deg) | "
+             "walk / sweep | walk / default | pilot | angles differing | ref. max diff sweep / walk (deg) | "
              "RVT s | RVT / default |",
-             "|---|---:|---|---:|---:|---:|---:|---:|---:|---|---|---:|---:|"]
+             "|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---|---|---:|---:|"]
     for name, rows in res["maps"].items():
         for r in rows:
             s = r["seconds"]
             ref_s, ref_w = r["reference"]["sweep"], r["reference"]["walk"]
             rvt = (f"{r['rvt_seconds']:.2f} | {r['rvt_over_default']:.2f}x" if "rvt_seconds" in r else "- | -")
+            p = r.get("pilot")
+            pilot = "-" if p is None else (f"{p['walk_seconds'] / p['sweep_seconds']:.2f}x, "
+                                           f"{PILOT_RUNS * (p['walk_seconds'] + p['sweep_seconds']):.2f} s")
             lines.append(
                 f"| {name} | {r['radius_cells']:g} | {r['crossings_mean']:.1f} / {r['crossings_max']:.1f} | "
                 f"{r['swept_azimuths']} of {r['azimuths']} | {s['sweep']:.2f} | {s['walk']:.2f} | {s['default']:.2f} | "
-                f"{r['walk_over_sweep']:.2f}x | {r['walk_over_default']:.2f}x | "
+                f"{r['walk_over_sweep']:.2f}x | {r['walk_over_default']:.2f}x | {pilot} | "
                 f"{r['angles_differing']} of {r['angles']} | "
                 f"{ref_s['max_abs_deg']:.1e} / {ref_w['max_abs_deg']:.1e} | {rvt} |")
     return "\n".join(lines) + "\n"
@@ -159,7 +169,7 @@ def main() -> None:
            "command": "python " + " ".join(sys.argv),
            "when": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "azimuths": args.azimuths, "reps": args.reps,
            "samples": args.samples,
-           "sweep_cells": tuning.settings(rt, "horizon").values["sweep_cells"], "maps": {}}
+           **{k: tuning.settings(rt, "horizon").values[k] for k in ("sweep_cells", "sweep_far")}, "maps": {}}
     for name, hm in maps(False, keys, args.side).items():
         res["maps"][name] = []
         for radius in radii:

@@ -80,7 +80,9 @@ def test_horizon_sweep_quick(tmp_path: Path) -> None:
     assert [r["radius_cells"] for r in rows] == [5.0, 200.0]
     near, far = rows
     assert near["swept_azimuths"] == 4      # 5 cells sweep; 200 (axis azimuths) walk unless the knob is 256
-    assert far["swept_azimuths"] == (4 if far["sweep_cells"] >= 200 else 0)
+    # (or sweep_far 2): 96^2 is under the pilot's size
+    assert far["swept_azimuths"] == (4 if far["sweep_cells"] >= 200 or far["sweep_far"] == 2 else 0)
+    assert near["pilot"] is None and far["pilot"] is None
     for r in rows:
         assert all(r["seconds"][mode] > 0 for mode in ("sweep", "walk", "default"))
         assert r["angles_differing"] == 0       # the same bits (the run would have failed)

@@ -15,6 +15,8 @@ from oclshade import ShadowCaster, Sun
 from oclshade import reference as ref
 from oclshade.heightmap import Heightmap
 from oclshade.horizon import Curvature, HorizonCaster, azimuth_grid
+from oclshade import tuning
+from oclshade.horizon import pilot
 from oclshade.horizon.caster import sweeps
 
 SRTM = pathlib.Path(__file__).resolve().parents[2] / "shared" / "data" / "dem" / "srtm3_srtmpy" / "N22W160v2.3a.hgt.zip"
@@ -378,10 +380,12 @@ def test_the_sweep_equals_the_walk(make_map, curved):
     for cells in (1.0, 6.5, 20.0, 45.0):
         radius = cells * max(hm.dx, hm.dy)
         swept = HorizonCaster(hm, curvature=curvature, max_distance=radius, knobs={"sweep_cells": 256})
-        walked = HorizonCaster(hm, curvature=curvature, max_distance=radius, knobs={"sweep_cells": 0})
+        walked = HorizonCaster(hm, curvature=curvature, max_distance=radius,
+                               knobs={"sweep_cells": 0, "sweep_far": 0})
         for az in azimuths:
             ux, uy, _ = Sun(az, 0.0).ray(hm.dx, hm.dy)
             assert sweeps(ux, uy, swept.radius, 256) and not sweeps(ux, uy, walked.radius, 0), (cells, az)
+            assert swept.takes_sweep(az) is True and walked.takes_sweep(az) is False, (cells, az)
         angles, walk_angles = swept.horizons(azimuths), walked.horizons(azimuths)
         assert angles.tobytes() == walk_angles.tobytes(), \
             f"{cells} cells: {np.sum(angles.view(np.uint32) != walk_angles.view(np.uint32))} angles differ"
@@ -389,6 +393,54 @@ def test_the_sweep_equals_the_walk(make_map, curved):
             svf, walk_svf = swept.sky_view_factor(azimuths, definition), walked.sky_view_factor(azimuths, definition)
             assert svf.tobytes() == walk_svf.tobytes(), (cells, definition)
         assert (angles > -90.0).any() and (angles == -90.0).any() and np.isnan(angles).any()
+
+
+def test_the_pilot_times_both_and_keeps_the_bits():
+    """Past the reach of ``sweep_cells`` the knob ``sweep_far`` 1 (the safe value) times the sweep
+    and the walk on bands of rows at the first such azimuth and takes the faster for the rest
+    (oclshade/horizon/pilot.py): the angles and sums are the bits of every azimuth walked and of
+    every one swept, whichever it chose; a map under the pilot's size walks there untimed."""
+    hm = tuning.standard_heightmap(512)              # 2^18 cells: the pilot's least
+    radius = 100 * hm.dx                             # 100 crossings on the axes, 141 on the diagonals
+    azimuths = [0.0, 45.0, 90.0, 135.0, 180.0, 225.0, 270.0, 315.0]
+    casters = {far: HorizonCaster(hm, max_distance=radius, cache=False,
+                                  knobs={"sweep_cells": 128 if far else 0, "sweep_far": far}) for far in (0, 1, 2)}
+    piloted = casters[1]
+    assert [piloted.takes_sweep(az) for az in azimuths] == [True, None] * 4 and piloted.pilot is None
+    svf = {far: c.sky_view_factor(azimuths, "solid-angle") for far, c in casters.items()}
+    pilot = piloted.pilot
+    assert pilot is not None and pilot.crossings == pytest.approx(100 * math.sqrt(2), rel=1e-6)
+    assert pilot.sweep_seconds > 0.0 and pilot.walk_seconds > 0.0
+    assert [piloted.takes_sweep(az) for az in azimuths] == [True, pilot.sweeps] * 4
+    assert [casters[2].takes_sweep(az) for az in azimuths] == [True] * 8
+    assert [casters[0].takes_sweep(az) for az in azimuths] == [False] * 8
+    angles = {far: c.horizons(azimuths) for far, c in casters.items()}
+    for far in (1, 2):
+        assert angles[far].tobytes() == angles[0].tobytes(), far
+        assert svf[far].tobytes() == svf[0].tobytes(), far
+    assert (angles[0] > 0.0).any() and np.nanmin(svf[0]) < 1.0
+    small = HorizonCaster(Heightmap.from_array(hm.heights[:256, :512], (hm.dx, hm.dy)), max_distance=radius,
+                          cache=False, knobs={"sweep_cells": 128, "sweep_far": 1})
+    small.horizons([45.0])
+    assert small.takes_sweep(45.0) is False and small.pilot is None
+
+
+@pytest.mark.parametrize("rows, group_rows", [(64, 16), (300, 4), (1201, 4), (1024, 16), (4096, 4), (100000, 1)])
+def test_the_pilots_bands(rows, group_rows):
+    """Whole work-group rows, inside the map, apart and in order, spread down it, about a
+    sixteenth of the rows in all (all of them on a map of a few work-group rows)."""
+    spans = pilot.bands(rows, group_rows)
+    assert 1 <= len(spans) <= pilot.BANDS
+    ends = [0]
+    for first, count in spans:
+        assert first % group_rows == 0 and count % group_rows == 0 and count > 0
+        assert first >= ends[-1] and first + count <= rows
+        ends.append(first + count)
+    total = sum(count for _, count in spans)
+    assert total <= max(rows // pilot.ROW_SHARE, len(spans) * group_rows)
+    assert total >= min(rows // pilot.ROW_SHARE - pilot.BANDS * group_rows, rows // group_rows * group_rows)
+    if len(spans) == pilot.BANDS:
+        assert spans[0][0] < rows // 8 and spans[-1][0] + spans[-1][1] > rows * 7 // 8
 
 
 @pytest.mark.parametrize("bad", [0, 0.0, -30.0, math.nan, math.inf, 1e-60, True, "300"])

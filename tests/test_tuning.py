@@ -304,3 +304,25 @@ def test_tune_writes_an_entry_that_the_lookup_then_uses(cache, capsys):
     listed = json.loads(capsys.readouterr().out)
     mine = [r for r in listed if r["key"] == DeviceKey.of(rt.device).as_dict()]
     assert mine and mine[0]["tuning"]["pyramid"]["source"] == "user"
+
+
+def test_the_tuner_leaves_a_knob_that_chooses_at_run_time(monkeypatch):
+    """A knob declared ``tuned=False`` (horizon sweep_far: its pilot chooses per map) keeps its
+    start value through the search, while the others are measured at each of their values."""
+    from oclshade.tuning import tuner
+
+    seen: list[dict[str, int]] = []
+
+    def workload(runtime, values, quick):
+        seen.append(dict(values))
+        return lambda: time.sleep(0.002 if values["fast"] else 0.004)
+
+    fam = tuning.Family("fake", (tuning.Param("fast", (0, 1), 0, "tuned"),
+                                 tuning.Param("chooses", (0, 1, 2), 1, "chosen at run time", tuned=False)),
+                        (), lambda runtime, values: None, workload)
+    monkeypatch.setattr(tuner, "probed", lambda *args: True)
+    best, measured = tuner.tune_family(get_runtime(), fam, {"fast": 0, "chooses": 1}, quick=True,
+                                       report=lambda line: None)
+    assert best == {"fast": 1, "chooses": 1}
+    assert {v["fast"] for v in seen} == {0, 1} and {v["chooses"] for v in seen} == {1}
+    assert tuning.family("horizon").param("sweep_far").tuned is False

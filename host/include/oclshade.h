@@ -824,7 +824,9 @@ oclshade_status oclshade_horizon_scratch_size(oclshade *lib, const oclshade_hori
  * a short search radius (the ray crosses at most the knob sweep_cells patch columns and rows within
  * it, rows and cols >= 2: HorizonCaster's sweeps()) one launch of horizon_sweep instead (the same
  * angles), -D OCLS_SWEEP=lanes, global size (ceil(cols / lanes), rows) rounded up (the pyramid is
- * then not read).  Knobs: horizon group, own_builtins, lanes, sweep_cells. */
+ * then not read); past that reach too where the knob sweep_far is 2 (1, the Python host's pilot,
+ * walks here: timing would wait for the queue).  Knobs: horizon group, own_builtins, lanes,
+ * sweep_cells, sweep_far. */
 oclshade_status oclshade_enqueue_horizon(oclshade *lib, cl_command_queue queue,
                                          const oclshade_horizon_params *params,
                                          cl_uint num_events_in_wait_list, const cl_event *event_wait_list,

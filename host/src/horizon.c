@@ -27,12 +27,15 @@ typedef struct horizon_job {
 /* HorizonCaster's sweeps(): with a search radius, a ray crossing at most the knob sweep_cells patch
  * columns and rows within it (the same float64 product of the float32 ray) takes horizon_sweep
  * (kernels/horizon.cl, "The sweep": the same angles as the walk, bit for bit), on maps of 2 rows
- * and columns or more */
+ * and columns or more; past that reach, where the knob sweep_far is 2.  Its pilot (sweep_far 1,
+ * oclshade/horizon/pilot.py) is the Python host's alone: it times both kernels and so waits for
+ * the queue, while a call here only enqueues into the caller's pipeline; here 1 walks, as 0. */
 static int sweeps(oclshade *lib, const horizon_job *j)
 {
     const double ux = j->ray.s[0], uy = j->ray.s[1], radius = j->ray.s[3];
     return j->p->rows >= 2 && j->p->cols >= 2 && radius > 0.0 &&
-           radius * (fabs(ux) + fabs(uy)) <= ocls_knob(lib, K_HORIZON_SWEEP_CELLS);
+           (radius * (fabs(ux) + fabs(uy)) <= ocls_knob(lib, K_HORIZON_SWEEP_CELLS) ||
+            ocls_knob(lib, K_HORIZON_SWEEP_FAR) == 2);
 }
 
 static oclshade_status horizon_job_for(oclshade *lib, const oclshade_horizon_params *p, horizon_job *j)

@@ -48,6 +48,7 @@ static const knob_def KNOBS[N_KNOBS] = {
     [K_HORIZON_OWN_BUILTINS] = {"horizon", "own_builtins", 2, {0, 1}, 0, RULE_LIBRARY_CALLS},
     [K_HORIZON_LANES] = {"horizon", "lanes", 4, {1, 4, 8, 16}, 1, RULE_WIDTH},
     [K_HORIZON_SWEEP_CELLS] = {"horizon", "sweep_cells", 5, {0, 64, 128, 192, 256}, 128, RULE_CROSSINGS},
+    [K_HORIZON_SWEEP_FAR] = {"horizon", "sweep_far", 3, {0, 1, 2}, 1, RULE_SAFE},
 };
 
 /* oclshade/tuning/rules.py TARGET_FLOAT_LANES: float lanes of the LLVM CPU target PoCL names in
@@ -153,7 +154,7 @@ static int find_knob(oclshade *lib, const char *family, const char *name)
     if (lib == NULL) return -1;
     if (!family_known) {
         ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "family must be one of pyramid, shadow, terrain, screen_shadows, "
-                  "ssao (the Python host's tuning families), got %s%s%s", family ? "\"" : "", family ? family : "NULL",
+                  "ssao, horizon (the Python host's tuning families), got %s%s%s", family ? "\"" : "", family ? family : "NULL",
                   family ? "\"" : "");
         return -1;
     }

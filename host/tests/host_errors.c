@@ -665,7 +665,8 @@ int main(int argc, char **argv)
         {"shadow", "group"}, {"shadow", "cert_tile"}, {"shadow", "own_builtins"}, {"shadow", "gather"}, {"terrain", "descend"},
         {"terrain", "leaf"}, {"terrain", "group"}, {"terrain", "own_builtins"}, {"screen_shadows", "group"},
         {"screen_shadows", "own_builtins"}, {"ssao", "lanes"}, {"ssao", "group"}, {"ssao", "own_builtins"},
-        {"horizon", "group"}, {"horizon", "own_builtins"}};
+        {"horizon", "group"}, {"horizon", "own_builtins"}, {"horizon", "lanes"}, {"horizon", "sweep_cells"},
+        {"horizon", "sweep_far"}};
     oclshade *fresh = NULL;
     oclshade_create(ctx, device, dir, &fresh);
     for (size_t i = 0; i < sizeof knob_names / sizeof knob_names[0]; ++i) {

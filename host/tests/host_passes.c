@@ -41,7 +41,8 @@
  *       sums over them (svf.f32: float2 per cell, zeroed by oclshade_enqueue_zero), within
  *       the search radius MAX_DISTANCE (default 0: the whole map); checks itself that a
  *       pitched angle field and another group (at azimuth 360 / N) and, with a radius, at every
- *       azimuth sweep_cells 0 and 256 (walked, swept) give the same bits.
+ *       azimuth sweep_cells 0 and 256 (walked, swept) and sweep_far 2 (swept past the reach)
+ *       give the same bits.
  *   sunshine OUTDIR HEIGHTS.f64 ROWS COLS DX DY N AZ,EL,SECONDS...
  *       sunshine sums over the (daylight) suns: N 0 by each sun's exact mask (shadow pass),
  *       also with pitched heights (pitched_*); N > 0 by the horizons of N grid azimuths;
@@ -710,13 +711,16 @@ static void run_horizon(int argc, char **argv)
             free(again);
         }
         if (horizon_max_distance > 0.0) {   /* within a radius, every azimuth: walked and swept give the same bits */
-            static const struct { int cells; const char *what; } sweep[] = {
-                {0, "horizon: sweep_cells 0 (every azimuth walked) differs"},
-                {256, "horizon: sweep_cells 256 (every azimuth swept) differs"}};
-            int default_cells = 0;
+            static const struct { int cells, far; const char *what; } sweep[] = {
+                {0, 0, "horizon: sweep_cells 0, sweep_far 0 (every azimuth walked) differs"},
+                {256, 0, "horizon: sweep_cells 256 (every azimuth swept) differs"},
+                {0, 2, "horizon: sweep_cells 0, sweep_far 2 (every azimuth swept) differs"}};
+            int default_cells = 0, default_far = 0;
             CHECK(oclshade_get_knob(lib, "horizon", "sweep_cells", &default_cells));
+            CHECK(oclshade_get_knob(lib, "horizon", "sweep_far", &default_far));
             for (size_t i = 0; i < sizeof sweep / sizeof sweep[0]; ++i) {
                 CHECK(oclshade_set_knob(lib, "horizon", "sweep_cells", sweep[i].cells));
+                CHECK(oclshade_set_knob(lib, "horizon", "sweep_far", sweep[i].far));
                 horizon_band(&m, dx, dy, curvature, 360.0 * k / n, &angle, NULL, definition);
                 void *again = read_back(d_angle, 4 * m.n);
                 if (memcmp(again, band, 4 * m.n) != 0) {
@@ -726,6 +730,7 @@ static void run_horizon(int argc, char **argv)
                 free(again);
             }
             CHECK(oclshade_set_knob(lib, "horizon", "sweep_cells", default_cells));
+            CHECK(oclshade_set_knob(lib, "horizon", "sweep_far", default_far));
         }
         free(band);
     }

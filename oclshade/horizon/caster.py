@@ -18,7 +18,9 @@ it starts from a lower bound carried from an exact walk on every 8th row and
 column (a second launch per azimuth; kernels/horizon.cl, "Seeds").  Within a
 short radius (a ray crossing at most the tuning knob ``sweep_cells`` patch columns
 and rows) the cells of a row step through their patches together instead, without
-the pyramid (kernels/horizon.cl, "The sweep": the same angles bit for bit).  The
+the pyramid (kernels/horizon.cl, "The sweep": the same angles bit for bit); past that
+reach the knob ``sweep_far`` chooses, by default the faster of the two on the map, timed on
+bands of its rows (:mod:`oclshade.horizon.pilot`).  The
 pyramid is shared with the shadow casters over the same heights (process-wide
 cache).  Definitions: kernels/horizon.cl and docs/methods.md;
 float64 twin: :func:`oclshade.reference.horizon_angles`.
@@ -40,6 +42,8 @@ from ..reference.horizons import SVF_DEFINITIONS
 from ..runtime import Runtime, get_runtime
 from ..sun import Sun, SunLike, as_sun
 from .disc import DEFAULT_COLUMNS, SUN_RADIUS, disc_columns, visible_fraction
+from .pilot import MIN_CELLS as PILOT_MIN_CELLS, MIN_ROWS as PILOT_MIN_ROWS, Pilot
+from .pilot import bands as pilot_bands, measure as measure_pilot
 
 #: degrees added on both sides of a strip's elevations before its horizons are clamped: far
 #: above the float32 error of an angle, so a clamped angle never lands inside the strip
@@ -50,6 +54,9 @@ MAX_AZIMUTHS = 65536
 #: the angles' last bits may depend on it, so it is not a tuning knob)
 SEED_STRIDE = 8
 _SVF_CODE = {"cosine": 1, "solid-angle": 2}
+#: the knob ``sweep_far``'s values: what the rays past the reach of ``sweep_cells`` take
+#: (pilot: the faster on this map, timed on bands of its rows; oclshade/horizon/pilot.py)
+SWEEP_FAR = {"walk": 0, "pilot": 1, "sweep": 2}
 
 Progress = Callable[[int, int], None]
 
@@ -136,6 +143,7 @@ class HorizonCaster:
         self.knobs = {**tuning.settings(self.runtime, "horizon").values, **TUNING.check(knobs or {}, partial=True)}
         self._pyramid: ExtremaPyramid | None = None
         self._heights: cl.Buffer | None = None
+        self._pilot: Pilot | None = None
         self._dummy = self.runtime.empty(8, "dummy")
 
     @property
@@ -154,6 +162,12 @@ class HorizonCaster:
         if self._heights is None:
             self._heights = self.runtime.to_device(self.heightmap.relative32, "heightmap")
         return self._heights
+
+    @property
+    def pilot(self) -> Pilot | None:
+        """What the pilot measured on this map (at the first azimuth past the knob ``sweep_cells``
+        with ``sweep_far`` 1), None until then or where none ran (oclshade/horizon/pilot.py)."""
+        return self._pilot
 
     @property
     def coefficient(self) -> float:
@@ -189,9 +203,10 @@ class HorizonCaster:
     def angles_on_device(self, azimuths: int | Sequence[float]) -> Iterator[tuple[float, cl.Buffer]]:
         """(azimuth, device buffer) one azimuth at a time, for a kernel that reads the angles next
         on this caster's queue (``runtime.queue``): float32 rows * cols degrees, values as
-        :meth:`horizons`; nothing is copied or waited for.  Each azimuth gets its own buffer (keep
-        two to interpolate between azimuths; drop them to free the memory).  The arguments are
-        checked at the call."""
+        :meth:`horizons`; nothing is copied or waited for (but for the pilot's timing, once per
+        caster with a search radius past ``sweep_cells``: :mod:`.pilot`).  Each azimuth gets its
+        own buffer (keep two to interpolate between azimuths; drop them to free the memory).  The
+        arguments are checked at the call."""
         return self._device_angles(as_azimuths(azimuths))
 
     def _device_angles(self, az: np.ndarray) -> Iterator[tuple[float, cl.Buffer]]:
@@ -259,11 +274,12 @@ class HorizonCaster:
     def _enqueuer(self, outputs: Mapping[str, object]) -> Callable[..., None]:
         """A function enqueueing one azimuth's traversal into (angle, svf) buffers: over the whole
         map, the seed grid's walk (``horizon_seeds``), then every cell's walk from its seeds' bound
-        (``horizon_cells``); with a search radius the sweep (``horizon_sweep``) where :func:`sweeps`,
-        else the cells' walk alone, as with ``OCLS_CLAMP`` among the outputs (then ``enqueue`` takes
-        the (lo, hi) tangents; kernels/horizon.cl, "Seeds" and "The sweep": the same angles either
-        way).  The pyramid and the walk's kernels are made at the first azimuth that walks, the
-        sweep's at the first it sweeps."""
+        (``horizon_cells``); with a search radius the sweep (``horizon_sweep``) where :func:`sweeps`
+        or, past that, where the knob ``sweep_far`` says (the pilot: :mod:`.pilot`, run at the first
+        such azimuth, waits for the queue), else the cells' walk alone, as with ``OCLS_CLAMP`` among
+        the outputs (then ``enqueue`` takes the (lo, hi) tangents; kernels/horizon.cl, "Seeds" and
+        "The sweep": the same angles either way).  The pyramid and the walk's kernels are made at
+        the first azimuth that walks, the sweep's at the first it sweeps."""
         rt, hm = self.runtime, self.heightmap
         rows, cols = hm.shape
         defines = {**outputs, "OCLS_CURVATURE": self.curvature is not None,
@@ -296,30 +312,79 @@ class HorizonCaster:
             kernel = rt.kernel("horizon.cl", "horizon_sweep", {**defines, "OCLS_SWEEP": lanes})
             return kernel, rt.grid_2d(kernel, -(-cols // lanes), rows, wanted=self.knobs["group"])
 
-        def enqueue(azimuth: float, angle: cl.Buffer, svf: cl.Buffer, bounds: tuple[float, float] = ()) -> None:
-            ux, uy, _ = Sun(azimuth, 0.0).ray(hm.dx, hm.dy)
-            ray = np.array([ux, uy, c, radius], np.float32)
-            if not clamped and min(rows, cols) >= 2 and sweeps(ux, uy, radius, self.knobs["sweep_cells"]):
-                kernel, grid = sweeper()
-                kernel.set_args(self.heights_buffer, np.int32(rows), np.int32(cols), ray, angle, svf)
-                cl.enqueue_nd_range_kernel(rt.queue, kernel, *grid)
-                return
+        def launch(kernel: cl.Kernel, grid: tuple, band: tuple[int, int] | None) -> None:
+            (gx, gy), local = grid
+            if band is None:
+                cl.enqueue_nd_range_kernel(rt.queue, kernel, (gx, gy), local)
+            else:
+                cl.enqueue_nd_range_kernel(rt.queue, kernel, (gx, band[1]), local, global_work_offset=(0, band[0]))
+
+        def sweep(ray: np.ndarray, angle: cl.Buffer, svf: cl.Buffer, band: tuple[int, int] | None = None) -> None:
+            kernel, grid = sweeper()
+            kernel.set_args(self.heights_buffer, np.int32(rows), np.int32(cols), ray, angle, svf)
+            launch(kernel, grid, band)
+
+        def walk(ray: np.ndarray, angle: cl.Buffer, svf: cl.Buffer, bounds: tuple[float, float] = (),
+                 band: tuple[int, int] | None = None) -> None:
             w = walker()
             if seeded:
                 w["seeder"].set_args(*w["fixed"], ray, w["seeds"])
                 cl.enqueue_nd_range_kernel(rt.queue, w["seeder"], *w["seed_grid"])
             w["kernel"].set_args(*w["fixed"], ray, angle, svf, w["seeds"] if seeded else self._dummy, cell,
                                  *([np.array(bounds, np.float32)] if bounds else []))
-            cl.enqueue_nd_range_kernel(rt.queue, w["kernel"], *w["grid"])
+            launch(w["kernel"], w["grid"], band)
+
+        def pilot(ray: np.ndarray, angle: cl.Buffer, crossings: float) -> Pilot:
+            """Both on bands of rows (pilot.py): into ``angle`` (the launch that follows writes the
+            same values there), and sums into a scratch buffer of their own."""
+            group_rows = math.lcm(sweeper()[1][1][1], walker()["grid"][1][1])   # powers of two <= 16
+            spans = pilot_bands(rows, group_rows)
+            sums = (rt.empty(8 * rows * cols, "pilot's sky-view factor sums") if "OCLS_OUT_SVF" in outputs
+                    else self._dummy)
+            return measure_pilot(lambda r0, n: sweep(ray, angle, sums, (r0, n)),
+                                 lambda r0, n: walk(ray, angle, sums, band=(r0, n)),
+                                 rt.queue.finish, spans, group_rows, crossings)
+
+        def enqueue(azimuth: float, angle: cl.Buffer, svf: cl.Buffer, bounds: tuple[float, float] = ()) -> None:
+            ux, uy, _ = Sun(azimuth, 0.0).ray(hm.dx, hm.dy)
+            ray = np.array([ux, uy, c, radius], np.float32)
+            route = not clamped and self._route(ux, uy)
+            if route is None:
+                self._pilot = pilot(ray, angle, radius * (abs(ux) + abs(uy)))
+                route = self._pilot.sweeps
+            if route:
+                sweep(ray, angle, svf)
+            else:
+                walk(ray, angle, svf, bounds)
 
         return enqueue
+
+    def takes_sweep(self, azimuth: float) -> bool | None:
+        """Whether the rays at ``azimuth`` take the sweep (else the walk) for the angles and the
+        sky-view factor; None where the pilot decides and has not run yet (the soft shadows' clamped
+        rays always walk)."""
+        ux, uy, _ = Sun(float(azimuth), 0.0).ray(self.heightmap.dx, self.heightmap.dy)
+        return self._route(ux, uy)
+
+    def _route(self, ux: float, uy: float) -> bool | None:
+        rows, cols = self.heightmap.shape
+        radius = self.radius or 0.0
+        if min(rows, cols) < 2 or radius <= 0.0:
+            return False
+        far = self.knobs["sweep_far"]
+        if sweeps(ux, uy, radius, self.knobs["sweep_cells"]) or far == SWEEP_FAR["sweep"]:
+            return True
+        if far == SWEEP_FAR["walk"] or rows < PILOT_MIN_ROWS or rows * cols < PILOT_MIN_CELLS:
+            return False
+        return None if self._pilot is None else self._pilot.sweeps
 
 
 def sweeps(ux: float, uy: float, radius: float, sweep_cells: int) -> bool:
     """Whether a ray (cells per metre ``ux``, ``uy``, as float32 values) within the search radius
-    ``radius`` (metres, float32; 0: none) takes the sweep: it crosses at most ``sweep_cells`` (the
-    tuning knob) patch columns and rows there (host/src/horizon.c computes the same float64
-    product).  Either way the angles are the same bits (kernels/horizon.cl, "The sweep")."""
+    ``radius`` (metres, float32; 0: none) is within the reach of the knob ``sweep_cells``, where it
+    takes the sweep: it crosses at most that many patch columns and rows there (host/src/horizon.c
+    computes the same float64 product).  Past it the knob ``sweep_far`` decides.  Either way the
+    angles are the same bits (kernels/horizon.cl, "The sweep")."""
     return radius > 0.0 and radius * (abs(ux) + abs(uy)) <= sweep_cells
 
 
@@ -360,5 +425,9 @@ TUNING = tuning.register(tuning.Family(
                   vector=True, rule="width"),
      tuning.Param("sweep_cells", (0, 64, 128, 192, 256), 128,
                   "within a search radius, the most patch columns and rows a ray crosses for the sweep "
-                  "(horizon_sweep) to run instead of the walk (0: always the walk)", rule="crossings")),
+                  "(horizon_sweep) to run instead of the walk (0: none)", rule="crossings"),
+     tuning.Param("sweep_far", tuple(SWEEP_FAR.values()), SWEEP_FAR["pilot"],
+                  "the rays past sweep_cells: 0 the walk, 1 the faster of the two on the map, timed on "
+                  "bands of rows at the first such azimuth (the Python host; the C host walks), 2 the sweep "
+                  "(the tuner leaves it: the pilot chooses per map)", tuned=False)),
     ("horizon.cl",), _smoke, _workload, "horizon angles and sky-view factor (issue 19)"))

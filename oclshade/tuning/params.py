@@ -50,6 +50,10 @@ class Param:
     #: "host_memory" (1 on CPU devices that share the host's memory) or "library_calls" (1 on
     #: drivers that leave the built-ins as library calls: PoCL 3.0's CPU devices)
     rule: str = "safe"
+    #: False for a knob whose best value depends on the input, not only on the device, and that
+    #: chooses at run time (horizon sweep_far's pilot): the tuner leaves it at its rule's value,
+    #: since one workload's answer would be every map's
+    tuned: bool = True
 
     def __post_init__(self) -> None:
         if self.safe not in self.values:

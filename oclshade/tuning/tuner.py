@@ -60,7 +60,7 @@ def tune_family(runtime: Runtime, fam: Family, start: Values, *, quick: bool, re
     best = dict(start)
     for _ in range(1 if quick else 2):
         changed = False
-        for p in fam.params:
+        for p in (p for p in fam.params if p.tuned):
             cands = [c for c in ({**best, p.name: v} for v in p.values) if usable(c)]
             if fam.safe() not in cands:
                 cands.append(fam.safe())
