@@ -12,8 +12,8 @@ built and warmed up before):
 
 * ``sweep``: every azimuth swept (``sweep_far`` 2); ``walk``: every azimuth walked (the pyramid
   walk cut at R; ``sweep_cells`` 0, ``sweep_far`` 0); ``default``: the Python host's choice (the
-  device's knobs: past ``sweep_cells`` the pilot, which runs once per caster: in the first
-  timed run, so the minimum leaves it out; its own seconds are in the table);
+  device's knobs: past ``sweep_cells`` the pilot, which runs once per caster, in the one-azimuth
+  warm-up or the first timed run, so the minimum leaves it out; its own seconds are in the table);
 * the mean number of patch columns and rows a ray crosses within R, R (|ux| + |uy|);
 * the angles that differ between the sweep and the walk (the run fails if any does: they are
   the same bits), and both against the float64 reference on ``--samples`` seeded cells
@@ -114,8 +114,8 @@ def markdown(res: dict) -> str:
              f"minimum of {res['reps']} alternating runs: every azimuth swept, every azimuth "
              f"walked (the pyramid walk cut at R), and the default (an azimuth is swept where its ray crosses at "
              f"most the device's knob sweep_cells = {res['sweep_cells']} patch columns and rows within R; past "
-             f"that, sweep_far = {res['sweep_far']}: 1 the pilot's choice, timed on bands of rows once, in the first "
-             f"run; pilot: its walk / sweep seconds, and the seconds it timed). Crossings: R (|ux| + |uy|), "
+             f"that, sweep_far = {res['sweep_far']}: 1 the pilot's choice, timed on bands of rows once, in the warm-up "
+             f"or the first run; pilot: its walk / sweep seconds, and the seconds it timed). Crossings: R (|ux| + |uy|), "
              f"mean / max over the azimuths. Angles compared bit for bit (sweep against walk) and against the "
              f"float64 reference on {res['samples']} cells x every azimuth.", "",
              "| map | R (cells) | crossings mean / max | swept azimuths | sweep s | walk s | default s | "
