@@ -108,8 +108,9 @@ def test_c_sunshine_equals_python(host: dict, tmp_path: Path, case: str, azimuth
 def test_c_horizons_and_svf_equal_python(host: dict, tmp_path: Path, definition: int, curved: bool,
                                          radius_cells: float, case: str) -> None:
     """With a radius host_passes also checks that sweep_cells 0 and 256 (every azimuth walked,
-    every one swept) and sweep_far 2 (every one swept past the reach) give its default's bits; the varied map's flats and cliffs hold the float32
-    ties on which a walk without its margins (kernels/horizon.cl, prune_slack) differs."""
+    every one swept) and sweep_far 2 (every one swept past the reach) give its default's bits;
+    the varied map's flats and cliffs hold the float32 ties on which a walk without its margins
+    (kernels/horizon.cl, prune_slack) differs."""
     hm = varied_map() if case == "varied" else generated_map(*MAPS[case])
     rows, cols = hm.shape
     n = 8

@@ -313,11 +313,10 @@ class HorizonCaster:
             return kernel, rt.grid_2d(kernel, -(-cols // lanes), rows, wanted=self.knobs["group"])
 
         def launch(kernel: cl.Kernel, grid: tuple, band: tuple[int, int] | None) -> None:
+            """The whole grid, or only the band (first row, rows) of it."""
             (gx, gy), local = grid
-            if band is None:
-                cl.enqueue_nd_range_kernel(rt.queue, kernel, (gx, gy), local)
-            else:
-                cl.enqueue_nd_range_kernel(rt.queue, kernel, (gx, band[1]), local, global_work_offset=(0, band[0]))
+            first, count = (0, gy) if band is None else band
+            cl.enqueue_nd_range_kernel(rt.queue, kernel, (gx, count), local, global_work_offset=(0, first))
 
         def sweep(ray: np.ndarray, angle: cl.Buffer, svf: cl.Buffer, band: tuple[int, int] | None = None) -> None:
             kernel, grid = sweeper()
@@ -337,7 +336,8 @@ class HorizonCaster:
         def pilot(ray: np.ndarray, angle: cl.Buffer, crossings: float) -> Pilot:
             """Both on bands of rows (pilot.py): into ``angle`` (the launch that follows writes the
             same values there), and sums into a scratch buffer of their own."""
-            group_rows = math.lcm(sweeper()[1][1][1], walker()["grid"][1][1])   # powers of two <= 16
+            (_, (_, sweep_rows)), (_, (_, walk_rows)) = sweeper()[1], walker()["grid"]
+            group_rows = math.lcm(sweep_rows, walk_rows)            # powers of two <= 16
             spans = pilot_bands(rows, group_rows)
             sums = (rt.empty(8 * rows * cols, "pilot's sky-view factor sums") if "OCLS_OUT_SVF" in outputs
                     else self._dummy)
