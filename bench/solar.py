@@ -164,9 +164,9 @@ r.in.bin -f input={binary} output=dem bytes=4 order=native north={north!r} south
   east={east!r} west={west!r} rows={rows} cols={cols} anull=-9999 --quiet
 g.region raster=dem
 start=$(date +%s.%N)
-r.horizon -d elevation=dem step={step} start=0 end=360 output=hz --quiet
+r.horizon -d elevation=dem step={step} start={start} end={end} output=hz --quiet
 end=$(date +%s.%N)
-echo "RHORIZON_SECONDS $(echo "$end - $start" | bc -l)"
+echo "RHORIZON_SPAN $start $end"
 i=0
 for m in $(g.list raster pattern="hz_*"); do
   r.out.bin -f input=$m output={out}/$i.bin null=-9999 --quiet
@@ -210,9 +210,15 @@ def fill_voids(heights: np.ndarray) -> np.ndarray:
         h[fill] = total[fill] / count[fill]
 
 
-def run_grass(hm: Heightmap, n: int) -> dict:
+def run_grass(hm: Heightmap, n: int, jobs: int = 1) -> dict:
     """r.horizon's angles as (n, rows, cols) azimuth-ordered (band i at 360 i / n), and its time
     (r.horizon's directions are independent searches, so its time grows with n).
+
+    r.horizon (GRASS 8.2) runs on one core.  ``jobs`` > 1 splits the n directions into that many
+    contiguous blocks, each an r.horizon of its own in its own throwaway location, all started
+    together (what a user of r.horizon does with more cores): ``seconds`` is then the wall time
+    from the first r.horizon's start to the last one's end, ``process_seconds`` the sum of their
+    times.  The angles do not depend on ``jobs`` (tests/test_solar_peers.py).
 
     The map gets a one-cell border of nulls on its west and south sides: r.horizon tests "outside
     the map" on its sample's cell index truncated towards zero ((int)(x / dx + 0.5)), so without
@@ -223,28 +229,45 @@ def run_grass(hm: Heightmap, n: int) -> dict:
     """
     if n % 4:
         raise ValueError(f"n must be a multiple of 4 (r.horizon's directions start in the east), got {n}")
+    if not 1 <= jobs <= n:
+        raise ValueError(f"jobs must be between 1 and n = {n}, got {jobs}")
     rows, cols = hm.shape
     padded = np.full((rows + 1, cols + 1), -9999.0, np.float32)     # row 0 is north: the border is
     padded[:rows, 1:] = np.nan_to_num(hm.heights, nan=-9999.0)     # the last row and column 0
     north, west = (rows + 1) * hm.dy / 2.0, -(cols + 1) * hm.dx / 2.0     # centred on (0, 0)
+    step = 360.0 / n
+    first = [n * j // jobs for j in range(jobs + 1)]      # job j: directions first[j] .. first[j + 1] - 1
     with tempfile.TemporaryDirectory(prefix="oclshade-grass-") as tmp:
         binary = Path(tmp) / "dem.bin"
         padded.tofile(binary)
-        script = Path(tmp) / "run.sh"
-        script.write_text(GRASS_SCRIPT.format(
-            binary=binary, north=north, south=north - (rows + 1) * hm.dy, west=west,
-            east=west + (cols + 1) * hm.dx, rows=rows + 1, cols=cols + 1, step=repr(360.0 / n), out=tmp))
-        proc = subprocess.run(["grass", "--tmp-location", "EPSG:3857", "--exec", "bash", str(script)],
-                              capture_output=True, text=True)
-        lines = [ln for ln in proc.stdout.splitlines() + proc.stderr.splitlines() if "RHORIZON_SECONDS" in ln]
-        if proc.returncode != 0 or not lines:
-            raise RuntimeError(f"grass failed ({proc.returncode}): {proc.stderr.strip()[-500:]}")
-        ccw = np.stack([np.fromfile(Path(tmp) / f"{i}.bin", np.float32).reshape(rows + 1, cols + 1)[:rows, 1:]
-                        for i in range(n)])
+        procs = []
+        for j in range(jobs):
+            out = Path(tmp) / f"job{j}"
+            out.mkdir()
+            script = out / "run.sh"
+            # r.horizon makes floor((end - start) / step) directions and refuses an end past 360: the
+            # end is half a step past the next block's first direction, 360 for the last block
+            end = 360.0 if j == jobs - 1 else (first[j + 1] + 0.5) * step
+            script.write_text(GRASS_SCRIPT.format(
+                binary=binary, north=north, south=north - (rows + 1) * hm.dy, west=west,
+                east=west + (cols + 1) * hm.dx, rows=rows + 1, cols=cols + 1, step=repr(step),
+                start=repr(first[j] * step), end=repr(end), out=out))
+            procs.append(subprocess.Popen(["grass", "--tmp-location", "EPSG:3857", "--exec", "bash", str(script)],
+                                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True))
+        spans = []
+        for proc in procs:
+            stdout, stderr = proc.communicate()
+            lines = [ln for ln in stdout.splitlines() + stderr.splitlines() if "RHORIZON_SPAN" in ln]
+            if proc.returncode != 0 or not lines:
+                raise RuntimeError(f"grass failed ({proc.returncode}): {stderr.strip()[-500:]}")
+            spans.append(tuple(float(v) for v in lines[-1].split()[1:3]))
+        ccw = np.stack([np.fromfile(Path(tmp) / f"job{j}" / f"{i}.bin", np.float32).reshape(rows + 1, cols + 1)
+                        [:rows, 1:] for j in range(jobs) for i in range(first[j + 1] - first[j])])
     ccw[ccw == -9999.0] = np.nan
     # map i is direction i * 360/n counter-clockwise from east = azimuth 90 - that
-    order = [int(round(((90.0 - az) % 360.0) / (360.0 / n))) % n for az in azimuth_grid(n)]
-    return {"seconds": float(lines[-1].split()[-1]), "angles": ccw[order]}
+    order = [int(round(((90.0 - az) % 360.0) / step)) % n for az in azimuth_grid(n)]
+    return {"seconds": max(e for _, e in spans) - min(s for s, _ in spans),
+            "process_seconds": sum(e - s for s, e in spans), "jobs": jobs, "angles": ccw[order]}
 
 
 #: cells from the cell within which the two models' differences are called near-field
@@ -581,7 +604,7 @@ def svf_errors(hm: Heightmap, crop: int) -> tuple[list[int], dict]:
 def run(reduced: bool, samples: int, svf_crop: int, rvt_radius: int, keys: tuple[str, ...] = DEFAULT_MAPS,
         grass_directions: int | None = None, azimuth_counts: tuple[int, ...] = AZIMUTH_COUNTS,
         peers: tuple[str, ...] = PEERS, horayzon_accuracy: float = HORAYZON_ACCURACY,
-        whitebox_directions: int | None = None) -> dict:
+        whitebox_directions: int | None = None, grass_jobs: int = 1) -> dict:
     rt = get_runtime()
     gv = grass_version() if "grass" in peers else None
     wv = whitebox_version() if "whitebox" in peers else None
@@ -603,7 +626,7 @@ def run(reduced: bool, samples: int, svf_crop: int, rvt_radius: int, keys: tuple
               "whitebox": wv or absent("whitebox", "pip install whitebox-workflows"),
               "horayzon": (f"{hv}, accuracy {horayzon_accuracy} deg, floor {HORAYZON_LOWEST} deg" if hv else
                            absent("horayzon", "pip install horayzon-extpar")), "maps": {},
-              "map_keys": list(keys), "grass_directions": grass_directions,
+              "map_keys": list(keys), "grass_directions": grass_directions, "grass_jobs": grass_jobs,
               "whitebox_directions": whitebox_directions, "azimuth_counts": list(azimuth_counts)}
     for name, hm in maps(reduced, keys).items():
         print(f"{name}: {hm.shape[1]}x{hm.shape[0]}, dx {hm.dx:.2f} dy {hm.dy:.2f}", flush=True)
@@ -628,7 +651,7 @@ def run(reduced: bool, samples: int, svf_crop: int, rvt_radius: int, keys: tuple
                 row["horayzon_vs_oclshade"] = near_far_difference(    # above its search floor
                     peer_map, curved, z["angles"], curved_caster.coefficient, floor=HORAYZON_LOWEST + 1.0)
             if gv:
-                k, g = on_subset(row, "grass", grass_runs, grass_directions, n, lambda k: run_grass(peer_map, k))
+                k, g = on_subset(row, "grass", grass_runs, grass_directions, n, lambda k: run_grass(peer_map, k, grass_jobs))
                 row["grass_vs_oclshade"] = peer_difference(peer_map, curved[::n // k], g["angles"],
                                                            curved_caster.coefficient)
             if wv:     # on the filled map too (its rays read a void's -9999 m as terrain)
@@ -660,6 +683,8 @@ def on_subset(row: dict, peer: str, runs: dict[int, dict], directions: int | Non
     if k not in runs:
         runs[k] = run_peer(k)
     row[f"{peer}_s"] = runs[k]["seconds"] * n / k
+    if runs[k].get("jobs", 1) > 1:     # in parallel processes: the sum of their times too
+        row[f"{peer}_process_s"] = runs[k]["process_seconds"] * n / k
     if k < n:
         row[f"{peer}_directions"] = k
     return k, runs[k]
@@ -714,7 +739,9 @@ def markdown(res: dict) -> str:
         for n, row in e["runs"].items():
             r = row["reference"]
             g = row.get("grass_vs_oclshade")
-            grass = (f"{row['oclshade_curved_s']:.2f} | {row['grass_s']:.2f}{_estimated(row, 'grass', n)} | "
+            jobs = (f" ({res['grass_jobs']} processes, {row['grass_process_s']:.0f} s summed)"
+                    if "grass_process_s" in row else "")
+            grass = (f"{row['oclshade_curved_s']:.2f} | {row['grass_s']:.2f}{_estimated(row, 'grass', n)}{jobs} | "
                      f"{g['mean_abs_deg']:.3f} / {g['p99_abs_deg']:.3f} / {g['max_abs_deg']:.2f}") if g else "- | - | -"
             rv = row.get("rvt_r10")
             rvt = f"{rv['mean_abs']:.4f} / {rv['max_abs']:.3f}" if rv else "-"
@@ -849,6 +876,9 @@ def main() -> None:
     parser.add_argument("--grass-directions", type=int, default=None, metavar="K",
                         help="r.horizon on K of the N azimuths (K a multiple of 4 dividing every N), its time scaled by N / K "
                              "(default: all N)")
+    parser.add_argument("--grass-jobs", type=int, default=1, metavar="J",
+                        help="r.horizon (one core each) in J processes at once, the directions split between "
+                             "them; its time is then the wall time of all J (default 1)")
     parser.add_argument("--whitebox-directions", type=int, default=None, metavar="K",
                         help="WhiteboxTools on K of the N azimuths (K dividing every N: every (N / K)-th from "
                              "north), its time scaled by N / K (default: all N)")
@@ -868,6 +898,9 @@ def main() -> None:
     k = args.grass_directions
     if k is not None and (k < 4 or k % 4 or any(n % k for n in counts)):
         parser.error(f"--grass-directions must be a multiple of 4 dividing every azimuth count {counts}, got {k}")
+    if args.grass_jobs < 1 or args.grass_jobs > min(k or n for n in counts):
+        parser.error(f"--grass-jobs must be between 1 and the fewest r.horizon directions of a run, got "
+                     f"{args.grass_jobs}")
     kw = args.whitebox_directions
     if kw is not None and (kw < 1 or any(n % kw for n in counts)):
         parser.error(f"--whitebox-directions must be a positive count dividing every azimuth count {counts}, got {kw}")
@@ -879,7 +912,8 @@ def main() -> None:
         parser.error(f"--peers takes a comma-separated subset of {', '.join(PEERS)}, got {args.peers!r}")
     res = run(args.reduced, args.samples or (200 if args.reduced else 2000),
               args.svf_crop or (64 if args.reduced else 256), args.rvt_radius or (30 if args.reduced else 100), keys,
-              args.grass_directions, counts, peers, args.horayzon_accuracy, args.whitebox_directions)
+              args.grass_directions, counts, peers, args.horayzon_accuracy, args.whitebox_directions,
+              args.grass_jobs)
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.with_suffix(".json").write_text(json.dumps(res, indent=1) + "\n")
     args.out.with_suffix(".md").write_text(markdown(res))

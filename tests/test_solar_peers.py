@@ -127,6 +127,23 @@ def test_rhorizon_matches_its_model_everywhere(bench):
 
 
 @needs_grass
+def test_rhorizon_in_parallel_jobs_is_the_same_map(bench):
+    """r.horizon split into 3 processes (blocks of 5, 5 and 6 of 16 directions, so the blocks'
+    start and end angles are not multiples of 90) gives the single run's angles bit for bit, in
+    the same azimuth order, and times the jobs' wall and their sum."""
+    hm = Heightmap.from_array(canyon_crater(24, 20, seed=5, relief=600.0), (25.0, 25.0))
+    one = bench.run_grass(hm, 16)
+    three = bench.run_grass(hm, 16, jobs=3)
+    assert three["angles"].shape == one["angles"].shape == (16, 24, 20)
+    np.testing.assert_array_equal(three["angles"], one["angles"])
+    assert (one["jobs"], three["jobs"]) == (1, 3)
+    assert one["process_seconds"] == pytest.approx(one["seconds"])
+    assert 0.0 < three["seconds"] <= three["process_seconds"] + 1e-6
+    with pytest.raises(ValueError, match="jobs"):
+        bench.run_grass(hm, 8, jobs=9)
+
+
+@needs_grass
 def test_peer_classes(bench):
     """peer_difference's classes partition the compared cells, r.horizon's near-sample and rim
     flags agree with the replica, and oclshade's near-field flag holds where its exact angle is
