@@ -320,3 +320,24 @@ def test_horayzon_frontier_refuses_bad_accuracies(frontier, monkeypatch, tmp_pat
     with pytest.raises(SystemExit) as stop:
         frontier.main()
     assert stop.value.code == 2
+
+
+def test_the_peer_difference_is_computed_once_per_stack(bench):
+    """bench/solar.py compares r.horizon's k azimuths with ours at every N once: the same bits
+    reuse the first result, one bit changed computes anew."""
+    rng = np.random.default_rng(7)
+    ours, theirs = rng.random((4, 8, 8), np.float32), rng.random((4, 8, 8), np.float32)
+    calls = []
+    same = bench.SameBands()
+
+    def difference(stack):
+        calls.append(stack.copy())
+        return {"calls": len(calls)}
+
+    assert same.compare(ours, theirs, difference) == {"calls": 1}
+    assert same.compare(np.stack([ours, ours])[0], theirs.copy(), difference) == {"calls": 1}
+    nudged = ours.copy()
+    nudged[3, 7, 7] = np.nextafter(nudged[3, 7, 7], np.float32(2))
+    assert same.compare(nudged, theirs, difference) == {"calls": 2}
+    assert same.compare(ours, theirs[::-1], difference) == {"calls": 3}
+    assert len(calls) == 3
