@@ -36,8 +36,10 @@ Writes bench/results/solar.{md,json,png} (``--out`` to change).  Per map and for
   azimuths, every (N / K)-th from north, its time is scaled by N / K and marked
   as an estimate, and the differences are taken on those K bands: r.horizon's
   time per azimuth grows with the cells times the map's side, hours for 64
-  azimuths at 4096^2), in all and split into the near field (either angle set within one cell
-  of the cell) and the far field (docs/solar.md, "r.horizon").  Maps with nodata
+  azimuths at 4096^2; ``--grass-jobs J``: r.horizon, which runs on one core, as J
+  processes at once on blocks of the directions, its time their wall time), in all
+  and split into the near field (either angle set within one cell of the cell) and
+  the far field (docs/solar.md, "r.horizon").  Maps with nodata
   are compared with their voids filled (:func:`fill_voids`, both sides): the two
   models differ there by design.  r.horizon always lowers distant terrain by the
   Earth's curvature (checked: a 500 m tower 30 km away on flat ground reads
@@ -256,12 +258,18 @@ def run_grass(hm: Heightmap, n: int, jobs: int = 1) -> dict:
             procs.append(subprocess.Popen(["grass", "--tmp-location", "EPSG:3857", "--exec", "bash", str(script)],
                                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True))
         spans = []
-        for proc in procs:
-            stdout, stderr = proc.communicate()
-            lines = [ln for ln in stdout.splitlines() + stderr.splitlines() if "RHORIZON_SPAN" in ln]
-            if proc.returncode != 0 or not lines:
-                raise RuntimeError(f"grass failed ({proc.returncode}): {stderr.strip()[-500:]}")
-            spans.append(tuple(float(v) for v in lines[-1].split()[1:3]))
+        try:
+            for proc in procs:
+                stdout, stderr = proc.communicate()
+                lines = [ln for ln in stdout.splitlines() + stderr.splitlines() if "RHORIZON_SPAN" in ln]
+                if proc.returncode != 0 or not lines:
+                    raise RuntimeError(f"grass failed ({proc.returncode}): {stderr.strip()[-500:]}")
+                spans.append(tuple(float(v) for v in lines[-1].split()[1:3]))
+        finally:                  # one job failed (or was interrupted): stop the others before the cleanup
+            for proc in procs:
+                if proc.poll() is None:
+                    proc.kill()
+                    proc.wait()
         ccw = np.stack([np.fromfile(Path(tmp) / f"job{j}" / f"{i}.bin", np.float32).reshape(rows + 1, cols + 1)
                         [:rows, 1:] for j in range(jobs) for i in range(first[j + 1] - first[j])])
     ccw[ccw == -9999.0] = np.nan
@@ -653,7 +661,8 @@ def run(reduced: bool, samples: int, svf_crop: int, rvt_radius: int, keys: tuple
                 row["horayzon_vs_oclshade"] = near_far_difference(    # above its search floor
                     peer_map, curved, z["angles"], curved_caster.coefficient, floor=HORAYZON_LOWEST + 1.0)
             if gv:
-                k, g = on_subset(row, "grass", grass_runs, grass_directions, n, lambda k: run_grass(peer_map, k, grass_jobs))
+                k, g = on_subset(row, "grass", grass_runs, grass_directions, n,
+                                 lambda k: run_grass(peer_map, k, grass_jobs))
                 row["grass_vs_oclshade"] = grass_differences.compare(
                     curved[::n // k], g["angles"], lambda ours: peer_difference(
                         peer_map, ours, g["angles"], curved_caster.coefficient))
