@@ -11,6 +11,8 @@
         --out bench/results/solar_puget4096    # the shared Puget Sound 4096^2 (not in the default maps)
     python bench/solar.py --maps canyon --azimuths 16 --whitebox-directions 1 --peers whitebox \
         --out bench/results/solar_canyon4096_whitebox   # WhiteboxTools at 4096^2 on one azimuth
+    python bench/solar.py --maps puget --azimuths 64 --grass-jobs 2 --grass-compare 0 --peers grass \
+        --out bench/results/solar_puget4096_64   # r.horizon on all 64 azimuths, timed, not compared
 
 Writes bench/results/solar.{md,json,png} (``--out`` to change).  Per map and for
 16 and 64 azimuths in the same run:
@@ -37,8 +39,10 @@ Writes bench/results/solar.{md,json,png} (``--out`` to change).  Per map and for
   as an estimate, and the differences are taken on those K bands: r.horizon's
   time per azimuth grows with the cells times the map's side, hours for 64
   azimuths at 4096^2; ``--grass-jobs J``: r.horizon, which runs on one core, as J
-  processes at once on blocks of the directions, its time their wall time), in all
-  and split into the near field (either angle set within one cell of the cell) and
+  processes at once on blocks of the directions, its time their wall time;
+  ``--grass-compare C``: the differences on C of its K directions, every (K / C)-th,
+  or none with 0, for a run that measures the time of all 64 at 4096^2, where each
+  compared direction takes about 1.5 minutes), in all and split into the near field (either angle set within one cell of the cell) and
   the far field (docs/solar.md, "r.horizon").  Maps with nodata
   are compared with their voids filled (:func:`fill_voids`, both sides): the two
   models differ there by design.  r.horizon always lowers distant terrain by the
@@ -613,7 +617,7 @@ def svf_errors(hm: Heightmap, crop: int) -> tuple[list[int], dict]:
 def run(reduced: bool, samples: int, svf_crop: int, rvt_radius: int, keys: tuple[str, ...] = DEFAULT_MAPS,
         grass_directions: int | None = None, azimuth_counts: tuple[int, ...] = AZIMUTH_COUNTS,
         peers: tuple[str, ...] = PEERS, horayzon_accuracy: float = HORAYZON_ACCURACY,
-        whitebox_directions: int | None = None, grass_jobs: int = 1) -> dict:
+        whitebox_directions: int | None = None, grass_jobs: int = 1, grass_compare: int | None = None) -> dict:
     rt = get_runtime()
     gv = grass_version() if "grass" in peers else None
     wv = whitebox_version() if "whitebox" in peers else None
@@ -636,6 +640,7 @@ def run(reduced: bool, samples: int, svf_crop: int, rvt_radius: int, keys: tuple
               "horayzon": (f"{hv}, accuracy {horayzon_accuracy} deg, floor {HORAYZON_LOWEST} deg" if hv else
                            absent("horayzon", "pip install horayzon-extpar")), "maps": {},
               "map_keys": list(keys), "grass_directions": grass_directions, "grass_jobs": grass_jobs,
+              "grass_compare": grass_compare,
               "whitebox_directions": whitebox_directions, "azimuth_counts": list(azimuth_counts)}
     for name, hm in maps(reduced, keys).items():
         print(f"{name}: {hm.shape[1]}x{hm.shape[0]}, dx {hm.dx:.2f} dy {hm.dy:.2f}", flush=True)
@@ -663,9 +668,14 @@ def run(reduced: bool, samples: int, svf_crop: int, rvt_radius: int, keys: tuple
             if gv:
                 k, g = on_subset(row, "grass", grass_runs, grass_directions, n,
                                  lambda k: run_grass(peer_map, k, grass_jobs))
-                row["grass_vs_oclshade"] = grass_differences.compare(
-                    curved[::n // k], g["angles"], lambda ours: peer_difference(
-                        peer_map, ours, g["angles"], curved_caster.coefficient))
+                compared = k if grass_compare is None else min(grass_compare, k)
+                if compared:
+                    theirs = g["angles"][::k // compared]
+                    row["grass_vs_oclshade"] = grass_differences.compare(
+                        curved[::n // compared], theirs, lambda ours: peer_difference(
+                            peer_map, ours, theirs, curved_caster.coefficient))
+                if compared < k:
+                    row["grass_compared_directions"] = compared
             if wv:     # on the filled map too (its rays read a void's -9999 m as terrain)
                 k, w = on_subset(row, "whitebox", whitebox_runs, whitebox_directions, n,
                                  lambda k: run_whitebox(peer_map, k))
@@ -772,8 +782,12 @@ def markdown(res: dict) -> str:
             g = row.get("grass_vs_oclshade")
             jobs = (f" ({res['grass_jobs']} processes, {row['grass_process_s']:.0f} s summed)"
                     if "grass_process_s" in row else "")
+            compared = (f" (on {row['grass_compared_directions']} of its directions)"
+                        if "grass_compared_directions" in row else "")
+            difference = (f"{g['mean_abs_deg']:.3f} / {g['p99_abs_deg']:.3f} / {g['max_abs_deg']:.2f}{compared}"
+                          if g else "not compared (`--grass-compare 0`)")
             grass = (f"{row['oclshade_curved_s']:.2f} | {row['grass_s']:.2f}{_estimated(row, 'grass', n)}{jobs} | "
-                     f"{g['mean_abs_deg']:.3f} / {g['p99_abs_deg']:.3f} / {g['max_abs_deg']:.2f}") if g else "- | - | -"
+                     f"{difference}") if "grass_s" in row else "- | - | -"
             rv = row.get("rvt_r10")
             rvt = f"{rv['mean_abs']:.4f} / {rv['max_abs']:.3f}" if rv else "-"
             lines.append(f"| {name} {e['shape'][1]}x{e['shape'][0]} | {n} | {row['oclshade_s']:.2f} | "
@@ -910,6 +924,10 @@ def main() -> None:
     parser.add_argument("--grass-jobs", type=int, default=1, metavar="J",
                         help="r.horizon (one core each) in J processes at once, the directions split between "
                              "them; its time is then the wall time of all J (default 1)")
+    parser.add_argument("--grass-compare", type=int, default=None, metavar="C",
+                        help="r.horizon's angles compared with ours on C of its K directions (C dividing K: "
+                             "every (K / C)-th from north; 0: not compared, times only), about 1.5 minutes a "
+                             "direction at 4096^2 (default: all K)")
     parser.add_argument("--whitebox-directions", type=int, default=None, metavar="K",
                         help="WhiteboxTools on K of the N azimuths (K dividing every N: every (N / K)-th from "
                              "north), its time scaled by N / K (default: all N)")
@@ -932,6 +950,10 @@ def main() -> None:
     if args.grass_jobs < 1 or args.grass_jobs > min(k or n for n in counts):
         parser.error(f"--grass-jobs must be between 1 and the fewest r.horizon directions of a run, got "
                      f"{args.grass_jobs}")
+    kc = args.grass_compare
+    if kc is not None and (kc < 0 or any((k or n) % kc for n in counts if kc)):
+        parser.error(f"--grass-compare must be 0 or a count dividing r.horizon's directions of every azimuth "
+                     f"count {counts}, got {kc}")
     kw = args.whitebox_directions
     if kw is not None and (kw < 1 or any(n % kw for n in counts)):
         parser.error(f"--whitebox-directions must be a positive count dividing every azimuth count {counts}, got {kw}")
@@ -944,7 +966,7 @@ def main() -> None:
     res = run(args.reduced, args.samples or (200 if args.reduced else 2000),
               args.svf_crop or (64 if args.reduced else 256), args.rvt_radius or (30 if args.reduced else 100), keys,
               args.grass_directions, counts, peers, args.horayzon_accuracy, args.whitebox_directions,
-              args.grass_jobs)
+              args.grass_jobs, args.grass_compare)
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.with_suffix(".json").write_text(json.dumps(res, indent=1) + "\n")
     args.out.with_suffix(".md").write_text(markdown(res))
