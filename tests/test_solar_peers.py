@@ -341,3 +341,52 @@ def test_the_peer_difference_is_computed_once_per_stack(bench):
     assert same.compare(nudged, theirs, difference) == {"calls": 2}
     assert same.compare(ours, theirs[::-1], difference) == {"calls": 3}
     assert len(calls) == 3
+
+
+def test_rhorizon_is_compared_on_the_chosen_directions(bench, monkeypatch):
+    """--grass-compare C: r.horizon's difference is taken on every (K / C)-th of its K directions,
+    against our curved angles at the same azimuths; 0 records its time only and says so; without
+    it every direction is compared.  (r.horizon and the comparison stubbed: the band stacks
+    handed over are what is checked.)"""
+    monkeypatch.setattr(bench, "grass_version", lambda: "GRASS (stub)")
+
+    def stub_grass(hm, k, jobs=1):
+        bands = np.broadcast_to(azimuth_grid(k)[:, None, None], (k, *hm.shape))
+        return {"seconds": 1.0, "angles": bands.astype(np.float32)}
+
+    handed = []
+
+    def stub_difference(hm, ours, theirs, curvature):
+        handed.append((ours.copy(), theirs[:, 0, 0].tolist()))
+        return {"cells": 1, "mean_abs_deg": 0.0, "p99_abs_deg": 0.0, "max_abs_deg": 0.0,
+                **{c: {"cells": 0} for c in ("near", "rim", "far")}}
+
+    monkeypatch.setattr(bench, "run_grass", stub_grass)
+    monkeypatch.setattr(bench, "peer_difference", stub_difference)
+    hm = bench.maps(True, ("canyon",))["canyon 256^2"]
+    curved = HorizonCaster(hm, cache=False, curvature=Curvature())
+    for compare, azimuths in ((None, [0.0, 90.0, 180.0, 270.0]), (2, [0.0, 180.0]), (0, [])):
+        handed.clear()
+        res = bench.run(True, 10, 16, 5, ("canyon",), 4, (8,), ("grass",), grass_compare=compare)
+        row = res["maps"]["canyon 256^2"]["runs"][8]
+        assert row["grass_s"] == 2.0 and row["grass_directions"] == 4     # 4 of 8 run, time scaled
+        text = bench.markdown(res)
+        if azimuths:
+            [(ours, theirs)] = handed
+            assert theirs == azimuths
+            np.testing.assert_array_equal(ours, curved.horizons(azimuths))
+            assert "grass_vs_oclshade" in row
+        else:
+            assert handed == [] and "grass_vs_oclshade" not in row
+            assert "not compared (`--grass-compare 0`)" in text
+        assert row.get("grass_compared_directions", 4) == len(azimuths)
+        assert ("(on 2 of its directions)" in text) == (compare == 2)
+
+
+@pytest.mark.parametrize("compare", ["3", "-1"])
+def test_grass_compare_must_divide_the_directions(bench, monkeypatch, tmp_path, compare):
+    monkeypatch.setattr("sys.argv", ["solar.py", "--azimuths", "8", "--grass-compare", compare,
+                                     "--out", str(tmp_path / "x")])
+    with pytest.raises(SystemExit) as stop:
+        bench.main()
+    assert stop.value.code == 2
