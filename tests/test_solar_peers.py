@@ -130,7 +130,7 @@ def test_rhorizon_matches_its_model_everywhere(bench):
 def test_rhorizon_in_parallel_jobs_is_the_same_map(bench):
     """r.horizon split into 3 processes (blocks of 5, 5 and 6 of 16 directions, so the blocks'
     start and end angles are not multiples of 90) gives the single run's angles bit for bit, in
-    the same azimuth order, and times the jobs' wall and their sum."""
+    the same azimuth order, and times the jobs' wall span and their sum."""
     hm = Heightmap.from_array(canyon_crater(24, 20, seed=5, relief=600.0), (25.0, 25.0))
     one = bench.run_grass(hm, 16)
     three = bench.run_grass(hm, 16, jobs=3)
@@ -138,7 +138,9 @@ def test_rhorizon_in_parallel_jobs_is_the_same_map(bench):
     np.testing.assert_array_equal(three["angles"], one["angles"])
     assert (one["jobs"], three["jobs"]) == (1, 3)
     assert one["process_seconds"] == pytest.approx(one["seconds"])
-    assert 0.0 < three["seconds"] <= three["process_seconds"] + 1e-6
+    # the wall span covers the longest job, at least the mean of the 3 (it need not be under their
+    # sum: on a loaded machine these millisecond jobs may not overlap, and the gaps count)
+    assert three["seconds"] >= three["process_seconds"] / 3 - 1e-6 > 0.0
     with pytest.raises(ValueError, match="jobs"):
         bench.run_grass(hm, 8, jobs=9)
 
