@@ -12,7 +12,7 @@
     python bench/solar.py --maps canyon --azimuths 16 --whitebox-directions 1 --peers whitebox \
         --out bench/results/solar_canyon4096_whitebox   # WhiteboxTools at 4096^2 on one azimuth
     python bench/solar.py --maps puget --azimuths 64 --grass-jobs 2 --grass-compare 0 --peers grass \
-        --out bench/results/solar_puget4096_64   # r.horizon on all 64 azimuths, timed, not compared
+        --out bench/results/solar_puget4096_jobs64   # r.horizon on all 64 azimuths, timed, not compared
 
 Writes bench/results/solar.{md,json,png} (``--out`` to change).  Per map and for
 16 and 64 azimuths in the same run:
@@ -42,10 +42,10 @@ Writes bench/results/solar.{md,json,png} (``--out`` to change).  Per map and for
   processes at once on blocks of the directions, its time their wall time;
   ``--grass-compare C``: the differences on C of its K directions, every (K / C)-th,
   or none with 0, for a run that measures the time of all 64 at 4096^2, where each
-  compared direction takes about 1.5 minutes), in all and split into the near field (either angle set within one cell of the cell) and
-  the far field (docs/solar.md, "r.horizon").  Maps with nodata
-  are compared with their voids filled (:func:`fill_voids`, both sides): the two
-  models differ there by design.  r.horizon always lowers distant terrain by the
+  compared direction takes about 1.5 minutes), in all and split into the near field
+  (either angle set within three cells of the cell), the rim and the far field
+  (docs/solar.md, "r.horizon").  Maps with nodata are compared with their voids
+  filled (:func:`fill_voids`, both sides): the two models differ there by design.  r.horizon always lowers distant terrain by the
   Earth's curvature (checked: a 500 m tower 30 km away on flat ground reads
   0.81998 degrees, the curved value, not 0.95484), so it is compared with
   oclshade's ``Curvature()`` run (timed too);
@@ -919,8 +919,8 @@ def main() -> None:
     parser.add_argument("--azimuths", default=",".join(map(str, AZIMUTH_COUNTS)),
                         help="comma-separated azimuth counts N (default 16,64)")
     parser.add_argument("--grass-directions", type=int, default=None, metavar="K",
-                        help="r.horizon on K of the N azimuths (K a multiple of 4 dividing every N), its time scaled by N / K "
-                             "(default: all N)")
+                        help="r.horizon on K of the N azimuths (K a multiple of 4 dividing every N), its time "
+                             "scaled by N / K (default: all N)")
     parser.add_argument("--grass-jobs", type=int, default=1, metavar="J",
                         help="r.horizon (one core each) in J processes at once, the directions split between "
                              "them; its time is then the wall time of all J (default 1)")
