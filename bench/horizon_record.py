@@ -174,7 +174,8 @@ def main(argv: list[str] | None = None) -> int:
     bad = [n for n, m in res["maps"].items()
            if m["check"]["outside_band"] or m.get("sweep_vs_frame_deg", 0.0) > m["check"]["band_deg"]]
     if bad:
-        print(f"horizon_record: angles outside the float32 band (of the reference, or the sweep's of the frame's) on {', '.join(bad)}", file=sys.stderr)
+        print("horizon_record: angles outside the float32 band (of the reference, or the sweep's of the "
+              f"frame's) on {', '.join(bad)}", file=sys.stderr)
         return 1
     return 0
 

@@ -45,10 +45,10 @@ Writes bench/results/solar.{md,json,png} (``--out`` to change).  Per map and for
   compared direction takes about 1.5 minutes), in all and split into the near field
   (either angle set within three cells of the cell), the rim and the far field
   (docs/solar.md, "r.horizon").  Maps with nodata are compared with their voids
-  filled (:func:`fill_voids`, both sides): the two models differ there by design.  r.horizon always lowers distant terrain by the
-  Earth's curvature (checked: a 500 m tower 30 km away on flat ground reads
-  0.81998 degrees, the curved value, not 0.95484), so it is compared with
-  oclshade's ``Curvature()`` run (timed too);
+  filled (:func:`fill_voids`, both sides): the two models differ there by design.
+  r.horizon always lowers distant terrain by the Earth's curvature (checked: a 500 m
+  tower 30 km away on flat ground reads 0.81998 degrees, the curved value, not
+  0.95484), so it is compared with oclshade's ``Curvature()`` run (timed too);
 * **WhiteboxTools** ``HorizonAngle`` (PyPI ``whitebox-workflows``; skipped when absent): the
   same N azimuths on the void-filled map, rays to the map's edge, time of its N calls and its
   difference from oclshade's flat-Earth angles (:func:`run_whitebox`; ``--whitebox-directions
@@ -618,6 +618,8 @@ def run(reduced: bool, samples: int, svf_crop: int, rvt_radius: int, keys: tuple
         grass_directions: int | None = None, azimuth_counts: tuple[int, ...] = AZIMUTH_COUNTS,
         peers: tuple[str, ...] = PEERS, horayzon_accuracy: float = HORAYZON_ACCURACY,
         whitebox_directions: int | None = None, grass_jobs: int = 1, grass_compare: int | None = None) -> dict:
+    if not compare_fits(grass_compare, grass_directions, azimuth_counts):   # before hours of r.horizon
+        raise ValueError(f"grass_compare must be 0 or divide r.horizon's directions at every N, got {grass_compare}")
     rt = get_runtime()
     gv = grass_version() if "grass" in peers else None
     wv = whitebox_version() if "whitebox" in peers else None
@@ -668,7 +670,7 @@ def run(reduced: bool, samples: int, svf_crop: int, rvt_radius: int, keys: tuple
             if gv:
                 k, g = on_subset(row, "grass", grass_runs, grass_directions, n,
                                  lambda k: run_grass(peer_map, k, grass_jobs))
-                compared = k if grass_compare is None else min(grass_compare, k)
+                compared = k if grass_compare is None else grass_compare
                 if compared:
                     theirs = g["angles"][::k // compared]
                     row["grass_vs_oclshade"] = grass_differences.compare(
@@ -694,6 +696,13 @@ def run(reduced: bool, samples: int, svf_crop: int, rvt_radius: int, keys: tuple
         entry["svf_crop"], entry["svf_error_of_n"] = svf_errors(hm, svf_crop)
         result["maps"][name] = entry
     return result
+
+
+def compare_fits(compare: int | None, directions: int | None, counts: tuple[int, ...]) -> bool:
+    """Whether ``--grass-compare`` = ``compare`` takes every (K / C)-th of r.horizon's K directions
+    at each N of ``counts`` (K = ``directions`` or N) with a whole stride: None (all), 0 (none), or
+    a count dividing every K; a stride that is not whole would misalign the bands."""
+    return compare is None or compare == 0 or (compare > 0 and not any((directions or n) % compare for n in counts))
 
 
 class SameBands:
@@ -950,10 +959,9 @@ def main() -> None:
     if args.grass_jobs < 1 or args.grass_jobs > min(k or n for n in counts):
         parser.error(f"--grass-jobs must be between 1 and the fewest r.horizon directions of a run, got "
                      f"{args.grass_jobs}")
-    kc = args.grass_compare
-    if kc is not None and (kc < 0 or any((k or n) % kc for n in counts if kc)):
+    if not compare_fits(args.grass_compare, k, counts):
         parser.error(f"--grass-compare must be 0 or a count dividing r.horizon's directions of every azimuth "
-                     f"count {counts}, got {kc}")
+                     f"count {counts}, got {args.grass_compare}")
     kw = args.whitebox_directions
     if kw is not None and (kw < 1 or any(n % kw for n in counts)):
         parser.error(f"--whitebox-directions must be a positive count dividing every azimuth count {counts}, got {kw}")

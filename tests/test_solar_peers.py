@@ -383,6 +383,8 @@ def test_rhorizon_is_compared_on_the_chosen_directions(bench, monkeypatch):
             assert "not compared (`--grass-compare 0`)" in text
         assert row.get("grass_compared_directions", 4) == len(azimuths)
         assert ("(on 2 of its directions)" in text) == (compare == 2)
+    with pytest.raises(ValueError, match="grass_compare"):
+        bench.run(True, 10, 16, 5, ("canyon",), 4, (8,), ("grass",), grass_compare=3)
 
 
 @pytest.mark.parametrize("compare", ["3", "-1"])
