@@ -89,6 +89,7 @@ from typing import Callable
 import numpy as np
 
 from oclshade import reference as ref
+from oclshade.bench.machine import machine_facts
 from oclshade.heightmap import Heightmap
 from oclshade.horizon import Curvature, HorizonCaster, azimuth_grid
 from oclshade.horizon.caster import EARTH_RADIUS
@@ -635,7 +636,9 @@ def run(reduced: bool, samples: int, svf_crop: int, rvt_radius: int, keys: tuple
     def absent(peer: str, install: str) -> str:
         return "not run (--peers)" if peer not in peers else f"not installed ({install})"
 
-    result = {"machine": {"device": rt.label, "platform": platform.platform(), "cpus": os.cpu_count()},
+    result = {"machine": {**machine_facts(), "device": rt.label, "platform": platform.platform(),
+                          "cpus": os.cpu_count(), "platform_version": rt.device.platform.version.strip(),
+                          "device_version": rt.device.version.strip()},
               "reduced": reduced, "grass": gv or absent("grass", "apt-get install grass-core"),
               "rvt": "rvt-py" if rvt_ok else absent("rvt", "pip install rvt-py --no-deps"),
               "whitebox": wv or absent("whitebox", "pip install whitebox-workflows"),
@@ -774,14 +777,26 @@ def _rows_with(res: dict, key: str) -> list[tuple[str, object, dict, dict, dict]
             for name, e in res["maps"].items() for n, row in e["runs"].items() if key in row]
 
 
+def _cpu_and_driver(machine: dict) -> str:
+    """"; CPU ..., driver ..., device ..." from the facts recorded since 2026-12-03 (older
+    results lack them; their docs name the machine)."""
+    cpu = f"{machine.get('cpu', '')} ({machine['cpu_id']})" if machine.get("cpu_id") else machine.get("cpu")
+    facts = [f"{label} {value}" for label, value in
+             (("CPU", cpu), ("driver", machine.get("platform_version")), ("device", machine.get("device_version")))
+             if value]
+    return "; " + ", ".join(facts) if facts else ""
+
+
 def markdown(res: dict) -> str:
     m = res["machine"]
     lines = ["# Horizon angles and sky-view factor (issue 19)", "",
-             f"Machine: {m['device']}, {m['cpus']} CPUs, {m['platform']}. GRASS: {res['grass']}. RVT: {res['rvt']}. "
+             f"Machine: {m['device']}, {m['cpus']} CPUs, {m['platform']}{_cpu_and_driver(m)}. GRASS: {res['grass']}. "
+             f"RVT: {res['rvt']}. "
              f"WhiteboxTools: {res.get('whitebox', 'not run')}."
              + (" **Reduced run** (crops; a check of the script, not the record)." if res["reduced"] else "")
              + ("" if res.get("map_keys", list(DEFAULT_MAPS)) == list(DEFAULT_MAPS) else
-                f" **Maps of this run: {', '.join(res['map_keys'])}** (`--maps`; the others not run)."), "",
+                f" **Maps of this run: {', '.join(res['map_keys'])}** (`--maps`; the others not run).")
+             + (f" Command: `{res['command']}`." if "command" in res else ""), "",
              "| map | N | oclshade s | ref. max diff (deg) | band (deg) | outside band | oclshade curved s | "
              "r.horizon s | r.horizon - oclshade curved mean / p99 / max abs (deg) | RVT r10 SVF mean / max abs diff |",
              "|---" * 10 + "|"]
@@ -975,6 +990,7 @@ def main() -> None:
               args.svf_crop or (64 if args.reduced else 256), args.rvt_radius or (30 if args.reduced else 100), keys,
               args.grass_directions, counts, peers, args.horayzon_accuracy, args.whitebox_directions,
               args.grass_jobs, args.grass_compare)
+    res["command"] = " ".join(["python", "bench/solar.py", *sys.argv[1:]])
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.with_suffix(".json").write_text(json.dumps(res, indent=1) + "\n")
     args.out.with_suffix(".md").write_text(markdown(res))

@@ -394,3 +394,34 @@ def test_grass_compare_must_divide_the_directions(bench, monkeypatch, tmp_path, 
     with pytest.raises(SystemExit) as stop:
         bench.main()
     assert stop.value.code == 2
+
+
+def test_the_record_names_the_cpu_the_driver_and_the_command(bench, monkeypatch, tmp_path):
+    """Every figure carries the CPU (its family and model: cloud CPUs share one name), the PoCL
+    version and the LLVM target it compiled for, and the command that made it; the .md says so in
+    its first lines."""
+    import json
+    import re
+
+    from oclshade.runtime import get_runtime
+
+    res = bench.run(True, 10, 16, 5, ("canyon",), None, (4,), ())
+    machine, device = res["machine"], get_runtime().device
+    assert machine["platform_version"] == device.platform.version.strip()
+    assert machine["device_version"] == device.version.strip()
+    cpuinfo = Path("/proc/cpuinfo")
+    text = cpuinfo.read_text() if cpuinfo.exists() else ""
+    family = re.search(r"^cpu family\s*:\s*(\d+)", text, re.M)
+    model = re.search(r"^model\s*:\s*(\d+)", text, re.M)
+    if family and model:
+        assert machine["cpu_id"] == f"family {family[1]} model {model[1]}"
+    monkeypatch.setattr(bench, "run", lambda *args, **kwargs: res)
+    monkeypatch.setattr(bench, "plot", lambda *args: None)
+    argv = ["--reduced", "--maps", "canyon", "--azimuths", "4", "--peers", "rvt", "--out", str(tmp_path / "r")]
+    monkeypatch.setattr("sys.argv", ["solar.py", *argv])
+    bench.main()
+    saved = json.loads((tmp_path / "r.json").read_text())
+    assert saved["command"] == " ".join(["python", "bench/solar.py", *argv])
+    head = "\n".join((tmp_path / "r.md").read_text().splitlines()[:4])
+    for fact in (machine["cpu"], machine["platform_version"], machine["device_version"], saved["command"]):
+        assert fact in head

@@ -24,11 +24,28 @@ def cpu_model() -> str:
     return platform.processor() or platform.machine()
 
 
+def cpu_id() -> str:
+    """'family F model M' from /proc/cpuinfo (x86 CPUs sold under one name, such as the cloud's
+    'Intel(R) Xeon(R) Processor', differ in them), else ''."""
+    fields = {}
+    try:
+        for line in Path("/proc/cpuinfo").read_text(encoding="utf-8", errors="replace").splitlines():
+            key, _, value = line.partition(":")
+            if key.strip() in ("cpu family", "model") and key.strip() not in fields:
+                fields[key.strip()] = value.strip()
+            if not line.strip():
+                break
+    except OSError:
+        pass
+    return f"family {fields['cpu family']} model {fields['model']}" if len(fields) == 2 else ""
+
+
 def machine_facts() -> dict[str, object]:
     """CPU, OS, versions of Python and the libraries, and the date (UTC)."""
     return {
         "date": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
         "cpu": cpu_model(),
+        "cpu_id": cpu_id(),
         "cores": os.cpu_count(),
         "os": platform.platform(),
         "python": platform.python_version(),
