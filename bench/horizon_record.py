@@ -124,9 +124,8 @@ def markdown(res: dict) -> str:
         lines.append(f"| {name} | {frame} | {m['frames_per_s']:.1f} | {m['frames_per_s'] / r['frames_per_s']:.2f} "
                      f"| {sweep} | {m['frame_readback']['min_ms']:.1f} | {m['svf']['min_ms']:.1f} | {check} |")
     d, mf = res["device"], res["machine"]
-    cpu = f"{mf['cpu']} ({mf['cpu_id']})" if mf.get("cpu_id") else mf["cpu"]
     lines += ["", f"Device: {d['name']} ({d['platform']}, driver {d['driver']}, {d['version']}); "
-              f"host CPU {cpu}, {mf['cores']} cores; {mf['date']}.", ""]
+              f"host CPU {mf['cpu']}, {mf['cores']} cores; {mf['date']}.", ""]
     return "\n".join(lines)
 
 

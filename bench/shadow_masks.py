@@ -105,18 +105,9 @@ def load_dataset(name: str, size: int, data_dir: Path) -> dict:
 
 
 # ----------------------------------------------------------------------------- metadata
-def _cpu_model() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.lower().startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or platform.machine()
-
-
 def metadata(argv: list[str]) -> dict:
     import pyopencl as cl
+    from oclshade.bench.machine import cpu_model
     from oclshade.runtime import get_runtime
     dev = get_runtime().device
     try:
@@ -126,7 +117,7 @@ def metadata(argv: list[str]) -> dict:
         version = None
     return {
         "date": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
-        "cpu": _cpu_model(),
+        "cpu": cpu_model(),
         "cores": os.cpu_count(),
         "device": dev.name,
         "device_version": dev.version,

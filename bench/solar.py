@@ -780,10 +780,8 @@ def _rows_with(res: dict, key: str) -> list[tuple[str, object, dict, dict, dict]
 def _cpu_and_driver(machine: dict) -> str:
     """"; CPU ..., driver ..., device ..." from the facts recorded since 2026-12-03 (older
     results lack them; their docs name the machine)."""
-    cpu = f"{machine.get('cpu', '')} ({machine['cpu_id']})" if machine.get("cpu_id") else machine.get("cpu")
-    facts = [f"{label} {value}" for label, value in
-             (("CPU", cpu), ("driver", machine.get("platform_version")), ("device", machine.get("device_version")))
-             if value]
+    facts = [f"{label} {machine[key]}" for label, key in
+             (("CPU", "cpu"), ("driver", "platform_version"), ("device", "device_version")) if machine.get(key)]
     return "; " + ", ".join(facts) if facts else ""
 
 

@@ -48,7 +48,8 @@ def test_json_schema(report):
     assert report["schema"] == "oclshade-bench/1" and report["sizes"] == "tiny" and report["reps"] == 2
     for key in ("date", "cpu", "cores", "os", "python", "pyopencl", "numpy", "oclshade"):
         assert report["machine"][key], key
-    assert isinstance(report["machine"]["cpu_id"], str)        # "family F model M" on x86 Linux, else ""
+    if Path("/proc/cpuinfo").exists():                          # cloud CPUs share a model name: numbers too
+        assert re.search(r"\(family \S+ model \S+; \w+\)$", report["machine"]["cpu"]), report["machine"]["cpu"]
     assert report["families"] == list(FAMILIES)
     assert [c["id"] for c in report["cases"]] == [s.id for s in SPECS]
     assert {c["family"] for c in report["cases"]} == set(FAMILIES)
@@ -81,8 +82,7 @@ def test_markdown_and_png_written(run):
     for heading in ("## Devices", "## Outputs across devices", "## Performance portability"):
         assert heading in md
     assert "masks/exact" in md
-    machine = json.loads((out / "bench.json").read_text())["machine"]
-    assert f"- CPU: {machine['cpu']}" + (f", {machine['cpu_id']}" if machine["cpu_id"] else "") in md
+    assert f"- CPU: {json.loads((out / 'bench.json').read_text())['machine']['cpu']} (" in md
     assert (out / "bench.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 

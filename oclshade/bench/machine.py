@@ -4,40 +4,21 @@ from __future__ import annotations
 import datetime as _dt
 import os
 import platform
-from pathlib import Path
 
 import numpy as np
 import pyopencl as cl
 
 from .._version import __version__
 from ..runtime import DeviceInfo, Runtime
+from ..tuning.device import host_cpu
 
 
 def cpu_model() -> str:
-    """The CPU's 'model name' from /proc/cpuinfo, else what the platform module knows."""
-    try:
-        for line in Path("/proc/cpuinfo").read_text(encoding="utf-8", errors="replace").splitlines():
-            if line.lower().startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or platform.machine()
-
-
-def cpu_id() -> str:
-    """'family F model M' from /proc/cpuinfo (x86 CPUs sold under one name, such as the cloud's
-    'Intel(R) Xeon(R) Processor', differ in them), else ''."""
-    fields = {}
-    try:
-        for line in Path("/proc/cpuinfo").read_text(encoding="utf-8", errors="replace").splitlines():
-            key, _, value = line.partition(":")
-            if key.strip() in ("cpu family", "model") and key.strip() not in fields:
-                fields[key.strip()] = value.strip()
-            if not line.strip():
-                break
-    except OSError:
-        pass
-    return f"family {fields['cpu family']} model {fields['model']}" if len(fields) == 2 else ""
+    """The host CPU as the tuning database names it, "<model name> (family F model M; best ISA)"
+    (cloud CPUs share one model name; oclshade.tuning.device.host_cpu), else what the platform
+    module knows."""
+    cpu = host_cpu()
+    return cpu if cpu != "unknown" else (platform.processor() or platform.machine())
 
 
 def machine_facts() -> dict[str, object]:
@@ -45,7 +26,6 @@ def machine_facts() -> dict[str, object]:
     return {
         "date": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
         "cpu": cpu_model(),
-        "cpu_id": cpu_id(),
         "cores": os.cpu_count(),
         "os": platform.platform(),
         "python": platform.python_version(),

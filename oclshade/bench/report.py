@@ -91,8 +91,7 @@ def markdown(report: dict) -> str:
     out = ["# oclshade bench", "",
            f"`{report['command']}`: {report['sizes']} sizes, {report['reps']} timed repetitions per case after a "
            f"warm-up (builds excluded), {m['date']}.", "",
-           f"- CPU: {m['cpu']}{', ' + m['cpu_id'] if m.get('cpu_id') else ''} ({m['cores']} logical cores); "
-           f"OS: {m['os']}",
+           f"- CPU: {m['cpu']} ({m['cores']} logical cores); OS: {m['os']}",
            f"- oclshade {m['oclshade']}, Python {m['python']}, pyopencl {m['pyopencl']}, numpy {m['numpy']}", ""]
     bad = mismatches(report)
     if bad:
