@@ -778,8 +778,9 @@ def _rows_with(res: dict, key: str) -> list[tuple[str, object, dict, dict, dict]
 
 
 def _cpu_and_driver(machine: dict) -> str:
-    """"; CPU ..., driver ..., device ..." from the facts recorded since 2026-12-03 (older
-    results lack them; their docs name the machine)."""
+    """The CPU, PoCL version and LLVM target (device version) of a record, as '; CPU ..., driver
+    ..., device ...' for the .md's machine line; '' for records before 2026-12-03, which lack
+    them (their docs name the machine)."""
     facts = [f"{label} {machine[key]}" for label, key in
              (("CPU", "cpu"), ("driver", "platform_version"), ("device", "device_version")) if machine.get(key)]
     return "; " + ", ".join(facts) if facts else ""

@@ -13,7 +13,9 @@ not from the bench code under test.
 from __future__ import annotations
 
 import importlib.util
+import json
 import math
+import re
 import shutil
 from pathlib import Path
 
@@ -22,6 +24,7 @@ import pytest
 
 from oclshade.heightmap import Heightmap
 from oclshade.horizon import Curvature, HorizonCaster, azimuth_grid
+from oclshade.runtime import get_runtime
 from oclshade.synthetic import canyon_crater
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -400,11 +403,6 @@ def test_the_record_names_the_cpu_the_driver_and_the_command(bench, monkeypatch,
     """Every figure carries the CPU (its family and model: cloud CPUs share one name), the PoCL
     version and the LLVM target it compiled for, and the command that made it; the .md says so in
     its first lines."""
-    import json
-    import re
-
-    from oclshade.runtime import get_runtime
-
     res = bench.run(True, 10, 16, 5, ("canyon",), None, (4,), ())
     machine, device = res["machine"], get_runtime().device
     assert machine["platform_version"] == device.platform.version.strip()
