@@ -322,26 +322,36 @@ def near_horizon(hm: Heightmap, azimuth: float, curvature: float, reach: float =
     """A lower bound (degrees) of the highest angle of the bilinear surface within ``reach`` cells
     of each cell along ``azimuth``: the surface sampled at t = 1e-6 and 1e-3 cell, every
     1 / samples cell, and where the ray crosses grid lines (the kinks of the profile), in units of
-    the smaller cell size; -inf where it leaves the map."""
+    the smaller cell size; -inf where it leaves the map.
+
+    At one t every cell's sample sits at the same offset (ox, oy) cells from it, so the surface
+    there is one weighted sum of four shifted copies of the map (slices, no gathers: about 20x
+    faster than indexing every cell at 4096^2, which made the 64-azimuth comparison impractical)."""
     h = hm.heights.astype(np.float64)
     rows, cols = h.shape
+    padded = np.pad(h, ((0, 1), (0, 1)), mode="edge")     # the +1 corner of a sample on the last line
     ux, uy = np.sin(np.radians(azimuth)) / hm.dx, -np.cos(np.radians(azimuth)) / hm.dy   # cells per metre
     cell = min(hm.dx, hm.dy)
     ts = [1e-6 * cell, 1e-3 * cell] + list(np.arange(1, int(reach * samples) + 1) / samples * cell)
     ts += [k / abs(u) for u in (ux, uy) if abs(u) > 1e-12
            for k in range(1, int(reach) + 2) if k / abs(u) <= reach * cell]
-    ii, jj = np.indices(h.shape, dtype=np.float64)
     best = np.full(h.shape, -np.inf)
     for t in sorted(ts):
-        x, y = jj + ux * t, ii + uy * t
-        inside = (x >= 0) & (x <= cols - 1) & (y >= 0) & (y <= rows - 1)
-        x, y = np.clip(x, 0, cols - 1), np.clip(y, 0, rows - 1)
-        x0, y0 = np.minimum(x.astype(np.int64), cols - 2), np.minimum(y.astype(np.int64), rows - 2)
-        fx, fy = x - x0, y - y0
-        s = (h[y0, x0] * (1 - fx) * (1 - fy) + h[y0, x0 + 1] * fx * (1 - fy)
-             + h[y0 + 1, x0] * (1 - fx) * fy + h[y0 + 1, x0 + 1] * fx * fy)
-        tangent = np.where(inside, (s - h - curvature * t * t) / t, -np.inf)
-        best = np.fmax(best, tangent)
+        ox, oy = ux * t, uy * t
+        kx, ky = math.floor(ox), math.floor(oy)
+        fx, fy = ox - kx, oy - ky
+        # the cells whose sample is on the map: 0 <= j + ox <= cols - 1, 0 <= i + oy <= rows - 1
+        j0, j1 = max(0, math.ceil(-ox)), min(cols, math.floor(cols - 1 - ox) + 1)
+        i0, i1 = max(0, math.ceil(-oy)), min(rows, math.floor(rows - 1 - oy) + 1)
+        if j0 >= j1 or i0 >= i1:
+            continue
+
+        def corner(di: int, dj: int) -> np.ndarray:
+            return padded[i0 + ky + di:i1 + ky + di, j0 + kx + dj:j1 + kx + dj]
+        s = (corner(0, 0) * ((1 - fx) * (1 - fy)) + corner(0, 1) * (fx * (1 - fy))
+             + corner(1, 0) * ((1 - fx) * fy) + corner(1, 1) * (fx * fy))
+        tangent = (s - h[i0:i1, j0:j1] - curvature * t * t) / t
+        np.fmax(best[i0:i1, j0:j1], tangent, out=best[i0:i1, j0:j1])
     return np.degrees(np.arctan(best))
 
 
