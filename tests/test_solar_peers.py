@@ -24,6 +24,7 @@ import pytest
 
 from oclshade.heightmap import Heightmap
 from oclshade.horizon import Curvature, HorizonCaster, azimuth_grid
+from oclshade.reference import horizon_angles
 from oclshade.runtime import get_runtime
 from oclshade.synthetic import canyon_crater
 
@@ -188,6 +189,52 @@ def test_peer_classes(bench):
     rh = bench.run_grass(saddle, 8)["angles"][7]
     assert rh[4, 4] == pytest.approx(math.degrees(math.atan((377.0 - 400.0 - 3600.0 / (4 * R_GRASS))
                                                             / (30.0 * math.sqrt(2.0)))), abs=1e-4)
+
+
+def test_near_horizon_is_a_lower_bound_and_exact_on_a_plane(bench):
+    """near_horizon (the bound behind the near-field class) never exceeds the float64 reference's
+    horizon of the whole surface (a rough map, axis and oblique azimuths, flat and curved), is nothing
+    (-90) exactly on the cells whose ray leaves the map at once, and on a plane it is the plane's slope
+    along the ray (every sample lies on it), so its shifted-slice sampling lands where it should."""
+    hm = Heightmap.from_array(canyon_crater(23, 31, seed=5, relief=800.0), (20.0, 30.0))
+    slack = 1e-6     # degrees: both trace Sun.ray's ray; float64 rounding at the first sample, 1e-6 cell out
+    for curvature in (0.0, 1.0 / (2.0 * R_GRASS)):
+        for az in (0.0, 33.75, 90.0, 180.0, 247.5, 270.0, 315.0):
+            near = bench.near_horizon(hm, az, curvature)
+            exact = horizon_angles(hm, az, curvature)
+            seen = near > -90.0
+            assert seen.sum() > 0.8 * near.size, az
+            assert (near[seen] <= exact[seen] + slack).all(), (az, float((near[seen] - exact[seen]).max()))
+    east = bench.near_horizon(hm, 90.0, 0.0)
+    assert (east[:, -1] == -90.0).all() and (east[:, :-1] > -90.0).all()
+    rows, cols, dx = 19, 27, 25.0
+    plane = Heightmap.from_array(np.tile(0.7 * dx * np.arange(cols, dtype=np.float32), (rows, 1)), dx)
+    for az in (60.0, 90.0, 135.0):
+        near = bench.near_horizon(plane, az, 0.0)
+        rising = math.degrees(math.atan(0.7 * math.sin(math.radians(az))))
+        inner = near[1:-1, :-1]                        # cells whose first sample is on the map
+        assert np.abs(inner - rising).max() < 1e-5, az
+
+
+def test_difference_summary_is_numpys_on_the_joined_parts(bench):
+    """The peer differences' summary, taken part by part (joined they did not fit in memory at
+    4096^2 x 64 azimuths), is numpy's on the joined values: mean, mean |.|, RMS and max to the
+    float64 sum's order, the 99th percentile (np.percentile of the values in float64) exactly,
+    with empty parts, signed zeros, ties and values over eight decades."""
+    rng = np.random.default_rng(7)
+    for sizes in ([1], [0, 3], [1000, 0, 57, 4000], [100_000, 33_333]):
+        parts = [(rng.standard_normal(n) * 10.0 ** rng.uniform(-6, 2, n)).astype(np.float32) for n in sizes]
+        parts[-1][: len(parts[-1]) // 3] = np.float32(-2.5)               # ties across the percentile
+        parts[0][:1] = -0.0
+        d = np.concatenate(parts).astype(np.float64)
+        got = bench._summary(parts)
+        assert got["cells"] == d.size
+        assert got["p99_abs_deg"] == np.percentile(np.abs(d), 99)
+        assert got["max_abs_deg"] == np.abs(d).max()
+        for key, want in (("mean_deg", d.mean()), ("mean_abs_deg", np.abs(d).mean()),
+                          ("rms_deg", np.sqrt(np.square(d).mean()))):
+            assert got[key] == pytest.approx(want, rel=1e-12, abs=1e-15), key
+    assert bench._summary([np.zeros(0, np.float32)]) == {"cells": 0}
 
 
 # ----------------------------------------------------------------------------- WhiteboxTools
