@@ -411,11 +411,15 @@ def _summary(parts: list[np.ndarray]) -> dict:
     low, high = _order_statistics(parts, (below, min(below + 1, cells - 1)))
     t = position - below            # numpy's lerp, from the nearer end
     p99 = low + (high - low) * t if t < 0.5 else high - (high - low) * (1.0 - t)
-    return {"cells": cells, "mean_deg": sum(float(p.sum(dtype=np.float64)) for p in parts) / cells,
-            "mean_abs_deg": sum(float(np.abs(p).sum(dtype=np.float64)) for p in parts) / cells,
-            "rms_deg": math.sqrt(sum(float(np.square(p, dtype=np.float64).sum()) for p in parts) / cells),
-            "p99_abs_deg": p99,
-            "max_abs_deg": max(float(np.abs(p).max(initial=0.0)) for p in parts)}
+    total = total_abs = squares = largest = 0.0
+    for p in parts:                 # one |p| per part
+        a = np.abs(p)
+        total += float(p.sum(dtype=np.float64))
+        total_abs += float(a.sum(dtype=np.float64))
+        squares += float(np.square(p, dtype=np.float64).sum())
+        largest = max(largest, float(a.max(initial=0.0)))
+    return {"cells": cells, "mean_deg": total / cells, "mean_abs_deg": total_abs / cells,
+            "rms_deg": math.sqrt(squares / cells), "p99_abs_deg": p99, "max_abs_deg": largest}
 
 
 def _order_statistics(parts: list[np.ndarray], ranks: tuple[int, ...]) -> list[float]:
@@ -428,12 +432,10 @@ def _order_statistics(parts: list[np.ndarray], ranks: tuple[int, ...]) -> list[f
     for p in parts:
         counts += np.bincount(tops(p).ravel(), minlength=1 << 16)
     ends = np.cumsum(counts)
-    out = []
-    for rank in ranks:
-        bucket = int(np.searchsorted(ends, rank, side="right"))
-        values = np.sort(np.concatenate([np.abs(p[tops(p) == bucket]) for p in parts]))
-        out.append(float(values[rank - (ends[bucket] - counts[bucket])]))
-    return out
+    buckets = [int(np.searchsorted(ends, rank, side="right")) for rank in ranks]
+    sorted_bucket = {b: np.sort(np.concatenate([np.abs(p[tops(p) == b]) for p in parts]))
+                     for b in set(buckets)}     # ranks side by side share one bucket: sorted once
+    return [float(sorted_bucket[b][rank - (ends[b] - counts[b])]) for rank, b in zip(ranks, buckets)]
 
 
 def _class_summaries(parts: dict[str, list[np.ndarray]]) -> dict:
