@@ -11,6 +11,8 @@
         --out bench/results/solar_puget4096    # the shared Puget Sound 4096^2 (not in the default maps)
     python bench/solar.py --maps canyon --azimuths 16 --whitebox-directions 1 --peers whitebox \
         --out bench/results/solar_canyon4096_whitebox   # WhiteboxTools at 4096^2 on one azimuth
+    python bench/solar.py --maps canyon --azimuths 16 --whitebox-directions 2 --whitebox-start 22.5 \
+        --peers whitebox --out bench/results/solar_canyon4096_whitebox_offaxis   # 22.5 and 202.5 deg
     python bench/solar.py --maps puget --azimuths 64 --grass-jobs 2 --grass-compare 0 --peers grass \
         --out bench/results/solar_puget4096_jobs64   # r.horizon on all 64 azimuths, timed, not compared
 
@@ -53,7 +55,8 @@ Writes bench/results/solar.{md,json,png} (``--out`` to change).  Per map and for
   same N azimuths on the void-filled map, rays to the map's edge, time of its N calls and its
   difference from oclshade's flat-Earth angles (:func:`run_whitebox`; ``--whitebox-directions
   K``: K of the N azimuths, every (N / K)-th from north, its time scaled by N / K and marked as
-  an estimate, as r.horizon's);
+  an estimate, as r.horizon's; ``--whitebox-start DEG``: those K from DEG east of north, so that
+  a subset can leave the grid's axes, along which its linear interpolation is our surface);
 * **HORAYZON** (PyPI ``horayzon-extpar``, Steger's Embree horizon code; skipped when absent): the
   map triangulated on a sphere of the Earth's radius (:func:`horayzon_mesh`), the N azimuths at
   ``--horayzon-accuracy`` (0.1 degrees), time of its horizon call and its difference from
@@ -474,9 +477,9 @@ def whitebox_version() -> str | None:
     return f"whitebox-workflows {wbw.WbEnvironment().version()}"
 
 
-def run_whitebox(hm: Heightmap, n: int) -> dict:
+def run_whitebox(hm: Heightmap, n: int, start: float = 0.0) -> dict:
     """WhiteboxTools' HorizonAngle (PyPI ``whitebox-workflows``) at the n azimuths as (n, rows, cols)
-    degrees (band i at 360 i / n, NaN = nodata), rays traced to the map's edge (``max_dist`` left
+    degrees (band i at ``start`` + 360 i / n, NaN = nodata), rays traced to the map's edge (``max_dist`` left
     unset), and the time of the n tool calls (the DEM is read once, before).  Its rays read the
     DEM by linear interpolation where they cross grid lines, without the Earth's curvature: it is
     compared with oclshade's flat-Earth run."""
@@ -492,9 +495,10 @@ def run_whitebox(hm: Heightmap, n: int) -> dict:
         write_raster(path, np.nan_to_num(hm.heights, nan=-9999.0).astype(np.float32), like=like, nodata=-9999.0,
                      options={"TILED": "NO", "COMPRESS": "NONE"})
         dem = wbe.read_raster(str(path))
-        start = time.perf_counter()
-        rasters = [wbe.horizon_angle(dem, azimuth=float(az)) for az in azimuth_grid(n)]
-        seconds = time.perf_counter() - start
+        azimuths = start + azimuth_grid(n)
+        began = time.perf_counter()
+        rasters = [wbe.horizon_angle(dem, azimuth=float(az)) for az in azimuths]
+        seconds = time.perf_counter() - began
         angles = np.stack([np.asarray(r.to_numpy(), np.float32).reshape(hm.shape) for r in rasters])
     angles[:, np.isnan(hm.heights)] = np.nan
     return {"seconds": seconds, "angles": angles}
@@ -513,15 +517,16 @@ def near_cells(hm: Heightmap, ours: np.ndarray, curvature: float = 0.0) -> list[
 
 
 def near_far_difference(hm: Heightmap, ours: np.ndarray, theirs: np.ndarray, curvature: float = 0.0,
-                        floor: float = -90.0, near: list[np.ndarray] | None = None) -> dict:
+                        floor: float = -90.0, near: list[np.ndarray] | None = None,
+                        azimuths: np.ndarray | None = None) -> dict:
     """A peer - oclshade (degrees) on the cells where oclshade's angle is above ``floor`` (-90: it
     sees terrain): all of them, ``near`` where oclshade's angle is reached within
     :data:`NEAR_CELLS` cells (:func:`near_band`, or ``near`` when given: the bilinear surface
     between grid lines, e.g. its slope at the cell, which WhiteboxTools' samples at grid-line
-    crossings do not see and HORAYZON's triangles see differently) and ``far``, the rest.  One
-    band at a time."""
+    crossings do not see and HORAYZON's triangles see differently) and ``far``, the rest.  Band i
+    at ``azimuths[i]`` (default: the grid of as many bands from north).  One band at a time."""
     parts: dict[str, list[np.ndarray]] = {"near": [], "far": []}
-    for k, az in enumerate(azimuth_grid(ours.shape[0])):
+    for k, az in enumerate(azimuth_grid(ours.shape[0]) if azimuths is None else azimuths):
         o, t = ours[k], theirs[k]
         both = np.isfinite(o) & np.isfinite(t) & (o > floor)
         near_k = near[k] if near is not None else near_band(hm, o, az, curvature)
@@ -660,7 +665,8 @@ def svf_errors(hm: Heightmap, crop: int) -> tuple[list[int], dict]:
 def run(reduced: bool, samples: int, svf_crop: int, rvt_radius: int, keys: tuple[str, ...] = DEFAULT_MAPS,
         grass_directions: int | None = None, azimuth_counts: tuple[int, ...] = AZIMUTH_COUNTS,
         peers: tuple[str, ...] = PEERS, horayzon_accuracy: float = HORAYZON_ACCURACY,
-        whitebox_directions: int | None = None, grass_jobs: int = 1, grass_compare: int | None = None) -> dict:
+        whitebox_directions: int | None = None, grass_jobs: int = 1, grass_compare: int | None = None,
+        whitebox_start: float = 0.0) -> dict:
     if not compare_fits(grass_compare, grass_directions, azimuth_counts):   # before hours of r.horizon
         raise ValueError(f"grass_compare must be 0 or divide r.horizon's directions at every N, got {grass_compare}")
     rt = get_runtime()
@@ -688,7 +694,8 @@ def run(reduced: bool, samples: int, svf_crop: int, rvt_radius: int, keys: tuple
                            absent("horayzon", "pip install horayzon-extpar")), "maps": {},
               "map_keys": list(keys), "grass_directions": grass_directions, "grass_jobs": grass_jobs,
               "grass_compare": grass_compare,
-              "whitebox_directions": whitebox_directions, "azimuth_counts": list(azimuth_counts)}
+              "whitebox_directions": whitebox_directions, "whitebox_start": whitebox_start,
+              "azimuth_counts": list(azimuth_counts)}
     for name, hm in maps(reduced, keys).items():
         print(f"{name}: {hm.shape[1]}x{hm.shape[0]}, dx {hm.dx:.2f} dy {hm.dy:.2f}", flush=True)
         caster = HorizonCaster(hm, rt, cache=False)
@@ -725,9 +732,12 @@ def run(reduced: bool, samples: int, svf_crop: int, rvt_radius: int, keys: tuple
                     row["grass_compared_directions"] = compared
             if wv:     # on the filled map too (its rays read a void's -9999 m as terrain)
                 k, w = on_subset(row, "whitebox", whitebox_runs, whitebox_directions, n,
-                                 lambda k: run_whitebox(peer_map, k))
-                flat = angles[::n // k] if peer_map is hm else flat_peer_caster.horizons(azimuth_grid(n)[::n // k])
-                row["whitebox_vs_oclshade"] = near_far_difference(peer_map, flat, w["angles"])
+                                 lambda k: run_whitebox(peer_map, k, whitebox_start))
+                first = round(whitebox_start * n / 360.0)          # its bands among our n
+                flat = (angles[first::n // k] if peer_map is hm else
+                        flat_peer_caster.horizons(azimuth_grid(n)[first::n // k]))
+                row["whitebox_vs_oclshade"] = near_far_difference(peer_map, flat, w["angles"],
+                                                                  azimuths=whitebox_start + azimuth_grid(k))
             if rvt_ok:
                 ours_svf = svf_by_band(angles, "solid-angle")
                 for radius in (10, rvt_radius):
@@ -785,9 +795,12 @@ def on_subset(row: dict, peer: str, runs: dict[int, dict], directions: int | Non
     return k, runs[k]
 
 
-def _estimated(row: dict, peer: str, n: int) -> str:
-    """' (est. from k of n az.)' after a time :func:`on_subset` scaled, else ''."""
-    return f" (est. from {row[peer + '_directions']} of {n} az.)" if peer + "_directions" in row else ""
+def _estimated(row: dict, peer: str, n: int, start: float = 0.0) -> str:
+    """' (est. from k of n az.)' after a time :func:`on_subset` scaled (' from DEG', its first
+    azimuth, when not north), else ''."""
+    if peer + "_directions" not in row:
+        return ""
+    return f" (est. from {row[peer + '_directions']} of {n} az.{f' from {start:g} deg' if start else ''})"
 
 
 def svf_by_band(angles: np.ndarray, definition: str) -> np.ndarray:
@@ -889,7 +902,7 @@ def markdown(res: dict) -> str:
                   "mean / p99 / max abs (deg): all | near | far |", "|---|---|---|---|---|---|---|---|"]
         for label, n, e, row, w in whitebox_rows:
             lines.append(f"| {label} | {n} | {row['oclshade_s']:.2f} | "
-                         f"{row['whitebox_s']:.2f}{_estimated(row, 'whitebox', n)} | "
+                         f"{row['whitebox_s']:.2f}{_estimated(row, 'whitebox', n, res.get('whitebox_start', 0.0))} | "
                          f"{row['whitebox_s'] / row['oclshade_s']:.1f}x | "
                          + _near_far_cells(w) + " |")
         lines.append("")
@@ -996,6 +1009,9 @@ def main() -> None:
     parser.add_argument("--whitebox-directions", type=int, default=None, metavar="K",
                         help="WhiteboxTools on K of the N azimuths (K dividing every N: every (N / K)-th from "
                              "north), its time scaled by N / K (default: all N)")
+    parser.add_argument("--whitebox-start", type=float, default=0.0, metavar="DEG",
+                        help="WhiteboxTools' K azimuths from DEG east of north, an azimuth of every N's grid "
+                             "(default 0; e.g. 22.5 with N = 16, K = 2 leaves the grid's axes)")
     parser.add_argument("--peers", default=",".join(PEERS),
                         help=f"comma-separated subset of {', '.join(PEERS)} to run (default all; WhiteboxTools "
                              "takes about 6 minutes per azimuth of a 4096^2 map on 2 cores)")
@@ -1021,6 +1037,10 @@ def main() -> None:
     kw = args.whitebox_directions
     if kw is not None and (kw < 1 or any(n % kw for n in counts)):
         parser.error(f"--whitebox-directions must be a positive count dividing every azimuth count {counts}, got {kw}")
+    ws = args.whitebox_start
+    if not 0.0 <= ws < 360.0 / (kw or min(counts)) or any(abs(ws * n / 360.0 - round(ws * n / 360.0)) > 1e-9
+                                                         for n in counts):
+        parser.error(f"--whitebox-start must be an azimuth of every N's grid {counts} below 360 / K, got {ws:g}")
     keys = tuple(key.strip() for key in args.maps.split(",") if key.strip())
     if not keys or not set(keys) <= set(MAP_KEYS):
         parser.error(f"--maps takes a comma-separated subset of {', '.join(MAP_KEYS)}, got {args.maps!r}")
@@ -1030,7 +1050,7 @@ def main() -> None:
     res = run(args.reduced, args.samples or (200 if args.reduced else 2000),
               args.svf_crop or (64 if args.reduced else 256), args.rvt_radius or (30 if args.reduced else 100), keys,
               args.grass_directions, counts, peers, args.horayzon_accuracy, args.whitebox_directions,
-              args.grass_jobs, args.grass_compare)
+              args.grass_jobs, args.grass_compare, args.whitebox_start)
     res["command"] = " ".join(["python", "bench/solar.py", *sys.argv[1:]])
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.with_suffix(".json").write_text(json.dumps(res, indent=1) + "\n")

@@ -270,6 +270,23 @@ def test_whitebox_agrees_with_oclshade_off_the_near_field(bench):
     assert d["far"]["cells"] > 0 and abs(d["far"]["mean_deg"]) < 0.05, d["far"]
 
 
+@needs_whitebox
+def test_whitebox_subset_from_a_start_azimuth_is_those_bands_of_the_grid(bench):
+    """``--whitebox-start``: K azimuths from DEG are the bands of the N-grid at DEG + 360 i / K
+    (here 45 and 225 of 8, off the grid's axes), and their near/far split is taken at those
+    azimuths, equal to the same bands' split within the full grid."""
+    hm = Heightmap.from_array(canyon_crater(48, 48, seed=5, relief=300.0), 30.0)
+    all8 = bench.run_whitebox(hm, 8)["angles"]
+    two = bench.run_whitebox(hm, 2, start=45.0)["angles"]
+    np.testing.assert_array_equal(two, all8[1::4])
+    ours = HorizonCaster(hm, cache=False).horizons(8)
+    full = bench.near_far_difference(hm, ours[1::4], two, azimuths=np.array([45.0, 225.0]))
+    near = bench.near_cells(hm, ours)
+    assert full == bench.near_far_difference(hm, ours[1::4], two, near=near[1::4])
+    unrotated = bench.near_far_difference(hm, ours[1::4], two)        # read as azimuths 0 and 180
+    assert unrotated["near"]["cells"] != full["near"]["cells"]
+
+
 def test_horayzon_mesh_lies_on_the_sphere_wound_anticlockwise(bench):
     """The mesh handed to HORAYZON: every vertex at radius R + h from the centre, the map's centre
     at the origin, north (the pole's side) along -rows and east along +columns, every triangle's
