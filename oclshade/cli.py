@@ -667,13 +667,10 @@ def run_shadow(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     raster, heightmap = read_input(args, job.cellsize)
     if job.times:
-        suns, lat, lon = solar_cli.suns_for(job.times, args, raster)
-        job = dataclasses.replace(job, suns=suns)
+        placed = solar_cli.suns_for(job.times, args, raster)
+        job = dataclasses.replace(job, suns=placed.suns)
         if not args.quiet:
-            first = job.suns[0]
-            print(f"{PROG}: {len(job.suns)} sun(s) at latitude {lat:.5f}, longitude {lon:.5f} (NREL SPA); "
-                  f"{job.times[0].isoformat()}: azimuth {first.azimuth:.4f}, elevation {first.elevation:.4f}",
-                  file=sys.stderr)
+            print(f"{PROG}: {placed.describe(job.times[0])}", file=sys.stderr)
     dx, dy = heightmap.dx, heightmap.dy
     rows, cols = heightmap.shape
     _make_parents(args.output, args.preview)
@@ -910,8 +907,9 @@ output bands (float32, NaN = nodata; band names as below):
 time steps: [--start, --end) cut into --step steps from --start (the last one shorter
   when --step does not divide the period); each step counts its length, with the sun
   (NREL SPA, with refraction) at its midpoint. Datetimes as for 'oclshade sun': ISO
-  8601 with a UTC offset, or local times with --tz. The place: --lat/--lon, else the
-  centre of a geographic INPUT (one sun for the whole map).
+  8601 with a UTC offset, or local times with --tz. The place: --lat/--lon, else
+  INPUT's centre through its CRS (one sun for the whole map); on a projected map each
+  true azimuth is turned to the grid (meridian convergence).
 
 routes (--method): masks (default) traces the exact cast-shadow mask of every daylight
   step; horizons computes the horizon angles of --azimuths N directions once and
@@ -1004,7 +1002,8 @@ def run_sunshine(args: argparse.Namespace) -> int:
         raise CliError(f"OUTPUT {args.output!r} is the input file; refusing to overwrite it")
     t0 = time.perf_counter()
     raster, heightmap = read_input(args, cellsize)
-    suns, lat, lon = solar_cli.suns_for(steps.times, args, raster, "--start and --end")
+    placed = solar_cli.suns_for(steps.times, args, raster, "--start and --end")
+    suns, site = placed.suns, placed.site
     rows, cols = heightmap.shape
     _make_parents(args.output)
     with RasterWriter(args.output, (len(args.outputs), rows, cols), np.float32, like=raster, nodata=math.nan,
@@ -1013,7 +1012,9 @@ def run_sunshine(args: argparse.Namespace) -> int:
         daylight = sum(sun.elevation > 0.0 for sun in suns)
         if not args.quiet:
             print(f"{PROG}: {len(suns)} steps of {args.step} from {start.isoformat()} to {end.isoformat()} at "
-                  f"latitude {lat:.5f}, longitude {lon:.5f} (NREL SPA): {daylight} in daylight", file=sys.stderr)
+                  f"latitude {site.latitude:.5f}, longitude {site.longitude:.5f} (NREL SPA"
+                  f"{f'; azimuths turned to the grid of {site.crs_name}' if site.crs is not None else ''}): "
+                  f"{daylight} in daylight", file=sys.stderr)
         t1 = time.perf_counter()
         maps = caster.accumulate(suns, steps.seconds, args.outputs, method=args.method,
                                  azimuths=args.azimuths or DEFAULT_AZIMUTHS,

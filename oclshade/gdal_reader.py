@@ -49,6 +49,7 @@ def read_with_gdal(path: str | os.PathLike, band: int | None = None, nodata: flo
                 raw = ds.read(b)
                 data = np.ma.masked_array(raw, raw == (raw.dtype.type(nodata) if raw.dtype.kind == "f" else nodata))
             file_nodata = ds.nodatavals[b - 1]
+            scale, offset = float(ds.scales[b - 1]), float(ds.offsets[b - 1])
             transform, crs, (rows, cols) = ds.transform, ds.crs, data.shape
     except rio.RasterIOError:
         raise
@@ -57,6 +58,9 @@ def read_with_gdal(path: str | os.PathLike, band: int | None = None, nodata: flo
     if data.dtype.kind not in "iuf":
         raise rio.RasterIOError(f"{text}: expected a numeric raster, got dtype {data.dtype}")
     heights = data.astype(np.float64).filled(np.nan)
+    if scale != 1.0 or offset != 0.0:
+        heights = heights * scale + offset
+        warnings.warn(f"{text}: {rio.scaling_note(scale, offset)}", InputWarning, stacklevel=3)
     georef: dict = {}
     dx = dy = 1.0
     if crs is not None or not transform.is_identity:
@@ -65,6 +69,7 @@ def read_with_gdal(path: str | os.PathLike, band: int | None = None, nodata: flo
             georef = {33550: (a, -e, 0.0), 33922: (0.0, 0.0, 0.0, c, f, 0.0)}
         else:
             georef = {34264: (a, b_, 0.0, c, d, e, 0.0, f, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)}
+        rio.require_north_up(text, georef)
         dx, dy = math.hypot(a, d), math.hypot(b_, e)
         if crs is not None and crs.is_geographic:
             lat = d * cols / 2 + e * rows / 2 + f
@@ -73,8 +78,10 @@ def read_with_gdal(path: str | os.PathLike, band: int | None = None, nodata: flo
             mx, my = rio.metres_per_degree(lat)
             dx, dy = dx * mx, dy * my
         elif crs is not None:
-            factor = crs.linear_units_factor[1]
+            name, factor = crs.linear_units_factor
             dx, dy = dx * factor, dy * factor
+            if factor != 1.0:
+                warnings.warn(f"{text}: {rio._unit_note(name, factor)}", InputWarning, stacklevel=3)
         else:
             warnings.warn(f"{text}: no CRS: cell size {dx:g} x {dy:g} taken as metres", InputWarning, stacklevel=3)
     return rio.Raster(heights, dx, dy, file_nodata if nodata is None else nodata,

@@ -96,6 +96,8 @@ class _Source:
     band: int = 1                                 # the band read, 1-based
     band_name: str = ""
     notes: list[str] = field(default_factory=list)   # warnings for the user
+    scale: float = 1.0                            # heights = raw x scale + offset (GDAL's band scale, offset)
+    offset: float = 0.0
 
 
 def metres_per_degree(lat_deg: float) -> tuple[float, float]:
@@ -139,8 +141,10 @@ def _band_index(path: Path, count: int, band: int | None, default: int = 0) -> i
     return band - 1
 
 
-def _heights(path: object, raw: np.ndarray, nodata: float | None) -> np.ndarray:
-    """float64 copy of a 2-D numeric array with nodata (compared in the file's dtype) as NaN."""
+def _heights(path: object, raw: np.ndarray, nodata: float | None, scale: float = 1.0,
+             offset: float = 0.0) -> np.ndarray:
+    """float64 copy of a 2-D numeric array with nodata (compared in the file's dtype) as NaN,
+    unscaled (raw x ``scale`` + ``offset``)."""
     raw = np.asarray(raw)
     if raw.dtype.kind not in "iuf":
         raise _err(path, f"expected a numeric raster, got dtype {raw.dtype}")
@@ -154,7 +158,42 @@ def _heights(path: object, raw: np.ndarray, nodata: float | None) -> np.ndarray:
             out[raw == raw.dtype.type(nodata)] = np.nan
         elif float(nodata).is_integer() and np.can_cast(np.min_scalar_type(int(nodata)), raw.dtype):
             out[raw == int(nodata)] = np.nan
+    if scale != 1.0 or offset != 0.0:
+        out *= scale
+        out += offset
     return out
+
+
+def gdal_band_scaling(metadata: str | None, band_index: int) -> tuple[float, float]:
+    """(scale, offset) of a band (0-based) from GDAL's metadata XML (TIFF tag 42112: Items with
+    role "scale" and "offset"); (1, 0) where it says none."""
+    import xml.etree.ElementTree as ET
+
+    found = {"scale": 1.0, "offset": 0.0}
+    if not metadata:
+        return found["scale"], found["offset"]
+    try:
+        root = ET.fromstring(metadata)
+    except ET.ParseError:
+        return found["scale"], found["offset"]
+    for item in root.iter("Item"):
+        role, sample = item.get("role"), item.get("sample")
+        if role in found and sample is not None and sample.strip() == str(band_index) and (item.text or "").strip():
+            try:
+                found[role] = float(item.text)
+            except ValueError:
+                raise ValueError(f"GDAL metadata {role} {item.text!r} of band {band_index + 1} is not a number") \
+                    from None
+    if not (math.isfinite(found["scale"]) and found["scale"] != 0.0 and math.isfinite(found["offset"])):
+        raise ValueError(f"GDAL metadata scale {found['scale']!r} and offset {found['offset']!r} of band "
+                         f"{band_index + 1}: expected a finite, non-zero scale and a finite offset")
+    return found["scale"], found["offset"]
+
+
+def scaling_note(scale: float, offset: float) -> str:
+    """What a reader tells the user when it unscales a band."""
+    return (f"heights unscaled by the file's band scale {scale:.10g} and offset {offset:.10g} (raw x scale + "
+            f"offset, as gdal_translate -unscale); do not apply them again with -z")
 
 
 # ----------------------------------------------------------------------------- GeoTIFF
@@ -164,6 +203,47 @@ def _geokey(keys: Sequence[int], key_id: int) -> int | None:
         if keys[k] == key_id and keys[k + 1] == 0:
             return int(keys[k + 3])
     return None
+
+
+def _geokey_double(georef: dict, key_id: int) -> float | None:
+    """A GeoTIFF key held in GeoDoubleParams (34736), e.g. ProjLinearUnitSizeGeoKey."""
+    keys, doubles = georef.get(34735, ()), georef.get(34736, ())
+    for k in range(4, len(keys) - 3, 4):
+        if keys[k] == key_id and keys[k + 1] == 34736 and keys[k + 3] < len(doubles):
+            return float(doubles[keys[k + 3]])
+    return None
+
+
+def _projected_unit(georef: dict) -> tuple[str, float] | None:
+    """(name, metres) of a projected GeoTIFF's linear unit: ProjLinearUnitsGeoKey (an EPSG unit
+    code, or user-defined with ProjLinearUnitSizeGeoKey), else the unit of the EPSG projected CRS
+    (pyproj); None when the keys say neither."""
+    import pyproj
+
+    keys = georef.get(34735, ())
+    code = _geokey(keys, 3076)
+    if code == 32767:
+        size = _geokey_double(georef, 3077)
+        return None if size is None or not (math.isfinite(size) and size > 0) else ("user-defined unit", size)
+    if code is not None:
+        units = {int(u.code): u for u in pyproj.database.get_units_map(auth_name="EPSG", category="linear").values()}
+        if code in units:
+            return units[code].name, float(units[code].conv_factor)
+        raise ValueError(f"ProjLinearUnitsGeoKey {code} is not an EPSG linear unit")
+    crs_code = _geokey(keys, 3072)
+    if crs_code is None or not 0 < crs_code < 32767:
+        return None
+    try:
+        axis = pyproj.CRS.from_epsg(crs_code).axis_info[0]
+    except pyproj.exceptions.CRSError:
+        return None
+    return axis.unit_name, float(axis.unit_conversion_factor)
+
+
+def _unit_note(name: str, metres: float) -> str:
+    """What a reader tells the user when it converts a projected CRS's cells to metres."""
+    return (f"cells in {name} ({metres:.10g} m) converted to metres; the heights are used as they are: "
+            f"if they are in the same unit, add -z {metres:.10g}")
 
 
 def _read_tif(path: Path, band: int | None) -> _Source:
@@ -196,12 +276,22 @@ def _tif_source(page: tifffile.TiffPage, raw: np.ndarray, bands: int, index: int
         cell = (float(tags[33550][0]), float(tags[33550][1]))
         tie = tags.get(33922)
         centre_lat = None if tie is None else tie[4] + (tie[1] - rows / 2) * cell[1]
+    notes = []
     if geographic and cell is not None:
         if centre_lat is None:
             raise ValueError("geographic GeoTIFF without ModelTiepoint: cannot convert degrees to "
                              "metres (pass cellsize)")
         cell = _degree_cells(*cell, centre_lat)
-    return _Source(raw, nodata, geographic, georef, cell, bands=bands, band=index + 1)
+    elif cell is not None and _geokey(tags.get(34735, ()), 1024) == 1:
+        unit = _projected_unit(georef)
+        if unit is not None and unit[1] != 1.0:
+            cell = (cell[0] * unit[1], cell[1] * unit[1])
+            notes.append(_unit_note(*unit))
+    scale, offset = gdal_band_scaling(tags.get(_TAG_GDAL_METADATA), index)
+    if scale != 1.0 or offset != 0.0:
+        notes.append(scaling_note(scale, offset))
+    return _Source(raw, nodata, geographic, georef, cell, bands=bands, band=index + 1, notes=notes,
+                   scale=scale, offset=offset)
 
 
 class _TiffWindows:
@@ -453,6 +543,8 @@ def _read_asc(path: Path, band: int | None, cell_given: bool) -> _Source:
         source.georef = _georef_crs(cx, cy, x0, y0 + nrows * cy, crs.geographic, crs.epsg)
         source.cell = (_degree_cells(cx, cy, y0 + nrows * cy / 2) if crs.geographic else
                        (cx * crs.metres_per_unit, cy * crs.metres_per_unit))
+        if not crs.geographic and crs.metres_per_unit != 1.0:
+            source.notes.append(_unit_note(f"the unit of {prj.name}", crs.metres_per_unit))
         return source
     source.georef = _georef_crs(cx, cy, x0, y0 + nrows * cy, False, None)
     source.cell = (cx, cy)
@@ -557,7 +649,7 @@ def read_dem(path: str | os.PathLike, cellsize: float | tuple[float, float] | No
         ".asc": lambda asc, b: _read_asc(asc, b, cell is not None)}
     try:
         src = readers[ext](p, band)
-        heights = _heights(p, src.raw, src.nodata if nodata is None else nodata)
+        heights = _heights(p, src.raw, src.nodata if nodata is None else nodata, src.scale, src.offset)
     except RasterIOError:
         raise
     except Exception as exc:  # noqa: BLE001 - a corrupt file can fail in any decoder; name the file
@@ -565,9 +657,34 @@ def read_dem(path: str | os.PathLike, cellsize: float | tuple[float, float] | No
     return _raster(p, src, heights, band, cell, nodata)
 
 
+def require_north_up(path: object, georef: dict) -> None:
+    """Refuse a georeferenced grid whose columns do not run west to east and rows north to south.
+
+    Every kernel traces azimuths in the grid (columns east, rows south, as the heights are held),
+    so a rotated, sheared or mirrored (south-up) grid would put every shadow and horizon in a
+    wrong direction without a sign of it; gdalwarp makes such a file north-up.  Raises
+    :class:`RasterIOError` naming ``path``; a grid without a transform passes (it is taken as
+    north-up, docs/io.md)."""
+    gt = geotransform(georef)
+    if gt is None:
+        return
+    _, a, b, _, d, e = gt
+    size = max(abs(a), abs(b), abs(d), abs(e))
+    if abs(b) > 1e-9 * size or abs(d) > 1e-9 * size:
+        raise _err(path, f"the grid is rotated or sheared (geotransform row and column terms "
+                         f"{a:.9g}, {b:.9g}, {d:.9g}, {e:.9g}), and oclshade traces azimuths along a "
+                         f"north-up grid: warp it north-up first (gdalwarp IN OUT)")
+    wrong = [what for what, bad in (("its columns run east to west", a < 0),
+                                    ("its rows run south to north (south-up)", e > 0)) if bad]
+    if wrong:
+        raise _err(path, f"the grid is mirrored: {' and '.join(wrong)}, and oclshade traces azimuths along a "
+                         f"north-up grid: warp it north-up first (gdalwarp IN OUT)")
+
+
 def _raster(p: Path, src: _Source, heights: np.ndarray, band: int | None, cell: tuple[float, float] | None,
             nodata: float | None) -> Raster:
     """The Raster of a read file, after warning about what the reader noted (stacklevel: read_dem's caller)."""
+    require_north_up(p, src.georef)
     if band is None and src.bands > 1:
         src.notes.append(f"the file has {src.bands} bands; reading band {src.band}"
                          f"{f' ({src.band_name})' if src.band_name else ''} (choose one with -b BAND, or band=)")
@@ -651,7 +768,7 @@ def open_dem(path: str | os.PathLike, cellsize: float | tuple[float, float] | No
 
     def read(r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
         try:
-            return _heights(p, window(r0, r1, c0, c1), declared)
+            return _heights(p, window(r0, r1, c0, c1), declared, src.scale, src.offset)
         except RasterIOError:
             raise
         except Exception as exc:  # noqa: BLE001 - a corrupt block fails in its decoder

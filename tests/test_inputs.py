@@ -151,7 +151,8 @@ def test_asc_with_projected_prj_keeps_its_crs_in_the_output(tmp_path, dem, capsy
 
 @pytest.mark.parametrize("wkt, factor", [(FTUS_WKT2, 0.304800609601219), (ESRI_FOOT, 0.3048)])
 def test_asc_in_feet_gets_metre_cells(tmp_path, dem, wkt, factor):
-    r = read_dem(write_asc(tmp_path / "ft.asc", dem, 10.0, 6000000.0, 2000000.0, prj=wkt))
+    with pytest.warns(InputWarning, match=f"converted to metres.*add -z {factor:.10g}$"):
+        r = read_dem(write_asc(tmp_path / "ft.asc", dem, 10.0, 6000000.0, 2000000.0, prj=wkt))
     assert not r.geographic and (r.dx, r.dy) == pytest.approx((10 * factor, 10 * factor))
     assert r.georef[33550][:2] == (10.0, 10.0)            # the transform stays in the CRS's feet
     assert (34735 in r.georef) == (wkt == FTUS_WKT2)

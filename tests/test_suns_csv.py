@@ -112,7 +112,7 @@ def test_shadow_with_datetime_rows_equals_the_same_suns_by_az_el(tmp_path):
 
 @pytest.mark.parametrize("extra, message", [
     (["--sun", "10,20"], "give the sun one way"),
-    ([], "has no geographic CRS to take the place from; give --lat and --lon"),
+    ([], "has no CRS to take the place from; give --lat and --lon"),
     (["--lat", "46"], "give both --lat and --lon"),
 ])
 def test_shadow_datetime_rows_usage_errors(tmp_path, capsys, extra, message):

@@ -1,6 +1,9 @@
 """Sun positions from date, time and place: NREL's Solar Position Algorithm
-(``sun_position``), and ``oclshade.Sun`` objects for a list of datetimes (``suns_at``).
+(``sun_position``), ``oclshade.Sun`` objects for a list of datetimes (``suns_at``), and a
+raster's site (``map_site``: its place, and true azimuths turned to its grid through its CRS).
 Conventions: the table in ``oclshade.solar.position``'s docstring."""
 from .position import SunPosition, delta_t_estimate, refraction_correction, sun_position, suns_at
+from .site import MapSite, map_site
 
-__all__ = ["SunPosition", "delta_t_estimate", "refraction_correction", "sun_position", "suns_at"]
+__all__ = ["MapSite", "SunPosition", "delta_t_estimate", "map_site", "refraction_correction", "sun_position",
+           "suns_at"]

@@ -4,11 +4,16 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import sys
+import warnings
+from dataclasses import dataclass
 from datetime import date, datetime
 from typing import Callable
 from zoneinfo import ZoneInfo, ZoneInfoNotFoundError
 
+from ..heightmap import InputWarning
 from .position import DEFAULT_PRESSURE_HPA, DEFAULT_TEMPERATURE_C, sun_position, suns_at
+from .site import MapSite, map_site
 
 EPILOG = """\
 datetimes: ISO 8601 with a UTC offset (2024-06-21T12:00+02:00, 2024-06-21T10:00Z), or
@@ -152,9 +157,9 @@ def add_place_arguments(parser: argparse.ArgumentParser, what: str) -> None:
     """``--tz``, ``--lat``, ``--lon`` for the datetimes of ``what`` (the options that give them)."""
     parser.add_argument("--tz", metavar="NAME", help=f"IANA time zone of {what} values given without an offset")
     parser.add_argument("--lat", type=_LAT, metavar="DEG",
-                        help=f"latitude for {what} (default: the centre of a geographic INPUT)")
+                        help=f"latitude for {what} (default: the centre of INPUT, through its CRS)")
     parser.add_argument("--lon", type=_LON, metavar="DEG",
-                        help=f"longitude for {what} (default: the centre of a geographic INPUT)")
+                        help=f"longitude for {what} (default: the centre of INPUT, through its CRS)")
 
 
 def parse_datetimes(args: argparse.Namespace, more: bool = False) -> list[datetime]:
@@ -175,30 +180,43 @@ def check_place(args: argparse.Namespace) -> None:
     from ..cli import UsageError
 
     if (args.lat is None) != (args.lon is None):
-        raise UsageError("give both --lat and --lon, or neither (the centre of a geographic INPUT)")
+        raise UsageError("give both --lat and --lon, or neither (the centre of INPUT, through its CRS)")
 
 
-def map_centre(raster) -> tuple[float, float] | None:
-    """(latitude, longitude) of a geographic raster's centre, from its georeferencing; else None."""
-    from ..io import geotransform
+@dataclass(frozen=True)
+class PlacedSuns:
+    """The suns of a command's datetimes: ``suns`` in grid azimuths (what the kernels trace),
+    ``true`` as NREL SPA gives them, and the site (place and CRS) that turned one into the other."""
 
-    transform = geotransform(raster.georef) if raster.geographic else None
-    if transform is None:
-        return None
-    x0, xc, xr, y0, yc, yr = transform
-    rows, cols = raster.heights.shape
-    return y0 + yc * cols / 2 + yr * rows / 2, x0 + xc * cols / 2 + xr * rows / 2
+    suns: list
+    true: list
+    site: MapSite
+
+    def describe(self, when: datetime) -> str:
+        """One summary line: how many suns, where, and the first (at ``when``)."""
+        true, grid = self.true[0], self.suns[0]
+        turned = (f" ({grid.azimuth:.4f} on the grid of {self.site.crs_name})"
+                  if self.site.crs is not None else "")
+        return (f"{len(self.suns)} sun(s) at latitude {self.site.latitude:.5f}, longitude "
+                f"{self.site.longitude:.5f} (NREL SPA); {when.isoformat()}: azimuth {true.azimuth:.4f}{turned}, "
+                f"elevation {true.elevation:.4f}")
 
 
-def suns_for(times: list[datetime], args: argparse.Namespace, raster,
-             what: str = "--datetime") -> tuple[list, float, float]:
-    """The suns at ``times`` at --lat/--lon, else at the centre of a geographic raster; and that place.
-    ``what``: the options the times came from (for the error)."""
-    from ..cli import UsageError
+def suns_for(times: list[datetime], args: argparse.Namespace, raster, what: str = "--datetime") -> PlacedSuns:
+    """The suns at ``times`` at --lat/--lon, else at the raster's centre (a geographic raster's, or
+    a projected one's through its CRS), their azimuths turned to the raster's grid
+    (:mod:`oclshade.solar.site`).  ``what``: the options the times came from (for the errors)."""
+    from ..cli import PROG, CliError, UsageError
 
-    place = (args.lat, args.lon) if args.lat is not None else map_centre(raster)
-    if place is None:
-        raise UsageError(f"{what}: INPUT {args.input!r} has no geographic CRS to take the place from; "
-                         f"give --lat and --lon")
-    lat, lon = place
-    return suns_at(times, lat, lon), lat, lon
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", InputWarning)
+            site = map_site(raster, args.lat, args.lon)
+        for warning in caught:
+            sys.stderr.write(f"{PROG}: warning: {warning.message}\n")
+        if site is None:
+            raise UsageError(f"{what}: INPUT {args.input!r} has no CRS to take the place from; give --lat and --lon")
+        true = suns_at(times, site.latitude, site.longitude)
+        return PlacedSuns(site.grid_suns(true), true, site)
+    except ValueError as exc:
+        raise CliError(f"{what}: INPUT {args.input!r}: {exc}") from None

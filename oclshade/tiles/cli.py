@@ -92,7 +92,7 @@ def run(args: argparse.Namespace, job) -> int:
         for warning in caught:
             sys.stderr.write(f"{cli.PROG}: warning: {warning.message}\n")
         if job.times:
-            suns, _, _ = solar_cli.suns_for(job.times, args, raster)
+            suns = solar_cli.suns_for(job.times, args, raster).suns
             job = cli.dataclasses.replace(job, suns=suns)
         dx, dy = raster.dx * args.scale, raster.dy * args.scale
         rows, cols = windows.shape
