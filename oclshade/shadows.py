@@ -414,7 +414,7 @@ class ShadowCaster:
         (zenith, below the horizon) get the buffer unfilled: the kernel does not read it."""
         if not features.certified:
             return lambda sun: ()
-        rt, pyr = self.runtime, self.pyramid
+        rt = self.runtime
         rows, cols = self.heightmap.shape
         tr, tc = -(-rows // features.cert_tile), -(-cols // features.cert_tile)
         kernel = rt.kernel("shadow.cl", "shadow_certify", features.defines())
