@@ -226,10 +226,7 @@ def _projected_unit(georef: dict) -> tuple[str, float] | None:
         size = _geokey_double(georef, 3077)
         return None if size is None or not (math.isfinite(size) and size > 0) else ("user-defined unit", size)
     if code is not None:
-        units = {int(u.code): u for u in pyproj.database.get_units_map(auth_name="EPSG", category="linear").values()}
-        if code in units:
-            return units[code].name, float(units[code].conv_factor)
-        raise ValueError(f"ProjLinearUnitsGeoKey {code} is not an EPSG linear unit")
+        return _linear_unit(code)
     crs_code = _geokey(keys, 3072)
     if crs_code is None or not 0 < crs_code < 32767:
         return None
@@ -238,6 +235,16 @@ def _projected_unit(georef: dict) -> tuple[str, float] | None:
     except pyproj.exceptions.CRSError:
         return None
     return axis.unit_name, float(axis.unit_conversion_factor)
+
+
+def _linear_unit(code: int) -> tuple[str, float]:
+    """(name, metres) of an EPSG linear unit code (9001 metre, 9002 foot, 9003 US survey foot, ...)."""
+    import pyproj
+
+    for unit in pyproj.database.get_units_map(auth_name="EPSG", category="linear").values():
+        if int(unit.code) == code:
+            return unit.name, float(unit.conv_factor)
+    raise ValueError(f"GeoTIFF key gives linear unit {code}, which is not an EPSG linear unit code")
 
 
 def _unit_note(name: str, metres: float) -> str:
@@ -287,6 +294,11 @@ def _tif_source(page: tifffile.TiffPage, raw: np.ndarray, bands: int, index: int
         if unit is not None and unit[1] != 1.0:
             cell = (cell[0] * unit[1], cell[1] * unit[1])
             notes.append(_unit_note(*unit))
+    vertical = _geokey(tags.get(34735, ()), 4099)              # VerticalUnitsGeoKey
+    if vertical is not None and vertical not in (9001, 32767):
+        name, metres = _linear_unit(vertical)
+        notes.append(f"the file gives its heights in {name} (VerticalUnitsGeoKey): they are used as they are; "
+                     f"add -z {metres:.10g} to use them as metres")
     scale, offset = gdal_band_scaling(tags.get(_TAG_GDAL_METADATA), index)
     if scale != 1.0 or offset != 0.0:
         notes.append(scaling_note(scale, offset))

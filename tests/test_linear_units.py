@@ -60,3 +60,12 @@ def test_a_geotiff_and_an_esri_grid_in_feet_read_alike(tmp_path):
     grid, grid_notes = read(asc)
     assert (grid.dx, grid.dy) == (pytest.approx(tif.dx, rel=1e-12), pytest.approx(tif.dy, rel=1e-12))
     assert tif_notes and grid_notes and all("-z 0.3048006096" in n for n in tif_notes + grid_notes)
+
+
+def test_heights_the_file_says_are_in_feet_are_named(tmp_path):
+    """VerticalUnitsGeoKey 9002 on a metre grid: the heights stay as they are (the convention:
+    metres after -z) and the warning names -z 0.3048."""
+    keys = (1, 1, 0, 4, 1024, 0, 1, 1, 1025, 0, 1, 1, 3072, 0, 1, 32633, 4099, 0, 1, 9002)
+    raster, notes = read(projected_tif(tmp_path / "zft.tif", keys))
+    assert (raster.dx, raster.dy) == (10.0, 10.0)
+    assert len(notes) == 1 and "heights in foot" in notes[0] and notes[0].endswith("add -z 0.3048 to use them as metres")
