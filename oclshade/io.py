@@ -98,6 +98,7 @@ class _Source:
     notes: list[str] = field(default_factory=list)   # warnings for the user
     scale: float = 1.0                            # heights = raw x scale + offset (GDAL's band scale, offset)
     offset: float = 0.0
+    valid: np.ndarray | None = None               # False: masked (GDAL's internal mask, an alpha band)
 
 
 def metres_per_degree(lat_deg: float) -> tuple[float, float]:
@@ -142,9 +143,9 @@ def _band_index(path: Path, count: int, band: int | None, default: int = 0) -> i
 
 
 def _heights(path: object, raw: np.ndarray, nodata: float | None, scale: float = 1.0,
-             offset: float = 0.0) -> np.ndarray:
-    """float64 copy of a 2-D numeric array with nodata (compared in the file's dtype) as NaN,
-    unscaled (raw x ``scale`` + ``offset``)."""
+             offset: float = 0.0, valid: np.ndarray | None = None) -> np.ndarray:
+    """float64 copy of a 2-D numeric array with nodata (compared in the file's dtype) and the
+    cells ``valid`` marks False as NaN, unscaled (raw x ``scale`` + ``offset``)."""
     raw = np.asarray(raw)
     if raw.dtype.kind not in "iuf":
         raise _err(path, f"expected a numeric raster, got dtype {raw.dtype}")
@@ -161,6 +162,8 @@ def _heights(path: object, raw: np.ndarray, nodata: float | None, scale: float =
     if scale != 1.0 or offset != 0.0:
         out *= scale
         out += offset
+    if valid is not None:
+        out[~valid] = np.nan
     return out
 
 
@@ -253,16 +256,44 @@ def _unit_note(name: str, metres: float) -> str:
             f"if they are in the same unit, add -z {metres:.10g}")
 
 
+def _mask_page(tif: tifffile.TiffFile) -> tifffile.TiffPage | None:
+    """GDAL's internal nodata mask of the first page (``GDAL_TIFF_INTERNAL_MASK``): a later IFD
+    of NewSubfileType mask (4), not an overview (1), of the same size; None without one."""
+    first = tif.pages[0]
+    for number in range(1, len(tif.pages)):
+        page = tif.pages[number]
+        if (page.subfiletype & 4 and not page.subfiletype & 1
+                and (page.imagelength, page.imagewidth) == (first.imagelength, first.imagewidth)):
+            return page
+    return None
+
+
+def _alpha_sample(page: tifffile.TiffPage, index: int) -> int | None:
+    """The sample index of the page's alpha (ExtraSamples 1 or 2), which GDAL takes as the mask
+    of every other band (0: masked); None without one, or when the band read is the alpha."""
+    extras = tuple(page.extrasamples or ())
+    for k, kind in enumerate(extras):
+        if int(kind) in (1, 2):
+            sample = page.samplesperpixel - len(extras) + k
+            return None if sample == index else sample
+    return None
+
+
 def _read_tif(path: Path, band: int | None) -> _Source:
     with tifffile.TiffFile(path) as tif:
         page = tif.pages[0]
-        raw = page.asarray()                      # LZW/DEFLATE/predictors: imagecodecs
-        bands = page.samplesperpixel if "S" in page.axes and raw.ndim == len(page.axes) else 1
+        every = page.asarray()                    # LZW/DEFLATE/predictors: imagecodecs
+        bands = page.samplesperpixel if "S" in page.axes and every.ndim == len(page.axes) else 1
         index = _band_index(path, bands, band)
-        if bands > 1:
-            raw = np.take(raw, index, axis=page.axes.index("S"))
+        raw = np.take(every, index, axis=page.axes.index("S")) if bands > 1 else every
         raw = raw.squeeze() if raw.ndim > 2 else raw
-        return _tif_source(page, raw, bands, index)
+        src = _tif_source(page, raw, bands, index)
+        mask, alpha = _mask_page(tif), _alpha_sample(page, index) if bands > 1 else None
+        if mask is not None:
+            src.valid = mask.asarray().astype(bool).reshape(raw.shape)
+        elif alpha is not None:
+            src.valid = np.take(every, alpha, axis=page.axes.index("S")).reshape(raw.shape) != 0
+        return src
 
 
 def _tif_source(page: tifffile.TiffPage, raw: np.ndarray, bands: int, index: int) -> _Source:
@@ -314,20 +345,26 @@ class _TiffWindows:
         self.tif = tifffile.TiffFile(path)
         try:
             page = self.page = self.tif.pages[0]
-            if page.is_tiled:
-                self.segment = (page.tilelength, page.tilewidth)
-                if page.tiledepth > 1:
-                    raise ValueError("volumetric (3-D tiled) TIFF is not a DEM")
-            else:
-                self.segment = (min(page.rowsperstrip, page.imagelength), page.imagewidth)
+            if page.is_tiled and page.tiledepth > 1:
+                raise ValueError("volumetric (3-D tiled) TIFF is not a DEM")
+            self.segment = self._segment(page)
             self.shape = (page.imagelength, page.imagewidth)
             self.bands = page.samplesperpixel
             self.index = _band_index(path, self.bands, band)
             self.source = _tif_source(page, np.empty((0, 0), page.dtype), self.bands, self.index)
             self.separate = page.planarconfig == 2 and self.bands > 1
+            self.mask = _mask_page(self.tif)
+            self.alpha = _alpha_sample(page, self.index) if self.bands > 1 else None
         except BaseException:
             self.tif.close()
             raise
+
+    @staticmethod
+    def _segment(page: tifffile.TiffPage) -> tuple[int, int]:
+        """(rows, columns) of the page's tiles or strips."""
+        if page.is_tiled:
+            return page.tilelength, page.tilewidth
+        return min(page.rowsperstrip, page.imagelength), page.imagewidth
 
     @property
     def segment_bytes(self) -> int:
@@ -336,10 +373,23 @@ class _TiffWindows:
 
     def read(self, r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
         """Samples [r0, r1) x [c0, c1) of the band, in the file's dtype."""
-        page, (sl, sw) = self.page, self.segment
+        return self._samples(self.page, self.index, r0, r1, c0, c1)
+
+    def valid(self, r0: int, r1: int, c0: int, c1: int) -> np.ndarray | None:
+        """Where the file's mask (internal, else alpha) keeps cells [r0, r1) x [c0, c1); None: no mask."""
+        if self.mask is not None:
+            return self._samples(self.mask, 0, r0, r1, c0, c1).astype(bool)
+        if self.alpha is not None:
+            return self._samples(self.page, self.alpha, r0, r1, c0, c1) != 0
+        return None
+
+    def _samples(self, page: tifffile.TiffPage, index: int, r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
+        """Sample ``index`` of ``page`` over [r0, r1) x [c0, c1), decoding only the segments there."""
+        sl, sw = self._segment(page)
         out = np.empty((r1 - r0, c1 - c0), page.dtype)
         down, across = -(-self.shape[0] // sl), -(-self.shape[1] // sw)
-        plane = self.index * down * across if self.separate else 0
+        separate = page.planarconfig == 2 and page.samplesperpixel > 1
+        plane = index * down * across if separate else 0
         extra = {"jpegtables": page.jpegtables} if page.compression in (6, 7, 34892, 33007) else {}
         fh = self.tif.filehandle
         for br in range(r0 // sl, (r1 - 1) // sl + 1):
@@ -355,10 +405,10 @@ class _TiffWindows:
                 b0, b1 = max(c0, bc * sw), min(c1, (bc + 1) * sw)
                 target = out[a0 - r0:a1 - r0, b0 - c0:b1 - c0]
                 if segment is None:                      # a sparse file's empty block
-                    nodata = self.source.nodata
+                    nodata = self.source.nodata if page is self.page else None
                     target[...] = 0 if nodata is None or np.isnan(nodata) and out.dtype.kind != "f" else nodata
                     continue
-                segment = segment.reshape(shape)[0, :, :, 0 if self.separate else self.index]
+                segment = segment.reshape(shape)[0, :, :, 0 if separate else index]
                 target[...] = segment[a0 - br * sl:a1 - br * sl, b0 - bc * sw:b1 - bc * sw]
         return out
 
@@ -661,7 +711,7 @@ def read_dem(path: str | os.PathLike, cellsize: float | tuple[float, float] | No
         ".asc": lambda asc, b: _read_asc(asc, b, cell is not None)}
     try:
         src = readers[ext](p, band)
-        heights = _heights(p, src.raw, src.nodata if nodata is None else nodata, src.scale, src.offset)
+        heights = _heights(p, src.raw, src.nodata if nodata is None else nodata, src.scale, src.offset, src.valid)
     except RasterIOError:
         raise
     except Exception as exc:  # noqa: BLE001 - a corrupt file can fail in any decoder; name the file
@@ -769,9 +819,13 @@ def open_dem(path: str | os.PathLike, cellsize: float | tuple[float, float] | No
 
             def window(r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
                 return raw[r0:r1, c0:c1]
+
+            def valid(r0: int, r1: int, c0: int, c1: int) -> None:
+                return None
         else:
             tiff = _TiffWindows(p, band)
             src, segment, close, shape, window = tiff.source, tiff.segment_bytes, tiff.close, tiff.shape, tiff.read
+            valid = tiff.valid
     except RasterIOError:
         raise
     except Exception as exc:  # noqa: BLE001 - as read_dem: name the file
@@ -780,7 +834,7 @@ def open_dem(path: str | os.PathLike, cellsize: float | tuple[float, float] | No
 
     def read(r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
         try:
-            return _heights(p, window(r0, r1, c0, c1), declared, src.scale, src.offset)
+            return _heights(p, window(r0, r1, c0, c1), declared, src.scale, src.offset, valid(r0, r1, c0, c1))
         except RasterIOError:
             raise
         except Exception as exc:  # noqa: BLE001 - a corrupt block fails in its decoder
