@@ -1109,8 +1109,9 @@ def add_horizon_parsers(sub) -> None:
         p.add_argument("input", metavar="INPUT", help="DEM: .tif/.tiff, .hgt, .zip (with .hgt), .asc, .exr, .png, .npy")
         p.add_argument("output", metavar="OUTPUT", help="output raster: .tif/.tiff, .exr or .npy")
         if name == "sunlit":
-            p.add_argument("--sun", dest="suns", action="append", type=_sun, required=True, metavar="AZ,ALT",
-                           help="a sun position (degrees); repeat for several (one band each)")
+            p.add_argument("--sun", dest="suns", action="append", default=[], type=_sun, metavar="AZ,ALT",
+                           help="a sun position (degrees, grid azimuth); repeat for several (one band each)")
+            solar_cli.add_time_arguments(p)
             p.add_argument("--disc-radius", type=_disc_radius, default=SUN_RADIUS, metavar="DEG",
                            help=f"the sun's angular radius (default {SUN_RADIUS:g}, the mean)")
             p.add_argument("--columns", type=_columns, default=DEFAULT_COLUMNS, metavar="K",
@@ -1142,12 +1143,20 @@ def run_horizon(args: argparse.Namespace) -> int:
     curvature = curvature_argument(args)
     cellsize = cellsize_argument(args)
     options, cog = creation_options(args, np.dtype(np.float32))
+    svf, sunlit = args.command == "svf", args.command == "sunlit"
+    times = solar_cli.parse_datetimes(args) if sunlit else []
+    if sunlit and bool(times) == bool(args.suns):
+        raise UsageError("give the sun one way: --sun AZ,ALT or --datetime ISO (each repeatable)")
     if _same_file(args.output, args.input):
         raise CliError(f"OUTPUT {args.output!r} is the input file; refusing to overwrite it")
     t0 = time.perf_counter()
     raster, heightmap = read_input(args, cellsize)
     rows, cols = heightmap.shape
-    svf, sunlit = args.command == "svf", args.command == "sunlit"
+    if times:
+        placed = solar_cli.suns_for(times, args, raster)
+        args.suns = placed.suns
+        if not args.quiet:
+            print(f"{PROG}: {placed.describe(times[0])}", file=sys.stderr)
     azimuths = [] if sunlit else azimuth_grid(args.azimuths)
     if svf:
         names = [f"svf_{args.definition}"]

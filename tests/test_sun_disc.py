@@ -101,3 +101,32 @@ def test_clamped_strips_equal_the_unclamped_horizons(canyon):
             azimuths, half_chords = disc_columns(sun, SUN_RADIUS, 8)
             full = visible_fraction((b for _, b in caster.iter_horizons(azimuths)), sun[1], half_chords)
             assert np.array_equal(caster.sun_disc(sun, columns=8), full.astype(np.float32))
+
+
+def test_cli_sunlit_from_a_datetime_on_a_utm_map(tmp_path, canyon, capsys):
+    """`sunlit --datetime`: the sun at the map's centre through its CRS (UTM 33N, 2 degrees of
+    meridian convergence there), turned to the grid: the band equals `--sun` at that grid sun;
+    --sun and --datetime together are refused."""
+    from datetime import datetime
+
+    from oclshade.io import Raster, read_dem, write_raster
+    from oclshade.solar.cli import suns_for
+
+    georef = {33550: (10.0, 10.0, 0.0), 33922: (0.0, 0.0, 0.0, 300000.0, 5400000.0, 0.0),
+              34735: (1, 1, 0, 3, 1024, 0, 1, 1, 1025, 0, 1, 1, 3072, 0, 1, 32633)}
+    dem = tmp_path / "utm.tif"
+    write_raster(dem, canyon.heights.astype(np.float32), like=Raster(canyon.heights, 10.0, 10.0, None, False, georef))
+    when = "2024-06-21T20:30+02:00"
+    assert main(["sunlit", str(dem), str(tmp_path / "t.npy"), "--datetime", when, "--columns", "4"]) == 0
+    assert "on the grid of EPSG:32633" in capsys.readouterr().err
+    import argparse
+    placed = suns_for([datetime.fromisoformat(when)], argparse.Namespace(input=str(dem), lat=None, lon=None),
+                      read_dem(dem))
+    sun = placed.suns[0]
+    assert abs(sun.azimuth - placed.true[0].azimuth) > 1.5 and 0.0 < sun.elevation < 10.0
+    assert main(["sunlit", str(dem), str(tmp_path / "s.npy"), f"--sun={sun.azimuth!r},{sun.elevation!r}",
+                 "--columns", "4", "-q"]) == 0
+    timed, direct = np.load(tmp_path / "t.npy"), np.load(tmp_path / "s.npy")
+    assert np.array_equal(timed, direct) and (timed < 1.0).any()
+    assert main(["sunlit", str(dem), str(tmp_path / "b.npy"), "--datetime", when, "--sun", "10,10"]) == 2
+    assert "give the sun one way" in capsys.readouterr().err
