@@ -1152,16 +1152,17 @@ def run_horizon(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     raster, heightmap = read_input(args, cellsize)
     rows, cols = heightmap.shape
+    suns = args.suns if sunlit else []
     if times:
         placed = solar_cli.suns_for(times, args, raster)
-        args.suns = placed.suns
+        suns = placed.suns
         if not args.quiet:
             print(f"{PROG}: {placed.describe(times[0])}", file=sys.stderr)
     azimuths = [] if sunlit else azimuth_grid(args.azimuths)
     if svf:
         names = [f"svf_{args.definition}"]
     elif sunlit:
-        names = [f"sunlit_az{s.azimuth:g}_el{s.elevation:g}".replace(".", "p").replace("-", "m") for s in args.suns]
+        names = [f"sunlit_az{s.azimuth:g}_el{s.elevation:g}".replace(".", "p").replace("-", "m") for s in suns]
     else:
         names = [f"horizon_az{az:g}".replace(".", "p") for az in azimuths]
     if _extension(args.output) == ".exr" and not svf:   # EXR sorts channels by name: keep the band order
@@ -1176,7 +1177,7 @@ def run_horizon(args: argparse.Namespace) -> int:
         if svf:
             out.write(caster.sky_view_factor(azimuths, args.definition, progress=bar))
         elif sunlit:
-            for sun in args.suns:
+            for sun in suns:
                 out.write(caster.sun_disc(sun, args.disc_radius, args.columns, progress=bar))
         else:
             for _, band in caster.iter_horizons(azimuths, progress=bar):
@@ -1188,7 +1189,7 @@ def run_horizon(args: argparse.Namespace) -> int:
         bent = "" if curvature is None else f", curvature R {curvature.radius:g} m k {curvature.refraction:g}"
         if caster.radius is not None:
             bent += f", within {caster.radius:g} m"
-        count = f"{len(args.suns)} sun(s)" if sunlit else f"{len(azimuths)} azimuths"
+        count = f"{len(suns)} sun(s)" if sunlit else f"{len(azimuths)} azimuths"
         print(f"{PROG}: {cols}x{rows} cells, {count}{bent}, device {caster.runtime.label}: "
               f"{what} {t2 - t1:.2f} s (total {time.perf_counter() - t0:.2f} s) -> {args.output}", file=sys.stderr)
     return 0

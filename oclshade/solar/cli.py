@@ -212,11 +212,14 @@ def suns_for(times: list[datetime], args: argparse.Namespace, raster, what: str 
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", InputWarning)
             site = map_site(raster, args.lat, args.lon)
-        for warning in caught:
-            sys.stderr.write(f"{PROG}: warning: {warning.message}\n")
-        if site is None:
-            raise UsageError(f"{what}: INPUT {args.input!r} has no CRS to take the place from; give --lat and --lon")
-        true = suns_at(times, site.latitude, site.longitude)
+    except ValueError as exc:
+        raise CliError(f"{what}: INPUT {args.input!r}: {exc}") from None
+    for warning in caught:
+        sys.stderr.write(f"{PROG}: warning: {warning.message}\n")
+    if site is None:
+        raise UsageError(f"{what}: INPUT {args.input!r} has no CRS to take the place from; give --lat and --lon")
+    true = suns_at(times, site.latitude, site.longitude)
+    try:
         return PlacedSuns(site.grid_suns(true), true, site)
     except ValueError as exc:
         raise CliError(f"{what}: INPUT {args.input!r}: {exc}") from None
