@@ -1121,6 +1121,11 @@ def add_horizon_parsers(sub) -> None:
                            help="equally spaced azimuths, 360 i / N degrees (default 16)")
             p.add_argument("--max-distance", type=_max_distance, default=None, metavar="METRES",
                            help="search radius: terrain farther from the cell is not seen (default: the whole map)")
+        if name == "horizon":
+            p.add_argument("--true-north", action="store_true",
+                           help="band i at the true azimuth 360 i / N (from north along the meridian, as r.horizon "
+                                "and solar tools use), turned to a projected INPUT's grid through its CRS; "
+                                "default: grid azimuths, from up the columns")
         if name == "svf":
             p.add_argument("--definition", default="cosine", choices=SVF_DEFINITIONS,
                            help="cosine (default): 1 - mean sin^2 h; solid-angle: 1 - mean sin h (RVT)")
@@ -1131,6 +1136,24 @@ def add_horizon_parsers(sub) -> None:
         p.add_argument("--device", metavar="SPEC",
                        help="OpenCL device: index or name substring (default: $OCLSHADE_DEVICE, else PoCL CPU)")
         p.add_argument("--quiet", "-q", action="store_true", help="no progress bar and no summary")
+
+
+def true_north_azimuths(args: argparse.Namespace, raster: Raster, azimuths: np.ndarray) -> tuple[np.ndarray, str]:
+    """``horizon --true-north``: the grid azimuths of these true azimuths at INPUT's centre (its
+    CRS: the meridian convergence), and a note for the summary."""
+    from .solar.site import map_site
+
+    try:
+        site = map_site(raster)
+        if site is None:
+            raise UsageError(f"--true-north: INPUT {args.input!r} has no CRS to find true north from")
+        traced = site.grid_azimuths(azimuths)
+    except ValueError as exc:
+        raise CliError(f"--true-north: INPUT {args.input!r}: {exc}") from None
+    if site.crs is None:
+        return traced, " (true north: a geographic grid)"
+    north = float(site.grid_azimuths([0.0])[0])
+    return traced, f" from true north (at grid azimuth {north:.4f} on {site.crs_name})"
 
 
 def run_horizon(args: argparse.Namespace) -> int:
@@ -1159,6 +1182,10 @@ def run_horizon(args: argparse.Namespace) -> int:
         if not args.quiet:
             print(f"{PROG}: {placed.describe(times[0])}", file=sys.stderr)
     azimuths = [] if sunlit else azimuth_grid(args.azimuths)
+    traced = azimuths                     # the grid azimuths the kernel traces
+    turned = ""
+    if getattr(args, "true_north", False):
+        traced, turned = true_north_azimuths(args, raster, azimuths)
     if svf:
         names = [f"svf_{args.definition}"]
     elif sunlit:
@@ -1180,7 +1207,7 @@ def run_horizon(args: argparse.Namespace) -> int:
             for sun in suns:
                 out.write(caster.sun_disc(sun, args.disc_radius, args.columns, progress=bar))
         else:
-            for _, band in caster.iter_horizons(azimuths, progress=bar):
+            for _, band in caster.iter_horizons(traced, progress=bar):
                 out.write(band)
         t2 = time.perf_counter()
     if not args.quiet:
@@ -1189,7 +1216,7 @@ def run_horizon(args: argparse.Namespace) -> int:
         bent = "" if curvature is None else f", curvature R {curvature.radius:g} m k {curvature.refraction:g}"
         if caster.radius is not None:
             bent += f", within {caster.radius:g} m"
-        count = f"{len(suns)} sun(s)" if sunlit else f"{len(azimuths)} azimuths"
+        count = f"{len(suns)} sun(s)" if sunlit else f"{len(azimuths)} azimuths{turned}"
         print(f"{PROG}: {cols}x{rows} cells, {count}{bent}, device {caster.runtime.label}: "
               f"{what} {t2 - t1:.2f} s (total {time.perf_counter() - t0:.2f} s) -> {args.output}", file=sys.stderr)
     return 0

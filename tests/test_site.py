@@ -172,3 +172,28 @@ def test_a_north_up_transform_is_read():
     require_north_up("x.tif", {34264: (30.0, 0, 0, 500000.0, 0, -30.0, 0, 6700000.0, 0, 0, 0, 0, 0, 0, 0, 1)})
     require_north_up("x.tif", {33550: (30.0, 30.0, 0.0), 33922: (0, 0, 0, 500000.0, 6700000.0, 0)})
     require_north_up("x.npy", {})
+
+
+def test_horizon_true_north_traces_the_grid_azimuths_of_true_ones(tmp_path, capsys):
+    """`horizon --true-north` on a UTM map 2 degrees off its central meridian: band i is the
+    horizon at the grid azimuth of the true azimuth 360 i / N (the API's bands there, bit for
+    bit), not at the grid azimuth 360 i / N; on a map without a CRS it is refused."""
+    from oclshade import Heightmap
+    from oclshade.horizon import HorizonCaster
+    from oclshade.synthetic import canyon_crater
+
+    heights = canyon_crater(40, 48, seed=7, relief=500.0)
+    dem = write_tif(tmp_path / "utm.tif", heights, west=300000.0, north=5400000.0)
+    assert main(["horizon", str(dem), str(tmp_path / "t.npy"), "--azimuths", "8", "--true-north"]) == 0
+    assert "from true north (at grid azimuth 2.0" in capsys.readouterr().err
+    site = map_site(read_dem(dem))
+    grid = site.grid_azimuths(np.arange(8) * 45.0)
+    assert np.all(np.abs((grid - np.arange(8) * 45.0 + 180.0) % 360.0 - 180.0) > 1.9)
+    caster = HorizonCaster(Heightmap.from_array(heights, 30.0))
+    np.testing.assert_array_equal(np.load(tmp_path / "t.npy"), caster.horizons(grid))
+    assert main(["horizon", str(dem), str(tmp_path / "g.npy"), "--azimuths", "8", "-q"]) == 0
+    assert not np.array_equal(np.load(tmp_path / "g.npy"), np.load(tmp_path / "t.npy"))
+    np.save(tmp_path / "bare.npy", heights)
+    assert main(["horizon", str(tmp_path / "bare.npy"), str(tmp_path / "b.npy"), "--cellsize", "30",
+                 "--true-north"]) == 2
+    assert "has no CRS to find true north from" in capsys.readouterr().err
