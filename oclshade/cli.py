@@ -1152,8 +1152,7 @@ def true_north_azimuths(args: argparse.Namespace, raster: Raster, azimuths: np.n
         raise CliError(f"--true-north: INPUT {args.input!r}: {exc}") from None
     if site.crs is None:
         return traced, " (true north: a geographic grid)"
-    north = float(site.grid_azimuths([0.0])[0])
-    return traced, f" from true north (at grid azimuth {north:.4f} on {site.crs_name})"
+    return traced, f" from true north (at grid azimuth {traced[0]:.4f} on {site.crs_name})"   # azimuths[0] is 0
 
 
 def run_horizon(args: argparse.Namespace) -> int:

@@ -81,7 +81,7 @@ def read_with_gdal(path: str | os.PathLike, band: int | None = None, nodata: flo
             name, factor = crs.linear_units_factor
             dx, dy = dx * factor, dy * factor
             if factor != 1.0:
-                warnings.warn(f"{text}: {rio._unit_note(name, factor)}", InputWarning, stacklevel=3)
+                warnings.warn(f"{text}: {rio.unit_note(name, factor)}", InputWarning, stacklevel=3)
         else:
             warnings.warn(f"{text}: no CRS: cell size {dx:g} x {dy:g} taken as metres", InputWarning, stacklevel=3)
     return rio.Raster(heights, dx, dy, file_nodata if nodata is None else nodata,

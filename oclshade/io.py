@@ -201,7 +201,7 @@ def scaling_note(scale: float, offset: float) -> str:
 
 # ----------------------------------------------------------------------------- GeoTIFF
 
-def _geokey(keys: Sequence[int], key_id: int) -> int | None:
+def geokey(keys: Sequence[int], key_id: int) -> int | None:
     for k in range(4, len(keys) - 3, 4):
         if keys[k] == key_id and keys[k + 1] == 0:
             return int(keys[k + 3])
@@ -224,13 +224,13 @@ def _projected_unit(georef: dict) -> tuple[str, float] | None:
     import pyproj
 
     keys = georef.get(34735, ())
-    code = _geokey(keys, 3076)
+    code = geokey(keys, 3076)
     if code == 32767:
         size = _geokey_double(georef, 3077)
         return None if size is None or not (math.isfinite(size) and size > 0) else ("user-defined unit", size)
     if code is not None:
         return _linear_unit(code)
-    crs_code = _geokey(keys, 3072)
+    crs_code = geokey(keys, 3072)
     if crs_code is None or not 0 < crs_code < 32767:
         return None
     try:
@@ -250,7 +250,7 @@ def _linear_unit(code: int) -> tuple[str, float]:
     raise ValueError(f"GeoTIFF key gives linear unit {code}, which is not an EPSG linear unit code")
 
 
-def _unit_note(name: str, metres: float) -> str:
+def unit_note(name: str, metres: float) -> str:
     """What a reader tells the user when it converts a projected CRS's cells to metres."""
     return (f"cells in {name} ({metres:.10g} m) converted to metres; the heights are used as they are: "
             f"if they are in the same unit, add -z {metres:.10g}")
@@ -303,7 +303,7 @@ def _tif_source(page: tifffile.TiffPage, raw: np.ndarray, bands: int, index: int
     nodata = None
     if _TAG_NODATA in tags and str(tags[_TAG_NODATA]).strip():
         nodata = float(str(tags[_TAG_NODATA]).strip())
-    geographic = _geokey(tags.get(34735, ()), 1024) == 2
+    geographic = geokey(tags.get(34735, ()), 1024) == 2
     rows, cols = page.imagelength, page.imagewidth
     cell = None
     if 34264 in tags:  # ModelTransformation, row-major 4x4: x = a i + b j + d, y = e i + f j + h
@@ -320,12 +320,12 @@ def _tif_source(page: tifffile.TiffPage, raw: np.ndarray, bands: int, index: int
             raise ValueError("geographic GeoTIFF without ModelTiepoint: cannot convert degrees to "
                              "metres (pass cellsize)")
         cell = _degree_cells(*cell, centre_lat)
-    elif cell is not None and _geokey(tags.get(34735, ()), 1024) == 1:
+    elif cell is not None and geokey(tags.get(34735, ()), 1024) == 1:
         unit = _projected_unit(georef)
         if unit is not None and unit[1] != 1.0:
             cell = (cell[0] * unit[1], cell[1] * unit[1])
-            notes.append(_unit_note(*unit))
-    vertical = _geokey(tags.get(34735, ()), 4099)              # VerticalUnitsGeoKey
+            notes.append(unit_note(*unit))
+    vertical = geokey(tags.get(34735, ()), 4099)              # VerticalUnitsGeoKey
     if vertical is not None and vertical not in (9001, 32767):
         name, metres = _linear_unit(vertical)
         notes.append(f"the file gives its heights in {name} (VerticalUnitsGeoKey): they are used as they are; "
@@ -606,7 +606,7 @@ def _read_asc(path: Path, band: int | None, cell_given: bool) -> _Source:
         source.cell = (_degree_cells(cx, cy, y0 + nrows * cy / 2) if crs.geographic else
                        (cx * crs.metres_per_unit, cy * crs.metres_per_unit))
         if not crs.geographic and crs.metres_per_unit != 1.0:
-            source.notes.append(_unit_note(f"the unit of {prj.name}", crs.metres_per_unit))
+            source.notes.append(unit_note(f"the unit of {prj.name}", crs.metres_per_unit))
         return source
     source.georef = _georef_crs(cx, cy, x0, y0 + nrows * cy, False, None)
     source.cell = (cx, cy)
@@ -850,15 +850,16 @@ WRITE_EXTENSIONS = (".tif", ".tiff", ".exr", ".npy", ".png")
 _GEOTIFF = (".tif", ".tiff")
 
 
-def _crs_text(like: Raster) -> str | None:
-    """The raster's CRS for a GDAL sidecar: its WKT, else ``EPSG:code`` from its GeoTIFF keys."""
+def crs_text(like: Raster) -> str | None:
+    """The raster's CRS as text (for a GDAL sidecar, or pyproj): its WKT, else ``EPSG:code`` from
+    its GeoTIFF keys; None when it has neither."""
     return like.crs_wkt or _epsg_text(like.georef)
 
 
 def _epsg_text(georef: dict) -> str | None:
     keys = georef.get(34735, ())
-    model = _geokey(keys, 1024)
-    code = _geokey(keys, {1: 3072, 2: 2048}[model]) if model in (1, 2) else None
+    model = geokey(keys, 1024)
+    code = geokey(keys, {1: 3072, 2: 2048}[model]) if model in (1, 2) else None
     return f"EPSG:{code}" if code is not None and 0 < code < 32767 else None
 
 
@@ -866,7 +867,7 @@ def geotransform(georef: dict) -> tuple[float, float, float, float, float, float
     """GDAL's geotransform (x0, dx/dcol, dx/drow, y0, dy/dcol, dy/drow; (x0, y0) the top-left
     pixel's outer corner) of GeoTIFF tags, as GDAL reads them (PixelIsPoint: the tie point is a
     pixel centre); None without a transform or with several tie points (GCPs)."""
-    point = _geokey(georef.get(34735, ()), 1025) == 2
+    point = geokey(georef.get(34735, ()), 1025) == 2
     shift = 0.5 if point else 0.0
     if 34264 in georef:
         a, b, _, d, e, f, _, h = (float(v) for v in georef[34264][:8])
@@ -886,7 +887,7 @@ def decimated(raster: Raster, step: int) -> Raster:
         raise ValueError(f"step must be a positive integer, got {step!r}")
     georef = dict(raster.georef)
     # raster-space coordinate u of the source = step * u' + off (PixelIsArea: keep the kept cells' centres)
-    off = 0.0 if _geokey(georef.get(34735, ()), 1025) == 2 else (1 - step) / 2
+    off = 0.0 if geokey(georef.get(34735, ()), 1025) == 2 else (1 - step) / 2
     if 34264 in georef:
         m = list(georef[34264])
         m[3] += (m[0] + m[1]) * off
@@ -926,7 +927,7 @@ def _sidecars(path: Path, like: Raster | None) -> dict[Path, str | None]:
         return {aux: _pam(wkt) if wkt and _epsg_text(like.georef) is None else None}
     if ext == ".png":
         gt = None if like is None else geotransform(like.georef)
-        srs = None if like is None else _crs_text(like)
+        srs = None if like is None else crs_text(like)
         return {path.with_suffix(".pgw"): None if gt is None else _world_file(gt),
                 aux: None if srs is None or gt is None else _pam(srs)}
     return {}

@@ -21,7 +21,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from ..heightmap import InputWarning
-from ..io import Raster, _epsg_text, _geokey, geotransform
+from ..io import Raster, crs_text, geokey, geotransform
 from ..sun import Sun
 
 STEP_METRES = 10.0   # the step whose grid direction gives a true azimuth's grid azimuth
@@ -70,9 +70,9 @@ def projected_crs(raster: Raster) -> tuple[Any, str] | None:
     identified (GeoTIFF keys without an EPSG code, or WKT pyproj cannot read)."""
     if raster.geographic:
         return None
-    text = raster.crs_wkt or _epsg_text(raster.georef)
+    text = crs_text(raster)
     if text is None:
-        if _geokey(raster.georef.get(34735, ()), 1024) == 1:      # projected, but no code
+        if geokey(raster.georef.get(34735, ()), 1024) == 1:      # projected, but no code
             raise ValueError("its projected CRS has no EPSG code or WKT oclshade can read, so the turn of "
                              "its grid from true north is not known")
         return None
