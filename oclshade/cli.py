@@ -666,11 +666,15 @@ def run_shadow(args: argparse.Namespace) -> int:
         return tiles_cli.run(args, job)
     t0 = time.perf_counter()
     raster, heightmap = read_input(args, job.cellsize)
+    traced = None
     if job.times:
         placed = solar_cli.suns_for(job.times, args, raster)
         job = dataclasses.replace(job, suns=placed.suns)
+        traced = placed.traced
         if not args.quiet:
             print(f"{PROG}: {placed.describe(job.times[0])}", file=sys.stderr)
+            if placed.blocks_line():
+                print(f"{PROG}: {placed.blocks_line()}", file=sys.stderr)
     dx, dy = heightmap.dx, heightmap.dy
     rows, cols = heightmap.shape
     _make_parents(args.output, args.preview)
@@ -685,7 +689,7 @@ def run_shadow(args: argparse.Namespace) -> int:
                               curvature=job.curvature)
         show_bar = not args.quiet and len(job.suns) > 1
         t1 = time.perf_counter()
-        for res in caster.iter_many(job.suns, method=args.method, outputs=("mask", *job.outputs),
+        for res in caster.iter_many(traced or job.suns, method=args.method, outputs=("mask", *job.outputs),
                                     k_dark=args.k_dark, k_bright=args.k_bright,
                                     progress=ProgressBar(sys.stderr, "suns") if show_bar else None):
             if preview is not None and not preview.written:
@@ -966,7 +970,7 @@ def add_sunshine_parser(sub) -> None:
     ss.add_argument("--end", required=True, metavar="ISO", help="end of the period, not included")
     ss.add_argument("--step", type=_step, default=_step("10min"), metavar="STEP",
                     help="time step: a whole number with s, min, h or d (default 10min)")
-    solar_cli.add_place_arguments(ss, "--start and --end")
+    solar_cli.add_place_arguments(ss, "--start and --end", tolerance=False)
     ss.add_argument("--output", dest="outputs", type=_sunshine_outputs, default=("hours",), metavar="LIST",
                     help="comma-separated bands to write: hours, fraction, irradiation, or all (default hours)")
     ss.add_argument("--method", default="masks", choices=("masks", "horizons"),
@@ -1002,7 +1006,7 @@ def run_sunshine(args: argparse.Namespace) -> int:
         raise CliError(f"OUTPUT {args.output!r} is the input file; refusing to overwrite it")
     t0 = time.perf_counter()
     raster, heightmap = read_input(args, cellsize)
-    placed = solar_cli.suns_for(steps.times, args, raster, "--start and --end")
+    placed = solar_cli.suns_for(steps.times, args, raster, "--start and --end", per_block=False)
     suns, site = placed.suns, placed.site
     rows, cols = heightmap.shape
     _make_parents(args.output)
@@ -1111,7 +1115,7 @@ def add_horizon_parsers(sub) -> None:
         if name == "sunlit":
             p.add_argument("--sun", dest="suns", action="append", default=[], type=_sun, metavar="AZ,ALT",
                            help="a sun position (degrees, grid azimuth); repeat for several (one band each)")
-            solar_cli.add_time_arguments(p)
+            solar_cli.add_time_arguments(p, tolerance=False)
             p.add_argument("--disc-radius", type=_disc_radius, default=SUN_RADIUS, metavar="DEG",
                            help=f"the sun's angular radius (default {SUN_RADIUS:g}, the mean)")
             p.add_argument("--columns", type=_columns, default=DEFAULT_COLUMNS, metavar="K",
@@ -1176,10 +1180,12 @@ def run_horizon(args: argparse.Namespace) -> int:
     rows, cols = heightmap.shape
     suns = args.suns if sunlit else []
     if times:
-        placed = solar_cli.suns_for(times, args, raster)
+        placed = solar_cli.suns_for(times, args, raster, per_block=False)
         suns = placed.suns
         if not args.quiet:
             print(f"{PROG}: {placed.describe(times[0])}", file=sys.stderr)
+        if placed.spread_warning("sunlit"):
+            print(f"{PROG}: warning: {placed.spread_warning('sunlit')}", file=sys.stderr)
     azimuths = [] if sunlit else azimuth_grid(args.azimuths)
     traced = azimuths                     # the grid azimuths the kernel traces
     turned = ""

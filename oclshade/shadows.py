@@ -13,6 +13,7 @@ Definitions are in ``kernels/shadow.cl``; the float64 twin is
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 from typing import Callable, Iterable, Iterator, Mapping, Sequence
 
@@ -26,7 +27,7 @@ from .analysis import SceneAnalysis, slope_fronts
 from .horizon.caster import Curvature
 from .pyramid import ExtremaPyramid, cached_pyramid
 from .runtime import Runtime, get_runtime
-from .sun import Sun, SunLike, as_sun, as_suns
+from .sun import Sun, SunBlock, SunField, SunLike, Traced, as_sun, as_traced
 
 METHODS = ("exact", "paper", "maxmip", "dda")
 OUTPUTS = ("mask", "self", "coefficient")
@@ -241,7 +242,7 @@ class ShadowCaster:
         """Shadow outputs for one sun (azimuth, elevation in degrees)."""
         return self.cast_many([as_sun(sun)], method, outputs, k_dark, k_bright)[0]
 
-    def cast_many(self, suns: Iterable[SunLike], method: str = "exact",
+    def cast_many(self, suns: Iterable[SunLike | SunField], method: str = "exact",
                   outputs: str | Sequence[str] = ("mask",), k_dark: float = DEFAULT_K_DARK,
                   k_bright: float = DEFAULT_K_BRIGHT,
                   progress: Callable[[int, int], None] | None = None) -> list[ShadowResult]:
@@ -249,39 +250,60 @@ class ShadowCaster:
 
         A sun whose result is cached gets a copy of it; a sun the scene analysis
         proves shadow-free gets its outputs without a kernel; the others trace.
+        A :class:`oclshade.sun.SunField` (a sun that varies over the map,
+        :func:`oclshade.solar.sun_field`) traces each of its blocks with its own sun, one
+        launch per block; its result's ``sun`` is the field's centre sun; no result cache.
         """
         return list(self.iter_many(suns, method, outputs, k_dark, k_bright, progress))
 
-    def iter_many(self, suns: Iterable[SunLike], method: str = "exact",
+    def iter_many(self, suns: Iterable[SunLike | SunField], method: str = "exact",
                   outputs: str | Sequence[str] = ("mask",), k_dark: float = DEFAULT_K_DARK,
                   k_bright: float = DEFAULT_K_BRIGHT,
                   progress: Callable[[int, int], None] | None = None) -> Iterator[ShadowResult]:
         """:meth:`cast_many` one sun at a time: each result is yielded as soon as it is traced
         (after ``progress``), so a caller that writes it and lets it go holds one sun's outputs.
         The arguments are checked at the call, before the first result."""
-        sun_list = as_suns(suns)
+        items = self._traced(suns)
         outs = check_outputs(outputs)
         k_dark, k_bright = check_coefficients(k_dark, k_bright)
         check_method(method)
-        return self._results(sun_list, method, outs, k_dark, k_bright, progress)
+        return self._results(items, method, outs, k_dark, k_bright, progress)
 
-    def _results(self, sun_list: list[Sun], method: str, outs: tuple[str, ...], k_dark: float, k_bright: float,
+    def _traced(self, suns: Iterable[SunLike | SunField]) -> list[Traced]:
+        """The suns checked, a uniform sun field as its one sun, a field checked against the map."""
+        items = as_traced(suns)
+        for k, item in enumerate(items):
+            if isinstance(item, SunField):
+                item.check_shape(self.heightmap.shape)
+                if item.uniform:
+                    items[k] = item.blocks[0].sun
+        return items
+
+    def _casts_nothing(self, item: Traced) -> bool:
+        suns = [b.sun for b in item.blocks] if isinstance(item, SunField) else [item]
+        return self.analyse and all(self.analysis.casts_nothing(sun) for sun in suns)
+
+    def _results(self, items: list[Traced], method: str, outs: tuple[str, ...], k_dark: float, k_bright: float,
                  progress: Callable[[int, int], None] | None) -> Iterator[ShadowResult]:
-        launch = None
-        for k, sun in enumerate(sun_list):
-            key = self._result_key(sun, method, outs, k_dark, k_bright) if self.caching else None
+        launchers: dict[int | None, Callable[[Traced, float, float], ShadowResult]] = {}
+        for k, item in enumerate(items):
+            sun = item.centre if isinstance(item, SunField) else item
+            key = self._result_key(sun, method, outs, k_dark, k_bright) \
+                if self.caching and isinstance(item, Sun) else None
             cached = _cache.RESULTS.get(key) if key else None
             if cached is not None:
                 res = _copy_result(cached)
-            elif self.analyse and self.analysis.casts_nothing(sun):
+            elif self._casts_nothing(item):
                 res = _no_shadow_result(sun, outs, self.heightmap.shape)
             else:
-                launch = launch or self._launcher(method, outs)
-                res = launch(sun, k_dark, k_bright)
+                step = _column_step(item)
+                if step not in launchers:
+                    launchers[step] = self._launcher(method, outs, step)
+                res = launchers[step](item, k_dark, k_bright)
                 if key:
                     _cache.RESULTS.put(key, _frozen_result(res), _result_nbytes(res))
             if progress is not None:
-                progress(k + 1, len(sun_list))
+                progress(k + 1, len(items))
             yield res
 
     def _result_key(self, sun: Sun, method: str, outs: tuple[str, ...], k_dark: float, k_bright: float) -> tuple:
@@ -290,39 +312,45 @@ class ShadowCaster:
         return (_cache.heights_digest(hm), hm.dx, hm.dy, sun.azimuth, sun.elevation, method, outs, coef,
                 curvature_coefficient(self.curvature), self.origin, self.runtime.device.int_ptr)
 
-    def masks_on_device(self, suns: Iterable[SunLike], method: str = "exact") -> Iterator[tuple[Sun, cl.Buffer]]:
+    def masks_on_device(self, suns: Iterable[SunLike | SunField], method: str = "exact"
+                        ) -> Iterator[tuple[Traced, cl.Buffer]]:
         """Each sun's cast-shadow mask left on the device for a kernel that reads it next on
         this caster's queue (``runtime.queue``): uint8, rows * cols, values as
         :attr:`ShadowResult.mask`.  Nothing is copied or waited for.  One buffer serves every
         sun: enqueue the reader of a yielded mask before advancing the iterator (the queue is
         in order).  No result cache; a sun the scene analysis proves shadow-free gets a fill
         with 0 (what the kernel writes then) instead of a traversal.  The arguments are
-        checked at the call, before the first mask."""
-        sun_list = as_suns(suns)
+        checked at the call, before the first mask.  A sun field is yielded as it came, or as its
+        one sun when uniform."""
+        items = self._traced(suns)
         check_method(method)
-        return self._device_masks(sun_list, method)
+        return self._device_masks(items, method)
 
-    def _device_masks(self, sun_list: list[Sun], method: str) -> Iterator[tuple[Sun, cl.Buffer]]:
+    def _device_masks(self, items: list[Traced], method: str) -> Iterator[tuple[Traced, cl.Buffer]]:
         rows, cols = self.heightmap.shape
         mask = self.runtime.empty(rows * cols, "shadow mask")
-        enqueue = None
-        for sun in sun_list:
-            if self.analyse and self.analysis.casts_nothing(sun):
+        enqueuers: dict[int | None, Callable[[Traced, float, float], None]] = {}
+        for item in items:
+            if self._casts_nothing(item):
                 cl.enqueue_fill_buffer(self.runtime.queue, mask, np.uint8(0), 0, rows * cols)
             else:
-                enqueue = enqueue or self._enqueuer(method, ("mask",), {"mask": mask})[0]
-                enqueue(sun, DEFAULT_K_DARK, DEFAULT_K_BRIGHT)
-            yield sun, mask
+                step = _column_step(item)
+                if step not in enqueuers:
+                    enqueuers[step] = self._enqueuer(method, ("mask",), {"mask": mask}, step)[0]
+                enqueuers[step](item, DEFAULT_K_DARK, DEFAULT_K_BRIGHT)
+            yield item, mask
 
-    def _launcher(self, method: str, outs: tuple[str, ...]) -> Callable[[Sun, float, float], ShadowResult]:
-        """A function tracing one sun into new host arrays (buffers and kernel shared by its calls)."""
+    def _launcher(self, method: str, outs: tuple[str, ...], column_step: int | None = None
+                  ) -> Callable[[Traced, float, float], ShadowResult]:
+        """A function tracing one sun or sun field into new host arrays (buffers and kernel shared
+        by its calls; ``column_step`` as :meth:`_enqueuer`)."""
         rt = self.runtime
         rows, cols = self.heightmap.shape
-        enqueue, bufs = self._enqueuer(method, outs)
+        enqueue, bufs = self._enqueuer(method, outs, column_step=column_step)
 
-        def launch(sun: Sun, k_dark: float, k_bright: float) -> ShadowResult:
-            enqueue(sun, k_dark, k_bright)
-            res = ShadowResult(sun)
+        def launch(item: Traced, k_dark: float, k_bright: float) -> ShadowResult:
+            enqueue(item, k_dark, k_bright)
+            res = ShadowResult(item.centre if isinstance(item, SunField) else item)
             if "mask" in outs:
                 res.mask = np.empty((rows, cols), np.uint8)
                 cl.enqueue_copy(rt.queue, res.mask, bufs["mask"])
@@ -337,16 +365,24 @@ class ShadowCaster:
 
         return launch
 
-    def _enqueuer(self, method: str, outs: tuple[str, ...], bufs: dict[str, cl.Buffer] | None = None
-                  ) -> tuple[Callable[[Sun, float, float], None], dict[str, cl.Buffer]]:
-        """A function enqueueing the traversal of one sun into device buffers, and those buffers
-        ("mask", "self", "coefficient"; a dummy for an output not in ``outs``; ``bufs``: buffers
-        to reuse).  Buffers and kernel are shared by its calls."""
+    def _enqueuer(self, method: str, outs: tuple[str, ...], bufs: dict[str, cl.Buffer] | None = None,
+                  column_step: int | None = None) -> tuple[Callable[[Traced, float, float], None], dict[str, cl.Buffer]]:
+        """A function enqueueing the traversal of one sun or sun field into device buffers, and
+        those buffers ("mask", "self", "coefficient"; a dummy for an output not in ``outs``;
+        ``bufs``: buffers to reuse).  Buffers and kernel are shared by its calls.
+        ``column_step``: for sun fields whose blocks start at multiples of it (0: all at column
+        0), the packet kernel's runs are made to divide it (or the one-ray kernel runs).
+
+        A field's blocks are traced one launch each, over their own cells (a global work
+        offset), in raster order on the in-order queue: the certificates of the tiles a block
+        touches are made for its sun just before its cells, and the cells a launch rounds up
+        past its block (right of it or below) belong to blocks launched later, which write
+        them again.  So every cell ends with its own block's result."""
         rt, hm = self.runtime, self.heightmap
         self.pyramid  # built (once) before the launches
         rows, cols = hm.shape
         n = rows * cols
-        features = self._features(method, outs)
+        features = self._features(method, outs, column_step)
         kernel = rt.kernel("shadow.cl", features.cells_kernel, features.defines())
         certify = self._certifier(features)
         bufs = dict(bufs or {})
@@ -355,17 +391,34 @@ class ShadowCaster:
                                           ("coefficient", "shadow coefficients", 4 * n, self._dummy_f32)):
             if name not in bufs:
                 bufs[name] = rt.empty(nbytes, what) if name in outs else dummy
-        gsize, lsize = self.runtime.grid_2d(kernel, -(-cols // features.run) if features.packeted else cols, rows,
-                                            wanted=self.knobs["group"])
+        run = features.run if features.packeted else 1
+        lsize = rt.grid_2d(kernel, 1, 1, wanted=self.knobs["group"])[1]
 
-        def enqueue(sun: Sun, k_dark: float, k_bright: float) -> None:
-            kernel.set_args(*self._args(sun, k_dark, k_bright, features.imaged), bufs["mask"], bufs["self"],
-                            bufs["coefficient"], *certify(sun))
-            cl.enqueue_nd_range_kernel(rt.queue, kernel, gsize, lsize)
+        def launch(sun: Sun, k_dark: float, k_bright: float, block: SunBlock | None = None, bind: bool = True) -> None:
+            """One launch; ``bind`` False: only the sun's arguments are set (the rest are as the
+            last launch of this item left them: setting them all costs 60 us in pyopencl)."""
+            r0, r1, c0, c1 = (0, rows, 0, cols) if block is None else (block.row0, block.row1, block.col0, block.col1)
+            args = self._args(sun, k_dark, k_bright, features.imaged)
+            cert = certify(sun, block, bind, args)
+            if bind:
+                kernel.set_args(*args, bufs["mask"], bufs["self"], bufs["coefficient"], *cert)
+            else:
+                for index in _SUN_ARGS:
+                    kernel.set_arg(index, args[index])
+            cl.enqueue_nd_range_kernel(rt.queue, kernel, _round_up((-(-(c1 - c0) // run), r1 - r0), lsize), lsize,
+                                       global_work_offset=None if block is None else (c0 // run, r0))
+
+        def enqueue(item: Traced, k_dark: float, k_bright: float) -> None:
+            if isinstance(item, SunField):
+                for k, block in enumerate(item.blocks):
+                    launch(block.sun, k_dark, k_bright, block, bind=k == 0)
+            else:
+                launch(item, k_dark, k_bright)
 
         return enqueue, bufs
 
-    def _features(self, method: str, outs: tuple[str, ...]) -> ShadowFeatures:
+    def _features(self, method: str, outs: tuple[str, ...], column_step: int | None = None) -> ShadowFeatures:
+        """The kernel features of the knobs; ``column_step`` as :meth:`_enqueuer`."""
         features = ShadowFeatures(method, outs, certificate=self.certificates, lanes=self.knobs["lanes"],
                                   run=self.knobs["run"], own_builtins=bool(self.knobs["own_builtins"]),
                                   gather=bool(self.knobs["gather"]),
@@ -373,6 +426,9 @@ class ShadowCaster:
                                   images=bool(self.knobs["images"]))
         if features.imaged and self.pyramid.images() is None:   # the device cannot hold them: buffers
             features = replace(features, images=False)
+        if column_step and features.packeted and column_step % features.run:
+            run = math.gcd(features.run, column_step)
+            features = replace(features, run=run) if run >= features.lanes else replace(features, lanes=0)
         return features
 
     def step_counts(self, sun: SunLike, method: str = "exact", band_cells: int = 1 << 19) -> np.ndarray:
@@ -407,25 +463,43 @@ class ShadowCaster:
         cl.enqueue_copy(self.runtime.queue, out, buf)
         return out
 
-    def _certifier(self, features: ShadowFeatures) -> Callable[[Sun], tuple]:
+    def _certifier(self, features: ShadowFeatures) -> Callable[..., tuple]:
         """A function enqueueing the far-field tile certificates of a sun (kernels/shadow.cl,
         shadow_certify) and returning shadow_cells' extra argument: () when the
         features have none, else (certificate buffer,).  Suns that do not trace
-        (zenith, below the horizon) get the buffer unfilled: the kernel does not read it."""
+        (zenith, below the horizon) get the buffer unfilled: the kernel does not read it.
+        With a block, only the tiles it touches are made."""
         if not features.certified:
-            return lambda sun: ()
+            return lambda sun, block=None, bind=True, args=None: ()
         rt = self.runtime
         rows, cols = self.heightmap.shape
         tr, tc = -(-rows // features.cert_tile), -(-cols // features.cert_tile)
         kernel = rt.kernel("shadow.cl", "shadow_certify", features.defines())
         buf = rt.empty(tr * tc * CERT_K * 4, "shadow certificates")
-        gsize, lsize = rt.grid_2d(kernel, tc, tr)
+        s = features.cert_tile
+        bound = [False]   # whether this item's certify launches have set all arguments
 
-        def certify(sun: Sun) -> tuple:
-            args = self._args(sun, 0.0, 1.0, features.imaged)
+        lsize = rt.grid_2d(kernel, 1, 1)[1]
+
+        def certify(sun: Sun, block: SunBlock | None = None, bind: bool = True, args: tuple | None = None) -> tuple:
+            """``bind`` False: only the ray is set (as the cells' launcher); ``args``: the
+            sun's kernel arguments (:meth:`_args`) when already made."""
+            args = args or self._args(sun, 0.0, 1.0, features.imaged)
+            if bind:
+                bound[0] = False
             if int(args[-1]) == 0:
-                kernel.set_args(*args[1:8], buf)   # H, W, origin, ext, lvl_off, nlev, ray
-                cl.enqueue_nd_range_kernel(rt.queue, kernel, gsize, lsize)
+                if not bound[0]:
+                    kernel.set_args(*args[1:8], buf)   # H, W, origin, ext, lvl_off, nlev, ray
+                    bound[0] = True
+                else:
+                    kernel.set_arg(6, args[7])         # the ray
+                if block is None:
+                    cl.enqueue_nd_range_kernel(rt.queue, kernel, _round_up((tc, tr), lsize), lsize)
+                else:
+                    t_r0, t_c0 = block.row0 // s, block.col0 // s
+                    t_r1, t_c1 = -(-block.row1 // s), -(-block.col1 // s)
+                    cl.enqueue_nd_range_kernel(rt.queue, kernel, _round_up((t_c1 - t_c0, t_r1 - t_r0), lsize), lsize,
+                                               global_work_offset=(t_c0, t_r0))
             return (buf,)
 
         return certify
@@ -453,6 +527,18 @@ class ShadowCaster:
 
 
 _ARRAYS = ("mask", "self_shadow", "coefficient")
+
+
+_SUN_ARGS = (7, 8, 11)   # the arguments of shadow_cells that depend on the sun: ray, sunvec, mode
+
+
+def _round_up(size: tuple[int, int], local: tuple[int, int]) -> tuple[int, int]:
+    """The global size of one work-item per (column, row) of ``size`` in whole work-groups."""
+    return -(-size[0] // local[0]) * local[0], -(-size[1] // local[1]) * local[1]
+
+
+def _column_step(item: Traced) -> int | None:
+    return item.column_step if isinstance(item, SunField) else None
 
 
 def _no_shadow_result(sun: Sun, outs: tuple[str, ...], shape: tuple[int, int]) -> ShadowResult:

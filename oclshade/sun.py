@@ -1,5 +1,6 @@
 """Sun positions: gdaldem words (azimuth clockwise from north, elevation above
-the horizon, degrees) and their exact direction vectors."""
+the horizon, degrees) and their exact direction vectors; a sun that varies over a map
+(:class:`SunField`, made by :mod:`oclshade.solar.field`)."""
 from __future__ import annotations
 
 import math
@@ -10,6 +11,7 @@ import numpy as np
 
 DEFAULT_AZIMUTH = 315.0
 DEFAULT_ELEVATION = 45.0
+DEFAULT_SUN_TOLERANCE = 0.01   # degrees between a cell's own sun and its block's (oclshade.solar.field)
 
 
 def sincos_degrees(angle: float) -> tuple[float, float]:
@@ -102,3 +104,61 @@ def as_suns(values: SunLike | Iterable[SunLike]) -> list[Sun]:
     if not seq:
         raise ValueError("suns must not be empty")
     return [as_sun(v) for v in seq]
+
+
+@dataclass(frozen=True)
+class SunBlock:
+    """Rows [row0, row1) and columns [col0, col1) of a map, traced with ``sun``."""
+
+    row0: int
+    row1: int
+    col0: int
+    col1: int
+    sun: Sun
+
+
+@dataclass(frozen=True)
+class SunField:
+    """A map's sun at one instant, per block of cells (in raster order, covering the map once).
+
+    ``centre``: the sun at the map's centre (in grid azimuth, as every sun here);
+    ``deviation``: the largest angle in degrees found between a block's sun and the sun at its
+    corners (0 for one block); ``tolerance``: the bound it was made to."""
+
+    shape: tuple[int, int]
+    blocks: tuple[SunBlock, ...]
+    centre: Sun
+    deviation: float = 0.0
+    tolerance: float = DEFAULT_SUN_TOLERANCE
+
+    @property
+    def uniform(self) -> bool:
+        """One sun for the whole map."""
+        return len(self.blocks) == 1
+
+    @property
+    def column_step(self) -> int:
+        """The largest number dividing every block's first column (0 when all start at column 0)."""
+        return math.gcd(*(b.col0 for b in self.blocks))
+
+    def check_shape(self, shape: tuple[int, int]) -> None:
+        if tuple(shape) != tuple(self.shape):
+            raise ValueError(f"the sun field is for a {self.shape[1]}x{self.shape[0]} map, "
+                             f"not this {shape[1]}x{shape[0]} one")
+
+    @classmethod
+    def single(cls, sun: Sun, shape: tuple[int, int]) -> "SunField":
+        """One sun for the whole map."""
+        return cls(shape, (SunBlock(0, shape[0], 0, shape[1], sun),), sun, 0.0)
+
+
+Traced = Union[Sun, SunField]
+
+
+def as_traced(values: SunLike | SunField | Iterable[SunLike | SunField]) -> list[Traced]:
+    """As :func:`as_suns`, keeping each :class:`SunField` as it is."""
+    if isinstance(values, SunField):
+        return [values]
+    if isinstance(values, (list, tuple)) and any(isinstance(v, SunField) for v in values):
+        return [v if isinstance(v, SunField) else as_sun(v) for v in values]
+    return as_suns(values)  # type: ignore[arg-type]

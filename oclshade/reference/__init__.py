@@ -16,7 +16,7 @@ from .pyramid import extrema_pyramid, mip_pyramid
 from .quadrics import (ReferenceQuadrics, cast_quadrics, intersect, quadric_occludes, quadric_segment_occludes,
                        terrain_margin, terrain_segment_occludes)
 from .screen_shadows import ReferencePixelShadows, minimal_lod, pixel_shadows, surface_height
-from .shadows import (CORNER_SNAP, CORNER_TIE, ReferenceShadows, cast_shadows,
+from .shadows import (CORNER_SNAP, CORNER_TIE, ReferenceShadows, cast_field_shadows, cast_shadows, field_tie_tolerance,
                       shadow_coefficient, tie_tolerance)
 from .sunshine import ReferenceSunshine, facing_tolerance, gradient_error, sunshine_sums, surface_gradient
 from .terrain import ReferenceTerrain, cast_terrain, dilated_max_levels
@@ -24,7 +24,7 @@ from .terrain import ReferenceTerrain, cast_terrain, dilated_max_levels
 __all__ = [
     "CORNER_SNAP", "CORNER_TIE", "ReferenceAO", "ReferencePixelShadows", "ReferenceShadows", "ReferenceSunshine",
     "ReferenceTerrain", "facing_tolerance", "gradient_error", "sunshine_sums", "surface_gradient",
-    "SVF_DEFINITIONS", "TopDownView", "angle_tolerance", "bilinear", "box_blur", "cast_shadows", "cast_terrain", "compose", "cosine_directions",
+    "SVF_DEFINITIONS", "TopDownView", "angle_tolerance", "bilinear", "box_blur", "cast_field_shadows", "cast_shadows", "cast_terrain", "compose", "cosine_directions", "field_tie_tolerance",
     "dilated_max_levels", "edge_blur", "extrema_pyramid", "horizon_angles", "horizon_tangents",
     "horizon_tolerance", "minimal_lod", "mip_pyramid", "pixel_shadows", "raytraced_ao",
     "rotation_vectors", "shadow_coefficient", "sky_view_factor", "ssao", "ssao_lines", "ssao_rays", "surface_height", "tie_tolerance", "topdown_gbuffer",

@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..heightmap import Heightmap
-from ..sun import Sun
+from ..sun import Sun, SunField
 
 if TYPE_CHECKING:
     from .screen_shadows import Rounding
@@ -122,6 +122,27 @@ def cast_shadows(hm: Heightmap, sun: Sun, window: tuple[slice, slice] | None = N
     mask = np.where(np.isnan(margin), 255, margin > 0).astype(np.uint8)
     return ReferenceShadows(mask.reshape(out_shape), margin.reshape(out_shape),
                             selfs.reshape(out_shape), graze.reshape(out_shape))
+
+
+def cast_field_shadows(hm: Heightmap, field: SunField, curvature: float = 0.0) -> ReferenceShadows:
+    """:func:`cast_shadows` of a sun that varies over the map: each block's cells with its own
+    sun (rays still cross the whole map), as ``ShadowCaster`` traces a
+    :class:`oclshade.sun.SunField`; ties: :func:`field_tie_tolerance`."""
+    field.check_shape(hm.shape)
+    rows, cols = hm.shape
+    out = ReferenceShadows(np.zeros((rows, cols), np.uint8), np.zeros((rows, cols)), np.zeros((rows, cols), np.uint8),
+                           np.zeros((rows, cols), bool))
+    for block in field.blocks:
+        window = (slice(block.row0, block.row1), slice(block.col0, block.col1))
+        part = cast_shadows(hm, block.sun, window, curvature)
+        for name in ("mask", "margin", "self_shadow", "graze"):
+            getattr(out, name)[window] = getattr(part, name)
+    return out
+
+
+def field_tie_tolerance(hm: Heightmap, field: SunField, curvature: float = 0.0) -> float:
+    """:func:`tie_tolerance` of the field's steepest block sun (the bound grows with the ray's rise)."""
+    return max(tie_tolerance(hm, block.sun, curvature) for block in field.blocks)
 
 
 def _patch_valid(h: np.ndarray, hp: int, wp: int, pr: np.ndarray, pc: np.ndarray) -> np.ndarray:

@@ -13,6 +13,8 @@ from zoneinfo import ZoneInfo, ZoneInfoNotFoundError
 
 from ..heightmap import InputWarning
 from .position import DEFAULT_PRESSURE_HPA, DEFAULT_TEMPERATURE_C, sun_position, suns_at
+from ..sun import DEFAULT_SUN_TOLERANCE, SunField
+from .field import map_places, sun_field, sun_spread
 from .site import MapSite, map_site
 
 EPILOG = """\
@@ -47,6 +49,7 @@ def _number(what: str, expected: str, accept: Callable[[float], bool] = lambda v
 
 _LAT = _number("latitude", "degrees in [-90, 90]", lambda v: -90.0 <= v <= 90.0)
 _LON = _number("longitude", "degrees in [-180, 180]", lambda v: -180.0 <= v <= 180.0)
+_TOLERANCE = _number("sun tolerance", "degrees above 0", lambda v: v > 0.0)
 _ALTITUDE = _number("altitude", "a number of metres")
 _PRESSURE = _number("pressure", "hPa above 0", lambda v: v > 0.0)
 _TEMPERATURE = _number("temperature", "degrees Celsius above -273", lambda v: v > -273.0)
@@ -145,21 +148,28 @@ def run(args: argparse.Namespace) -> int:
 
 # --- suns for `oclshade shadow --datetime` -------------------------------------------------
 
-def add_time_arguments(parser: argparse.ArgumentParser) -> None:
+def add_time_arguments(parser: argparse.ArgumentParser, tolerance: bool = True) -> None:
     """``--datetime``, ``--tz``, ``--lat``, ``--lon`` on a command that takes suns (``shadow``)."""
     parser.add_argument("--datetime", dest="datetimes", action="append", default=[], metavar="ISO",
                         help="the sun at this date and time (NREL SPA, with refraction; ISO 8601 with a "
                              "UTC offset, or see --tz); repeat for several, one band each")
-    add_place_arguments(parser, "--datetime")
+    add_place_arguments(parser, "--datetime", tolerance)
 
 
-def add_place_arguments(parser: argparse.ArgumentParser, what: str) -> None:
-    """``--tz``, ``--lat``, ``--lon`` for the datetimes of ``what`` (the options that give them)."""
+def add_place_arguments(parser: argparse.ArgumentParser, what: str, tolerance: bool = True) -> None:
+    """``--tz``, ``--lat``, ``--lon`` and (``tolerance``: a command that traces the sun per block)
+    ``--sun-tolerance`` for the datetimes of ``what`` (the options that give them)."""
     parser.add_argument("--tz", metavar="NAME", help=f"IANA time zone of {what} values given without an offset")
     parser.add_argument("--lat", type=_LAT, metavar="DEG",
                         help=f"latitude for {what} (default: the centre of INPUT, through its CRS)")
     parser.add_argument("--lon", type=_LON, metavar="DEG",
                         help=f"longitude for {what} (default: the centre of INPUT, through its CRS)")
+    if tolerance:
+        parser.add_argument("--sun-tolerance", type=_TOLERANCE, default=DEFAULT_SUN_TOLERANCE, metavar="DEG",
+                            help=f"without --lat/--lon, trace the map in blocks, each with the sun of its "
+                                 f"centre, so that every cell's own sun (its place through INPUT's CRS) is "
+                                 f"within DEG degrees of its block's (default {DEFAULT_SUN_TOLERANCE:g}; "
+                                 f"docs/solar.md)")
 
 
 def parse_datetimes(args: argparse.Namespace, more: bool = False) -> list[datetime]:
@@ -183,7 +193,7 @@ def check_place(args: argparse.Namespace) -> None:
         raise UsageError("give both --lat and --lon, or neither (the centre of INPUT, through its CRS)")
 
 
-@dataclass(frozen=True)
+@dataclass
 class PlacedSuns:
     """The suns of a command's datetimes: ``suns`` in grid azimuths (what the kernels trace),
     ``true`` as NREL SPA gives them, and the site (place and CRS) that turned one into the other."""
@@ -191,6 +201,32 @@ class PlacedSuns:
     suns: list
     true: list
     site: MapSite
+    fields: list[SunField] | None = None   # per time, the sun over the map (None: --lat/--lon, one sun)
+    spread: float = 0.0                    # without fields: how far (deg) the cells' own suns are from it
+
+    def spread_warning(self, command: str) -> str | None:
+        """A warning that one sun serves a map whose cells' own suns differ from it by more
+        than the default tolerance, or None."""
+        if self.spread <= DEFAULT_SUN_TOLERANCE:
+            return None
+        return (f"{command} traces one sun for the whole map: its cells' own suns differ from the centre's "
+                f"by up to {self.spread:.3f} deg (docs/solar.md, \"The sun over a map\")")
+
+    @property
+    def traced(self) -> list:
+        """What the kernels trace: the fields, else the suns."""
+        return list(self.suns) if self.fields is None else list(self.fields)
+
+    def blocks_line(self) -> str | None:
+        """A summary of the fields' blocks, or None when every time is one block."""
+        if self.fields is None or all(f.uniform for f in self.fields):
+            return None
+        counts = [len(f.blocks) for f in self.fields]
+        first = next(f for f in self.fields if not f.uniform).blocks[0]
+        return (f"the sun per block of cells ({min(counts)}-{max(counts)} blocks, the first "
+                f"{first.row1 - first.row0}x{first.col1 - first.col0} cells): each cell's own sun within "
+                f"{max(f.deviation for f in self.fields):.4f} deg of its block's (--sun-tolerance "
+                f"{self.fields[0].tolerance:g})")
 
     def describe(self, when: datetime) -> str:
         """One summary line: how many suns, where, and the first (at ``when``)."""
@@ -202,10 +238,14 @@ class PlacedSuns:
                 f"elevation {true.elevation:.4f}")
 
 
-def suns_for(times: list[datetime], args: argparse.Namespace, raster, what: str = "--datetime") -> PlacedSuns:
+def suns_for(times: list[datetime], args: argparse.Namespace, raster, what: str = "--datetime",
+             per_block: bool = True) -> PlacedSuns:
     """The suns at ``times`` at --lat/--lon, else at the raster's centre (a geographic raster's, or
     a projected one's through its CRS), their azimuths turned to the raster's grid
-    (:mod:`oclshade.solar.site`).  ``what``: the options the times came from (for the errors)."""
+    (:mod:`oclshade.solar.site`).  ``what``: the options the times came from (for the errors).
+    Without --lat/--lon, on a map whose cells' places are known: ``per_block``, the sun over the
+    map per time to --sun-tolerance (:func:`oclshade.solar.sun_field`); else the spread of
+    the cells' own suns about the one sun (for :meth:`PlacedSuns.spread_warning`)."""
     from ..cli import PROG, CliError, UsageError
 
     try:
@@ -220,6 +260,12 @@ def suns_for(times: list[datetime], args: argparse.Namespace, raster, what: str 
         raise UsageError(f"{what}: INPUT {args.input!r} has no CRS to take the place from; give --lat and --lon")
     true = suns_at(times, site.latitude, site.longitude)
     try:
-        return PlacedSuns(site.grid_suns(true), true, site)
+        placed = PlacedSuns(site.grid_suns(true), true, site)
+        places = map_places(raster) if args.lat is None else None
+        if places is not None and per_block:
+            placed.fields = [sun_field(places, t, args.sun_tolerance) for t in times]
+        elif places is not None:
+            placed.spread = sun_spread(places, times)
     except ValueError as exc:
         raise CliError(f"{what}: INPUT {args.input!r}: {exc}") from None
+    return placed

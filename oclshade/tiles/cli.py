@@ -92,8 +92,10 @@ def run(args: argparse.Namespace, job) -> int:
         for warning in caught:
             sys.stderr.write(f"{cli.PROG}: warning: {warning.message}\n")
         if job.times:
-            suns = solar_cli.suns_for(job.times, args, raster).suns
-            job = cli.dataclasses.replace(job, suns=suns)
+            placed = solar_cli.suns_for(job.times, args, raster, per_block=False)
+            job = cli.dataclasses.replace(job, suns=placed.suns)
+            if placed.spread_warning("--tile"):
+                sys.stderr.write(f"{cli.PROG}: warning: {placed.spread_warning('--tile')}\n")
         dx, dy = raster.dx * args.scale, raster.dy * args.scale
         rows, cols = windows.shape
         cli._make_parents(args.output)

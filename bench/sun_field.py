@@ -1,0 +1,180 @@
+#!/usr/bin/env python
+"""The sun over a whole map (oclshade.solar.field): what one sun for the map gets wrong, what
+tracing per block costs, and that the per-block masks stay exact.
+
+    python bench/sun_field.py                       # the shared SRTM tiles and a 4096^2 UTM map
+    python bench/sun_field.py --reduced             # a check that the script works (small maps)
+
+Per map and per time (the morning of 2024-06-21 when the sun at the map's centre stands 3, 10
+and 30 degrees high, and local noon), in one process:
+
+* the field at the default tolerance (0.01 degrees): blocks, the largest deviation found
+  (sun at a block corner against the block's), time to build it;
+* the **spread**: the largest angle between the centre's sun and a corner's: how far one sun
+  for the whole map is from the cells' own;
+* time of the mask traced per block and of the mask of the centre's sun alone (best of 3,
+  after a warm-up), and their ratio;
+* **cells one sun gets wrong**: cells whose per-block mask differs from the one-sun mask;
+* **exactness per block**: the per-block mask against the float64 twin
+  (:func:`oclshade.reference.cast_field_shadows`) on a seeded sample of blocks (the twin walks
+  every patch of every ray), mismatches outside float32 ties (must be 0) and tied ones.
+
+Writes bench/results/sun_field.{json,md} (``--out`` to change).  Figures depend on the machine;
+the results record where they were taken.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from datetime import datetime, timedelta, timezone
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO / "bench"))
+
+from shadow_masks import log, metadata  # noqa: E402  (same metadata as the other benches)
+
+from oclshade import ShadowCaster  # noqa: E402
+from oclshade import reference as ref  # noqa: E402
+from oclshade.heightmap import Heightmap  # noqa: E402
+from oclshade.io import Raster, read_dem  # noqa: E402
+from oclshade.solar import map_places, sun_field, sun_position  # noqa: E402
+from oclshade.solar.field import sun_spread  # noqa: E402
+from oclshade.sun import SunBlock, SunField  # noqa: E402
+from oclshade.synthetic import canyon_crater  # noqa: E402
+
+SRTM = REPO.parent / "shared" / "data" / "dem" / "srtm3_srtmpy"
+DAY = datetime(2024, 6, 21, tzinfo=timezone.utc)
+ELEVATIONS = (3.0, 10.0, 30.0)
+UTM33N = {33550: (10.0, 10.0, 0.0), 33922: (0.0, 0.0, 0.0, 300000.0, 5420000.0, 0.0),
+          34735: (1, 1, 0, 3, 1024, 0, 1, 1, 1025, 0, 1, 1, 3072, 0, 1, 32633)}
+
+
+def maps(reduced: bool) -> dict[str, Raster]:
+    out = {}
+    for name in ("N22W160", "S16E166"):
+        path = SRTM / f"{name}v2.3a.hgt.zip"
+        if path.is_file():
+            raster = read_dem(path)
+            if reduced:
+                raster = Raster(raster.heights[:300, :300], raster.dx, raster.dy, raster.path, True, raster.georef)
+            out[f"SRTM {name}"] = raster
+    side = 512 if reduced else 4096
+    heights = canyon_crater(side).astype(np.float64)
+    out[f"canyon {side}^2, 10 m, UTM 33N at 48.8 N"] = Raster(heights, 10.0, 10.0, None, False, UTM33N)
+    return out
+
+
+def morning_times(places) -> list[tuple[str, datetime]]:
+    """The UTC minutes of the day when the centre's sun first reaches each of ELEVATIONS, and noon."""
+    rows, cols = places.shape
+    lon, lat = places.lonlat(np.array([rows / 2]), np.array([cols / 2]))
+    minutes = [DAY - timedelta(hours=12) + timedelta(minutes=m) for m in range(48 * 60)]
+    el = sun_position(minutes, lat[0], lon[0]).elevation
+    rising = np.flatnonzero((el[1:] > el[:-1]) & (el[1:] > 0))
+    out = []
+    for target in ELEVATIONS:
+        k = next(int(i) + 1 for i in rising if el[i + 1] >= target)
+        out.append((f"elevation {target:g}", minutes[k]))
+    k = k + int(np.argmax(el[k:k + 18 * 60]))
+    out.append(("noon", minutes[k]))
+    return out
+
+
+def best_of(fn, repeats: int = 3) -> float:
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return min(times)
+
+
+def sample_field(field: SunField, count: int, seed: int) -> SunField:
+    """The field restricted to ``count`` seeded blocks (the others get a below-horizon sun, which
+    the twin and the kernel both decide without a walk)."""
+    rng = np.random.default_rng(seed)
+    keep = set(rng.choice(len(field.blocks), min(count, len(field.blocks)), replace=False).tolist())
+    return SunField(field.shape, tuple(b if k in keep else SunBlock(b.row0, b.row1, b.col0, b.col1,
+                                                                      type(b.sun)(0.0, -10.0))
+                                       for k, b in enumerate(field.blocks)), field.centre)
+
+
+def measure(name: str, raster: Raster, sample_blocks: int) -> list[dict]:
+    hm = Heightmap.from_array(raster.heights, (raster.dx, raster.dy))
+    places = map_places(raster)
+    caster = ShadowCaster(hm, cache=False)
+    rows = []
+    for label, when in morning_times(places):
+        t0 = time.perf_counter()
+        field = sun_field(places, when)
+        build = time.perf_counter() - t0
+        caster.cast_many([field])                     # warm-up: kernels of this column step
+        caster.cast(field.centre)
+        per_block = caster.cast_many([field])[0].mask
+        one = caster.cast(field.centre).mask
+        t_field = best_of(lambda: caster.cast_many([field]))
+        t_one = best_of(lambda: caster.cast(field.centre))
+        valid = per_block != 255
+        sample = sample_field(field, sample_blocks, 7)
+        got = caster.cast_many([sample])[0].mask
+        twin = ref.cast_field_shadows(hm, sample)
+        ties = twin.ties(ref.field_tie_tolerance(hm, sample))
+        differ = got != twin.mask
+        kept = set(b for b in sample.blocks if b.sun.elevation > 0)
+        row = {"map": name, "shape": list(hm.shape), "time": label, "utc": when.isoformat(),
+               "centre_sun": [field.centre.azimuth, field.centre.elevation],
+               "blocks": len(field.blocks), "deviation_deg": field.deviation, "tolerance_deg": field.tolerance,
+               "spread_deg": sun_spread(places, [when]), "field_build_s": build,
+               "trace_per_block_s": t_field, "trace_one_sun_s": t_one, "ratio": t_field / t_one,
+               "one_sun_wrong_cells": int((per_block != one)[valid].sum()), "valid_cells": int(valid.sum()),
+               "twin_blocks": len(kept), "twin_cells": int(sum((b.row1 - b.row0) * (b.col1 - b.col0) for b in kept)),
+               "twin_mismatch": int((differ & ~ties).sum()), "twin_tied": int((differ & ties).sum())}
+        log(f"{name} {label}: {row['blocks']} blocks, dev {row['deviation_deg']:.4f}, spread "
+            f"{row['spread_deg']:.3f} deg, {t_field:.3f} s vs {t_one:.3f} s, one sun wrong on "
+            f"{row['one_sun_wrong_cells']} cells, twin {row['twin_mismatch']}/{row['twin_tied']}")
+        rows.append(row)
+    return rows
+
+
+def write_markdown(path: Path, result: dict) -> None:
+    m = result["meta"]
+    lines = ["# The sun over a map: per block against one sun", "",
+             f"- date: {m['date']}; command: `{m['command']}`",
+             f"- CPU: {m['cpu']}, {m['cores']} cores; device: {m['device']}; {m['pocl_version']}",
+             "- mask times: best of 3 after a warm-up; default tolerance 0.01 deg; 2024-06-21", "",
+             "| map | time (UTC) | centre sun az / el | spread deg | blocks | deviation deg | per block s | "
+             "one sun s | ratio | cells one sun gets wrong | twin: cells checked, mismatches / ties |",
+             "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---|"]
+    for r in result["rows"]:
+        wrong = f"{r['one_sun_wrong_cells']} ({100 * r['one_sun_wrong_cells'] / max(r['valid_cells'], 1):.2f}%)"
+        lines.append(f"| {r['map']} | {r['time']}: {r['utc'][11:16]} | {r['centre_sun'][0]:.1f} / "
+                     f"{r['centre_sun'][1]:.2f} | {r['spread_deg']:.3f} | {r['blocks']} | {r['deviation_deg']:.4f} | "
+                     f"{r['trace_per_block_s']:.3f} | {r['trace_one_sun_s']:.3f} | {r['ratio']:.1f} | {wrong} | "
+                     f"{r['twin_cells']} in {r['twin_blocks']} blocks: {r['twin_mismatch']} / {r['twin_tied']} |")
+    lines.append("")
+    path.write_text("\n".join(lines))
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--reduced", action="store_true", help="300^2 crops and a 512^2 canyon (a check)")
+    parser.add_argument("--sample-blocks", type=int, default=12, help="blocks checked against the twin")
+    parser.add_argument("--out", type=Path, default=REPO / "bench" / "results" / "sun_field")
+    args = parser.parse_args(argv)
+    result = {"meta": metadata(sys.argv), "rows": []}
+    for name, raster in maps(args.reduced).items():
+        result["rows"] += measure(name, raster, args.sample_blocks)
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.with_suffix(".json").write_text(json.dumps(result, indent=1))
+    write_markdown(args.out.with_suffix(".md"), result)
+    log(f"wrote {args.out.with_suffix('.md')}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,198 @@
+"""The sun over a whole map at one instant: each cell's own sun, to a stated tolerance.
+
+A map is not a point.  The sun's direction in a cell's local frame turns with the cell's
+place: by the angle the two places subtend at the Earth's centre (about 0.009 degrees a
+kilometre), plus, on a projected grid, the change of the meridian convergence between them.
+At the corners of a 36 km map (a 1201^2 tile of 30 m cells) its sun is about 0.2 degrees
+from the centre's, and at a low sun that moves shadow edges by several percent of their
+length.  So a map's sun at a time is a :class:`SunField`: the map cut into rectangular
+blocks, each traced with the sun (NREL SPA, turned to the grid through the CRS) of its
+centre, the blocks small enough that every cell's own sun is within ``tolerance`` degrees
+of its block's (angle between the unit vectors in the cell's grid-east, grid-north, up
+frame).  Default 0.01 degrees: the accuracy the sun position itself is tested to (against
+pvlib).  A map small enough is one block, traced exactly as a single sun.
+
+How the blocks are sized: the sun's turn per row and per column is measured on a 9 x 9
+lattice over the map; blocks are made that many cells tall and wide that half a block's
+turn in each direction adds up to the tolerance; then the sun at every block corner is
+computed and compared with its block's, and the blocks shrink until all are within the
+tolerance (the turn is smooth and nearly linear over a block, so the largest difference
+inside a rectangle is at a corner; tests/test_field.py checks every cell).  Block widths
+are multiples of 16 columns where they can be (the packet kernels' runs).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from datetime import datetime
+from typing import Any, Sequence
+
+import numpy as np
+
+from ..io import Raster, geotransform
+from ..sun import DEFAULT_SUN_TOLERANCE as DEFAULT_TOLERANCE, Sun, SunBlock, SunField
+from .position import sun_position
+from .site import STEP_METRES, projected_crs
+
+LATTICE = 9                # points per side where the turn per cell is measured
+COLUMN_STEP = 16           # block widths are multiples of this where the tolerance allows
+MAX_SHRINK = 12            # tries to shrink the blocks into the tolerance
+
+
+@dataclass(frozen=True)
+class MapPlaces:
+    """Where a map's cells lie: (row, col) in cell units (0 at the first cell's outer corner)
+    to longitude and latitude, and the map's grid turn there.  ``crs``: the projected CRS
+    (pyproj) of a projected map, None for a geographic one."""
+
+    transform: tuple[float, ...]
+    shape: tuple[int, int]
+    crs: Any = field(default=None, repr=False)
+
+    def lonlat(self, rows: np.ndarray, cols: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        x0, xc, xr, y0, yc, yr = self.transform
+        x = x0 + xc * cols + xr * rows
+        y = y0 + yc * cols + yr * rows
+        if self.crs is None:
+            return np.mod(x + 180.0, 360.0) - 180.0, y
+        from pyproj import Transformer
+
+        lon, lat = Transformer.from_crs(self.crs, self.crs.geodetic_crs, always_xy=True).transform(x, y)
+        lon, lat = np.asarray(lon, np.float64), np.asarray(lat, np.float64)
+        if not (np.all(np.isfinite(lon)) and np.all(np.isfinite(lat))):
+            raise ValueError("part of the map lies outside where its CRS is defined")
+        return lon, lat
+
+    def grid_azimuths(self, lon: np.ndarray, lat: np.ndarray, true_azimuths: np.ndarray) -> np.ndarray:
+        """The grid azimuths at these places of directions at these true azimuths (as
+        :meth:`oclshade.solar.site.MapSite.grid_azimuths`, place by place)."""
+        if self.crs is None:
+            return np.mod(true_azimuths, 360.0)
+        from pyproj import Transformer
+
+        to_grid = Transformer.from_crs(self.crs.geodetic_crs, self.crs, always_xy=True)
+        lon2, lat2, _ = self.crs.get_geod().fwd(lon, lat, true_azimuths, np.full(lon.shape, STEP_METRES))
+        x0, y0 = to_grid.transform(lon, lat)
+        x1, y1 = to_grid.transform(lon2, lat2)
+        return np.mod(np.degrees(np.arctan2(np.asarray(x1) - x0, np.asarray(y1) - y0)), 360.0)
+
+    def suns(self, when: datetime | Sequence[datetime], rows: np.ndarray, cols: np.ndarray
+             ) -> tuple[np.ndarray, np.ndarray]:
+        """(grid azimuth, elevation) in degrees of the sun at ``when`` at these places: flat
+        arrays over the places for one time, (times, places) for a sequence of times."""
+        lon, lat = self.lonlat(np.asarray(rows, np.float64).ravel(), np.asarray(cols, np.float64).ravel())
+        many = not isinstance(when, datetime)
+        times = np.array(list(when) if many else [when], dtype=object)[:, None]
+        position = sun_position(times, lat, lon)
+        shape = (len(times), len(lon))
+        grid = self.grid_azimuths(np.broadcast_to(lon, shape).ravel(), np.broadcast_to(lat, shape).ravel(),
+                                  np.broadcast_to(position.azimuth, shape).ravel()).reshape(shape)
+        elevation = np.broadcast_to(position.elevation, shape)
+        return (grid, elevation) if many else (grid[0], elevation[0])
+
+
+def map_places(raster: Raster) -> MapPlaces | None:
+    """A raster's :class:`MapPlaces`: geographic or projected (pyproj identifies its CRS) and
+    georeferenced; None otherwise.  Raises ValueError as :func:`oclshade.solar.site.projected_crs`."""
+    transform = geotransform(raster.georef)
+    if transform is None:
+        return None
+    found = projected_crs(raster)
+    if found is None and not raster.geographic:
+        return None
+    return MapPlaces(tuple(float(v) for v in transform), raster.heights.shape, found[0] if found else None)
+
+
+def unit_vectors(azimuth: np.ndarray, elevation: np.ndarray) -> np.ndarray:
+    """(..., 3) unit vectors (east, north, up) of directions in degrees."""
+    az, el = np.radians(azimuth), np.radians(elevation)
+    return np.stack([np.sin(az) * np.cos(el), np.cos(az) * np.cos(el), np.sin(el)], axis=-1)
+
+
+def angles_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Angles in degrees between unit vectors (..., 3) (atan2 form: exact for tiny angles)."""
+    return np.degrees(np.arctan2(np.linalg.norm(np.cross(a, b), axis=-1), np.sum(a * b, axis=-1)))
+
+
+def sun_differences(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """:func:`angles_between` two suns' unit vectors, 0 where both are at or below the horizon
+    (every cell is in shadow either way; SPA's refraction also jumps by 0.57 degrees where the
+    sun's upper limb sets, :func:`oclshade.solar.refraction_correction`)."""
+    both_down = (a[..., 2] <= 0.0) & (b[..., 2] <= 0.0)
+    return np.where(both_down, 0.0, angles_between(a, b))
+
+
+def sun_field(places: MapPlaces, when: datetime, tolerance: float = DEFAULT_TOLERANCE) -> SunField:
+    """The sun over the map at ``when`` (timezone-aware), each cell's own within ``tolerance``
+    degrees of its block's (see the module docstring)."""
+    if not (isinstance(tolerance, (int, float)) and tolerance > 0.0 and math.isfinite(tolerance)):
+        raise ValueError(f"tolerance must be a positive number of degrees, got {tolerance!r}")
+    rows, cols = places.shape
+    centre, spread, r, c, v = _lattice(places, when)
+    if spread <= tolerance:
+        return SunField(places.shape, SunField.single(centre, places.shape).blocks, centre, spread, float(tolerance))
+    per_row = sun_differences(v[1:], v[:-1]).max() / (r[1] - r[0])
+    per_col = sun_differences(v[:, 1:], v[:, :-1]).max() / (c[1] - c[0])
+    height = tolerance / per_row if per_row > 0 else float(rows)
+    width = tolerance / per_col if per_col > 0 else float(cols)
+    for _ in range(MAX_SHRINK):
+        block_rows, block_cols = _block_size(height, rows), _block_size(width, cols, COLUMN_STEP)
+        blocks, deviation = _blocks(places, when, block_rows, block_cols)
+        if deviation <= tolerance:
+            return SunField(places.shape, blocks, centre, deviation, float(tolerance))
+        if block_rows == 1 and block_cols == 1:
+            break
+        shrink = 0.9 * tolerance / deviation
+        height, width = block_rows * shrink, block_cols * shrink
+    raise ValueError(f"the sun cannot be held within {tolerance:g} degrees of each cell's own here "
+                     f"(one cell's corners differ by more): give a larger tolerance")
+
+
+def sun_spread(places: MapPlaces, times: Sequence[datetime]) -> float:
+    """The largest angle in degrees between the sun at the map's centre and at its corners, over
+    the times."""
+    rows, cols = places.shape
+    az, el = places.suns(times, np.array([rows / 2, 0, 0, rows, rows]), np.array([cols / 2, 0, cols, 0, cols]))
+    v = unit_vectors(az, el)
+    return float(sun_differences(v[:, 1:], v[:, :1]).max())
+
+
+def _lattice(places: MapPlaces, when: datetime) -> tuple[Sun, float, np.ndarray, np.ndarray, np.ndarray]:
+    """The centre's sun, the spread, and the lattice's rows, columns and (9, 9, 3) sun vectors."""
+    rows, cols = places.shape
+    az, el = places.suns(when, np.array([rows / 2]), np.array([cols / 2]))
+    r = np.linspace(0.0, rows, LATTICE)
+    c = np.linspace(0.0, cols, LATTICE)
+    rr, cc = np.meshgrid(r, c, indexing="ij")
+    v = unit_vectors(*places.suns(when, rr, cc)).reshape(LATTICE, LATTICE, 3)
+    corners = v[[0, 0, -1, -1], [0, -1, 0, -1]]
+    spread = float(sun_differences(corners, unit_vectors(az, el)).max())
+    return Sun(float(az[0]), float(el[0])), spread, r, c, v
+
+
+def _block_size(size: float, limit: int, step: int = 1) -> int:
+    """A block side of at most ``size`` cells (at least 1, at most ``limit``), a multiple of
+    ``step`` when ``size`` allows."""
+    n = max(1, min(limit, int(size)))
+    return n // step * step if n >= step and n < limit else n
+
+
+def _blocks(places: MapPlaces, when: datetime, block_rows: int, block_cols: int) -> tuple[tuple[SunBlock, ...], float]:
+    """The blocks of this size in raster order with their centre suns, and the largest angle
+    between a block's sun and the sun at any of its corners."""
+    rows, cols = places.shape
+    r0 = np.arange(0, rows, block_rows)
+    c0 = np.arange(0, cols, block_cols)
+    r1, c1 = np.minimum(r0 + block_rows, rows), np.minimum(c0 + block_cols, cols)
+    mid_r, mid_c = np.meshgrid((r0 + r1) / 2.0, (c0 + c1) / 2.0, indexing="ij")
+    az, el = places.suns(when, mid_r, mid_c)
+    centres = unit_vectors(az, el).reshape(len(r0), len(c0), 3)
+    edge_r, edge_c = np.append(r0, rows), np.append(c0, cols)
+    er, ec = np.meshgrid(edge_r, edge_c, indexing="ij")
+    v = unit_vectors(*places.suns(when, er, ec)).reshape(len(edge_r), len(edge_c), 3)
+    deviation = max(float(sun_differences(centres, v[:-1, :-1]).max()), float(sun_differences(centres, v[:-1, 1:]).max()),
+                    float(sun_differences(centres, v[1:, :-1]).max()), float(sun_differences(centres, v[1:, 1:]).max()))
+    az, el = az.reshape(len(r0), len(c0)), el.reshape(len(r0), len(c0))
+    blocks = tuple(SunBlock(int(r0[a]), int(r1[a]), int(c0[b]), int(c1[b]), Sun(float(az[a, b]), float(el[a, b])))
+                   for a in range(len(r0)) for b in range(len(c0)))
+    return blocks, deviation

@@ -1,0 +1,212 @@
+"""The sun over a whole map (oclshade.solar.field) and its tracing per block (ShadowCaster with a
+SunField): every cell's own sun within the tolerance of its block's, each block exact against
+the float64 reference with its own sun, and the same bits whatever kernel variant runs."""
+import argparse
+import math
+from datetime import datetime
+
+import numpy as np
+import pytest
+import tifffile
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+pyproj = pytest.importorskip("pyproj")
+
+from oclshade import ShadowCaster  # noqa: E402
+from oclshade import reference as ref  # noqa: E402
+from oclshade.cli import main  # noqa: E402
+from oclshade.heightmap import Heightmap  # noqa: E402
+from oclshade.io import read_dem  # noqa: E402
+from oclshade.solar import map_places, map_site, sun_field, suns_at  # noqa: E402
+from oclshade.solar.cli import suns_for  # noqa: E402
+from oclshade.solar.field import angles_between, sun_spread, unit_vectors  # noqa: E402
+from oclshade.sun import Sun, SunBlock, SunField  # noqa: E402
+
+from test_site import write_tif  # noqa: E402
+
+WGS84 = (1, 1, 0, 3, 1024, 0, 1, 2, 1025, 0, 1, 1, 2048, 0, 1, 4326)   # geographic, EPSG:4326
+
+
+def write_geographic(path, heights, west, north, step):
+    tags = [(34735, 3, len(WGS84), WGS84, True), (33550, 12, 3, (step, step, 0.0), True),
+            (33922, 12, 6, (0, 0, 0, west, north, 0), True)]
+    tifffile.imwrite(path, np.asarray(heights, np.float32), extratags=tags)
+    return path
+
+
+def cell_suns(places, when, shape):
+    """(rows, cols, 3) unit vectors of every cell's own sun (at its centre), grid frame."""
+    ii, jj = np.meshgrid(np.arange(shape[0]) + 0.5, np.arange(shape[1]) + 0.5, indexing="ij")
+    return unit_vectors(*places.suns(when, ii, jj)).reshape(*shape, 3)
+
+
+def assert_covers(field):
+    """The blocks tile the map once, in raster order."""
+    seen = np.zeros(field.shape, np.int32)
+    for block in field.blocks:
+        seen[block.row0:block.row1, block.col0:block.col1] += 1
+    assert np.all(seen == 1)
+    starts = [(b.row0, b.col0) for b in field.blocks]
+    assert starts == sorted(starts)
+
+
+MAPS = [  # (kind, rows, cols, cell, west, north, when)
+    ("utm", 401, 301, 60.0, 300000.0, 5400000.0, "2024-06-21T05:15+02:00"),    # low sun, 12.3 E 48.7 N
+    ("utm", 200, 500, 30.0, 680000.0, 7600000.0, "2024-03-20T12:00+01:00"),    # 68 N, noon
+    ("geo", 241, 361, 1 / 120, -160.0, 22.3, "2024-06-21T07:00-10:00"),       # 30" cells, 2 x 3 degrees
+]
+
+
+@pytest.mark.parametrize("kind, rows, cols, cell, west, north, when", MAPS)
+def test_every_cells_own_sun_is_within_the_tolerance_of_its_blocks(tmp_path, kind, rows, cols, cell, west, north,
+                                                                   when):
+    path = tmp_path / "map.tif"
+    if kind == "utm":
+        write_tif(path, np.zeros((rows, cols)), west=west, north=north, cell=cell)
+    else:
+        write_geographic(path, np.zeros((rows, cols)), west, north, cell)
+    raster = read_dem(path)
+    places = map_places(raster)
+    t = datetime.fromisoformat(when)
+    v = cell_suns(places, t, (rows, cols))
+    for tolerance in (0.05, 0.01):
+        field = sun_field(places, t, tolerance)
+        assert_covers(field)
+        assert field.deviation <= tolerance and field.tolerance == tolerance
+        assert field.uniform == (sun_spread(places, [t]) <= tolerance)
+        worst = max(float(angles_between(v[b.row0:b.row1, b.col0:b.col1], unit_vectors(b.sun.azimuth,
+                                                                                        b.sun.elevation)).max())
+                    for b in field.blocks)
+        assert worst <= tolerance
+    # the centre's sun is the one the site gives (NREL SPA there, turned through the CRS)
+    site = map_site(raster)
+    assert field.centre == site.grid_suns(suns_at([t], site.latitude, site.longitude))[0]
+    # one block's sun at its centre, as the site code gives it for that place
+    b = field.blocks[len(field.blocks) // 3]
+    lon, lat = places.lonlat(np.array([(b.row0 + b.row1) / 2]), np.array([(b.col0 + b.col1) / 2]))
+    here = map_site(raster, float(lat[0]), float(lon[0]))
+    expected = here.grid_suns(suns_at([t], here.latitude, here.longitude))[0]
+    assert b.sun.azimuth == pytest.approx(expected.azimuth, abs=1e-9)
+    assert b.sun.elevation == pytest.approx(expected.elevation, abs=1e-9)
+    # the map is wide: one sun would be off by far more than the tolerance at its corners
+    assert sun_spread(places, [t]) > 0.03
+
+
+def test_a_small_map_is_one_block_and_the_tolerance_is_checked(tmp_path):
+    raster = read_dem(write_tif(tmp_path / "small.tif", np.zeros((20, 30)), west=300000.0, north=5400000.0))
+    places = map_places(raster)
+    t = datetime.fromisoformat("2024-06-21T05:15+02:00")
+    field = sun_field(places, t)
+    assert field.uniform and field.blocks[0] == SunBlock(0, 20, 0, 30, field.centre)
+    assert field.deviation == sun_spread(places, [t]) <= 0.01
+    for bad in (0.0, -1.0, math.nan, math.inf, "0.1"):
+        with pytest.raises(ValueError, match="tolerance must be a positive number of degrees"):
+            sun_field(places, t, bad)
+
+
+def test_night_and_the_refraction_jump_do_not_split_the_map(tmp_path):
+    """Where the sun is below the horizon at every corner every cell is in shadow, whatever SPA's
+    refraction does there (it jumps by 0.57 degrees where the upper limb sets)."""
+    raster = read_dem(write_tif(tmp_path / "m.tif", np.zeros((1201, 1201)), west=350000.0, north=5400000.0))
+    field = sun_field(map_places(raster), datetime.fromisoformat("2024-06-01T02:00+02:00"))
+    assert field.uniform and field.centre.elevation < -5.0
+
+
+def random_field(shape, rows, cols, seed):
+    rng = np.random.default_rng(seed)
+    blocks = [SunBlock(rows[a], rows[a + 1], cols[b], cols[b + 1],
+                       Sun(float(rng.uniform(0.0, 360.0)), float(rng.uniform(2.0, 70.0))))
+              for a in range(len(rows) - 1) for b in range(len(cols) - 1)]
+    return SunField(shape, tuple(blocks), blocks[0].sun)
+
+
+@st.composite
+def partitions(draw):
+    rows, cols = draw(st.integers(2, 60)), draw(st.integers(2, 80))
+    cuts_r = sorted(set(draw(st.lists(st.integers(1, rows - 1), max_size=3))))
+    cuts_c = sorted(set(draw(st.lists(st.integers(1, cols - 1), max_size=4))))
+    return rows, cols, [0, *cuts_r, rows], [0, *cuts_c, cols], draw(st.integers(0, 2**31))
+
+
+KNOBS = [None, {"lanes": 0}, {"lanes": 8, "run": 64}, {"lanes": 0, "images": 1}]
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(part=partitions(), knobs=st.sampled_from(KNOBS), certificates=st.booleans())
+def test_a_field_traces_each_block_as_its_own_sun(part, knobs, certificates):
+    """Bit for bit the whole-map outputs of each block's sun on that block's cells, whatever the
+    kernel variant (packet runs cut to the block columns, one ray per item, images, with and
+    without certificates) and wherever the blocks are cut."""
+    rows, cols, cut_r, cut_c, seed = part
+    rng = np.random.default_rng(seed)
+    h = np.cumsum(np.cumsum(rng.normal(size=(rows, cols)), 0), 1) * 3.0
+    h[rng.random((rows, cols)) < 0.03] = np.nan
+    hm = Heightmap.from_array(h, 10.0)
+    caster = ShadowCaster(hm, cache=False, knobs=knobs, certificates=certificates)
+    field = random_field(hm.shape, cut_r, cut_c, seed)
+    outputs = ("mask", "self", "coefficient")
+    got = caster.cast_many([field], outputs=outputs)[0]
+    assert got.sun == field.centre
+    for block in field.blocks:
+        whole = caster.cast(block.sun, outputs=outputs)
+        window = np.s_[block.row0:block.row1, block.col0:block.col1]
+        for name in ("mask", "self_shadow", "coefficient"):
+            np.testing.assert_array_equal(getattr(got, name)[window], getattr(whole, name)[window])
+
+
+def test_a_field_is_exact_against_the_reference_per_block():
+    """The float64 reference with each block's sun, ties apart, on a real-like terrain."""
+    rng = np.random.default_rng(5)
+    h = np.cumsum(np.cumsum(rng.normal(size=(90, 120)), 0), 1) * 2.0
+    hm = Heightmap.from_array(h, 30.0)
+    field = random_field(hm.shape, [0, 17, 60, 90], [0, 32, 48, 120], 11)
+    got = ShadowCaster(hm, cache=False).cast_many([field], outputs=("mask", "self"))[0]
+    expected = ref.cast_field_shadows(hm, field)
+    ties = expected.ties(ref.field_tie_tolerance(hm, field))
+    differ = got.mask != expected.mask
+    assert not (differ & ~ties).any() and differ.sum() <= 3
+    assert np.array_equal(got.self_shadow, expected.self_shadow)
+    for block in field.blocks:     # the twin is each block's own sun, cell by cell
+        window = np.s_[block.row0:block.row1, block.col0:block.col1]
+        np.testing.assert_array_equal(expected.margin[window], ref.cast_shadows(hm, block.sun, window).margin)
+    assert (got.mask == 1).sum() > 100 and (got.mask == 0).sum() > 100
+
+
+def test_a_field_must_fit_the_map():
+    hm = Heightmap.from_array(np.zeros((10, 12)), 1.0)
+    field = SunField.single(Sun(90.0, 10.0), (12, 10))
+    with pytest.raises(ValueError, match="sun field is for a 10x12 map, not this 12x10 one"):
+        ShadowCaster(hm).cast_many([field])
+
+
+def test_the_cli_traces_datetimes_per_block_on_a_projected_map(tmp_path, capsys):
+    """`shadow --datetime` on a 12 x 15 km UTM map: the API's field bit for bit, and not one sun
+    (cells differ); a large --sun-tolerance gives one block, the sun at the map's centre."""
+    rng = np.random.default_rng(0)
+    heights = np.cumsum(np.cumsum(rng.normal(size=(400, 500)), 0), 1) * 0.5
+    dem = write_tif(tmp_path / "utm.tif", heights, west=350000.0, north=5400000.0, cell=30.0)
+    when = "2024-06-21T06:00+02:00"
+    assert main(["shadow", str(dem), str(tmp_path / "f.npy"), "--datetime", when]) == 0
+    err = capsys.readouterr().err
+    assert "the sun per block of cells" in err and "--sun-tolerance 0.01" in err
+    assert main(["shadow", str(dem), str(tmp_path / "one.npy"), "--datetime", when, "--sun-tolerance", "1",
+                 "-q"]) == 0
+    assert capsys.readouterr().err == ""
+    raster = read_dem(dem)
+    field = sun_field(map_places(raster), datetime.fromisoformat(when))
+    hm = Heightmap.from_array(raster.heights, (raster.dx, raster.dy))
+    expected = ShadowCaster(hm, cache=False).cast_many([field])[0].mask
+    per_block, one = np.load(tmp_path / "f.npy"), np.load(tmp_path / "one.npy")
+    assert np.array_equal(per_block, expected)
+    assert np.array_equal(one, ShadowCaster(hm, cache=False).cast(field.centre).mask)
+    assert (per_block != one).sum() > 50
+    assert main(["shadow", str(dem), str(tmp_path / "x.npy"), "--datetime", when, "--sun-tolerance", "0"]) == 2
+    assert "sun tolerance must be degrees above 0" in capsys.readouterr().err
+
+
+def test_lat_lon_given_means_one_sun(tmp_path):
+    dem = write_tif(tmp_path / "utm.tif", np.zeros((400, 500)), west=350000.0, north=5400000.0)
+    args = argparse.Namespace(input=str(dem), lat=48.7, lon=13.0, sun_tolerance=0.01)
+    placed = suns_for([datetime.fromisoformat("2024-06-21T06:00+02:00")], args, read_dem(dem))
+    assert placed.fields is None and placed.traced == placed.suns
