@@ -17,7 +17,11 @@ and 30 degrees high, and local noon), in one process:
 * **cells one sun gets wrong**: cells whose per-block mask differs from the one-sun mask;
 * **exactness per block**: the per-block mask against the float64 twin
   (:func:`oclshade.reference.cast_field_shadows`) on a seeded sample of blocks (the twin walks
-  every patch of every ray), mismatches outside float32 ties (must be 0) and tied ones.
+  every patch of every ray), mismatches outside float32 ties (must be 0) and tied ones;
+* **sunshine** over ``--sunshine-days`` from the local midnight of 2024-06-21 (10-minute steps,
+  each step's sun at its middle) on the SRTM tiles, by ``SunshineCaster`` per block and with
+  the centre's sun, both routes (masks; horizons at 64 azimuths): times, and the difference of
+  the hours of direct sun on land cells (height > 0): what one sun per map leaves out.
 
 Writes bench/results/sun_field.{json,md} (``--out`` to change).  Figures depend on the machine;
 the results record where they were taken.
@@ -50,6 +54,7 @@ from oclshade.synthetic import canyon_crater  # noqa: E402
 SRTM = REPO.parent / "shared" / "data" / "dem" / "srtm3_srtmpy"
 DAY = datetime(2024, 6, 21, tzinfo=timezone.utc)
 ELEVATIONS = (3.0, 10.0, 30.0)
+REDUCED_CROPS = {"N22W160": (817, 400, 384), "S16E166": (400, 817, 384)}   # (row, col, side) over land
 UTM33N = {33550: (10.0, 10.0, 0.0), 33922: (0.0, 0.0, 0.0, 300000.0, 5420000.0, 0.0),
           34735: (1, 1, 0, 3, 1024, 0, 1, 1, 1025, 0, 1, 1, 3072, 0, 1, 32633)}
 
@@ -61,12 +66,22 @@ def maps(reduced: bool) -> dict[str, Raster]:
         if path.is_file():
             raster = read_dem(path)
             if reduced:
-                raster = Raster(raster.heights[:300, :300], raster.dx, raster.dy, raster.path, True, raster.georef)
+                raster = crop(raster, *REDUCED_CROPS[name])
             out[f"SRTM {name}"] = raster
     side = 512 if reduced else 4096
     heights = canyon_crater(side).astype(np.float64)
     out[f"canyon {side}^2, 10 m, UTM 33N at 48.8 N"] = Raster(heights, 10.0, 10.0, None, False, UTM33N)
     return out
+
+
+def crop(raster: Raster, r0: int, c0: int, side: int) -> Raster:
+    """A square window of a north-up raster, its tie point moved to the window's corner."""
+    georef = dict(raster.georef)
+    sx, sy, _ = georef[33550]
+    _, _, _, x0, y0, z0 = georef[33922]
+    georef[33922] = (0.0, 0.0, 0.0, x0 + c0 * sx, y0 - r0 * sy, z0)
+    return Raster(raster.heights[r0:r0 + side, c0:c0 + side], raster.dx, raster.dy, raster.path, raster.geographic,
+                  georef)
 
 
 def morning_times(places) -> list[tuple[str, datetime]]:
@@ -141,6 +156,44 @@ def measure(name: str, raster: Raster, sample_blocks: int) -> list[dict]:
     return rows
 
 
+def sunshine_days(name: str, raster: Raster, days: float) -> dict:
+    """Sunshine sums over ``days`` from the centre's local midnight of 2024-06-21 (10-minute
+    steps): per block and with one sun, by both routes of :class:`SunshineCaster`."""
+    from oclshade.sunshine import SunshineCaster, time_steps
+
+    hm = Heightmap.from_array(raster.heights, (raster.dx, raster.dy))
+    places = map_places(raster)
+    rows, cols = hm.shape
+    lon, _ = places.lonlat(np.array([rows / 2]), np.array([cols / 2]))
+    start = DAY - timedelta(hours=round(float(lon[0]) / 15.0))
+    steps = time_steps(start, start + timedelta(days=days), timedelta(minutes=10))
+    t0 = time.perf_counter()
+    fields = [sun_field(places, t) for t in steps.times]
+    build = time.perf_counter() - t0
+    one = [f.centre for f in fields]
+    caster = SunshineCaster(hm)
+    caster.accumulate([f for f in fields if f.centre.elevation > 5][:1], 600, ("hours", "fraction"))   # warm-up
+    land = hm.heights > 0.0
+    out = {"map": name, "days": days, "steps": len(steps.times), "land_cells": int(land.sum()),
+           "field_build_s": build, "blocks_mean": float(np.mean([len(f.blocks) for f in fields if not f.uniform]
+                                                                or [1]))}
+    for route, options in (("masks", {}), ("horizons 64", {"method": "horizons", "azimuths": 64})):
+        t0 = time.perf_counter()
+        per_block = caster.accumulate(fields, steps.seconds, ("hours", "fraction"), **options)
+        t1 = time.perf_counter()
+        single = caster.accumulate(one, steps.seconds, ("hours", "fraction"), **options)
+        t2 = time.perf_counter()
+        diff = np.abs(per_block.hours.astype(np.float64) - single.hours)[land]
+        out[route] = {"per_block_s": t1 - t0, "one_sun_s": t2 - t1, "daylight_steps": per_block.daylight_suns,
+                      "hours_mean": float(np.nanmean(per_block.hours[land])), "diff_mean_h": float(diff.mean()),
+                      "diff_p99_h": float(np.percentile(diff, 99)), "diff_max_h": float(diff.max()),
+                      "cells_differing": int(np.count_nonzero(diff))}
+        log(f"{name} sunshine {days:g} d, {route}: per block {t1 - t0:.1f} s, one sun {t2 - t1:.1f} s; "
+            f"{out[route]['cells_differing']} of {out['land_cells']} land cells differ, mean "
+            f"{out[route]['diff_mean_h']:.4f} h, max {out[route]['diff_max_h']:.3f} h")
+    return out
+
+
 def write_markdown(path: Path, result: dict) -> None:
     m = result["meta"]
     lines = ["# The sun over a map: per block against one sun", "",
@@ -156,19 +209,35 @@ def write_markdown(path: Path, result: dict) -> None:
                      f"{r['centre_sun'][1]:.2f} | {r['spread_deg']:.3f} | {r['blocks']} | {r['deviation_deg']:.4f} | "
                      f"{r['trace_per_block_s']:.3f} | {r['trace_one_sun_s']:.3f} | {r['ratio']:.1f} | {wrong} | "
                      f"{r['twin_cells']} in {r['twin_blocks']} blocks: {r['twin_mismatch']} / {r['twin_tied']} |")
+    lines += ["", "## Sunshine: per block against one sun", "",
+              "Hours of direct sun from the local midnight of 2024-06-21, 10-minute steps, `SunshineCaster`; "
+              "differences on land cells (height > 0); field build time is for all steps.", "",
+              "| map | days | route | daylight steps | mean blocks | fields s | per block s | one sun s | mean hours | "
+              "cells differing | mean abs diff h | p99 h | max h |",
+              "|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    for r in result["sunshine"]:
+        for route in ("masks", "horizons 64"):
+            e = r[route]
+            lines.append(f"| {r['map']} | {r['days']:g} | {route} | {e['daylight_steps']} | {r['blocks_mean']:.0f} | "
+                         f"{r['field_build_s']:.1f} | {e['per_block_s']:.1f} | {e['one_sun_s']:.1f} | "
+                         f"{e['hours_mean']:.2f} | {e['cells_differing']} of {r['land_cells']} | {e['diff_mean_h']:.4f} | "
+                         f"{e['diff_p99_h']:.3f} | {e['diff_max_h']:.3f} |")
     lines.append("")
     path.write_text("\n".join(lines))
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--reduced", action="store_true", help="300^2 crops and a 512^2 canyon (a check)")
+    parser.add_argument("--reduced", action="store_true", help="384^2 crops and a 512^2 canyon (a check)")
     parser.add_argument("--sample-blocks", type=int, default=12, help="blocks checked against the twin")
+    parser.add_argument("--sunshine-days", type=float, default=1.0, help="length of the sunshine period (0: none)")
     parser.add_argument("--out", type=Path, default=REPO / "bench" / "results" / "sun_field")
     args = parser.parse_args(argv)
-    result = {"meta": metadata(sys.argv), "rows": []}
+    result = {"meta": metadata(sys.argv), "rows": [], "sunshine": []}
     for name, raster in maps(args.reduced).items():
         result["rows"] += measure(name, raster, args.sample_blocks)
+        if name.startswith("SRTM") and args.sunshine_days > 0:
+            result["sunshine"].append(sunshine_days(name, raster, args.sunshine_days))
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.with_suffix(".json").write_text(json.dumps(result, indent=1))
     write_markdown(args.out.with_suffix(".md"), result)

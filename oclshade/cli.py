@@ -970,7 +970,7 @@ def add_sunshine_parser(sub) -> None:
     ss.add_argument("--end", required=True, metavar="ISO", help="end of the period, not included")
     ss.add_argument("--step", type=_step, default=_step("10min"), metavar="STEP",
                     help="time step: a whole number with s, min, h or d (default 10min)")
-    solar_cli.add_place_arguments(ss, "--start and --end", tolerance=False)
+    solar_cli.add_place_arguments(ss, "--start and --end", per_block=False)
     ss.add_argument("--output", dest="outputs", type=_sunshine_outputs, default=("hours",), metavar="LIST",
                     help="comma-separated bands to write: hours, fraction, irradiation, or all (default hours)")
     ss.add_argument("--method", default="masks", choices=("masks", "horizons"),
@@ -988,6 +988,7 @@ def add_sunshine_parser(sub) -> None:
 
 def run_sunshine(args: argparse.Namespace) -> int:
     from .sunshine import DEFAULT_AZIMUTHS, SunshineCaster, time_steps
+    from .sunshine import daylight as sunshine_daylight
 
     if _extension(args.output) not in (".tif", ".tiff", ".exr", ".npy"):
         raise UsageError(f"OUTPUT {args.output!r}: expected .tif, .tiff, .exr or .npy (float32 bands)")
@@ -1006,19 +1007,24 @@ def run_sunshine(args: argparse.Namespace) -> int:
         raise CliError(f"OUTPUT {args.output!r} is the input file; refusing to overwrite it")
     t0 = time.perf_counter()
     raster, heightmap = read_input(args, cellsize)
-    placed = solar_cli.suns_for(steps.times, args, raster, "--start and --end", per_block=False)
-    suns, site = placed.suns, placed.site
+    placed = solar_cli.suns_for(steps.times, args, raster, "--start and --end")
+    suns, site = placed.traced, placed.site
+    if placed.spread_warning("sunshine"):
+        print(f"{PROG}: warning: {placed.spread_warning('sunshine')} (--sun-tolerance DEG: per block)",
+              file=sys.stderr)
     rows, cols = heightmap.shape
     _make_parents(args.output)
     with RasterWriter(args.output, (len(args.outputs), rows, cols), np.float32, like=raster, nodata=math.nan,
                       band_names=list(args.outputs), options=options, cog=cog) as out:
         caster = SunshineCaster(heightmap, device=args.device)
-        daylight = sum(sun.elevation > 0.0 for sun in suns)
+        daylight = len(sunshine_daylight(suns, steps.seconds)[0])
         if not args.quiet:
             print(f"{PROG}: {len(suns)} steps of {args.step} from {start.isoformat()} to {end.isoformat()} at "
                   f"latitude {site.latitude:.5f}, longitude {site.longitude:.5f} (NREL SPA"
                   f"{f'; azimuths turned to the grid of {site.crs_name}' if site.crs is not None else ''}): "
                   f"{daylight} in daylight", file=sys.stderr)
+            if placed.blocks_line():
+                print(f"{PROG}: {placed.blocks_line()}", file=sys.stderr)
         t1 = time.perf_counter()
         maps = caster.accumulate(suns, steps.seconds, args.outputs, method=args.method,
                                  azimuths=args.azimuths or DEFAULT_AZIMUTHS,

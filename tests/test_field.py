@@ -3,7 +3,7 @@ SunField): every cell's own sun within the tolerance of its block's, each block 
 the float64 reference with its own sun, and the same bits whatever kernel variant runs."""
 import argparse
 import math
-from datetime import datetime
+from datetime import datetime, timedelta
 
 import numpy as np
 import pytest
@@ -22,6 +22,7 @@ from oclshade.solar import map_places, map_site, sun_field, suns_at  # noqa: E40
 from oclshade.solar.cli import suns_for  # noqa: E402
 from oclshade.solar.field import angles_between, sun_spread, unit_vectors  # noqa: E402
 from oclshade.sun import Sun, SunBlock, SunField  # noqa: E402
+from oclshade.sunshine import SunshineCaster  # noqa: E402
 
 from test_site import write_tif  # noqa: E402
 
@@ -113,10 +114,13 @@ def test_night_and_the_refraction_jump_do_not_split_the_map(tmp_path):
     assert field.uniform and field.centre.elevation < -5.0
 
 
-def random_field(shape, rows, cols, seed):
+def random_field(shape, rows, cols, seed, low=2.0, azimuths=None):
+    """Blocks on these row and column cuts with random suns (elevations from ``low`` to 70;
+    ``azimuths``: drawn from these)."""
     rng = np.random.default_rng(seed)
     blocks = [SunBlock(rows[a], rows[a + 1], cols[b], cols[b + 1],
-                       Sun(float(rng.uniform(0.0, 360.0)), float(rng.uniform(2.0, 70.0))))
+                       Sun(float(rng.choice(azimuths) if azimuths is not None else rng.uniform(0.0, 360.0)),
+                           float(rng.uniform(low, 70.0))))
               for a in range(len(rows) - 1) for b in range(len(cols) - 1)]
     return SunField(shape, tuple(blocks), blocks[0].sun)
 
@@ -210,3 +214,110 @@ def test_lat_lon_given_means_one_sun(tmp_path):
     args = argparse.Namespace(input=str(dem), lat=48.7, lon=13.0, sun_tolerance=0.01)
     placed = suns_for([datetime.fromisoformat("2024-06-21T06:00+02:00")], args, read_dem(dem))
     assert placed.fields is None and placed.traced == placed.suns
+
+
+def test_commands_that_trace_one_sun_per_map_warn_with_the_spread(tmp_path, capsys):
+    """sunlit, --tile and sunshine (without --sun-tolerance) trace one sun for the whole map: on a 15 x 12 km UTM map
+    each warns in one line with how far the cells' own suns are from it; a 1 km map does not."""
+    rng = np.random.default_rng(1)
+    wide = write_tif(tmp_path / "wide.tif", np.cumsum(rng.normal(size=(400, 500)), 1), west=350000.0,
+                     north=5400000.0, cell=30.0)
+    small = write_tif(tmp_path / "small.tif", np.cumsum(rng.normal(size=(30, 30)), 1), west=350000.0,
+                      north=5400000.0, cell=30.0)
+    when = "2024-06-21T08:00+02:00"
+    runs = {"sunlit": ["sunlit", "{dem}", "{out}.npy", "--datetime", when, "--columns", "2", "-q"],
+            "sunshine": ["sunshine", "{dem}", "{out}.npy", "--start", when, "--end", "2024-06-21T09:00+02:00",
+                         "--step", "30min", "-q"],
+            "--tile": ["shadow", "{dem}", "{out}.tif", "--datetime", when, "--tile", "256", "-q"]}
+    for command, argv in runs.items():
+        for dem, warns in ((wide, True), (small, False)):
+            out = tmp_path / f"{command.strip('-')}_{dem.stem}"
+            assert main([a.format(dem=dem, out=out) for a in argv]) == 0
+            err = capsys.readouterr().err
+            if warns:
+                assert err.count("\n") == 1 and f"warning: {command} traces one sun for the whole map" in err
+                spread = float(err.split("by up to ")[1].split(" deg")[0])
+                assert 0.05 < spread < 0.2
+            else:
+                assert err == ""
+
+
+def assert_sums_equal_the_twin(got, want, nodata):
+    """Hours and cast fraction bit for bit outside ties (few tied), irradiation within the
+    twin's bound outside ties."""
+    tied = 0
+    for name, expected in (("hours", want.hours), ("fraction", want.fraction)):
+        value = getattr(got, name)
+        assert np.array_equal(np.isnan(value), nodata | np.isnan(expected)), name
+        differ = (value != expected.astype(np.float32)) & ~np.isnan(value)
+        assert not np.any(differ & ~want.ties), f"{name}: {int((differ & ~want.ties).sum())} cells differ"
+        tied = max(tied, int(differ.sum()))
+    assert tied <= 3
+    if got.irradiation is not None:
+        err = np.abs(got.irradiation.astype(np.float64) - want.beam_hours)
+        inside = ~want.ties & ~nodata
+        assert np.all(err[inside] <= want.beam_bound[inside])
+
+
+@settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(part=partitions(), other=partitions())
+def test_sunshine_sums_each_block_with_its_own_sun(part, other):
+    """Steps that are sun fields (some blocks' suns below the horizon) mixed with plain suns: the
+    masks route equals the float64 twin, each cell's daylight time (the fraction's denominator)
+    summed over the steps whose block sun was up there."""
+    rows, cols, cut_r, cut_c, seed = part
+    rng = np.random.default_rng(seed)
+    h = np.cumsum(np.cumsum(rng.normal(size=(rows, cols)), 0), 1) * 3.0
+    h[rng.random((rows, cols)) < 0.03] = np.nan
+    hm = Heightmap.from_array(h, 10.0)
+    _, _, cut_r2, cut_c2, seed2 = other
+    cut_r2 = sorted({min(r, rows) for r in cut_r2} | {0, rows})
+    cut_c2 = sorted({min(c, cols) for c in cut_c2} | {0, cols})
+    steps = [random_field(hm.shape, cut_r, cut_c, seed, low=-20.0), Sun(120.0, 25.0),
+             random_field(hm.shape, cut_r2, cut_c2, seed2, low=-5.0), Sun(300.0, -3.0)]
+    weights = [600, 300, 900, 600]
+    got = SunshineCaster(hm).accumulate(steps, np.array(weights), "all")
+    want = ref.sunshine_sums(hm, steps, weights)
+    assert_sums_equal_the_twin(got, want, np.isnan(h))
+    day = np.broadcast_to(want.daylight_seconds, hm.shape)
+    assert got.daylight_seconds == sum(w for s, w in zip(steps, weights) if (
+        any(b.sun.elevation > 0 for b in s.blocks) if isinstance(s, SunField) else s.elevation > 0))
+    assert np.all(day <= got.daylight_seconds)
+
+
+def test_sunshine_horizon_route_per_block_on_grid_azimuths_is_exact():
+    """Block suns on the horizon route's grid azimuths need no interpolation: the twin's sums."""
+    rng = np.random.default_rng(3)
+    h = np.cumsum(np.cumsum(rng.normal(size=(40, 56)), 0), 1) * 4.0
+    hm = Heightmap.from_array(h, 20.0)
+    grid = [360.0 * k / 16 for k in range(16)]
+    steps = [random_field(hm.shape, [0, 13, 40], [0, 16, 21, 56], seed, low=-10.0, azimuths=grid)
+             for seed in range(4)]
+    got = SunshineCaster(hm).accumulate(steps, 600, ("hours", "fraction"), method="horizons", azimuths=16)
+    want = ref.sunshine_sums(hm, steps, [600] * len(steps))
+    assert_sums_equal_the_twin(got, want, np.isnan(h))
+    assert np.nanmax(got.hours) > 0 and np.nanmin(got.fraction) < np.nanmax(got.fraction)
+
+
+def test_sunshine_cli_sums_per_block_on_a_projected_map(tmp_path, capsys):
+    """`sunshine --sun-tolerance 0.01` on a 15 x 12 km UTM map: the API's sums over the fields of
+    the steps, bit for bit, and not those of one sun per step (the default, with a warning)."""
+    rng = np.random.default_rng(2)
+    heights = np.cumsum(np.cumsum(rng.normal(size=(400, 500)), 0), 1) * 0.5
+    dem = write_tif(tmp_path / "utm.tif", heights, west=350000.0, north=5400000.0, cell=30.0)
+    argv = ["sunshine", str(dem), "", "--start", "2024-06-21T04:30+02:00", "--end", "2024-06-21T07:30+02:00",
+            "--step", "30min", "--output", "hours,fraction"]
+    assert main([*argv[:2], str(tmp_path / "f.npy"), *argv[3:], "--sun-tolerance", "0.01"]) == 0
+    assert "the sun per block of cells" in capsys.readouterr().err
+    assert main([*argv[:2], str(tmp_path / "one.npy"), *argv[3:], "-q"]) == 0
+    assert "warning: sunshine traces one sun for the whole map" in capsys.readouterr().err
+    raster = read_dem(dem)
+    places = map_places(raster)
+    times = [datetime.fromisoformat("2024-06-21T04:45+02:00") + k * timedelta(minutes=30) for k in range(6)]
+    hm = Heightmap.from_array(raster.heights, (raster.dx, raster.dy))
+    fields = [sun_field(places, t) for t in times]
+    want = SunshineCaster(hm).accumulate(fields, 1800, ("hours", "fraction"))
+    per_block, one = np.load(tmp_path / "f.npy"), np.load(tmp_path / "one.npy")
+    np.testing.assert_array_equal(per_block[0], want.hours)
+    np.testing.assert_array_equal(per_block[1], want.fraction)
+    assert (per_block[0] != one[0]).sum() > 20

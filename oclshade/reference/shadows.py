@@ -141,8 +141,12 @@ def cast_field_shadows(hm: Heightmap, field: SunField, curvature: float = 0.0) -
 
 
 def field_tie_tolerance(hm: Heightmap, field: SunField, curvature: float = 0.0) -> float:
-    """:func:`tie_tolerance` of the field's steepest block sun (the bound grows with the ray's rise)."""
-    return max(tie_tolerance(hm, block.sun, curvature) for block in field.blocks)
+    """:func:`tie_tolerance` of the field's steepest block sun below the zenith (the bound grows
+    with the ray's rise, which it leaves out at the zenith: that sun is evaluated too)."""
+    below = [b.sun for b in field.blocks if b.sun.elevation < 90.0]
+    zenith = [b.sun for b in field.blocks if b.sun.elevation >= 90.0]
+    suns = ([max(below, key=lambda sun: sun.elevation)] if below else []) + zenith[:1]
+    return max(tie_tolerance(hm, sun, curvature) for sun in suns)
 
 
 def _patch_valid(h: np.ndarray, hp: int, wp: int, pr: np.ndarray, pc: np.ndarray) -> np.ndarray:
@@ -304,7 +308,10 @@ def surface_gradient(hm: Heightmap) -> tuple[np.ndarray, np.ndarray, np.ndarray,
     """(dz/d(east), dz/d(south)) per sample: central differences, one-sided next to holes
     and at the edges, 0 along an axis with neither neighbour (kernels/common.h ocls_gradient);
     and per axis whether a neighbour was there (where not, the gradient is an exact 0)."""
-    h = hm.heights
+    return _gradient(hm.heights, hm.dx, hm.dy)
+
+
+def _gradient(h: np.ndarray, dx: float, dy: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     pad = np.pad(h, 1, constant_values=np.nan)
 
     def along(plus: np.ndarray, minus: np.ndarray, d: float) -> tuple[np.ndarray, np.ndarray]:
@@ -314,15 +321,20 @@ def surface_gradient(hm: Heightmap) -> tuple[np.ndarray, np.ndarray, np.ndarray,
                          np.where(has_plus, (plus - h) / d, np.where(has_minus, (h - minus) / d, 0.0)))
         return g, has_plus | has_minus
 
-    gx, has_x = along(pad[1:-1, 2:], pad[1:-1, :-2], hm.dx)
-    gy, has_y = along(pad[2:, 1:-1], pad[:-2, 1:-1], hm.dy)
+    gx, has_x = along(pad[1:-1, 2:], pad[1:-1, :-2], dx)
+    gy, has_y = along(pad[2:, 1:-1], pad[:-2, 1:-1], dy)
     return gx, gy, has_x, has_y
 
 
 def _self_shadow(hm: Heightmap, sun: Sun, ii: np.ndarray, jj: np.ndarray) -> np.ndarray:
     hc = hm.heights[ii, jj]
-    gx, gy, _, _ = surface_gradient(hm)
-    gx, gy = gx[ii, jj], gy[ii, jj]
+    if ii.size == 0:
+        return hc.astype(np.uint8)
+    rows, cols = hm.shape    # the gradient on the cells' bounding box grown by the one neighbour it reads
+    r0, c0 = max(int(ii.min()) - 1, 0), max(int(jj.min()) - 1, 0)
+    r1, c1 = min(int(ii.max()) + 2, rows), min(int(jj.max()) + 2, cols)
+    gx, gy, _, _ = _gradient(hm.heights[r0:r1, c0:c1], hm.dx, hm.dy)
+    gx, gy = gx[ii - r0, jj - c0], gy[ii - r0, jj - c0]
     sx, sy, sz = sun.vector()
     flag = (sz - gx * sx + gy * sy) <= 0
     if sun.below_horizon:

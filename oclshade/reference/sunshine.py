@@ -17,7 +17,7 @@ from typing import Sequence
 import numpy as np
 
 from ..heightmap import Heightmap
-from ..sun import Sun
+from ..sun import Sun, SunField
 from .shadows import FLOAT32_EPS, cast_shadows, surface_gradient, tie_tolerance
 
 
@@ -27,7 +27,7 @@ class ReferenceSunshine:
     cast_seconds: np.ndarray  # float64 daylight seconds in cast shadow; NaN = nodata
     beam_hours: np.ndarray    # float64 sum of cos(i) x hours over the direct-sun steps; NaN = nodata
     beam_bound: np.ndarray    # bound on a float32 device's error in beam_hours (see sunshine_sums)
-    daylight_seconds: float
+    daylight_seconds: float | np.ndarray   # per cell when some sun field's sun is up on part of the map only
     ties: np.ndarray          # bool: some sun's decision at the cell is within float32 rounding
 
     @property
@@ -36,8 +36,9 @@ class ReferenceSunshine:
 
     @property
     def fraction(self) -> np.ndarray:
-        return self.cast_seconds / self.daylight_seconds if self.daylight_seconds else np.full_like(
-            self.cast_seconds, np.nan)
+        day = np.broadcast_to(np.asarray(self.daylight_seconds, np.float64), self.cast_seconds.shape)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return np.where(day > 0, self.cast_seconds / np.where(day > 0, day, 1.0), np.nan)
 
 
 def gradient_error(hm: Heightmap) -> tuple[np.ndarray, np.ndarray]:
@@ -69,9 +70,11 @@ def facing_tolerance(hm: Heightmap, sun: Sun) -> np.ndarray:
     return 8.0 * (ex * sx + ey * sy + 2.0 * FLOAT32_EPS * (sz + np.abs(gx) * sx + np.abs(gy) * sy))
 
 
-def sunshine_sums(hm: Heightmap, suns: Sequence[Sun], seconds: Sequence[int]) -> ReferenceSunshine:
+def sunshine_sums(hm: Heightmap, suns: Sequence[Sun | SunField], seconds: Sequence[int]) -> ReferenceSunshine:
     """Sums over the suns (weights in seconds, one per sun) as kernels/sunshine.cl, from
-    :func:`cast_shadows`; suns at or below the horizon are skipped.
+    :func:`cast_shadows`; suns at or below the horizon are skipped.  A sun field adds each
+    block's cells with its own sun (blocks whose sun is down are skipped), and the daylight
+    time is then per cell.
 
     ``beam_bound``: outside ties a float32 device's cos i = v / |n| is off by
     at most the facing tolerance (the error of v; dividing by |n| >= 1 only
@@ -87,23 +90,32 @@ def sunshine_sums(hm: Heightmap, suns: Sequence[Sun], seconds: Sequence[int]) ->
     norm = np.sqrt(1.0 + gx * gx + gy * gy)
     ex, ey = gradient_error(hm)
     through_norm = 8.0 * (np.abs(gx) * ex + np.abs(gy) * ey)
-    sun_s, cast_s, beam, bound = (np.zeros(hm.shape) for _ in range(4))
+    sun_s, cast_s, beam, bound, day = (np.zeros(hm.shape) for _ in range(5))
     ties = np.zeros(hm.shape, bool)
-    total = 0.0
-    for sun, w in zip(suns, seconds, strict=True):
-        if sun.elevation <= 0.0:
-            continue
-        ref = cast_shadows(hm, sun)
-        sx, sy, sz = sun.vector()
-        v = sz - gx * sx + gy * sy
-        cast = ref.mask == 1
-        direct = (ref.mask == 0) & (v > 0.0)
-        sun_s += np.where(direct, w, 0.0)
-        cast_s += np.where(cast, w, 0.0)
-        beam += np.where(direct, (w / 3600.0) * v / norm, 0.0)
-        tolerance = facing_tolerance(hm, sun)
-        bound += np.where(direct, (w / 3600.0) * (tolerance + through_norm + 16.0 * FLOAT32_EPS), 0.0)
-        ties |= ref.ties(tie_tolerance(hm, sun)) | (np.abs(v) <= tolerance)
-        total += w
+    rows, cols = hm.shape
+    fields = False
+    for item, w in zip(suns, seconds, strict=True):
+        if isinstance(item, SunField):
+            item.check_shape(hm.shape)
+            fields = fields or not item.uniform
+            parts = [(b.sun, np.s_[b.row0:b.row1, b.col0:b.col1]) for b in item.blocks]
+        else:
+            parts = [(item, np.s_[0:rows, 0:cols])]
+        for sun, win in parts:
+            if sun.elevation <= 0.0:
+                continue
+            ref = cast_shadows(hm, sun, win)
+            sx, sy, sz = sun.vector()
+            v = sz - gx[win] * sx + gy[win] * sy
+            cast = ref.mask == 1
+            direct = (ref.mask == 0) & (v > 0.0)
+            sun_s[win] += np.where(direct, w, 0.0)
+            cast_s[win] += np.where(cast, w, 0.0)
+            beam[win] += np.where(direct, (w / 3600.0) * v / norm[win], 0.0)
+            tolerance = facing_tolerance(hm, sun)[win]
+            bound[win] += np.where(direct, (w / 3600.0) * (tolerance + through_norm[win] + 16.0 * FLOAT32_EPS), 0.0)
+            ties[win] |= ref.ties(tie_tolerance(hm, sun)) | (np.abs(v) <= tolerance)
+            day[win] += w
+    total = float(day.max()) if not fields else day
     return ReferenceSunshine(*(np.where(nodata, np.nan, a) for a in (sun_s, cast_s, beam, bound)), total,
                              ties & ~nodata)

@@ -156,20 +156,26 @@ def add_time_arguments(parser: argparse.ArgumentParser, tolerance: bool = True) 
     add_place_arguments(parser, "--datetime", tolerance)
 
 
-def add_place_arguments(parser: argparse.ArgumentParser, what: str, tolerance: bool = True) -> None:
-    """``--tz``, ``--lat``, ``--lon`` and (``tolerance``: a command that traces the sun per block)
-    ``--sun-tolerance`` for the datetimes of ``what`` (the options that give them)."""
+def add_place_arguments(parser: argparse.ArgumentParser, what: str, tolerance: bool = True,
+                        per_block: bool = True) -> None:
+    """``--tz``, ``--lat``, ``--lon`` and (``tolerance``: a command that can trace the sun per
+    block) ``--sun-tolerance`` for the datetimes of ``what`` (the options that give them);
+    ``per_block``: per block unless told otherwise (else only when --sun-tolerance is given)."""
     parser.add_argument("--tz", metavar="NAME", help=f"IANA time zone of {what} values given without an offset")
     parser.add_argument("--lat", type=_LAT, metavar="DEG",
                         help=f"latitude for {what} (default: the centre of INPUT, through its CRS)")
     parser.add_argument("--lon", type=_LON, metavar="DEG",
                         help=f"longitude for {what} (default: the centre of INPUT, through its CRS)")
     if tolerance:
-        parser.add_argument("--sun-tolerance", type=_TOLERANCE, default=DEFAULT_SUN_TOLERANCE, metavar="DEG",
+        default = (f"default {DEFAULT_SUN_TOLERANCE:g}" if per_block else
+                   "default: one sun per step for the whole map, with a warning when the cells' own "
+                   "suns are more than 0.01 degrees from it; per block costs tens of microseconds a "
+                   "block and step")
+        parser.add_argument("--sun-tolerance", type=_TOLERANCE, default=DEFAULT_SUN_TOLERANCE if per_block else None,
+                            metavar="DEG",
                             help=f"without --lat/--lon, trace the map in blocks, each with the sun of its "
                                  f"centre, so that every cell's own sun (its place through INPUT's CRS) is "
-                                 f"within DEG degrees of its block's (default {DEFAULT_SUN_TOLERANCE:g}; "
-                                 f"docs/solar.md)")
+                                 f"within DEG degrees of its block's ({default}; docs/solar.md)")
 
 
 def parse_datetimes(args: argparse.Namespace, more: bool = False) -> list[datetime]:
@@ -243,9 +249,10 @@ def suns_for(times: list[datetime], args: argparse.Namespace, raster, what: str 
     """The suns at ``times`` at --lat/--lon, else at the raster's centre (a geographic raster's, or
     a projected one's through its CRS), their azimuths turned to the raster's grid
     (:mod:`oclshade.solar.site`).  ``what``: the options the times came from (for the errors).
-    Without --lat/--lon, on a map whose cells' places are known: ``per_block``, the sun over the
-    map per time to --sun-tolerance (:func:`oclshade.solar.sun_field`); else the spread of
-    the cells' own suns about the one sun (for :meth:`PlacedSuns.spread_warning`)."""
+    Without --lat/--lon, on a map whose cells' places are known: ``per_block`` and a
+    --sun-tolerance, the sun over the map per time to it (:func:`oclshade.solar.sun_field`);
+    else the spread of the cells' own suns about the one sun (for
+    :meth:`PlacedSuns.spread_warning`)."""
     from ..cli import PROG, CliError, UsageError
 
     try:
@@ -262,7 +269,7 @@ def suns_for(times: list[datetime], args: argparse.Namespace, raster, what: str 
     try:
         placed = PlacedSuns(site.grid_suns(true), true, site)
         places = map_places(raster) if args.lat is None else None
-        if places is not None and per_block:
+        if places is not None and per_block and getattr(args, "sun_tolerance", None) is not None:
             placed.fields = [sun_field(places, t, args.sun_tolerance) for t in times]
         elif places is not None:
             placed.spread = sun_spread(places, times)
