@@ -673,8 +673,8 @@ def run_shadow(args: argparse.Namespace) -> int:
         traced = placed.traced
         if not args.quiet:
             print(f"{PROG}: {placed.describe(job.times[0])}", file=sys.stderr)
-            if placed.blocks_line():
-                print(f"{PROG}: {placed.blocks_line()}", file=sys.stderr)
+            if blocks := placed.blocks_line():
+                print(f"{PROG}: {blocks}", file=sys.stderr)
     dx, dy = heightmap.dx, heightmap.dy
     rows, cols = heightmap.shape
     _make_parents(args.output, args.preview)
@@ -1009,9 +1009,8 @@ def run_sunshine(args: argparse.Namespace) -> int:
     raster, heightmap = read_input(args, cellsize)
     placed = solar_cli.suns_for(steps.times, args, raster, "--start and --end")
     suns, site = placed.traced, placed.site
-    if placed.spread_warning("sunshine"):
-        print(f"{PROG}: warning: {placed.spread_warning('sunshine')} (--sun-tolerance DEG: per block)",
-              file=sys.stderr)
+    if warning := placed.spread_warning("sunshine"):
+        print(f"{PROG}: warning: {warning} (--sun-tolerance DEG: per block)", file=sys.stderr)
     rows, cols = heightmap.shape
     _make_parents(args.output)
     with RasterWriter(args.output, (len(args.outputs), rows, cols), np.float32, like=raster, nodata=math.nan,
@@ -1023,8 +1022,8 @@ def run_sunshine(args: argparse.Namespace) -> int:
                   f"latitude {site.latitude:.5f}, longitude {site.longitude:.5f} (NREL SPA"
                   f"{f'; azimuths turned to the grid of {site.crs_name}' if site.crs is not None else ''}): "
                   f"{daylight} in daylight", file=sys.stderr)
-            if placed.blocks_line():
-                print(f"{PROG}: {placed.blocks_line()}", file=sys.stderr)
+            if blocks := placed.blocks_line():
+                print(f"{PROG}: {blocks}", file=sys.stderr)
         t1 = time.perf_counter()
         maps = caster.accumulate(suns, steps.seconds, args.outputs, method=args.method,
                                  azimuths=args.azimuths or DEFAULT_AZIMUTHS,
@@ -1190,8 +1189,8 @@ def run_horizon(args: argparse.Namespace) -> int:
         suns = placed.suns
         if not args.quiet:
             print(f"{PROG}: {placed.describe(times[0])}", file=sys.stderr)
-        if placed.spread_warning("sunlit"):
-            print(f"{PROG}: warning: {placed.spread_warning('sunlit')}", file=sys.stderr)
+        if warning := placed.spread_warning("sunlit"):
+            print(f"{PROG}: warning: {warning}", file=sys.stderr)
     azimuths = [] if sunlit else azimuth_grid(args.azimuths)
     traced = azimuths                     # the grid azimuths the kernel traces
     turned = ""

@@ -403,6 +403,16 @@ class Runtime:
         ly = max(1, ls // lx)
         return (-(-cols // lx) * lx, -(-rows // ly) * ly), (lx, ly)
 
+    def exact_grid_2d(self, kernel: cl.Kernel, cols: int, rows: int, wanted: int = 64,
+                      max_x: int = 16) -> tuple[tuple[int, int], tuple[int, int]]:
+        """As :meth:`grid_2d` for a launch over exactly ``cols`` x ``rows`` items (a block of a
+        map, at a global offset): each side of the local size is the largest power of two that
+        divides that side within the limits, so nothing is computed past the block."""
+        ls = self.local_size(kernel, wanted)
+        lx = _power_of_two_divisor(cols, min(ls, max_x))
+        ly = _power_of_two_divisor(rows, max(1, ls // lx))
+        return (cols, rows), (lx, ly)
+
     def count_in_bands(self, kernel: cl.Kernel, args: tuple, n_counters: int, cols: int, rows: int,
                        band_items: int) -> np.ndarray:
         """Run a profiling kernel whose last argument is ``n_counters`` uint32 counters
@@ -424,6 +434,14 @@ class Runtime:
             self.queue.finish()
             total += part
         return total
+
+
+def _power_of_two_divisor(n: int, limit: int) -> int:
+    """The largest power of two that divides ``n`` and is at most ``limit`` (>= 1)."""
+    size = 1
+    while size * 2 <= limit and n % (size * 2) == 0:
+        size *= 2
+    return size
 
 
 class ArgBinder:

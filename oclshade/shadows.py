@@ -374,10 +374,10 @@ class ShadowCaster:
         0), the packet kernel's runs are made to divide it (or the one-ray kernel runs).
 
         A field's blocks are traced one launch each, over their own cells (a global work
-        offset), in raster order on the in-order queue: the certificates of the tiles a block
-        touches are made for its sun just before its cells, and the cells a launch rounds up
-        past its block (right of it or below) belong to blocks launched later, which write
-        them again.  So every cell ends with its own block's result."""
+        offset and a local size that divides the block, so nothing past it is traced), in
+        raster order on the in-order queue: the certificates of the tiles a block touches are
+        made for its sun just before its cells (a tile shared with the next block is made
+        again for that block's sun).  So every cell gets its own block's result."""
         rt, hm = self.runtime, self.heightmap
         self.pyramid  # built (once) before the launches
         rows, cols = hm.shape
@@ -393,6 +393,7 @@ class ShadowCaster:
                 bufs[name] = rt.empty(nbytes, what) if name in outs else dummy
         run = features.run if features.packeted else 1
         lsize = rt.grid_2d(kernel, 1, 1, wanted=self.knobs["group"])[1]
+        grids: dict[tuple[int, int], tuple] = {}   # exact block grids by block size
 
         def launch(sun: Sun, k_dark: float, k_bright: float, block: SunBlock | None = None, bind: bool = True) -> None:
             """One launch; ``bind`` False: only the sun's arguments are set (the rest are as the
@@ -405,8 +406,13 @@ class ShadowCaster:
             else:
                 for index in _SUN_ARGS:
                     kernel.set_arg(index, args[index])
-            cl.enqueue_nd_range_kernel(rt.queue, kernel, _round_up((-(-(c1 - c0) // run), r1 - r0), lsize), lsize,
-                                       global_work_offset=None if block is None else (c0 // run, r0))
+            if block is None:
+                cl.enqueue_nd_range_kernel(rt.queue, kernel, _round_up((-(-cols // run), rows), lsize), lsize)
+            else:   # exactly the block's work-items (rounding up would trace cells of later blocks twice)
+                size = (-(-(c1 - c0) // run), r1 - r0)
+                if size not in grids:
+                    grids[size] = rt.exact_grid_2d(kernel, *size, wanted=self.knobs["group"])
+                cl.enqueue_nd_range_kernel(rt.queue, kernel, *grids[size], global_work_offset=(c0 // run, r0))
 
         def enqueue(item: Traced, k_dark: float, k_bright: float) -> None:
             if isinstance(item, SunField):
@@ -480,6 +486,7 @@ class ShadowCaster:
         bound = [False]   # whether this item's certify launches have set all arguments
 
         lsize = rt.grid_2d(kernel, 1, 1)[1]
+        grids: dict[tuple[int, int], tuple] = {}
 
         def certify(sun: Sun, block: SunBlock | None = None, bind: bool = True, args: tuple | None = None) -> tuple:
             """``bind`` False: only the ray is set (as the cells' launcher); ``args``: the
@@ -498,8 +505,10 @@ class ShadowCaster:
                 else:
                     t_r0, t_c0 = block.row0 // s, block.col0 // s
                     t_r1, t_c1 = -(-block.row1 // s), -(-block.col1 // s)
-                    cl.enqueue_nd_range_kernel(rt.queue, kernel, _round_up((t_c1 - t_c0, t_r1 - t_r0), lsize), lsize,
-                                               global_work_offset=(t_c0, t_r0))
+                    size = (t_c1 - t_c0, t_r1 - t_r0)
+                    if size not in grids:
+                        grids[size] = rt.exact_grid_2d(kernel, *size)
+                    cl.enqueue_nd_range_kernel(rt.queue, kernel, *grids[size], global_work_offset=(t_c0, t_r0))
             return (buf,)
 
         return certify

@@ -321,3 +321,16 @@ def test_sunshine_cli_sums_per_block_on_a_projected_map(tmp_path, capsys):
     np.testing.assert_array_equal(per_block[0], want.hours)
     np.testing.assert_array_equal(per_block[1], want.fraction)
     assert (per_block[0] != one[0]).sum() > 20
+
+
+def test_block_launches_divide_the_block_exactly():
+    """A block's launch has the block's size, and a local size that divides it (nothing past
+    the block is computed: the sunshine sums would count it twice)."""
+    from oclshade.runtime import _power_of_two_divisor, get_runtime
+
+    assert [_power_of_two_divisor(n, 16) for n in (1, 2, 12, 13, 48, 64, 96, 1024)] == [1, 2, 4, 1, 16, 16, 16, 16]
+    rt = get_runtime()
+    kernel = rt.kernel("sunshine.cl", "sunshine_masks", {"OCLS_OUT_SUN": True})
+    for cols, rows in ((13, 7), (112, 220), (1, 30), (64, 1)):
+        (gx, gy), (lx, ly) = rt.exact_grid_2d(kernel, cols, rows)
+        assert (gx, gy) == (cols, rows) and cols % lx == 0 and rows % ly == 0 and lx * ly <= 64

@@ -18,7 +18,8 @@ turn in each direction adds up to the tolerance; then the sun at every block cor
 computed and compared with its block's, and the blocks shrink until all are within the
 tolerance (the turn is smooth and nearly linear over a block, so the largest difference
 inside a rectangle is at a corner; tests/test_field.py checks every cell).  Block widths
-are multiples of 16 columns where they can be (the packet kernels' runs).
+are multiples of 16 columns where they can be, of 64 from 128 on (the packet kernels' runs
+divide them: long runs keep the packets' lanes full).
 """
 from __future__ import annotations
 
@@ -172,9 +173,14 @@ def _lattice(places: MapPlaces, when: datetime) -> tuple[Sun, float, np.ndarray,
 
 def _block_size(size: float, limit: int, step: int = 1) -> int:
     """A block side of at most ``size`` cells (at least 1, at most ``limit``), a multiple of
-    ``step`` when ``size`` allows."""
+    ``step`` when ``size`` allows, of 4 ``step`` when it is 8 ``step`` or more (long packet runs)."""
     n = max(1, min(limit, int(size)))
-    return n // step * step if n >= step and n < limit else n
+    if n >= limit:
+        return n
+    for unit in (4 * step, step):
+        if n >= 2 * unit or (unit == step and n >= step):
+            return n // unit * unit
+    return n
 
 
 def _blocks(places: MapPlaces, when: datetime, block_rows: int, block_cols: int) -> tuple[tuple[SunBlock, ...], float]:

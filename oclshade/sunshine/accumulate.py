@@ -125,9 +125,11 @@ class SunshineCaster:
         if method == "horizons":
             azimuth_grid(azimuths)   # checks the count
         day, weights = daylight(suns, seconds)
-        for step in day:
+        for k, step in enumerate(day):
             if isinstance(step, SunField):
                 step.check_shape(self.heightmap.shape)
+                if step.uniform:
+                    day[k] = step.blocks[0].sun
         units = _units(day)
         sums = self._sums(outs)
         launches = self._by_masks(day, units, outs) if method == "masks" else \
@@ -135,6 +137,7 @@ class SunshineCaster:
         rt = self.runtime
         rows, cols = self.heightmap.shape
         local = None
+        grids: dict[tuple[int, int], tuple] = {}
         binders: dict[int, ArgBinder] = {}
         for done, (unit, kernel, args) in enumerate(launches if units else (), 1):
             bind = binders.setdefault(id(kernel), ArgBinder(kernel))
@@ -143,10 +146,12 @@ class SunshineCaster:
                 local = local or rt.grid_2d(kernel, 1, 1)[1]
                 gsize = (-(-cols // local[0]) * local[0], -(-rows // local[1]) * local[1])
                 cl.enqueue_nd_range_kernel(rt.queue, kernel, gsize, local)
-            else:   # exactly the block's cells (the device picks a local size that divides them)
+            else:   # exactly the block's cells
                 b = unit.block
-                cl.enqueue_nd_range_kernel(rt.queue, kernel, (b.col1 - b.col0, b.row1 - b.row0), None,
-                                           global_work_offset=(b.col0, b.row0))
+                size = (b.col1 - b.col0, b.row1 - b.row0)
+                if size not in grids:
+                    grids[size] = rt.exact_grid_2d(kernel, *size)
+                cl.enqueue_nd_range_kernel(rt.queue, kernel, *grids[size], global_work_offset=(b.col0, b.row0))
             if progress is not None:
                 rt.queue.finish()
                 progress(done, len(units))

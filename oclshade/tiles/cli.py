@@ -94,8 +94,8 @@ def run(args: argparse.Namespace, job) -> int:
         if job.times:
             placed = solar_cli.suns_for(job.times, args, raster, per_block=False)
             job = cli.dataclasses.replace(job, suns=placed.suns)
-            if placed.spread_warning("--tile"):
-                sys.stderr.write(f"{cli.PROG}: warning: {placed.spread_warning('--tile')}\n")
+            if warning := placed.spread_warning("--tile"):
+                sys.stderr.write(f"{cli.PROG}: warning: {warning}\n")
         dx, dy = raster.dx * args.scale, raster.dy * args.scale
         rows, cols = windows.shape
         cli._make_parents(args.output)
