@@ -33,10 +33,10 @@ import numpy as np
 from ..io import Raster, geotransform
 from ..sun import DEFAULT_SUN_TOLERANCE as DEFAULT_TOLERANCE, Sun, SunBlock, SunField
 from .position import sun_position
-from .site import STEP_METRES, projected_crs
+from .site import grid_azimuths, projected_crs
 
 LATTICE = 9                # points per side where the turn per cell is measured
-COLUMN_STEP = 16           # block widths are multiples of this where the tolerance allows
+COLUMN_STEP = 16           # block widths are multiples of this where the tolerance allows (4x from 8x on)
 MAX_SHRINK = 12            # tries to shrink the blocks into the tolerance
 
 
@@ -69,13 +69,7 @@ class MapPlaces:
         :meth:`oclshade.solar.site.MapSite.grid_azimuths`, place by place)."""
         if self.crs is None:
             return np.mod(true_azimuths, 360.0)
-        from pyproj import Transformer
-
-        to_grid = Transformer.from_crs(self.crs.geodetic_crs, self.crs, always_xy=True)
-        lon2, lat2, _ = self.crs.get_geod().fwd(lon, lat, true_azimuths, np.full(lon.shape, STEP_METRES))
-        x0, y0 = to_grid.transform(lon, lat)
-        x1, y1 = to_grid.transform(lon2, lat2)
-        return np.mod(np.degrees(np.arctan2(np.asarray(x1) - x0, np.asarray(y1) - y0)), 360.0)
+        return grid_azimuths(self.crs, lon, lat, true_azimuths)
 
     def suns(self, when: datetime | Sequence[datetime], rows: np.ndarray, cols: np.ndarray
              ) -> tuple[np.ndarray, np.ndarray]:

@@ -42,18 +42,11 @@ class MapSite:
         az = np.asarray(true_azimuths, dtype=np.float64)
         if self.crs is None:
             return np.mod(az, 360.0)
-        from pyproj import Transformer
-
-        to_grid = Transformer.from_crs(self.crs.geodetic_crs, self.crs, always_xy=True)
-        lon2, lat2, _ = self.crs.get_geod().fwd(np.full(az.shape, self.longitude), np.full(az.shape, self.latitude),
-                                                az, np.full(az.shape, STEP_METRES))
-        x0, y0 = to_grid.transform(self.longitude, self.latitude)
-        x1, y1 = to_grid.transform(lon2, lat2)
-        grid = np.degrees(np.arctan2(np.asarray(x1) - x0, np.asarray(y1) - y0))
+        grid = grid_azimuths(self.crs, np.full(az.shape, self.longitude), np.full(az.shape, self.latitude), az)
         if not np.all(np.isfinite(grid)):
             raise ValueError(f"latitude {self.latitude:.6f}, longitude {self.longitude:.6f} lies outside where "
                              f"the map's CRS ({self.crs_name}) is defined")
-        return np.mod(grid, 360.0)
+        return grid
 
     def grid_suns(self, suns: Sequence[Sun]) -> list[Sun]:
         """The suns with their true azimuths turned to grid azimuths (elevations unchanged)."""
@@ -61,6 +54,19 @@ class MapSite:
             return list(suns)
         grid = self.grid_azimuths([sun.azimuth for sun in suns])
         return [Sun(float(az), sun.elevation) for az, sun in zip(grid, suns)]
+
+
+def grid_azimuths(crs: Any, lon: np.ndarray, lat: np.ndarray, true_azimuths: np.ndarray) -> np.ndarray:
+    """Place by place, the grid azimuth in a projected ``crs`` (pyproj) of the direction at
+    ``true_azimuths`` (degrees) from (``lon``, ``lat``): that of a 10 m geodesic step along it,
+    in [0, 360); NaN where the place lies outside the CRS's domain."""
+    from pyproj import Transformer
+
+    to_grid = Transformer.from_crs(crs.geodetic_crs, crs, always_xy=True)
+    lon2, lat2, _ = crs.get_geod().fwd(lon, lat, true_azimuths, np.full(np.shape(lon), STEP_METRES))
+    x0, y0 = to_grid.transform(lon, lat)
+    x1, y1 = to_grid.transform(lon2, lat2)
+    return np.mod(np.degrees(np.arctan2(np.asarray(x1) - np.asarray(x0), np.asarray(y1) - np.asarray(y0))), 360.0)
 
 
 def projected_crs(raster: Raster) -> tuple[Any, str] | None:
