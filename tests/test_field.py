@@ -3,7 +3,7 @@ SunField): every cell's own sun within the tolerance of its block's, each block 
 the float64 reference with its own sun, and the same bits whatever kernel variant runs."""
 import argparse
 import math
-from datetime import datetime, timedelta
+from datetime import datetime, timedelta, timezone
 
 import numpy as np
 import pytest
@@ -20,7 +20,7 @@ from oclshade.heightmap import Heightmap  # noqa: E402
 from oclshade.io import read_dem  # noqa: E402
 from oclshade.solar import map_places, map_site, sun_field, suns_at  # noqa: E402
 from oclshade.solar.cli import suns_for  # noqa: E402
-from oclshade.solar.field import angles_between, sun_spread, unit_vectors  # noqa: E402
+from oclshade.solar.field import angles_between, sun_differences, sun_spread, unit_vectors  # noqa: E402
 from oclshade.sun import Sun, SunBlock, SunField  # noqa: E402
 from oclshade.sunshine import SunshineCaster  # noqa: E402
 
@@ -334,3 +334,44 @@ def test_block_launches_divide_the_block_exactly():
     for cols, rows in ((13, 7), (112, 220), (1, 30), (64, 1)):
         (gx, gy), (lx, ly) = rt.exact_grid_2d(kernel, cols, rows)
         assert (gx, gy) == (cols, rows) and cols % lx == 0 and rows % ly == 0 and lx * ly <= 64
+
+
+def test_sunshine_progress_with_fields_reports_once_a_step():
+    """With sun fields the progress callback comes once a step (after its last block), counting
+    blocks, and ends at the total."""
+    hm = Heightmap.from_array(np.cumsum(np.ones((20, 40)), 1), 10.0)
+    steps = [random_field(hm.shape, [0, 10, 20], [0, 16, 40], 1), Sun(90.0, 20.0),
+             random_field(hm.shape, [0, 20], [0, 32, 40], 2, low=-30.0)]
+    calls = []
+    SunshineCaster(hm).accumulate(steps, 60, progress=lambda done, total: calls.append((done, total)))
+    up = 4 + 1 + sum(b.sun.elevation > 0 for b in steps[2].blocks)
+    assert calls[-1] == (up, up) and len(calls) == 2 + any(b.sun.elevation > 0 for b in steps[2].blocks)
+    assert [d for d, _ in calls] == sorted(d for d, _ in calls)
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(lat=st.floats(-84.0, 84.0), lon=st.floats(-180.0, 179.0), span=st.sampled_from([0.05, 0.5, 2.0]),
+       minutes=st.integers(0, 366 * 24 * 60), tolerance=st.sampled_from([0.01, 0.03]))
+def test_fields_hold_the_tolerance_anywhere(tmp_path_factory, lat, lon, span, minutes, tolerance):
+    """Geographic maps anywhere (across the antimeridian too, up to 84 degrees), any time of
+    2024: the blocks tile the map and the cells' own suns (a 25 x 25 sample of cell centres, the
+    corners included) are within the tolerance of their block's, where either is up."""
+    rows, cols = 120, 160
+    step = span / cols
+    north = min(lat + rows * step / 2, 89.9)
+    path = write_geographic(tmp_path_factory.mktemp("g") / "g.tif", np.zeros((rows, cols)), lon, north, step)
+    places = map_places(read_dem(path))
+    when = datetime(2024, 1, 1, tzinfo=timezone.utc) + timedelta(minutes=minutes)
+    field = sun_field(places, when, tolerance)
+    assert_covers(field)
+    r = np.unique(np.linspace(0, rows - 1, 25).round().astype(int))
+    c = np.unique(np.linspace(0, cols - 1, 25).round().astype(int))
+    rr, cc = np.meshgrid(r, c, indexing="ij")
+    own = unit_vectors(*places.suns(when, rr + 0.5, cc + 0.5))
+    block_of = {}
+    for k, b in enumerate(field.blocks):
+        block_of.update({(i, j): k for i in r if b.row0 <= i < b.row1 for j in c if b.col0 <= j < b.col1})
+    theirs = np.array([unit_vectors(field.blocks[block_of[(i, j)]].sun.azimuth,
+                                    field.blocks[block_of[(i, j)]].sun.elevation)
+                       for i, j in zip(rr.ravel(), cc.ravel())])
+    assert float(sun_differences(own, theirs).max()) <= tolerance

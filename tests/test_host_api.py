@@ -214,6 +214,38 @@ def test_c_host_matches_python_host(host: dict, tmp_path: Path, case: str) -> No
         assert (local != caster.cast(FLIP_SUN).mask).sum() == 1
 
 
+def test_c_host_traces_a_sun_field_block_by_block(host: dict, tmp_path: Path) -> None:
+    """oclshade_shadow_params' block window, one enqueue per block with its sun: the Python host's
+    ShadowCaster.cast_many([SunField]) bit for bit (every output), under every alternative tuning
+    too (packet runs cut to the blocks), and a block outside the map refused."""
+    from oclshade.sun import SunBlock, SunField
+
+    hm = random_map()
+    rows, cols = hm.shape
+    suns = [(300.0, 12.0), (45.0, 45.0), (181.0, 3.0), (90.0, -3.0), (10.0, 90.0), (250.0, 30.0)]
+    cuts_r, cuts_c = [0, 9, rows], [0, 13, 32, cols]
+    blocks = [SunBlock(cuts_r[a], cuts_r[a + 1], cuts_c[b], cuts_c[b + 1], Sun(*suns[a * 3 + b]))
+              for a in range(2) for b in range(3)]
+    field = SunField(hm.shape, tuple(blocks), blocks[0].sun)
+    path = tmp_path / "field.bin"
+    with open(path, "wb") as f:
+        np.array([len(blocks)], np.int32).tofile(f)
+        for blk in blocks:
+            np.array([blk.row0, blk.row1, blk.col0, blk.col1], np.int32).tofile(f)
+            np.array([blk.sun.azimuth, blk.sun.elevation], np.float64).tofile(f)
+    src = tmp_path / "heights.f64"
+    np.ascontiguousarray(hm.heights, np.float64).tofile(src)
+    out = tmp_path / "out"
+    out.mkdir()
+    stdout = run_program(host, "host_shadows", str(_kernel_root()), src, rows, cols, repr(hm.dx), repr(hm.dy), out,
+                         f"--field={path}", "315.0,20.0")
+    assert "field of 6 blocks traced" in stdout and stdout.strip().endswith("ok")
+    py = ShadowCaster(hm, cache=False).cast_many([field], "exact", "all", K_DARK, K_BRIGHT)[0]
+    for ext, arr in (("mask", py.mask), ("self", py.self_shadow), ("coef", py.coefficient)):
+        assert np.fromfile(out / f"field.{ext}", arr.dtype).tobytes() == arr.tobytes(), ext
+    assert (py.mask == 1).any() and (py.mask == 0).any()
+
+
 def test_c_error_paths_and_build_options(host: dict) -> None:
     """host_errors checks status codes and messages itself; its build options must be Python's."""
     proc = _run([str(host["build"] / "host_errors"), str(_kernel_root())], env=host["env"])

@@ -58,11 +58,11 @@ def python_sums(hm: Heightmap, method: str, azimuths: int):
     raw: dict[str, np.ndarray] = {}
     finish = caster._maps
 
-    def spy(outs, sums, total, count):
+    def spy(outs, sums, *rest):
         for name, dtype, per in (("sun", np.uint32, 1), ("cast", np.uint32, 1), ("beam", np.float32, 2)):
             raw[name] = np.empty(hm.heights.size * per, dtype)
             cl.enqueue_copy(caster.runtime.queue, raw[name], sums[name])
-        return finish(outs, sums, total, count)
+        return finish(outs, sums, *rest)
 
     caster._maps = spy
     maps = caster.accumulate([(az, el) for az, el, _ in SUNS], np.array([s for *_, s in SUNS]), outputs="all",

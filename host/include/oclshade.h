@@ -401,6 +401,13 @@ typedef struct oclshade_shadow_params {
                                    map's coordinates, so a window holding every cell that can shade
                                    a cell decides it bit for bit as the larger map does (Python:
                                    ShadowCaster(origin=...), oclshade.tiles) */
+    int block_row0, block_col0; /* a block of this map's cells to trace, and only it (Python: a SunField's */
+    int block_rows, block_cols; /* blocks, each with its own sun, ShadowCaster.cast_many): 0 x 0, the
+                                   default, is every cell; outputs outside the block are left as they
+                                   are.  The certificates of the tiles the block touches are made (in
+                                   the scratch, for this sun).  With ray packets the run knob is cut to
+                                   divide block_col0 and, unless the block ends at the last column,
+                                   block_cols; below the lanes knob one ray per work-item runs */
 } oclshade_shadow_params;
 
 /* Defaults: no buffers, 0 x 0, origin (0, 0), dx = dy = 1, sun (315, 45) as gdaldem,

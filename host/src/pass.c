@@ -337,10 +337,11 @@ static size_t local_size(const oclshade *lib, const kernel_entry *k, size_t want
 
 static size_t round_up(size_t n, size_t m) { return (n + m - 1) / m * m; }
 
-static oclshade_status launch(ocls_pass *ps, kernel_entry *k, cl_uint dims, const size_t *global, const size_t *local)
+static oclshade_status launch(ocls_pass *ps, kernel_entry *k, cl_uint dims, const size_t *offset, const size_t *global,
+                              const size_t *local)
 {
     cl_event ev = NULL;
-    const cl_int err = clEnqueueNDRangeKernel(ps->queue, k->kernel, dims, NULL, global, local, chain_n(ps),
+    const cl_int err = clEnqueueNDRangeKernel(ps->queue, k->kernel, dims, offset, global, local, chain_n(ps),
                                               chain_list(ps), &ev);
     chain_next(ps, err, ev);
     if (err != CL_SUCCESS) {
@@ -360,18 +361,36 @@ oclshade_status ocls_launch_3d(ocls_pass *ps, kernel_entry *k, int cols, int row
                                size_t max_x)
 {
     size_t local[3] = {0, 1, 1}, global[3] = {(size_t)cols, (size_t)rows, (size_t)layers};
-    if (wanted == 0) return launch(ps, k, 3, global, NULL);   /* the driver's local size */
+    if (wanted == 0) return launch(ps, k, 3, NULL, global, NULL);   /* the driver's local size */
     const size_t ls = local_size(ps->lib, k, wanted);
     if (rows == 0) {   /* 1-D over cols items */
         local[0] = ls;
         global[0] = round_up((size_t)cols, ls);
-        return launch(ps, k, 1, global, local);
+        return launch(ps, k, 1, NULL, global, local);
     }
     local[0] = ls < max_x ? ls : max_x;   /* Runtime.grid_2d, each layer one deep */
     local[1] = ls / local[0] ? ls / local[0] : 1;
     global[0] = round_up((size_t)cols, local[0]);
     global[1] = round_up((size_t)rows, local[1]);
-    return launch(ps, k, layers > 0 ? 3 : 2, global, local);
+    return launch(ps, k, layers > 0 ? 3 : 2, NULL, global, local);
+}
+
+/* The largest power of two that divides n and is at most limit (>= 1): Runtime._power_of_two_divisor. */
+static size_t power_of_two_divisor(size_t n, size_t limit)
+{
+    size_t size = 1;
+    while (size * 2 <= limit && n % (size * 2) == 0) size *= 2;
+    return size;
+}
+
+oclshade_status ocls_launch_window(ocls_pass *ps, kernel_entry *k, int col0, int row0, int cols, int rows,
+                                   size_t wanted, size_t max_x)
+{
+    const size_t ls = local_size(ps->lib, k, wanted);
+    size_t local[2], offset[2] = {(size_t)col0, (size_t)row0}, global[2] = {(size_t)cols, (size_t)rows};
+    local[0] = power_of_two_divisor((size_t)cols, ls < max_x ? ls : max_x);   /* Runtime.exact_grid_2d */
+    local[1] = power_of_two_divisor((size_t)rows, ls / local[0] ? ls / local[0] : 1);
+    return launch(ps, k, 2, offset, global, local);
 }
 
 oclshade_status ocls_pass_finish(ocls_pass *ps, oclshade_status st, cl_event *event)

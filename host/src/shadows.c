@@ -115,6 +115,16 @@ static void shadow_defines(oclshade_method method, unsigned outputs, int lanes, 
     ocls_def_flag(d, "OCLS_HW_GATHER", gather && packets);
 }
 
+static int gcd_int(int a, int b)
+{
+    while (b != 0) {
+        const int t = a % b;
+        a = b;
+        b = t;
+    }
+    return a;
+}
+
 static int method_ok(oclshade_method method) { return method >= OCLSHADE_EXACT && method <= OCLSHADE_DDA; }
 
 size_t oclshade_shadow_build_options(oclshade_method method, unsigned outputs, char *buf, size_t size)
@@ -190,6 +200,12 @@ static oclshade_status shadow_job_for(oclshade *lib, const oclshade_shadow_param
         p->origin_col > OCLS_MAX_COORDINATE - p->cols)
         return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "origin_row and origin_col must be >= 0 with origin + size "
                          "<= 2^30, got origin (%d, %d) for %d x %d", p->origin_row, p->origin_col, p->rows, p->cols);
+    if ((p->block_rows != 0 || p->block_cols != 0) &&
+        (p->block_rows < 1 || p->block_cols < 1 || p->block_row0 < 0 || p->block_col0 < 0 ||
+         p->block_row0 > p->rows - p->block_rows || p->block_col0 > p->cols - p->block_cols))
+        return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "block_row0 / block_rows and block_col0 / block_cols must "
+                         "give a block inside the %d x %d map (0 x 0: all of it), got rows %d + %d, cols %d + %d",
+                         p->rows, p->cols, p->block_row0, p->block_rows, p->block_col0, p->block_cols);
     if (!isfinite(p->azimuth))
         return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "azimuth must be a finite number of degrees, got %g", p->azimuth);
     if (!(isfinite(p->elevation) && p->elevation >= -90.0 && p->elevation <= 90.0))
@@ -227,9 +243,19 @@ static oclshade_status shadow_body(ocls_pass *ps, const void *params)
          (st = ocls_scratch(ps, (size_t)tr * (size_t)tc * CERT_K * 4u, "certificates", &cert)) != OCLSHADE_OK) ||
         !ps->run)
         return st;
+    /* the block (the whole map by default) and, for it, the packet run (ShadowCaster._features) */
+    const int whole = p->block_rows == 0;
+    const int r0 = whole ? 0 : p->block_row0, c0 = whole ? 0 : p->block_col0;
+    const int br = whole ? p->rows : p->block_rows, bc = whole ? p->cols : p->block_cols;
+    int lanes = ocls_knob(lib, K_SHADOW_LANES), run = ocls_knob(lib, K_SHADOW_RUN);
+    const int step = gcd_int(c0, c0 + bc == p->cols ? 0 : bc);
+    if (lanes > 0 && CERTIFIED(p->method) && step != 0 && step % run != 0) {
+        run = gcd_int(run, step);
+        if (run < lanes) lanes = 0;
+    }
     ocls_defines d;
-    handle_defines(lib, p->method, j->outputs, &d);
-    const int lanes = ocls_knob(lib, K_SHADOW_LANES), run = ocls_knob(lib, K_SHADOW_RUN);
+    shadow_defines(p->method, j->outputs, lanes, run, tile, ocls_knob(lib, K_SHADOW_OWN_BUILTINS),
+                   ocls_knob(lib, K_SHADOW_GATHER), &d);
     const int packets = lanes > 0 && CERTIFIED(p->method);
     kernel_entry *k, *certify = NULL;
     st = ocls_kernel(ps, "shadow.cl", &d, packets ? "shadow_cells_packet" : "shadow_cells", &k);
@@ -250,7 +276,10 @@ static oclshade_status shadow_body(ocls_pass *ps, const void *params)
         const ocls_arg a[] = {OCLS_ARG(H), OCLS_ARG(W), OCLS_ARG(origin), OCLS_ARG(p->pyramid), OCLS_ARG(p->offsets),
                               OCLS_ARG(nlev), OCLS_ARG(ray), OCLS_ARG(cert)};
         st = ocls_set_args(ps, certify, a, 8);
-        if (st == OCLSHADE_OK) st = ocls_launch(ps, certify, tc, tr, 64, 16);
+        if (st == OCLSHADE_OK && whole) st = ocls_launch(ps, certify, tc, tr, 64, 16);
+        else if (st == OCLSHADE_OK)   /* the tiles the block touches */
+            st = ocls_launch_window(ps, certify, c0 / tile, r0 / tile, (c0 + bc + tile - 1) / tile - c0 / tile,
+                                    (r0 + br + tile - 1) / tile - r0 / tile, 64, 16);
     }
     /* an output not compiled in gets a NULL buffer (allowed for __global pointers) */
     const ocls_arg a[] = {OCLS_ARG(heights), OCLS_ARG(H), OCLS_ARG(W), OCLS_ARG(origin), OCLS_ARG(p->pyramid),
@@ -258,8 +287,11 @@ static oclshade_status shadow_body(ocls_pass *ps, const void *params)
                           OCLS_ARG(kcoef), OCLS_ARG(mode), OCLS_ARG(mask), OCLS_ARG(self), OCLS_ARG(coef),
                           OCLS_ARG(cert)};
     if (st == OCLSHADE_OK) st = ocls_set_args(ps, k, a, certify != NULL ? 16 : 15);
-    if (st == OCLSHADE_OK)
-        st = ocls_launch(ps, k, packets ? (W + run - 1) / run : W, H, (size_t)ocls_knob(lib, K_SHADOW_GROUP), 16);
+    const size_t group = (size_t)ocls_knob(lib, K_SHADOW_GROUP);
+    if (st == OCLSHADE_OK && whole)
+        st = ocls_launch(ps, k, packets ? (W + run - 1) / run : W, H, group, 16);
+    else if (st == OCLSHADE_OK)   /* exactly the block's work-items */
+        st = ocls_launch_window(ps, k, packets ? c0 / run : c0, r0, packets ? (bc + run - 1) / run : bc, br, group, 16);
     return st;
 }
 

@@ -127,15 +127,69 @@ static void *thread_main(void *arg)
 }
 #endif
 
+/* A sun field (oclshade.sun.SunField) from a file: int32 count, then per block int32 row0, row1,
+ * col0, col1 and float64 azimuth, elevation. */
+typedef struct field_block { int r0, r1, c0, c1; double az, el; } field_block;
+
+static field_block *read_field(const char *path, int *count)
+{
+    FILE *f = fopen(path, "rb");
+    if (f == NULL || fread(count, sizeof *count, 1, f) != 1 || *count < 1) { fprintf(stderr, "cannot read %s\n", path); exit(1); }
+    field_block *blocks = (field_block *)xmalloc((size_t)*count * sizeof *blocks);
+    for (int b = 0; b < *count; ++b) {
+        int ints[4];
+        double angles[2];
+        if (fread(ints, sizeof *ints, 4, f) != 4 || fread(angles, sizeof *angles, 2, f) != 2) {
+            fprintf(stderr, "cannot read block %d of %s\n", b, path);
+            exit(1);
+        }
+        blocks[b].r0 = ints[0]; blocks[b].r1 = ints[1]; blocks[b].c0 = ints[2]; blocks[b].c1 = ints[3];
+        blocks[b].az = angles[0]; blocks[b].el = angles[1];
+    }
+    fclose(f);
+    return blocks;
+}
+
+/* Each block traced with its own sun through the block window of oclshade_shadow_params (all
+ * outputs, EXACT), then the outputs read back. */
+static void trace_field(oclshade *lib, cl_command_queue queue, oclshade_shadow_params p, const field_block *blocks,
+                        int count, cl_mem d_mask, cl_mem d_self, cl_mem d_coef, size_t n, unsigned char *mask,
+                        unsigned char *self, float *coef)
+{
+    p.method = OCLSHADE_EXACT;
+    p.mask = oclshade_field_of(d_mask); p.self_shadow = oclshade_field_of(d_self);
+    p.coefficient = oclshade_field_of(d_coef);
+    for (int b = 0; b < count; ++b) {
+        p.block_row0 = blocks[b].r0; p.block_rows = blocks[b].r1 - blocks[b].r0;
+        p.block_col0 = blocks[b].c0; p.block_cols = blocks[b].c1 - blocks[b].c0;
+        p.azimuth = blocks[b].az; p.elevation = blocks[b].el;
+        CHECK(oclshade_enqueue_shadows(lib, queue, &p, 0, NULL, NULL));
+    }
+    read_buffer(queue, d_mask, n, mask, 0, NULL);
+    read_buffer(queue, d_self, n, self, 0, NULL);
+    read_buffer(queue, d_coef, 4 * n, coef, 0, NULL);
+}
+
 int main(int argc, char **argv)
 {
     int first_sun = 8, origin_row = 0, origin_col = 0;
-    if (argc > 8 && strncmp(argv[8], "--origin=", 9) == 0) {
-        if (sscanf(argv[8] + 9, "%d,%d", &origin_row, &origin_col) != 2) { fprintf(stderr, "bad %s\n", argv[8]); return 2; }
-        first_sun = 9;
+    const char *field_path = NULL;
+    for (; argc > first_sun && strncmp(argv[first_sun], "--", 2) == 0; ++first_sun) {
+        if (strncmp(argv[first_sun], "--origin=", 9) == 0) {
+            if (sscanf(argv[first_sun] + 9, "%d,%d", &origin_row, &origin_col) != 2) {
+                fprintf(stderr, "bad %s\n", argv[first_sun]);
+                return 2;
+            }
+        } else if (strncmp(argv[first_sun], "--field=", 8) == 0) {
+            field_path = argv[first_sun] + 8;
+        } else {
+            fprintf(stderr, "bad option %s\n", argv[first_sun]);
+            return 2;
+        }
     }
     if (argc <= first_sun) {
-        fprintf(stderr, "usage: %s KERNELS HEIGHTS ROWS COLS DX DY OUTDIR [--origin=R,C] AZ,EL [AZ,EL ...]\n", argv[0]);
+        fprintf(stderr, "usage: %s KERNELS HEIGHTS ROWS COLS DX DY OUTDIR [--origin=R,C] [--field=FILE] AZ,EL "
+                "[AZ,EL ...]\n", argv[0]);
         return 2;
     }
     const char *kernels = strcmp(argv[1], "-") == 0 ? NULL : argv[1];
@@ -320,6 +374,27 @@ int main(int argc, char **argv)
     }
 #endif
 
+    /* A sun field, block by block (written as field.mask / .self / .coef). */
+    int nblocks = 0;
+    field_block *blocks = field_path != NULL ? read_field(field_path, &nblocks) : NULL;
+    unsigned char *field_out = blocks != NULL ? (unsigned char *)xmalloc(6 * n) : NULL;
+    if (blocks != NULL) {
+        trace_field(lib, queue, sh.base, blocks, nblocks, d_mask, d_self, d_coef, n, field_out, field_out + n,
+                    (float *)(field_out + 2 * n));
+        write_file("field.mask", field_out, n);
+        write_file("field.self", field_out + n, n);
+        write_file("field.coef", field_out + 2 * n, 4 * n);
+        /* a block outside the map is refused in one line */
+        oclshade_shadow_params bad = sh.base;
+        bad.block_row0 = rows; bad.block_rows = 1; bad.block_col0 = 0; bad.block_cols = 1;
+        if (oclshade_enqueue_shadows(lib, queue, &bad, 0, NULL, NULL) != OCLSHADE_INVALID_ARGUMENT ||
+            strstr(oclshade_last_error(lib), "block_row0") == NULL) {
+            fprintf(stderr, "a block outside the map was not refused: %s\n", oclshade_last_error(lib));
+            return 1;
+        }
+        printf("field of %d blocks traced\n", nblocks);
+    }
+
     /* The knobs change how the shadow pass is built and launched, never what it computes. */
     for (size_t a = 0; a < N_ALT_TUNINGS; ++a) {
         const oclshade_tuning *t = &ALT_TUNINGS[a];
@@ -343,8 +418,19 @@ int main(int argc, char **argv)
                 }
             }
         }
+        if (blocks != NULL) {   /* the field too: packet runs cut to the blocks, or one ray per item */
+            trace_field(lib, queue, sh.base, blocks, nblocks, d_mask, d_self, d_coef, n, mask, self, coef);
+            if (memcmp(mask, field_out, n) != 0 || memcmp(self, field_out + n, n) != 0 ||
+                memcmp(coef, field_out + 2 * n, 4 * n) != 0) {
+                fprintf(stderr, "tuning lanes %d run %d group %d: the field's outputs differ\n", t->packet_lanes,
+                        t->packet_run, t->group);
+                return 1;
+            }
+        }
         printf("tuning lanes %d run %d group %d: same outputs\n", t->packet_lanes, t->packet_run, t->group);
     }
+    free(blocks);
+    free(field_out);
     free(outputs);
     free(sh.az); free(sh.el); free(sh.exact); free(sh.maxmip);
 

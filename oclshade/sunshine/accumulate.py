@@ -138,9 +138,11 @@ class SunshineCaster:
         rows, cols = self.heightmap.shape
         local = None
         grids: dict[tuple[int, int], tuple] = {}
-        binders: dict[int, ArgBinder] = {}
+        bind = None
+        last = {unit.step: k for k, unit in enumerate(units)}     # a step's last unit (as listed)
+        finals = {id(units[k]) for k in last.values()}
         for done, (unit, kernel, args) in enumerate(launches if units else (), 1):
-            bind = binders.setdefault(id(kernel), ArgBinder(kernel))
+            bind = bind or ArgBinder(kernel)                       # one kernel per call
             bind(*args, *_sun_args(unit.sun, int(weights[unit.step])), *sums.values())
             if unit.block is None:
                 local = local or rt.grid_2d(kernel, 1, 1)[1]
@@ -152,8 +154,8 @@ class SunshineCaster:
                 if size not in grids:
                     grids[size] = rt.exact_grid_2d(kernel, *size)
                 cl.enqueue_nd_range_kernel(rt.queue, kernel, *grids[size], global_work_offset=(b.col0, b.row0))
-            if progress is not None:
-                rt.queue.finish()
+            if progress is not None and (id(unit) in finals or done == len(units)):
+                rt.queue.finish()          # once a step (a field's last block), not every block
                 progress(done, len(units))
         return self._maps(outs, sums, int(weights.sum()), len(day), _daylight_map(units, weights, self.heightmap.shape))
 
