@@ -147,9 +147,10 @@ class SunField:
                              f"not this {shape[1]}x{shape[0]} one")
 
     @classmethod
-    def single(cls, sun: Sun, shape: tuple[int, int]) -> "SunField":
-        """One sun for the whole map."""
-        return cls(shape, (SunBlock(0, shape[0], 0, shape[1], sun),), sun, 0.0)
+    def single(cls, sun: Sun, shape: tuple[int, int], deviation: float = 0.0,
+               tolerance: float = DEFAULT_SUN_TOLERANCE) -> "SunField":
+        """One sun for the whole map (``deviation``: how far the cells' own suns are from it)."""
+        return cls(shape, (SunBlock(0, shape[0], 0, shape[1], sun),), sun, deviation, tolerance)
 
 
 Traced = Union[Sun, SunField]

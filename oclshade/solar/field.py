@@ -125,7 +125,7 @@ def sun_field(places: MapPlaces, when: datetime, tolerance: float = DEFAULT_TOLE
     rows, cols = places.shape
     centre, spread, r, c, v = _lattice(places, when)
     if spread <= tolerance:
-        return SunField(places.shape, SunField.single(centre, places.shape).blocks, centre, spread, float(tolerance))
+        return SunField.single(centre, places.shape, spread, float(tolerance))
     per_row = sun_differences(v[1:], v[:-1]).max() / (r[1] - r[0])
     per_col = sun_differences(v[:, 1:], v[:, :-1]).max() / (c[1] - c[0])
     height = tolerance / per_row if per_row > 0 else float(rows)
@@ -171,10 +171,8 @@ def _block_size(size: float, limit: int, step: int = 1) -> int:
     n = max(1, min(limit, int(size)))
     if n >= limit:
         return n
-    for unit in (4 * step, step):
-        if n >= 2 * unit or (unit == step and n >= step):
-            return n // unit * unit
-    return n
+    unit = 4 * step if n >= 8 * step else (step if n >= step else 1)
+    return n // unit * unit
 
 
 def _blocks(places: MapPlaces, when: datetime, block_rows: int, block_cols: int) -> tuple[tuple[SunBlock, ...], float]:
