@@ -205,6 +205,9 @@ def test_the_cli_traces_datetimes_per_block_on_a_projected_map(tmp_path, capsys)
     assert np.array_equal(per_block, expected)
     assert np.array_equal(one, ShadowCaster(hm, cache=False).cast(field.centre).mask)
     assert (per_block != one).sum() > 50
+    (tmp_path / "suns.csv").write_text(f"datetime\n{when}\n")     # --suns datetime rows: the same
+    assert main(["shadow", str(dem), str(tmp_path / "csv.npy"), "--suns", str(tmp_path / "suns.csv"), "-q"]) == 0
+    assert np.array_equal(np.load(tmp_path / "csv.npy"), per_block)
     assert main(["shadow", str(dem), str(tmp_path / "x.npy"), "--datetime", when, "--sun-tolerance", "0"]) == 2
     assert "sun tolerance must be degrees above 0" in capsys.readouterr().err
 
