@@ -237,10 +237,11 @@ class ShadowCaster:
         self.runtime.queue.finish()
         self.runtime.program("shadow.cl", self._features(method, check_outputs(outputs)).defines())
 
-    def cast(self, sun: SunLike, method: str = "exact", outputs: str | Sequence[str] = ("mask",),
+    def cast(self, sun: SunLike | SunField, method: str = "exact", outputs: str | Sequence[str] = ("mask",),
              k_dark: float = DEFAULT_K_DARK, k_bright: float = DEFAULT_K_BRIGHT) -> ShadowResult:
-        """Shadow outputs for one sun (azimuth, elevation in degrees)."""
-        return self.cast_many([as_sun(sun)], method, outputs, k_dark, k_bright)[0]
+        """Shadow outputs for one sun (azimuth, elevation in degrees), or one sun field."""
+        return self.cast_many([sun if isinstance(sun, SunField) else as_sun(sun)], method, outputs, k_dark,
+                              k_bright)[0]
 
     def cast_many(self, suns: Iterable[SunLike | SunField], method: str = "exact",
                   outputs: str | Sequence[str] = ("mask",), k_dark: float = DEFAULT_K_DARK,

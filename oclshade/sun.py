@@ -158,8 +158,9 @@ Traced = Union[Sun, SunField]
 
 def as_traced(values: SunLike | SunField | Iterable[SunLike | SunField]) -> list[Traced]:
     """As :func:`as_suns`, keeping each :class:`SunField` as it is."""
-    if isinstance(values, SunField):
+    if isinstance(values, (Sun, SunField)):
         return [values]
-    if isinstance(values, (list, tuple)) and any(isinstance(v, SunField) for v in values):
-        return [v if isinstance(v, SunField) else as_sun(v) for v in values]
-    return as_suns(values)  # type: ignore[arg-type]
+    seq = list(values)  # type: ignore[arg-type]
+    if any(isinstance(v, SunField) for v in seq):
+        return [v if isinstance(v, SunField) else as_sun(v) for v in seq]
+    return as_suns(seq)

@@ -152,6 +152,7 @@ def test_a_field_traces_each_block_as_its_own_sun(part, knobs, certificates):
     outputs = ("mask", "self", "coefficient")
     got = caster.cast_many([field], outputs=outputs)[0]
     assert got.sun == field.centre
+    assert caster.cast(field, outputs=outputs).mask.tobytes() == got.mask.tobytes()
     for block in field.blocks:
         whole = caster.cast(block.sun, outputs=outputs)
         window = np.s_[block.row0:block.row1, block.col0:block.col1]
