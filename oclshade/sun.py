@@ -123,13 +123,27 @@ class SunField:
 
     ``centre``: the sun at the map's centre (in grid azimuth, as every sun here);
     ``deviation``: the largest angle in degrees found between a block's sun and the sun at its
-    corners (0 for one block); ``tolerance``: the bound it was made to."""
+    corners (for one block: between the centre's and the map corners'); ``tolerance``: the
+    bound it was made to.  Checked: the blocks lie inside the map and their areas add up to
+    it (they must tile it: a cell in no block would keep an earlier sun's output)."""
 
     shape: tuple[int, int]
     blocks: tuple[SunBlock, ...]
     centre: Sun
     deviation: float = 0.0
     tolerance: float = DEFAULT_SUN_TOLERANCE
+
+    def __post_init__(self) -> None:
+        rows, cols = self.shape
+        area = 0
+        for b in self.blocks:
+            if not (0 <= b.row0 < b.row1 <= rows and 0 <= b.col0 < b.col1 <= cols):
+                raise ValueError(f"sun field block rows [{b.row0}, {b.row1}) x columns [{b.col0}, {b.col1}) "
+                                 f"must be non-empty and inside the {cols}x{rows} map")
+            area += (b.row1 - b.row0) * (b.col1 - b.col0)
+        if area != rows * cols:
+            raise ValueError(f"sun field blocks must tile the {cols}x{rows} map once: their areas add up to "
+                             f"{area} cells, not {rows * cols}")
 
     @property
     def uniform(self) -> bool:

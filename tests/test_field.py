@@ -178,6 +178,16 @@ def test_a_field_is_exact_against_the_reference_per_block():
     assert (got.mask == 1).sum() > 100 and (got.mask == 0).sum() > 100
 
 
+def test_a_field_must_tile_its_map():
+    sun = Sun(90.0, 10.0)
+    with pytest.raises(ValueError, match="must be non-empty and inside the 12x10 map"):
+        SunField((10, 12), (SunBlock(0, 10, 0, 13, sun),), sun)
+    with pytest.raises(ValueError, match="areas add up to 60 cells, not 120"):
+        SunField((10, 12), (SunBlock(0, 10, 0, 6, sun),), sun)
+    with pytest.raises(ValueError, match="non-empty"):
+        SunField((10, 12), (SunBlock(0, 0, 0, 12, sun), SunBlock(0, 10, 0, 12, sun)), sun)
+
+
 def test_a_field_must_fit_the_map():
     hm = Heightmap.from_array(np.zeros((10, 12)), 1.0)
     field = SunField.single(Sun(90.0, 10.0), (12, 10))

@@ -235,10 +235,14 @@ static oclshade_status shadow_body(ocls_pass *ps, const void *params)
     const int tile = ocls_knob(lib, K_SHADOW_CERT_TILE);
     const int tr = (p->rows + tile - 1) / tile, tc = (p->cols + tile - 1) / tile;
     oclshade_status st;
+    /* with a block window a staged output is copied in first, so that the cells outside the block
+       come back as they were */
+    oclshade_status (*bind_out)(ocls_pass *, const oclshade_field *, int, size_t, const char *, cl_mem *) =
+        p->block_rows == 0 ? ocls_bind_out : ocls_bind_inout;
     if ((st = ocls_bind_in(ps, &p->heights, p->rows, 4 * n1, "heights", &heights)) != OCLSHADE_OK ||
-        (st = ocls_bind_out(ps, &p->mask, p->rows, n1, "mask", &mask)) != OCLSHADE_OK ||
-        (st = ocls_bind_out(ps, &p->self_shadow, p->rows, n1, "self_shadow", &self)) != OCLSHADE_OK ||
-        (st = ocls_bind_out(ps, &p->coefficient, p->rows, 4 * n1, "coefficient", &coef)) != OCLSHADE_OK ||
+        (st = bind_out(ps, &p->mask, p->rows, n1, "mask", &mask)) != OCLSHADE_OK ||
+        (st = bind_out(ps, &p->self_shadow, p->rows, n1, "self_shadow", &self)) != OCLSHADE_OK ||
+        (st = bind_out(ps, &p->coefficient, p->rows, 4 * n1, "coefficient", &coef)) != OCLSHADE_OK ||
         (CERTIFIED(p->method) &&
          (st = ocls_scratch(ps, (size_t)tr * (size_t)tc * CERT_K * 4u, "certificates", &cert)) != OCLSHADE_OK) ||
         !ps->run)
@@ -304,6 +308,14 @@ oclshade_status oclshade_shadows_scratch_size(oclshade *lib, const oclshade_shad
     return st != OCLSHADE_OK ? st : ocls_plan(lib, shadow_body, &j, bytes);
 }
 
+/* An output is also read when a block window stages it (not packed at offset 0): its cells
+ * outside the block are copied in and back. */
+static int output_access(const oclshade_shadow_params *p, const oclshade_field *f, size_t row_bytes)
+{
+    const int staged = !(f->offset == 0 && (f->row_pitch == 0 || f->row_pitch == row_bytes));
+    return p->block_rows != 0 && staged ? OCLS_INOUT : OCLS_OUT;
+}
+
 oclshade_status oclshade_enqueue_shadows(oclshade *lib, cl_command_queue queue, const oclshade_shadow_params *p,
                                          cl_uint num_events_in_wait_list, const cl_event *event_wait_list,
                                          cl_event *event)
@@ -317,11 +329,14 @@ oclshade_status oclshade_enqueue_shadows(oclshade *lib, cl_command_queue queue, 
     if ((st = ocls_use_field(lib, &uses, "heights", &p->heights, p->rows, 4 * n1, OCLS_IN)) != OCLSHADE_OK ||
         (st = ocls_use_buffer(lib, &uses, "pyramid", p->pyramid, j.lay.pyramid_bytes, OCLS_IN)) != OCLSHADE_OK ||
         (st = ocls_use_buffer(lib, &uses, "offsets", p->offsets, j.lay.offsets_bytes, OCLS_IN)) != OCLSHADE_OK ||
-        (p->mask.buffer && (st = ocls_use_field(lib, &uses, "mask", &p->mask, p->rows, n1, OCLS_OUT)) != OCLSHADE_OK) ||
+        (p->mask.buffer &&
+         (st = ocls_use_field(lib, &uses, "mask", &p->mask, p->rows, n1, output_access(p, &p->mask, n1))) != OCLSHADE_OK) ||
         (p->self_shadow.buffer &&
-         (st = ocls_use_field(lib, &uses, "self_shadow", &p->self_shadow, p->rows, n1, OCLS_OUT)) != OCLSHADE_OK) ||
+         (st = ocls_use_field(lib, &uses, "self_shadow", &p->self_shadow, p->rows, n1,
+                              output_access(p, &p->self_shadow, n1))) != OCLSHADE_OK) ||
         (p->coefficient.buffer &&
-         (st = ocls_use_field(lib, &uses, "coefficient", &p->coefficient, p->rows, 4 * n1, OCLS_OUT)) != OCLSHADE_OK))
+         (st = ocls_use_field(lib, &uses, "coefficient", &p->coefficient, p->rows, 4 * n1,
+                              output_access(p, &p->coefficient, 4 * n1))) != OCLSHADE_OK))
         return st;
     return ocls_enqueue(lib, queue, p->scratch, &uses, shadow_body, &j, num_events_in_wait_list, event_wait_list, event);
 }

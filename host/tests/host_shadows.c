@@ -392,6 +392,41 @@ int main(int argc, char **argv)
             fprintf(stderr, "a block outside the map was not refused: %s\n", oclshade_last_error(lib));
             return 1;
         }
+        /* the mask as a pitched field at an offset (staged by the host): the same cells, and the
+           bytes around them untouched */
+        const size_t pitch = (size_t)cols + 7, off = 3 * pitch + 5, total = off + (size_t)rows * pitch + 11;
+        unsigned char *pitched = (unsigned char *)xmalloc(total);
+        memset(pitched, 0x77, total);
+        cl_mem d_pitched = buffer(ctx, CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, total, pitched);
+        oclshade_shadow_params q = sh.base;
+        q.method = OCLSHADE_EXACT;
+        q.mask = oclshade_field_of(d_pitched);
+        q.mask.offset = off;
+        q.mask.row_pitch = pitch;
+        q.self_shadow = oclshade_field_of(NULL); q.coefficient = oclshade_field_of(NULL);
+        size_t need = 0;
+        CHECK(oclshade_shadows_scratch_size(lib, &q, &need));
+        cl_mem pitched_scratch = need ? buffer(ctx, CL_MEM_READ_WRITE, need, NULL) : NULL;
+        q.scratch = pitched_scratch;
+        for (int b = 0; b < nblocks; ++b) {
+            q.block_row0 = blocks[b].r0; q.block_rows = blocks[b].r1 - blocks[b].r0;
+            q.block_col0 = blocks[b].c0; q.block_cols = blocks[b].c1 - blocks[b].c0;
+            q.azimuth = blocks[b].az; q.elevation = blocks[b].el;
+            if (pitched_scratch) {   /* whatever the scratch held before: the staging must not show */
+                const unsigned char junk = 0xAB;
+                CLCHECK(clEnqueueFillBuffer(queue, pitched_scratch, &junk, 1, 0, need, 0, NULL, NULL));
+            }
+            CHECK(oclshade_enqueue_shadows(lib, queue, &q, 0, NULL, NULL));
+        }
+        read_buffer(queue, d_pitched, total, pitched, 0, NULL);
+        for (size_t i = 0; i < total; ++i) {
+            const int inside = i >= off && i < off + (size_t)rows * pitch && (i - off) % pitch < (size_t)cols;
+            const unsigned char want = inside ? field_out[(i - off) / pitch * (size_t)cols + (i - off) % pitch] : 0x77;
+            if (pitched[i] != want) { fprintf(stderr, "pitched field mask: byte %zu differs\n", i); return 1; }
+        }
+        free(pitched);
+        clReleaseMemObject(d_pitched);
+        if (pitched_scratch) clReleaseMemObject(pitched_scratch);
         printf("field of %d blocks traced\n", nblocks);
     }
 
