@@ -1120,7 +1120,7 @@ def add_horizon_parsers(sub) -> None:
         if name == "sunlit":
             p.add_argument("--sun", dest="suns", action="append", default=[], type=_sun, metavar="AZ,ALT",
                            help="a sun position (degrees, grid azimuth); repeat for several (one band each)")
-            solar_cli.add_time_arguments(p, tolerance=False)
+            solar_cli.add_time_arguments(p)
             p.add_argument("--disc-radius", type=_disc_radius, default=SUN_RADIUS, metavar="DEG",
                            help=f"the sun's angular radius (default {SUN_RADIUS:g}, the mean)")
             p.add_argument("--columns", type=_columns, default=DEFAULT_COLUMNS, metavar="K",
@@ -1184,13 +1184,14 @@ def run_horizon(args: argparse.Namespace) -> int:
     raster, heightmap = read_input(args, cellsize)
     rows, cols = heightmap.shape
     suns = args.suns if sunlit else []
+    discs = suns                          # what sun_disc traces: the suns, or per time the sun over the map
     if times:
-        placed = solar_cli.suns_for(times, args, raster, per_block=False)
-        suns = placed.suns
+        placed = solar_cli.suns_for(times, args, raster)
+        suns, discs = placed.suns, placed.traced
         if not args.quiet:
             print(f"{PROG}: {placed.describe(times[0])}", file=sys.stderr)
-        if warning := placed.spread_warning("sunlit"):
-            print(f"{PROG}: warning: {warning}", file=sys.stderr)
+            if blocks := placed.blocks_line():
+                print(f"{PROG}: {blocks}", file=sys.stderr)
     azimuths = [] if sunlit else azimuth_grid(args.azimuths)
     traced = azimuths                     # the grid azimuths the kernel traces
     turned = ""
@@ -1214,7 +1215,7 @@ def run_horizon(args: argparse.Namespace) -> int:
         if svf:
             out.write(caster.sky_view_factor(azimuths, args.definition, progress=bar))
         elif sunlit:
-            for sun in suns:
+            for sun in discs:
                 out.write(caster.sun_disc(sun, args.disc_radius, args.columns, progress=bar))
         else:
             for _, band in caster.iter_horizons(traced, progress=bar):

@@ -231,7 +231,7 @@ def test_lat_lon_given_means_one_sun(tmp_path):
 
 
 def test_commands_that_trace_one_sun_per_map_warn_with_the_spread(tmp_path, capsys):
-    """sunlit, --tile and sunshine (without --sun-tolerance) trace one sun for the whole map: on a 15 x 12 km UTM map
+    """--tile and sunshine (without --sun-tolerance) trace one sun for the whole map: on a 15 x 12 km UTM map
     each warns in one line with how far the cells' own suns are from it; a 1 km map does not."""
     rng = np.random.default_rng(1)
     wide = write_tif(tmp_path / "wide.tif", np.cumsum(rng.normal(size=(400, 500)), 1), west=350000.0,
@@ -239,8 +239,7 @@ def test_commands_that_trace_one_sun_per_map_warn_with_the_spread(tmp_path, caps
     small = write_tif(tmp_path / "small.tif", np.cumsum(rng.normal(size=(30, 30)), 1), west=350000.0,
                       north=5400000.0, cell=30.0)
     when = "2024-06-21T08:00+02:00"
-    runs = {"sunlit": ["sunlit", "{dem}", "{out}.npy", "--datetime", when, "--columns", "2", "-q"],
-            "sunshine": ["sunshine", "{dem}", "{out}.npy", "--start", when, "--end", "2024-06-21T09:00+02:00",
+    runs = {"sunshine": ["sunshine", "{dem}", "{out}.npy", "--start", when, "--end", "2024-06-21T09:00+02:00",
                          "--step", "30min", "-q"],
             "--tile": ["shadow", "{dem}", "{out}.tif", "--datetime", when, "--tile", "256", "-q"]}
     for command, argv in runs.items():
@@ -389,3 +388,36 @@ def test_fields_hold_the_tolerance_anywhere(tmp_path_factory, lat, lon, span, mi
                                     field.blocks[block_of[(i, j)]].sun.elevation)
                        for i, j in zip(rr.ravel(), cc.ravel())])
     assert float(sun_differences(own, theirs).max()) <= tolerance
+
+
+def test_sunlit_traces_the_disc_of_each_blocks_sun(tmp_path, capsys):
+    """Soft shadows of a sun field: each block's cells bit for bit the whole-map fractions of its
+    own sun's disc (API), and `sunlit --datetime` on a UTM map the API's field (one sun with
+    --sun-tolerance 1)."""
+    from oclshade.horizon import HorizonCaster
+
+    rng = np.random.default_rng(4)
+    hm = Heightmap.from_array(np.cumsum(np.cumsum(rng.normal(size=(50, 70)), 0), 1) * 3.0, 10.0)
+    field = random_field(hm.shape, [0, 20, 50], [0, 16, 33, 70], 3, low=-5.0)
+    caster = HorizonCaster(hm, cache=False)
+    got = caster.sun_disc(field, columns=8)
+    for block in field.blocks:
+        window = np.s_[block.row0:block.row1, block.col0:block.col1]
+        assert got[window].tobytes() == caster.sun_disc(block.sun, columns=8)[window].tobytes()
+    assert np.nanmin(got) == 0.0 and np.nanmax(got) == 1.0 and ((got > 0) & (got < 1)).any()
+
+    heights = np.cumsum(np.cumsum(rng.normal(size=(200, 260)), 0), 1) * 0.5
+    dem = write_tif(tmp_path / "utm.tif", heights, west=350000.0, north=5400000.0, cell=30.0)
+    when = "2024-06-21T05:40+02:00"
+    assert main(["sunlit", str(dem), str(tmp_path / "f.npy"), "--datetime", when, "--columns", "4"]) == 0
+    assert "the sun per block of cells" in capsys.readouterr().err
+    assert main(["sunlit", str(dem), str(tmp_path / "one.npy"), "--datetime", when, "--columns", "4",
+                 "--sun-tolerance", "1", "-q"]) == 0
+    raster = read_dem(dem)
+    sunfield = sun_field(map_places(raster), datetime.fromisoformat(when))
+    hm = Heightmap.from_array(raster.heights, (raster.dx, raster.dy))
+    per_block, one = np.load(tmp_path / "f.npy"), np.load(tmp_path / "one.npy")
+    caster = HorizonCaster(hm, cache=False)
+    assert per_block.tobytes() == caster.sun_disc(sunfield, columns=4).tobytes()
+    assert one.tobytes() == caster.sun_disc(sunfield.centre, columns=4).tobytes()
+    assert not sunfield.uniform and (per_block != one).any()

@@ -117,11 +117,12 @@ def test_cli_sunlit_from_a_datetime_on_a_utm_map(tmp_path, canyon, capsys):
     dem = tmp_path / "utm.tif"
     write_raster(dem, canyon.heights.astype(np.float32), like=Raster(canyon.heights, 10.0, 10.0, None, False, georef))
     when = "2024-06-21T20:30+02:00"
-    assert main(["sunlit", str(dem), str(tmp_path / "t.npy"), "--datetime", when, "--columns", "4"]) == 0
+    assert main(["sunlit", str(dem), str(tmp_path / "t.npy"), "--datetime", when, "--columns", "4",
+                 "--sun-tolerance", "1"]) == 0   # one sun for the map (per block: tests/test_field.py)
     assert "on the grid of EPSG:32633" in capsys.readouterr().err
     import argparse
     placed = suns_for([datetime.fromisoformat(when)], argparse.Namespace(input=str(dem), lat=None, lon=None),
-                      read_dem(dem), per_block=False)   # as sunlit: one sun per map
+                      read_dem(dem), per_block=False)   # the centre's one sun, as --sun-tolerance 1 gives
     sun = placed.suns[0]
     assert abs(sun.azimuth - placed.true[0].azimuth) > 1.5 and 0.0 < sun.elevation < 10.0
     assert main(["sunlit", str(dem), str(tmp_path / "s.npy"), f"--sun={sun.azimuth!r},{sun.elevation!r}",

@@ -40,7 +40,7 @@ from ..heightmap import Heightmap
 from ..pyramid import ExtremaPyramid, cached_pyramid
 from ..reference.horizons import SVF_DEFINITIONS
 from ..runtime import Runtime, get_runtime
-from ..sun import Sun, SunLike, as_sun
+from ..sun import Sun, SunBlock, SunField, SunLike, as_sun
 from .disc import DEFAULT_COLUMNS, SUN_RADIUS, disc_columns, visible_fraction
 from .pilot import MIN_CELLS as PILOT_MIN_CELLS, MIN_ROWS as PILOT_MIN_ROWS, Pilot
 from .pilot import bands as pilot_bands, measure as measure_pilot
@@ -243,15 +243,44 @@ class HorizonCaster:
         svf[np.isnan(self.heightmap.heights)] = np.nan
         return svf
 
-    def sun_disc(self, sun: SunLike, radius: float = SUN_RADIUS, columns: int = DEFAULT_COLUMNS,
+    def sun_disc(self, sun: SunLike | SunField, radius: float = SUN_RADIUS, columns: int = DEFAULT_COLUMNS,
                  progress: Progress | None = None) -> np.ndarray:
         """Soft shadows: the share of the sun's disc each cell sees, float32 in [0, 1] (NaN =
         nodata), from its horizons at ``columns`` azimuths across the disc (the disc's
-        angular ``radius`` in degrees; :mod:`oclshade.horizon.disc`)."""
-        sun = as_sun(sun)
+        angular ``radius`` in degrees; :mod:`oclshade.horizon.disc`).  A
+        :class:`oclshade.sun.SunField`: each block's cells with the disc of its own sun (the
+        strips of every block traced over its cells only), bit for bit each block sun's
+        whole-map fractions on its cells."""
+        if isinstance(sun, SunField) and not sun.uniform:
+            return self._field_disc(sun, radius, columns, progress)
+        sun = sun.blocks[0].sun if isinstance(sun, SunField) else as_sun(sun)
         azimuths, half_chords = disc_columns(sun, radius, columns)
         return visible_fraction(self._strip_angles(sun.elevation, azimuths, half_chords, progress),
                                 sun.elevation, half_chords).astype(np.float32)
+
+    def _field_disc(self, field: SunField, radius: float, columns: int, progress: Progress | None) -> np.ndarray:
+        field.check_shape(self.heightmap.shape)
+        discs = [disc_columns(block.sun, radius, columns) for block in field.blocks]   # checks each sun
+        elevation = np.empty(self.heightmap.shape)
+        for block in field.blocks:
+            elevation[block.row0:block.row1, block.col0:block.col1] = block.sun.elevation
+        rows, cols = self.heightmap.shape
+        enqueue = self._enqueuer({"OCLS_OUT_ANGLE": True, "OCLS_CLAMP": True})
+        buf = self.runtime.empty(4 * rows * cols, "horizon angles")
+
+        def strips() -> Iterator[np.ndarray]:
+            for k in range(columns):      # strip k of every block's disc, each over its block's cells
+                for block, (azimuths, half_chords) in zip(field.blocks, discs):
+                    c = half_chords[k]
+                    lo, hi = (math.tan(math.radians(block.sun.elevation + s * (c + STRIP_MARGIN))) for s in (-1, 1))
+                    enqueue(float(azimuths[k]), buf, self._dummy, (lo, hi), block)
+                band = np.empty((rows, cols), np.float32)
+                cl.enqueue_copy(self.runtime.queue, band, buf)
+                if progress is not None:
+                    progress(k + 1, columns)
+                yield band
+
+        return visible_fraction(strips(), elevation, discs[0][1]).astype(np.float32)
 
     def _strip_angles(self, elevation: float, azimuths: np.ndarray, half_chords: np.ndarray,
                       progress: Progress | None) -> Iterator[np.ndarray]:
@@ -312,8 +341,14 @@ class HorizonCaster:
             kernel = rt.kernel("horizon.cl", "horizon_sweep", {**defines, "OCLS_SWEEP": lanes})
             return kernel, rt.grid_2d(kernel, -(-cols // lanes), rows, wanted=self.knobs["group"])
 
-        def launch(kernel: cl.Kernel, grid: tuple, band: tuple[int, int] | None) -> None:
-            """The whole grid, or only the band (first row, rows) of it."""
+        def launch(kernel: cl.Kernel, grid: tuple, band: tuple[int, int] | None,
+                   block: SunBlock | None = None) -> None:
+            """The whole grid, or only the band (first row, rows) of it, or exactly a block's cells."""
+            if block is not None:
+                size = (block.col1 - block.col0, block.row1 - block.row0)
+                cl.enqueue_nd_range_kernel(rt.queue, kernel, *rt.exact_grid_2d(kernel, *size, wanted=self.knobs["group"]),
+                                           global_work_offset=(block.col0, block.row0))
+                return
             (gx, gy), local = grid
             first, count = (0, gy) if band is None else band
             cl.enqueue_nd_range_kernel(rt.queue, kernel, (gx, count), local, global_work_offset=(0, first))
@@ -324,14 +359,14 @@ class HorizonCaster:
             launch(kernel, grid, band)
 
         def walk(ray: np.ndarray, angle: cl.Buffer, svf: cl.Buffer, bounds: tuple[float, float] = (),
-                 band: tuple[int, int] | None = None) -> None:
+                 band: tuple[int, int] | None = None, block: SunBlock | None = None) -> None:
             w = walker()
             if seeded:
                 w["seeder"].set_args(*w["fixed"], ray, w["seeds"])
                 cl.enqueue_nd_range_kernel(rt.queue, w["seeder"], *w["seed_grid"])
             w["kernel"].set_args(*w["fixed"], ray, angle, svf, w["seeds"] if seeded else self._dummy, cell,
                                  *([np.array(bounds, np.float32)] if bounds else []))
-            launch(w["kernel"], w["grid"], band)
+            launch(w["kernel"], w["grid"], band, block)
 
         def pilot(ray: np.ndarray, angle: cl.Buffer, crossings: float) -> Pilot:
             """Both on bands of rows (pilot.py): into ``angle`` (the launch that follows writes the
@@ -345,9 +380,13 @@ class HorizonCaster:
                                  lambda r0, n: walk(ray, angle, sums, band=(r0, n)),
                                  rt.queue.finish, spans, group_rows, crossings)
 
-        def enqueue(azimuth: float, angle: cl.Buffer, svf: cl.Buffer, bounds: tuple[float, float] = ()) -> None:
+        def enqueue(azimuth: float, angle: cl.Buffer, svf: cl.Buffer, bounds: tuple[float, float] = (),
+                    block: SunBlock | None = None) -> None:
             ux, uy, _ = Sun(azimuth, 0.0).ray(hm.dx, hm.dy)
             ray = np.array([ux, uy, c, radius], np.float32)
+            if block is not None:     # a block's cells (sun fields, with OCLS_CLAMP): the walk
+                walk(ray, angle, svf, bounds, block=block)
+                return
             route = not clamped and self._route(ux, uy)
             if route is None:
                 self._pilot = pilot(ray, angle, radius * (abs(ux) + abs(uy)))
