@@ -5,8 +5,9 @@ tracing per block costs, and that the per-block masks stay exact.
     python bench/sun_field.py                       # the shared SRTM tiles and a 4096^2 UTM map
     python bench/sun_field.py --reduced             # a check that the script works (small maps)
 
-Per map and per time (the morning of 2024-06-21 when the sun at the map's centre stands 3, 10
-and 30 degrees high, and local noon), in one process:
+Per map and per time (the first minutes after 2024-06-20T12:00Z when the sun at the map's
+centre stands 3, 10 and 30 degrees high in the morning, and the local noon after), in one
+process (``--from-json FILE``: only the markdown again, from a run's JSON):
 
 * the field at the default tolerance (0.01 degrees): blocks, the largest deviation found
   (sun at a block corner against the block's), time to build it;
@@ -19,7 +20,7 @@ and 30 degrees high, and local noon), in one process:
   (:func:`oclshade.reference.cast_field_shadows`) on the first 32 x 32 cells of a seeded sample
   of blocks (the twin walks every patch of every ray), mismatches outside float32 ties (must be
   0) and tied ones;
-* **sunshine** over ``--sunshine-days`` from the local midnight of 2024-06-21 (10-minute steps,
+* **sunshine** over ``--sunshine-days`` from about the local solar midnight of 2024-06-21 (10-minute steps,
   each step's sun at its middle) on the SRTM tiles, by ``SunshineCaster`` per block and with
   the centre's sun, both routes (masks; horizons at 64 azimuths): times, and the difference of
   the hours of direct sun on land cells (height > 0): what one sun per map leaves out.
@@ -210,7 +211,8 @@ def write_markdown(path: Path, result: dict) -> None:
     lines = ["# The sun over a map: per block against one sun", "",
              f"- date: {m['date']}; command: `{m['command']}`",
              f"- CPU: {m['cpu']}, {m['cores']} cores; device: {m['device']}; {m['pocl_version']}",
-             "- mask times: best of 3 after a warm-up; default tolerance 0.01 deg; 2024-06-21", "",
+             "- mask times: best of 3 after a warm-up; default tolerance 0.01 deg; the first morning after "
+             "2024-06-20T12:00Z at each map's centre (UTC times in the table)", "",
              "| map | time (UTC) | centre sun az / el | spread deg | blocks | deviation deg | per block s | "
              "one sun s | ratio | cells one sun gets wrong | twin: cells checked, mismatches / ties |",
              "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---|"]
@@ -221,7 +223,8 @@ def write_markdown(path: Path, result: dict) -> None:
                      f"{r['trace_per_block_s']:.3f} | {r['trace_one_sun_s']:.3f} | {r['ratio']:.1f} | {wrong} | "
                      f"{r['twin_cells']} in {r['twin_blocks']} blocks: {r['twin_mismatch']} / {r['twin_tied']} |")
     lines += ["", "## Sunshine: per block against one sun", "",
-              "Hours of direct sun from the local midnight of 2024-06-21, 10-minute steps, `SunshineCaster`; "
+              "Hours of direct sun over a day from about the local solar midnight of 2024-06-21 (00:00Z minus the "
+              "centre's longitude / 15, whole hours), 10-minute steps, `SunshineCaster`; "
               "differences on land cells (height > 0); field build time is for all steps.", "",
               "| map | days | route | daylight steps | mean blocks | fields s | per block s | one sun s | mean hours | "
               "cells differing | mean abs diff h | p99 h | max h |",
@@ -243,7 +246,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--sample-blocks", type=int, default=12, help="blocks checked against the twin")
     parser.add_argument("--sunshine-days", type=float, default=1.0, help="length of the sunshine period (0: none)")
     parser.add_argument("--out", type=Path, default=REPO / "bench" / "results" / "sun_field")
+    parser.add_argument("--from-json", type=Path, help="write the markdown of this run's JSON and stop")
     args = parser.parse_args(argv)
+    if args.from_json is not None:
+        write_markdown(args.from_json.with_suffix(".md"), json.loads(args.from_json.read_text()))
+        return 0
     result = {"meta": metadata(sys.argv), "rows": [], "sunshine": []}
     for name, raster in maps(args.reduced).items():
         result["rows"] += measure(name, raster, args.sample_blocks)
