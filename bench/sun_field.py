@@ -206,6 +206,34 @@ def sunshine_days(name: str, raster: Raster, days: float) -> dict:
     return out
 
 
+def sunlit_rows(name: str, raster: Raster, columns: int = 16) -> list[dict]:
+    """Soft shadows (``HorizonCaster.sun_disc``, ``columns`` strips) at the 3-degree morning sun:
+    per block against the centre's sun alone (one warm-up each, then one timed run each)."""
+    from oclshade.horizon import HorizonCaster
+
+    hm = Heightmap.from_array(raster.heights, (raster.dx, raster.dy))
+    places = map_places(raster)
+    label, when = morning_times(places)[0]
+    field = sun_field(places, when)
+    caster = HorizonCaster(hm, cache=False)
+    caster.sun_disc(field.centre, columns=columns)
+    caster.sun_disc(field, columns=columns)
+    t0 = time.perf_counter()
+    one = caster.sun_disc(field.centre, columns=columns)
+    t1 = time.perf_counter()
+    per_block = caster.sun_disc(field, columns=columns)
+    t2 = time.perf_counter()
+    land = hm.heights > 0.0
+    diff = np.abs(per_block.astype(np.float64) - one)[land]
+    row = {"map": name, "time": label, "utc": when.isoformat(), "blocks": len(field.blocks), "columns": columns,
+           "per_block_s": t2 - t1, "one_sun_s": t1 - t0, "land_cells": int(land.sum()),
+           "cells_differing": int(np.count_nonzero(diff)), "diff_max": float(diff.max()),
+           "diff_mean": float(diff.mean())}
+    log(f"{name} sunlit {label}: per block {t2 - t1:.2f} s, one sun {t1 - t0:.2f} s, "
+        f"{row['cells_differing']} land cells differ, max {row['diff_max']:.3f}")
+    return [row]
+
+
 def write_markdown(path: Path, result: dict) -> None:
     m = result["meta"]
     lines = ["# The sun over a map: per block against one sun", "",
@@ -236,6 +264,14 @@ def write_markdown(path: Path, result: dict) -> None:
                          f"{r['field_build_s']:.1f} | {e['per_block_s']:.1f} | {e['one_sun_s']:.1f} | "
                          f"{e['hours_mean']:.2f} | {e['cells_differing']} of {r['land_cells']} | {e['diff_mean_h']:.4f} | "
                          f"{e['diff_p99_h']:.3f} | {e['diff_max_h']:.3f} |")
+    if result.get("sunlit"):
+        lines += ["", "## Soft shadows (`sunlit`): per block against one sun", "",
+                  "| map | time (UTC) | blocks | strips | per block s | one sun s | land cells differing | "
+                  "mean abs diff | max abs diff (share of the disc) |", "|---|---|---:|---:|---:|---:|---:|---:|---:|"]
+        for r in result["sunlit"]:
+            lines.append(f"| {r['map']} | {r['time']}: {r['utc'][11:16]} | {r['blocks']} | {r['columns']} | "
+                         f"{r['per_block_s']:.2f} | {r['one_sun_s']:.2f} | {r['cells_differing']} of {r['land_cells']} | "
+                         f"{r['diff_mean']:.5f} | {r['diff_max']:.3f} |")
     lines.append("")
     path.write_text("\n".join(lines))
 
@@ -246,13 +282,18 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--sample-blocks", type=int, default=12, help="blocks checked against the twin")
     parser.add_argument("--sunshine-days", type=float, default=1.0, help="length of the sunshine period (0: none)")
     parser.add_argument("--out", type=Path, default=REPO / "bench" / "results" / "sun_field")
+    parser.add_argument("--sunlit-only", action="store_true",
+                        help="only soft shadows (sunlit) per block against one sun, on the SRTM tiles")
     parser.add_argument("--from-json", type=Path, help="write the markdown of this run's JSON and stop")
     args = parser.parse_args(argv)
     if args.from_json is not None:
         write_markdown(args.from_json.with_suffix(".md"), json.loads(args.from_json.read_text()))
         return 0
-    result = {"meta": metadata(sys.argv), "rows": [], "sunshine": []}
+    result = {"meta": metadata(sys.argv), "rows": [], "sunshine": [], "sunlit": []}
     for name, raster in maps(args.reduced).items():
+        if args.sunlit_only:
+            result["sunlit"] += sunlit_rows(name, raster) if name.startswith("SRTM") else []
+            continue
         result["rows"] += measure(name, raster, args.sample_blocks)
         if name.startswith("SRTM") and args.sunshine_days > 0:
             result["sunshine"].append(sunshine_days(name, raster, args.sunshine_days))
