@@ -231,8 +231,9 @@ def test_lat_lon_given_means_one_sun(tmp_path):
 
 
 def test_commands_that_trace_one_sun_per_map_warn_with_the_spread(tmp_path, capsys):
-    """--tile and sunshine (without --sun-tolerance) trace one sun for the whole map: on a 15 x 12 km UTM map
-    each warns in one line with how far the cells' own suns are from it; a 1 km map does not."""
+    """sunshine (without --sun-tolerance) and --workers trace one sun for the whole map: on a 15 x
+    12 km UTM map each warns in one line with how far the cells' own suns are from it; a 1 km map
+    does not."""
     rng = np.random.default_rng(1)
     wide = write_tif(tmp_path / "wide.tif", np.cumsum(rng.normal(size=(400, 500)), 1), west=350000.0,
                      north=5400000.0, cell=30.0)
@@ -240,8 +241,13 @@ def test_commands_that_trace_one_sun_per_map_warn_with_the_spread(tmp_path, caps
                       north=5400000.0, cell=30.0)
     when = "2024-06-21T08:00+02:00"
     runs = {"sunshine": ["sunshine", "{dem}", "{out}.npy", "--start", when, "--end", "2024-06-21T09:00+02:00",
-                         "--step", "30min", "-q"],
-            "--tile": ["shadow", "{dem}", "{out}.tif", "--datetime", when, "--tile", "256", "-q"]}
+                         "--step", "30min", "-q"]}
+    try:
+        import distributed  # noqa: F401
+        runs["--workers"] = ["shadow", "{dem}", "{out}.tif", "--datetime", when, "--workers", "1", "--tile", "256",
+                             "-q"]
+    except ImportError:
+        pass
     for command, argv in runs.items():
         for dem, warns in ((wide, True), (small, False)):
             out = tmp_path / f"{command.strip('-')}_{dem.stem}"
@@ -421,3 +427,34 @@ def test_sunlit_traces_the_disc_of_each_blocks_sun(tmp_path, capsys):
     assert per_block.tobytes() == caster.sun_disc(sunfield, columns=4).tobytes()
     assert one.tobytes() == caster.sun_disc(sunfield.centre, columns=4).tobytes()
     assert not sunfield.uniform and (per_block != one).any()
+
+
+def test_tiles_trace_a_field_as_the_whole_map():
+    """cast_tiled of sun fields (small tiles, low suns: long halos) equals the whole map's
+    per-block outputs bit for bit: each tile's window holds the terrain of every block sun."""
+    from oclshade.tiles import cast_tiled
+
+    rng = np.random.default_rng(8)
+    h = np.cumsum(np.cumsum(rng.normal(size=(150, 190)), 0), 1) * 2.0
+    hm = Heightmap.from_array(h, 10.0)
+    fields = [random_field(hm.shape, [0, 37, 90, 150], [0, 48, 112, 190], seed, low=2.0) for seed in (1, 2)]
+    outputs = ("mask", "self", "coefficient")
+    whole = ShadowCaster(hm, cache=False).cast_many(fields, outputs=outputs)
+    tiled = cast_tiled(hm, fields, outputs=outputs, tile_size=64)
+    for w, t in zip(whole, tiled):
+        assert t.sun == w.sun
+        for name in ("mask", "self_shadow", "coefficient"):
+            assert getattr(t, name).tobytes() == getattr(w, name).tobytes(), name
+
+
+def test_tiled_cli_traces_datetimes_per_block(tmp_path, capsys):
+    """`shadow --datetime --tile 128` on a UTM map: the untiled per-block output, bit for bit."""
+    rng = np.random.default_rng(0)
+    heights = np.cumsum(np.cumsum(rng.normal(size=(400, 500)), 0), 1) * 0.5
+    dem = write_tif(tmp_path / "utm.tif", heights, west=350000.0, north=5400000.0, cell=30.0)
+    when = "2024-06-21T06:00+02:00"
+    assert main(["shadow", str(dem), str(tmp_path / "whole.tif"), "--datetime", when, "-q"]) == 0
+    assert main(["shadow", str(dem), str(tmp_path / "tiled.tif"), "--datetime", when, "--tile", "128"]) == 0
+    err = capsys.readouterr().err
+    assert "the sun per block of cells" in err and "warning" not in err
+    assert np.array_equal(tifffile.imread(tmp_path / "tiled.tif"), tifffile.imread(tmp_path / "whole.tif"))

@@ -91,11 +91,15 @@ def run(args: argparse.Namespace, job) -> int:
         cli.check_input_raster(args, raster, job.cellsize)
         for warning in caught:
             sys.stderr.write(f"{cli.PROG}: warning: {warning.message}\n")
-        if job.times:
-            placed = solar_cli.suns_for(job.times, args, raster, per_block=False)
+        traced = None      # per time the sun over the map (per block), or None: job.suns
+        if job.times:      # --workers (Dask) traces one sun per map
+            placed = solar_cli.suns_for(job.times, args, raster, per_block=args.workers is None)
             job = cli.dataclasses.replace(job, suns=placed.suns)
-            if warning := placed.spread_warning("--tile"):
+            traced = placed.traced
+            if warning := placed.spread_warning("--workers"):
                 sys.stderr.write(f"{cli.PROG}: warning: {warning}\n")
+            if not args.quiet and (blocks := placed.blocks_line()):
+                sys.stderr.write(f"{cli.PROG}: {blocks}\n")
         dx, dy = raster.dx * args.scale, raster.dy * args.scale
         rows, cols = windows.shape
         cli._make_parents(args.output)
@@ -116,7 +120,7 @@ def run(args: argparse.Namespace, job) -> int:
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always", InputWarning)
                 if args.workers is None:
-                    done = shadow_stream(windows, out, job.suns, bands=bands, dx=dx, dy=dy, z_factor=args.z_factor,
+                    done = shadow_stream(windows, out, traced or job.suns, bands=bands, dx=dx, dy=dy, z_factor=args.z_factor,
                                          tile_size=args.tile, max_memory=args.max_memory, device=args.device,
                                          out_block=out_block, progress=bar, **common)
                     plan = done.plan

@@ -12,6 +12,10 @@ Suns are grouped per tile, in azimuth order, while the union of their windows
 stays within ``max_window_cells``: one window (one read, one pyramid) serves a
 group, so many suns from one side cost one read.  Memory per window cell is
 :func:`bytes_per_cell`.
+
+A sun may be a :class:`oclshade.sun.SunField` (each block of cells its own sun): its halo
+for a tile is the union of each block's, the part of the tile in the block grown by the
+halo of the block's sun (:func:`sun_halo`), so every block's rays find their terrain.
 """
 from __future__ import annotations
 
@@ -19,7 +23,7 @@ import math
 from dataclasses import dataclass
 from typing import Sequence
 
-from ..sun import Sun
+from ..sun import Sun, SunField
 from .halo import HEIGHT_MARGIN_ABSOLUTE, HEIGHT_MARGIN_RELATIVE, RAY_CELLS_MARGIN, Window, halo_window
 from .relief import ReliefGrid
 
@@ -51,7 +55,7 @@ class TileJob:
 class TilePlan:
     shape: tuple[int, int]
     tile_size: int
-    suns: tuple[Sun, ...]
+    suns: tuple[Sun | SunField, ...]
     jobs: tuple[TileJob, ...]
 
     @property
@@ -80,7 +84,30 @@ def tiles_of(shape: tuple[int, int], size: int) -> list[Window]:
             for r in range(0, rows, size) for c in range(0, cols, size)]
 
 
-def plan_tiles(relief: ReliefGrid, suns: Sequence[Sun], dx: float, dy: float, tile_size: int,
+def sun_halo(relief: ReliefGrid, tile: Window, sun: Sun | SunField, dx: float, dy: float) -> Window:
+    """:func:`halo_window` of a sun, or of a sun field: the union over its blocks of the part of
+    the tile in the block grown by the halo of the block's sun."""
+    if not isinstance(sun, SunField):
+        return halo_window(relief, tile, sun, dx, dy)
+    window = None
+    for block in sun.blocks:
+        part = Window(max(tile.r0, block.row0), min(tile.r1, block.row1), max(tile.c0, block.col0),
+                      min(tile.c1, block.col1))
+        if part.r0 < part.r1 and part.c0 < part.c1:
+            mine = halo_window(relief, part, block.sun, dx, dy)
+            window = mine if window is None else window.union(mine)
+    return window if window is not None else tile
+
+
+def _lowest_sun(sun: Sun | SunField) -> Sun:
+    """A sun, or a field's block sun of the lowest positive elevation (the longest halo)."""
+    if not isinstance(sun, SunField):
+        return sun
+    up = [b.sun for b in sun.blocks if b.sun.elevation > 0.0]
+    return min(up, key=lambda s: s.elevation) if up else sun.centre
+
+
+def plan_tiles(relief: ReliefGrid, suns: Sequence[Sun | SunField], dx: float, dy: float, tile_size: int,
                max_window_cells: int | None = None, align: int = ALIGN) -> TilePlan:
     """The jobs of a tiled run (see the module docstring), tiles in row-major order, window
     origins moved down to multiples of ``align``.  A sun whose window alone exceeds
@@ -92,13 +119,17 @@ def plan_tiles(relief: ReliefGrid, suns: Sequence[Sun], dx: float, dy: float, ti
     def aligned(w: Window) -> Window:
         return Window(w.r0 // align * align, w.r1, w.c0 // align * align, w.c1)
 
-    order = sorted(range(len(suns)), key=lambda k: (suns[k].azimuth % 360.0, suns[k].elevation))
+    def key(k: int) -> tuple[float, float]:
+        sun = suns[k].centre if isinstance(suns[k], SunField) else suns[k]
+        return sun.azimuth % 360.0, sun.elevation
+
+    order = sorted(range(len(suns)), key=key)
     jobs = []
     for tile in tiles_of(relief.shape, tile_size):
         group: list[int] = []
         window: Window | None = None
         for k in order:
-            mine = aligned(halo_window(relief, tile, suns[k], dx, dy))
+            mine = aligned(sun_halo(relief, tile, suns[k], dx, dy))
             grown = mine if window is None else window.union(mine)
             if group and max_window_cells is not None and grown.cells > max_window_cells:
                 jobs.append(TileJob(tile, window, tuple(sorted(group))))
@@ -128,12 +159,13 @@ def halo_bound(relief: ReliefGrid, sun: Sun, dx: float, dy: float) -> tuple[int,
     return cells(uy, rows), cells(ux, cols)
 
 
-def auto_tile_size(relief: ReliefGrid, suns: Sequence[Sun], dx: float, dy: float,
+def auto_tile_size(relief: ReliefGrid, suns: Sequence[Sun | SunField], dx: float, dy: float,
                    max_window_cells: int) -> int:
     """The largest of :data:`TILE_SIZES` whose windows (tile + :func:`halo_bound`) fit in
-    ``max_window_cells`` for every sun alone; the smallest when none does."""
+    ``max_window_cells`` for every sun alone (a field: its lowest block sun); the smallest when
+    none does."""
     rows, cols = relief.shape
-    halos = [halo_bound(relief, sun, dx, dy) for sun in suns]
+    halos = [halo_bound(relief, _lowest_sun(sun), dx, dy) for sun in suns]
     for size in TILE_SIZES:
         if all(min(size + hr + 1, rows) * min(size + hc + 1, cols) <= max_window_cells for hr, hc in halos):
             return size

@@ -31,7 +31,7 @@ from ..heightmap import Heightmap
 from ..runtime import Runtime
 from ..shadows import DEFAULT_K_BRIGHT, DEFAULT_K_DARK, ShadowCaster, ShadowResult, check_coefficients, \
     check_method, check_outputs
-from ..sun import Sun, SunLike, as_suns
+from ..sun import SunBlock, SunField, SunLike, Traced, as_traced
 from .halo import Window
 from .plan import ALIGN, TileJob, plan_tiles
 from .relief import DEFAULT_BLOCK, ReliefGrid
@@ -62,7 +62,7 @@ class Tracing:
     constants, the map's cell sizes and base, the device, and the shadow family's tuning knobs
     (``ShadowCaster(knobs=...)``; None: the device's tuning entry; results never depend on them)."""
 
-    suns: tuple[Sun, ...]
+    suns: tuple[Traced, ...]     # suns, or sun fields of the whole map
     method: str = "exact"
     outputs: tuple[str, ...] = ("mask",)
     k_dark: float = DEFAULT_K_DARK
@@ -85,8 +85,8 @@ class Tracing:
             caster = ShadowCaster(heights, self.device, cache=False, knobs=self.knobs,
                                   origin=(job.window.r0, job.window.c0))
             results = []
-            for res in caster.iter_many([self.suns[k] for k in job.suns], self.method, self.outputs,
-                                        self.k_dark, self.k_bright):
+            for res in caster.iter_many([_in_window(self.suns[k], job.window) for k in job.suns], self.method,
+                                        self.outputs, self.k_dark, self.k_bright):
                 results.append(ShadowResult(res.sun, *(None if a is None else np.ascontiguousarray(a[inner])
                                                        for a in (res.mask, res.self_shadow, res.coefficient))))
         return results
@@ -94,6 +94,17 @@ class Tracing:
     def heightmap(self, heights: np.ndarray) -> TileHeightmap:
         """A window's float64 heights (NaN = nodata) as the kernels will read them."""
         return TileHeightmap(heights, self.dx, self.dy, self.base)
+
+
+def _in_window(sun: Traced, window: Window) -> Traced:
+    """A sun, or the part of a whole-map sun field over the window, in the window's cells."""
+    if not isinstance(sun, SunField):
+        return sun
+    blocks = tuple(SunBlock(max(b.row0, window.r0) - window.r0, min(b.row1, window.r1) - window.r0,
+                            max(b.col0, window.c0) - window.c0, min(b.col1, window.c1) - window.c0, b.sun)
+                   for b in sun.blocks
+                   if b.row0 < window.r1 and b.row1 > window.r0 and b.col0 < window.c1 and b.col1 > window.c0)
+    return SunField(window.shape, blocks, sun.centre, sun.deviation, sun.tolerance)
 
 
 Reader = Callable[[Window], np.ndarray]
@@ -189,7 +200,7 @@ def run_jobs(jobs: Sequence[TileJob], read: Reader, write: Writer, tracing: Trac
         raise errors[0]
 
 
-def cast_tiled(heightmap: Heightmap, suns: SunLike | Sequence[SunLike], method: str = "exact",
+def cast_tiled(heightmap: Heightmap, suns: SunLike | SunField | Sequence[SunLike | SunField], method: str = "exact",
                outputs: str | Sequence[str] = ("mask",), k_dark: float = DEFAULT_K_DARK,
                k_bright: float = DEFAULT_K_BRIGHT, *, tile_size: int = 1024,
                max_window_cells: int | None = None, align: int = ALIGN, block: int = DEFAULT_BLOCK,
@@ -200,13 +211,13 @@ def cast_tiled(heightmap: Heightmap, suns: SunLike | Sequence[SunLike], method: 
     ``tile_size``, ``max_window_cells``, ``align``: as :func:`~oclshade.tiles.plan_tiles`;
     ``block``: the relief grid's block size (smaller: tighter halos, more work planning);
     ``knobs``: as :class:`Tracing`."""
-    sun_list = as_suns(suns)
+    sun_list = as_traced(suns)
     rows, cols = heightmap.shape
     relief = ReliefGrid.of(heightmap.heights, block)
     tracing = Tracing(tuple(sun_list), method, check_outputs(outputs), k_dark, k_bright, heightmap.dx,
                       heightmap.dy, heightmap.offset, device, knobs)
     plan = plan_tiles(relief, sun_list, heightmap.dx, heightmap.dy, tile_size, max_window_cells, align)
-    out = [ShadowResult(sun,
+    out = [ShadowResult(sun.centre if isinstance(sun, SunField) else sun,
                         np.empty((rows, cols), np.uint8) if "mask" in tracing.outputs else None,
                         np.empty((rows, cols), np.uint8) if "self" in tracing.outputs else None,
                         np.empty((rows, cols), np.float32) if "coefficient" in tracing.outputs else None)

@@ -38,7 +38,7 @@ from ..heightmap import NODATA_SENTINELS, InputWarning, check_float32
 from ..io import DemWindows, RasterWriter
 from ..runtime import get_runtime
 from ..shadows import ShadowCaster, ShadowResult
-from ..sun import Sun
+from ..sun import Sun, SunField
 from .halo import Window
 from .plan import TileJob, TilePlan, auto_tile_size, bytes_per_cell, plan_tiles
 from .relief import DEFAULT_BLOCK, ReliefGrid
@@ -186,7 +186,8 @@ def shadow_stream(windows: DemWindows, writer: RasterWriter, suns: Sequence[Sun]
     check_relief(relief, dx, dy)
     base = relief.base
     tracing = Tracing(tuple(suns), method, tuple(outputs), k_dark, k_bright, dx, dy, base, rt)
-    per_sun = len(bands(_blank_result(suns[0], tracing.outputs)))
+    first = suns[0].centre if isinstance(suns[0], SunField) else suns[0]
+    per_sun = len(bands(_blank_result(first, tracing.outputs)))
     probe = TileHeightmap(np.zeros((2, 2)), dx, dy, 0.0)
     ShadowCaster(probe, rt, cache=False).warm_up(method, tracing.outputs)   # kernels built before the baseline
     baseline = rss_bytes()
