@@ -231,9 +231,8 @@ def test_lat_lon_given_means_one_sun(tmp_path):
 
 
 def test_commands_that_trace_one_sun_per_map_warn_with_the_spread(tmp_path, capsys):
-    """sunshine (without --sun-tolerance) and --workers trace one sun for the whole map: on a 15 x
-    12 km UTM map each warns in one line with how far the cells' own suns are from it; a 1 km map
-    does not."""
+    """sunshine (without --sun-tolerance) traces one sun for the whole map: on a 15 x 12 km UTM
+    map it warns in one line with how far the cells' own suns are from it; on a 1 km map not."""
     rng = np.random.default_rng(1)
     wide = write_tif(tmp_path / "wide.tif", np.cumsum(rng.normal(size=(400, 500)), 1), west=350000.0,
                      north=5400000.0, cell=30.0)
@@ -242,12 +241,6 @@ def test_commands_that_trace_one_sun_per_map_warn_with_the_spread(tmp_path, caps
     when = "2024-06-21T08:00+02:00"
     runs = {"sunshine": ["sunshine", "{dem}", "{out}.npy", "--start", when, "--end", "2024-06-21T09:00+02:00",
                          "--step", "30min", "-q"]}
-    try:
-        import distributed  # noqa: F401
-        runs["--workers"] = ["shadow", "{dem}", "{out}.tif", "--datetime", when, "--workers", "1", "--tile", "256",
-                             "-q"]
-    except ImportError:
-        pass
     for command, argv in runs.items():
         for dem, warns in ((wide, True), (small, False)):
             out = tmp_path / f"{command.strip('-')}_{dem.stem}"
@@ -447,14 +440,19 @@ def test_tiles_trace_a_field_as_the_whole_map():
             assert getattr(t, name).tobytes() == getattr(w, name).tobytes(), name
 
 
-def test_tiled_cli_traces_datetimes_per_block(tmp_path, capsys):
-    """`shadow --datetime --tile 128` on a UTM map: the untiled per-block output, bit for bit."""
+@pytest.mark.parametrize("workers", [None, 1])
+def test_tiled_cli_traces_datetimes_per_block(tmp_path, capsys, workers):
+    """`shadow --datetime --tile 128` on a UTM map, in this process or on Dask workers (the
+    `dask` extra): the untiled per-block output, bit for bit."""
+    if workers is not None:
+        pytest.importorskip("distributed")
     rng = np.random.default_rng(0)
     heights = np.cumsum(np.cumsum(rng.normal(size=(400, 500)), 0), 1) * 0.5
     dem = write_tif(tmp_path / "utm.tif", heights, west=350000.0, north=5400000.0, cell=30.0)
     when = "2024-06-21T06:00+02:00"
     assert main(["shadow", str(dem), str(tmp_path / "whole.tif"), "--datetime", when, "-q"]) == 0
-    assert main(["shadow", str(dem), str(tmp_path / "tiled.tif"), "--datetime", when, "--tile", "128"]) == 0
+    assert main(["shadow", str(dem), str(tmp_path / "tiled.tif"), "--datetime", when, "--tile", "128",
+                 *(["--workers", str(workers)] if workers else [])]) == 0
     err = capsys.readouterr().err
     assert "the sun per block of cells" in err and "warning" not in err
     assert np.array_equal(tifffile.imread(tmp_path / "tiled.tif"), tifffile.imread(tmp_path / "whole.tif"))

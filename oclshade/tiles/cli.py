@@ -92,12 +92,10 @@ def run(args: argparse.Namespace, job) -> int:
         for warning in caught:
             sys.stderr.write(f"{cli.PROG}: warning: {warning.message}\n")
         traced = None      # per time the sun over the map (per block), or None: job.suns
-        if job.times:      # --workers (Dask) traces one sun per map
-            placed = solar_cli.suns_for(job.times, args, raster, per_block=args.workers is None)
+        if job.times:
+            placed = solar_cli.suns_for(job.times, args, raster)
             job = cli.dataclasses.replace(job, suns=placed.suns)
             traced = placed.traced
-            if warning := placed.spread_warning("--workers"):
-                sys.stderr.write(f"{cli.PROG}: warning: {warning}\n")
             if not args.quiet and (blocks := placed.blocks_line()):
                 sys.stderr.write(f"{cli.PROG}: {blocks}\n")
         dx, dy = raster.dx * args.scale, raster.dy * args.scale
@@ -126,7 +124,7 @@ def run(args: argparse.Namespace, job) -> int:
                     plan = done.plan
                 else:
                     from .distributed import shadow_file_workers
-                    plan = shadow_file_workers(args, windows, out, job.suns, bands, dx, dy, args.workers,
+                    plan = shadow_file_workers(args, windows, out, traced or job.suns, bands, dx, dy, args.workers,
                                                args.tile, bar, **common)
             for warning in caught:
                 sys.stderr.write(f"{cli.PROG}: warning: {warning.message}\n")
