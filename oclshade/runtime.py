@@ -275,6 +275,7 @@ class Runtime:
         self.queue = cl.CommandQueue(self.context, device)
         self._programs: dict[tuple[str, tuple[str, ...]], cl.Program] = {}
         self._kernels: dict[tuple[int, str], cl.Kernel] = {}
+        self._local_sizes: dict[tuple[cl.Kernel, int], int] = {}   # the key keeps its kernel alive
         self._lock = threading.Lock()
         self.build_hits = 0
         self.build_misses = 0
@@ -383,15 +384,19 @@ class Runtime:
         return cl.Buffer(self.context, cl.mem_flags.READ_WRITE, size=max(int(nbytes), 1))
 
     def local_size(self, kernel: cl.Kernel, wanted: int) -> int:
-        """Largest power of two <= wanted that the device and this kernel accept."""
-        limit = min(
-            kernel.get_work_group_info(cl.kernel_work_group_info.WORK_GROUP_SIZE, self.device),
-            self.device.max_work_group_size,
-            self.device.max_work_item_sizes[0],
-        )
-        size = 1
-        while size * 2 <= min(wanted, limit):
-            size *= 2
+        """Largest power of two <= wanted that the device and this kernel accept (asked of the
+        driver once per kernel: launches per block of a map ask it thousands of times)."""
+        size = self._local_sizes.get((kernel, wanted))
+        if size is None:
+            limit = min(
+                kernel.get_work_group_info(cl.kernel_work_group_info.WORK_GROUP_SIZE, self.device),
+                self.device.max_work_group_size,
+                self.device.max_work_item_sizes[0],
+            )
+            size = 1
+            while size * 2 <= min(wanted, limit):
+                size *= 2
+            self._local_sizes[(kernel, wanted)] = size
         return size
 
     def grid_2d(self, kernel: cl.Kernel, cols: int, rows: int, wanted: int = 64,

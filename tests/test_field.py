@@ -25,6 +25,7 @@ from oclshade.sun import Sun, SunBlock, SunField  # noqa: E402
 from oclshade.sunshine import SunshineCaster  # noqa: E402
 
 from test_site import write_tif  # noqa: E402
+from test_sunshine import assert_sums_match  # noqa: E402
 
 WGS84 = (1, 1, 0, 3, 1024, 0, 1, 2, 1025, 0, 1, 1, 2048, 0, 1, 4326)   # geographic, EPSG:4326
 
@@ -254,23 +255,6 @@ def test_commands_that_trace_one_sun_per_map_warn_with_the_spread(tmp_path, caps
                 assert err == ""
 
 
-def assert_sums_equal_the_twin(got, want, nodata):
-    """Hours and cast fraction bit for bit outside ties (few tied), irradiation within the
-    twin's bound outside ties."""
-    tied = 0
-    for name, expected in (("hours", want.hours), ("fraction", want.fraction)):
-        value = getattr(got, name)
-        assert np.array_equal(np.isnan(value), nodata | np.isnan(expected)), name
-        differ = (value != expected.astype(np.float32)) & ~np.isnan(value)
-        assert not np.any(differ & ~want.ties), f"{name}: {int((differ & ~want.ties).sum())} cells differ"
-        tied = max(tied, int(differ.sum()))
-    assert tied <= 3
-    if got.irradiation is not None:
-        err = np.abs(got.irradiation.astype(np.float64) - want.beam_hours)
-        inside = ~want.ties & ~nodata
-        assert np.all(err[inside] <= want.beam_bound[inside])
-
-
 @settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(part=partitions(), other=partitions())
 def test_sunshine_sums_each_block_with_its_own_sun(part, other):
@@ -290,7 +274,7 @@ def test_sunshine_sums_each_block_with_its_own_sun(part, other):
     weights = [600, 300, 900, 600]
     got = SunshineCaster(hm).accumulate(steps, np.array(weights), "all")
     want = ref.sunshine_sums(hm, steps, weights)
-    assert_sums_equal_the_twin(got, want, np.isnan(h))
+    assert_sums_match(got, want, np.isnan(h), 3)
     day = np.broadcast_to(want.daylight_seconds, hm.shape)
     assert got.daylight_seconds == sum(w for s, w in zip(steps, weights) if (
         any(b.sun.elevation > 0 for b in s.blocks) if isinstance(s, SunField) else s.elevation > 0))
@@ -307,7 +291,7 @@ def test_sunshine_horizon_route_per_block_on_grid_azimuths_is_exact():
              for seed in range(4)]
     got = SunshineCaster(hm).accumulate(steps, 600, ("hours", "fraction"), method="horizons", azimuths=16)
     want = ref.sunshine_sums(hm, steps, [600] * len(steps))
-    assert_sums_equal_the_twin(got, want, np.isnan(h))
+    assert_sums_match(got, want, np.isnan(h), 3)
     assert np.nanmax(got.hours) > 0 and np.nanmin(got.fraction) < np.nanmax(got.fraction)
 
 

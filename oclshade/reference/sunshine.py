@@ -65,7 +65,11 @@ def facing_tolerance(hm: Heightmap, sun: Sun) -> np.ndarray:
     vector's components (eps / 2 each) and of v's two products and two sums (eps (|s_z| +
     |g_x s_x| + |g_y s_y|) each), times a safety factor of 8."""
     gx, gy, _, _ = surface_gradient(hm)
-    ex, ey = gradient_error(hm)
+    return _facing_tolerance(gx, gy, *gradient_error(hm), sun)
+
+
+def _facing_tolerance(gx: np.ndarray, gy: np.ndarray, ex: np.ndarray, ey: np.ndarray, sun: Sun) -> np.ndarray:
+    """:func:`facing_tolerance` from the gradient and its error bounds (of any cells)."""
     sx, sy, sz = (abs(c) for c in sun.vector())
     return 8.0 * (ex * sx + ey * sy + 2.0 * FLOAT32_EPS * (sz + np.abs(gx) * sx + np.abs(gy) * sy))
 
@@ -112,7 +116,7 @@ def sunshine_sums(hm: Heightmap, suns: Sequence[Sun | SunField], seconds: Sequen
             sun_s[win] += np.where(direct, w, 0.0)
             cast_s[win] += np.where(cast, w, 0.0)
             beam[win] += np.where(direct, (w / 3600.0) * v / norm[win], 0.0)
-            tolerance = facing_tolerance(hm, sun)[win]
+            tolerance = _facing_tolerance(gx[win], gy[win], ex[win], ey[win], sun)   # the map's, on the window
             bound[win] += np.where(direct, (w / 3600.0) * (tolerance + through_norm[win] + 16.0 * FLOAT32_EPS), 0.0)
             ties[win] |= ref.ties(tie_tolerance(hm, sun)) | (np.abs(v) <= tolerance)
             day[win] += w

@@ -136,8 +136,6 @@ class SunshineCaster:
             self._by_horizons(units, outs, azimuths)
         rt = self.runtime
         rows, cols = self.heightmap.shape
-        local = None
-        grids: dict[tuple[int, int], tuple] = {}
         bind = None
         last = {unit.step: k for k, unit in enumerate(units)}     # a step's last unit (as listed)
         finals = {id(units[k]) for k in last.values()}
@@ -145,15 +143,11 @@ class SunshineCaster:
             bind = bind or ArgBinder(kernel)                       # one kernel per call
             bind(*args, *_sun_args(unit.sun, int(weights[unit.step])), *sums.values())
             if unit.block is None:
-                local = local or rt.grid_2d(kernel, 1, 1)[1]
-                gsize = (-(-cols // local[0]) * local[0], -(-rows // local[1]) * local[1])
-                cl.enqueue_nd_range_kernel(rt.queue, kernel, gsize, local)
+                cl.enqueue_nd_range_kernel(rt.queue, kernel, *rt.grid_2d(kernel, cols, rows))
             else:   # exactly the block's cells
                 b = unit.block
-                size = (b.col1 - b.col0, b.row1 - b.row0)
-                if size not in grids:
-                    grids[size] = rt.exact_grid_2d(kernel, *size)
-                cl.enqueue_nd_range_kernel(rt.queue, kernel, *grids[size], global_work_offset=(b.col0, b.row0))
+                cl.enqueue_nd_range_kernel(rt.queue, kernel, *rt.exact_grid_2d(kernel, b.col1 - b.col0, b.row1 - b.row0),
+                                           global_work_offset=(b.col0, b.row0))
             if progress is not None and (id(unit) in finals or done == len(units)):
                 rt.queue.finish()          # once a step (a field's last block), not every block
                 progress(done, len(units))
