@@ -10,7 +10,8 @@
 # every stage (so a run cut short still returns what it did):
 #   setup      devices and versions
 #   tests      the core exactness tests on the GPU (pytest -n, OCLSHADE_DEVICE=nvidia)
-#   record     bench/horizon_record.py (1024^2, 64 azimuths)
+#   record     bench/horizon_record.py (1024^2, 64 azimuths; RECORD_ARGS: more arguments, e.g. its
+#              --variant KNOB=V; RECORD_LIMIT: its time limit, default 90 s)
 #   tune       oclshade tune, one family at a time (full, not --quick); the user entry kept
 #   quick      oclshade bench --quick
 #   variants   bench/tuning_variants.py (the tuned default against every variant)
@@ -100,7 +101,8 @@ run_stage() {
     tilesmem) TAIL=30 stage tilesmem 40 $PY bench/prototypes/gpu_tiles_rss.py 200M ;;
     quick) stage quick 90 $PY -m oclshade bench --quick --device "$SPEC" --out "$RES/bench_quick" ;;
     bench) stage bench 120 $PY -m oclshade bench --device "$SPEC" --out "$RES/bench_full" ;;
-    record) stage record 90 $PY bench/horizon_record.py --device "$SPEC" --reps 5 --samples ${SAMPLES:-60} --out "$RES/record" ;;
+    record) stage record ${RECORD_LIMIT:-90} $PY bench/horizon_record.py --device "$SPEC" --reps 5 --samples ${SAMPLES:-60} \
+              ${RECORD_ARGS:-} --out "$RES/record" ;;
     variants) stage variants 120 $PY bench/tuning_variants.py --no-saga --out "$RES/variants" ;;
     headlines) stage headlines 90 $PY bench/headlines.py --no-saga --reps 5 --out "$RES/headlines" ;;
     suite) TAIL=25 OCLSHADE_NO_PROBE=1 stage suite 900 $PY -m pytest -q -p no:cacheprovider -n 16 -rfE --timeout 120 ;;

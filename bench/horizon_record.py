@@ -15,6 +15,10 @@ and the Puget Sound map when ``../shared/data`` is present), on one OpenCL devic
   to the map's edge, no pyramid.  The default frame is the seeded pyramid walk over the whole
   map.  Both are exact: the sweep's angles must be within the float32 band of the default's;
 
+* ``--variant KNOB=V[,KNOB=V]`` (repeatable): the frame with those horizon tuning knobs (the
+  rest the device's), e.g. ``batch=1`` against the batched default on a GPU; its angles must be
+  the default frame's bit for bit;
+
 each the minimum (and median) of ``--reps`` runs after a warm-up that includes the builds.
 The angles are checked against the float64 reference on ``--samples`` seeded cells x every
 azimuth (bench/solar.py's ``reference_error``): the run fails if any is outside the float32
@@ -68,8 +72,22 @@ def sweep_caster(hm: Heightmap, rt: Runtime) -> HorizonCaster:
     return HorizonCaster(hm, rt, cache=False, max_distance=diagonal, knobs=SWEEP_KNOBS)
 
 
-def measure(hm: Heightmap, device: str | None, n: int, reps: int, sweep: bool) -> dict:
-    """The timings of one map (no check)."""
+def parse_variant(text: str) -> dict[str, int]:
+    """``knob=value[,knob=value...]``: the horizon family's knobs for a variant frame."""
+    try:
+        return dict((k.strip(), int(v)) for k, v in (kv.split("=") for kv in text.split(",")))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"a variant is knob=value[,knob=value...], got {text!r}") from None
+
+
+def variant_name(knobs: dict[str, int]) -> str:
+    return ",".join(f"{k}={v}" for k, v in knobs.items())
+
+
+def measure(hm: Heightmap, device: str | None, n: int, reps: int, sweep: bool,
+            variants: list[dict[str, int]] = ()) -> dict:
+    """The timings of one map (no check); each variant's frame too (the horizon knobs it names,
+    the rest the device's), its angles checked bit for bit against the default frame's."""
     rt = get_runtime(device)
 
     def run_frame(caster: HorizonCaster) -> None:
@@ -91,6 +109,19 @@ def measure(hm: Heightmap, device: str | None, n: int, reps: int, sweep: bool) -
 
     out = {"frame": timed(frame, reps)}
     out["frames_per_s"] = round(1e3 / out["frame"]["min_ms"], 2)
+    out["knobs"] = dict(HorizonCaster(hm, rt, cache=False).knobs)
+    if variants:
+        angles = HorizonCaster(hm, rt, cache=False).horizons(n)
+        out["variants"] = {}
+        for knobs in variants:
+            def variant_frame(knobs: dict[str, int] = knobs) -> None:
+                run_frame(HorizonCaster(hm, rt, cache=False, knobs=knobs))
+            v = timed(variant_frame, reps)
+            v["same_bits"] = bool(np.array_equal(HorizonCaster(hm, rt, cache=False, knobs=knobs).horizons(n),
+                                                 angles, equal_nan=True))
+            out["variants"][variant_name(knobs)] = v
+            print(f"  variant {variant_name(knobs)}: frame {v['min_ms']:.1f} ms, same bits {v['same_bits']}",
+                  file=sys.stderr)
     if sweep:
         if not all(sweep_caster(hm, rt).takes_sweep(az) for az in azimuth_grid(n)):     # checked once, untimed
             raise SystemExit(f"the sweep frame would walk some of the {n} azimuths on {hm.shape}")
@@ -123,6 +154,18 @@ def markdown(res: dict) -> str:
         frame = f"{m['frame']['min_ms']:.1f} ({m['frame']['median_ms']:.1f})"
         lines.append(f"| {name} | {frame} | {m['frames_per_s']:.1f} | {m['frames_per_s'] / r['frames_per_s']:.2f} "
                      f"| {sweep} | {m['frame_readback']['min_ms']:.1f} | {m['svf']['min_ms']:.1f} | {check} |")
+    variants = [(name, m["variants"]) for name, m in res["maps"].items() if m.get("variants")]
+    if variants:
+        lines += ["", "Variant frames (the horizon knobs named, the rest the device's; same bits: the angles "
+                  "equal the default frame's bit for bit):", "",
+                  "| map | default knobs | default frame (ms) | variant | frame (ms) | x default | same bits |",
+                  "|---" * 7 + "|"]
+        for name, vs in variants:
+            m = res["maps"][name]
+            for vname, v in vs.items():
+                lines.append(f"| {name} | {variant_name(m['knobs'])} | {m['frame']['min_ms']:.1f} | {vname} | "
+                             f"{v['min_ms']:.1f} ({v['median_ms']:.1f}) | {m['frame']['min_ms'] / v['min_ms']:.2f} "
+                             f"| {v['same_bits']} |")
     d, mf = res["device"], res["machine"]
     lines += ["", f"Device: {d['name']} ({d['platform']}, driver {d['driver']}, {d['version']}); "
               f"host CPU {mf['cpu']}, {mf['cores']} cores; {mf['date']}.", ""]
@@ -139,6 +182,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--samples", type=int, default=500, help="reference cells per map")
     ap.add_argument("--no-sweep", dest="sweep", action="store_false",
                     help="leave out the sweep frame (every azimuth swept to the map's edge)")
+    ap.add_argument("--variant", dest="variants", type=parse_variant, action="append", default=[],
+                    metavar="KNOB=V[,KNOB=V]", help="also time a frame with these horizon knobs (repeatable)")
+    ap.add_argument("--maps", default=",".join(MAPS), help=f"comma-separated, of {', '.join(MAPS)}")
     ap.add_argument("--data", type=Path, default=DEFAULT_DATA)
     ap.add_argument("--out", type=Path, default=Path("bench/results"))
     ap.add_argument("--quick", action="store_true", help="smoke run: 128^2, 8 azimuths, 1 rep, 20 cells")
@@ -151,13 +197,13 @@ def main(argv: list[str] | None = None) -> int:
            "device": {"name": rt.device.name, "platform": rt.device.platform.name,
                       "driver": rt.device.driver_version, "version": rt.device.version}, "maps": {}}
     heightmaps = {}
-    for name in MAPS:                  # every map's timings first, then the slow float64 checks
+    for name in args.maps.split(","):  # every map's timings first, then the slow float64 checks
         try:
             heightmaps[name] = hm = load(name, args.size, args.data)
         except Skip as why:
             print(f"{name}: skipped ({why})", file=sys.stderr)
             continue
-        res["maps"][name] = m = measure(hm, args.device, args.azimuths, args.reps, args.sweep)
+        res["maps"][name] = m = measure(hm, args.device, args.azimuths, args.reps, args.sweep, args.variants)
         print(f"{name}: frame {m['frame']['min_ms']:.1f} ms ({m['frames_per_s']:.1f}/s), "
               + (f"sweep {m['sweep_frame']['min_ms']:.1f} ms, " if args.sweep else "")
               + f"readback {m['frame_readback']['min_ms']:.1f} ms, svf {m['svf']['min_ms']:.1f} ms", file=sys.stderr)
@@ -172,10 +218,11 @@ def main(argv: list[str] | None = None) -> int:
         write(res, args.out)
     print(markdown(res))
     bad = [n for n, m in res["maps"].items()
-           if m["check"]["outside_band"] or m.get("sweep_vs_frame_deg", 0.0) > m["check"]["band_deg"]]
+           if m["check"]["outside_band"] or m.get("sweep_vs_frame_deg", 0.0) > m["check"]["band_deg"]
+           or not all(v["same_bits"] for v in m.get("variants", {}).values())]
     if bad:
         print("horizon_record: angles outside the float32 band (of the reference, or the sweep's of the "
-              f"frame's) on {', '.join(bad)}", file=sys.stderr)
+              f"frame's), or a variant's not the frame's bits, on {', '.join(bad)}", file=sys.stderr)
         return 1
     return 0
 

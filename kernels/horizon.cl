@@ -97,6 +97,17 @@
  * the algorithm (the hosts mirror it), not a tuning knob.  Measured:
  * docs/solar.md, "Seeded walks".
  *
+ * Batches (the seeded walk alone).  One azimuth's launches leave a device
+ * wide enough for hundreds of thousands of work-items mostly idle: the seed
+ * grid's 1/64 of the cells walk alone (their walks, unseeded, are the longest),
+ * and each launch ends on its slowest walks.  horizon_seeds_batch and
+ * horizon_cells_batch take B azimuths at once, the third global dimension k
+ * naming the azimuth; each work-item computes what horizon_seeds / horizon_cells
+ * compute for that azimuth (the same functions), so the outputs are the same
+ * bits for every B (the tuning knob `batch`).  With OCLS_OUT_SVF, whose sums
+ * per cell must be added in azimuth order, the host launches the cells of one
+ * azimuth at a time (global offset k in the third dimension).
+ *
  * Outputs (each compiled in by its -D option; an output not compiled in is
  * not written and its argument may be a 1-byte dummy buffer):
  *   OCLS_OUT_ANGLE  angle[idx] = atan(T) in degrees (float; ocls_atan_deg, the
@@ -147,6 +158,16 @@
  *     arguments as horizon_cells; writes seeds[gi * Ws + gj] = (T, t) of cell
  *     (min(8 gi, H - 1), min(8 gj, W - 1)) (T = -inf at nodata or where nothing
  *     is seen); global size (Ws, Hs) rounded up to any local size.
+ *
+ *   __kernel horizon_seeds_batch(h, H, W, ext, lvl_off, nlev, rays, seeds)
+ *   __kernel horizon_cells_batch(h, H, W, ext, lvl_off, nlev, rays, angle, svf, seeds, cell, stride)
+ *     (seeded builds only: neither OCLS_MAX_DISTANCE nor OCLS_CLAMP) as horizon_seeds /
+ *     horizon_cells for B azimuths: __global const float4 *rays (B rays), seeds B*Hs*Ws
+ *     (azimuth k's at k*Hs*Ws), angle B bands of int stride >= H*W floats (azimuth k's at
+ *     k*stride: a stride that keeps each band at the device's base-address alignment lets the
+ *     host hand out a band as a sub-buffer); global sizes (Ws, Hs, B) and (W, H, B), each
+ *     rounded up in the first two dimensions; a launch over part of the third dimension (a
+ *     global offset) computes those azimuths only.
  *
  * Build options: -D OCLS_OUT_ANGLE, OCLS_OUT_SVF=1|2, OCLS_CURVATURE,
  *   OCLS_MAX_DISTANCE, OCLS_CLAMP, OCLS_SWEEP=1|4|8|16 (a build of horizon_sweep alone; the
@@ -490,12 +511,11 @@ OCLS_INLINE float horizon_tan(__global const float *h, int H, int W, __global co
  * sides of its S x S square, clamped at the map's last row and column). */
 OCLS_INLINE int ocls_seed_extent(int n) { return (n - 1) / OCLS_SEED_STRIDE + 2; }
 
-/* Seeds, step 1: the exact walk on the seed grid, (T, a ray parameter where T is reached). */
-__kernel void horizon_seeds(__global const float *h, const int H, const int W, __global const float2 *ext,
-                            __global const int *lvl_off, const int nlev, const float4 ray, __global float2 *seeds)
+/* Seeds, step 1: the exact walk on the seed grid, (T, a ray parameter where T is reached), of seed
+ * cell (gi, gj) at the azimuth of ray. */
+OCLS_INLINE float2 seed_walk(__global const float *h, int H, int W, __global const float2 *ext,
+                             __global const int *lvl_off, int nlev, float4 ray, int gi, int gj)
 {
-    const int gj = get_global_id(0), gi = get_global_id(1), Hs = ocls_seed_extent(H), Ws = ocls_seed_extent(W);
-    if (gj >= Ws || gi >= Hs) return;
     const int i = min(gi * OCLS_SEED_STRIDE, H - 1), j = min(gj * OCLS_SEED_STRIDE, W - 1);
     const float z0 = h[i * W + j];
     float t_best = 0.0f, T = -INFINITY;
@@ -504,7 +524,15 @@ __kernel void horizon_seeds(__global const float *h, const int H, const int W, _
         init_ray(&r, i, j, ray);
         T = horizon_tan(h, H, W, ext, lvl_off, nlev, &r, z0, -INFINITY, INFINITY, &t_best);
     }
-    seeds[gi * Ws + gj] = (float2)(T, t_best);
+    return (float2)(T, t_best);
+}
+
+__kernel void horizon_seeds(__global const float *h, const int H, const int W, __global const float2 *ext,
+                            __global const int *lvl_off, const int nlev, const float4 ray, __global float2 *seeds)
+{
+    const int gj = get_global_id(0), gi = get_global_id(1), Hs = ocls_seed_extent(H), Ws = ocls_seed_extent(W);
+    if (gj >= Ws || gi >= Hs) return;
+    seeds[gi * Ws + gj] = seed_walk(h, H, W, ext, lvl_off, nlev, ray, gi, gj);
 }
 
 /* Seeds, step 2: a lower bound on T of the ray r (cell (i, j), height z0) from the horizon
@@ -531,17 +559,12 @@ OCLS_INLINE float seed_bound(__global const float *h, int H, int W, const HRay *
 }
 
 
-__kernel void horizon_cells(__global const float *h, const int H, const int W, __global const float2 *ext,
-                            __global const int *lvl_off, const int nlev, const float4 ray,
-                            __global float *angle, __global float2 *svf, __global const float2 *seeds,
-                            const float2 cell
-#ifdef OCLS_CLAMP
-                            , const float2 bounds
-#endif
-                            )
+/* The outputs of cell (i, j) at the azimuth of ray (bounds: OCLS_CLAMP's (lo, hi), else unread). */
+OCLS_INLINE void cell_walk(__global const float *h, int H, int W, __global const float2 *ext,
+                           __global const int *lvl_off, int nlev, float4 ray, __global float *angle,
+                           __global float2 *svf, __global const float2 *seeds, float2 cell, float2 bounds,
+                           int i, int j)
 {
-    const int j = get_global_id(0), i = get_global_id(1);
-    if (j >= W || i >= H) return;
     const int idx = i * W + j;
     const float z0 = h[idx];
     if (isnan(z0)) {
@@ -577,6 +600,53 @@ __kernel void horizon_cells(__global const float *h, const int H, const int W, _
 #endif
     store_outputs(angle, svf, idx, T);
 }
+
+__kernel void horizon_cells(__global const float *h, const int H, const int W, __global const float2 *ext,
+                            __global const int *lvl_off, const int nlev, const float4 ray,
+                            __global float *angle, __global float2 *svf, __global const float2 *seeds,
+                            const float2 cell
+#ifdef OCLS_CLAMP
+                            , const float2 bounds
+#endif
+                            )
+{
+    const int j = get_global_id(0), i = get_global_id(1);
+    if (j >= W || i >= H) return;
+#ifndef OCLS_CLAMP
+    const float2 bounds = (float2)(-INFINITY, INFINITY);
+#endif
+    cell_walk(h, H, W, ext, lvl_off, nlev, ray, angle, svf, seeds, cell, bounds, i, j);
+}
+
+#ifdef OCLS_SEEDED
+/* Batches ("Batches" above): the whole map's seeded walk for B azimuths in one launch, azimuth k =
+ * get_global_id(2) < B with ray rays[k], its seeds at seeds + k Hs Ws and its angles at
+ * angle + k stride. */
+__kernel void horizon_seeds_batch(__global const float *h, const int H, const int W, __global const float2 *ext,
+                                  __global const int *lvl_off, const int nlev, __global const float4 *rays,
+                                  __global float2 *seeds)
+{
+    const int gj = get_global_id(0), gi = get_global_id(1), k = get_global_id(2);
+    const int Hs = ocls_seed_extent(H), Ws = ocls_seed_extent(W);
+    if (gj >= Ws || gi >= Hs) return;
+    seeds[((size_t)k * Hs + gi) * Ws + gj] = seed_walk(h, H, W, ext, lvl_off, nlev, rays[k], gi, gj);
+}
+
+__kernel void horizon_cells_batch(__global const float *h, const int H, const int W, __global const float2 *ext,
+                                  __global const int *lvl_off, const int nlev, __global const float4 *rays,
+                                  __global float *angle, __global float2 *svf, __global const float2 *seeds,
+                                  const float2 cell, const int stride)
+{
+    const int j = get_global_id(0), i = get_global_id(1), k = get_global_id(2);
+    if (j >= W || i >= H) return;
+#ifdef OCLS_OUT_ANGLE
+    angle += (size_t)k * stride;
+#endif
+    cell_walk(h, H, W, ext, lvl_off, nlev, rays[k], angle, svf,
+              seeds + (size_t)k * ocls_seed_extent(H) * ocls_seed_extent(W), cell,
+              (float2)(-INFINITY, INFINITY), i, j);
+}
+#endif
 #endif /* the walk */
 
 /* ---------------------------------------------------------------- the sweep

@@ -7,6 +7,7 @@ import math
 import pathlib
 
 import numpy as np
+import pyopencl as cl
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -199,18 +200,32 @@ def test_knobs_do_not_change_results():
     hm = Heightmap.from_array(h, 30.0)
     for radius in (None, 400.0, 1800.0):      # the whole map, the sweep, a walk within a radius
         base = HorizonCaster(hm, max_distance=radius, knobs={"group": 64, "own_builtins": 0, "lanes": 1,
-                                                             "sweep_cells": 128})
+                                                             "sweep_cells": 128, "width": 16})
         angles, svf = base.horizons(6), base.sky_view_factor(6)
-        combos = [(group, own, 1, 128) for group, own in itertools.product((16, 64, 256), (0, 1))]
+        combos = [(group, own, 1, 128, 16) for group, own in itertools.product((16, 64, 256), (0, 1))]
         if radius == 400.0:                       # lanes are the sweep's alone
-            combos += [(64, own, lanes, 128) for own, lanes in itertools.product((0, 1), (4, 8, 16))]
+            combos += [(64, own, lanes, 128, 16) for own, lanes in itertools.product((0, 1), (4, 8, 16))]
         if radius is not None:                    # 13 and 60 cells: swept or walked, every azimuth or some
-            combos += [(64, 0, lanes, cells) for lanes, cells in itertools.product((1, 8), (0, 64, 192, 256))]
-        for group, own, lanes, cells in combos:
-            knobs = {"group": group, "own_builtins": own, "lanes": lanes, "sweep_cells": cells}
+            combos += [(64, 0, lanes, cells, 16) for lanes, cells in itertools.product((1, 8), (0, 64, 192, 256))]
+        combos += [(64, 0, 1, 128, width) for width in (4, 8, 32)]      # the work-group's width
+        for group, own, lanes, cells, width in combos:
+            knobs = {"group": group, "own_builtins": own, "lanes": lanes, "sweep_cells": cells, "width": width}
             caster = HorizonCaster(hm, max_distance=radius, knobs=knobs, curvature=None)
             assert np.array_equal(caster.horizons(6), angles, equal_nan=True), (radius, knobs)
             assert np.array_equal(caster.sky_view_factor(6), svf, equal_nan=True), (radius, knobs)
+    # several azimuths per launch of the whole map's walk: one batch, a batch and a part (8 + 3)
+    base = HorizonCaster(hm, knobs={"batch": 1})
+    angles, svf = base.horizons(11), base.sky_view_factor(11)
+    for batch, group, width in ((8, 16, 4), (8, 256, 16), (64, 64, 4), (64, 256, 32)):
+        caster = HorizonCaster(hm, knobs={"batch": batch, "group": group, "width": width})
+        assert np.array_equal(caster.horizons(11), angles, equal_nan=True), (batch, group, width)
+        assert np.array_equal(caster.sky_view_factor(11), svf, equal_nan=True), (batch, group, width)
+        on_device = list(caster.angles_on_device(11))
+        assert [az for az, _ in on_device] == list(azimuth_grid(11))
+        for k, (_, buf) in enumerate(on_device):      # each band its own (sub-)buffer of rows * cols
+            band = np.empty(hm.shape, np.float32)
+            cl.enqueue_copy(caster.runtime.queue, band, buf)
+            assert np.array_equal(band, angles[k], equal_nan=True), (batch, k)
 
 
 def test_streaming_and_arguments():
@@ -331,8 +346,8 @@ def test_a_radius_beyond_the_map_equals_the_whole_map(make_map, curved, radius):
         assert np.nanmax(np.abs(seeded[k] - expected)) <= ref.angle_tolerance(hm, c)
 
 
-@pytest.mark.parametrize("curved", [False, True])
-def test_the_seeds_fallback_is_the_walk_from_nothing(curved, monkeypatch):
+@pytest.mark.parametrize("curved, batch", [(False, 1), (True, 1), (False, 8)])
+def test_the_seeds_fallback_is_the_walk_from_nothing(curved, batch, monkeypatch):
     """Where no tile beats a cell's seed bound (its margin was too thin), the cell walks again
     from -inf (kernels/horizon.cl, "Seeds", step 3).  Rare in real runs (a few hundred cells in
     millions), so here a test-only define makes every bound +inf: every cell falls back, and the
@@ -342,14 +357,14 @@ def test_the_seeds_fallback_is_the_walk_from_nothing(curved, monkeypatch):
     build, forced = Runtime.kernel, []
 
     def kernel(self, filename, name, defines=None):
-        if (filename, name) == ("horizon.cl", "horizon_cells") and not (defines or {}).get("OCLS_MAX_DISTANCE"):
+        if filename == "horizon.cl" and name in ("horizon_cells", "horizon_cells_batch") and not (defines or {}).get("OCLS_MAX_DISTANCE"):
             forced.append(name)
             defines = {**(defines or {}), "OCLS_FORCE_SEED_FALLBACK": True}
         return build(self, filename, name, defines)
 
     monkeypatch.setattr(Runtime, "kernel", kernel)
     hm, curvature = varied_map(), Curvature() if curved else None
-    fallen_back = HorizonCaster(hm, curvature=curvature, cache=False).horizons(16)
+    fallen_back = HorizonCaster(hm, curvature=curvature, cache=False, knobs={"batch": batch}).horizons(16)
     assert forced, "the seeded walk was not built with the fallback forced"
     monkeypatch.setattr(Runtime, "kernel", build)
     assert np.array_equal(fallen_back, walk_from_nothing(hm, curvature, 16), equal_nan=True)

@@ -215,15 +215,23 @@ def test_horizon_route_error_shrinks_with_the_azimuths():
 
 
 def test_horizon_route_computes_each_needed_band_once(monkeypatch):
-    """Suns in two azimuth intervals of 64: four bands, no more, whatever the number of suns."""
+    """Suns in two azimuth intervals of 64 (5.625 degrees): the four bands around them, no more,
+    whatever the number of suns (counted as the bands the horizon caster hands out, however many
+    azimuths its launches batch)."""
     hm = Heightmap.from_array(canyon_crater(24, 24, seed=3, relief=300), 30.0)
     caster = SunshineCaster(hm)
-    whats: list[str] = []
-    real = caster.runtime.empty
-    monkeypatch.setattr(caster.runtime, "empty", lambda nbytes, what: whats.append(what) or real(nbytes, what))
+    computed: list[float] = []
+    real = HorizonCaster.angles_on_device
+
+    def counting(self, azimuths):
+        for azimuth, buf in real(self, azimuths):
+            computed.append(azimuth)
+            yield azimuth, buf
+
+    monkeypatch.setattr(HorizonCaster, "angles_on_device", counting)
     suns = [Sun(90.0 + 0.5 * k, 10.0) for k in range(5)] + [Sun(270.0 + 0.5 * k, 10.0) for k in range(5)]
     caster.accumulate(suns, 600, method="horizons", azimuths=64)
-    assert whats.count("horizon angles") == 4
+    assert sorted(computed) == [90.0, 95.625, 270.0, 275.625]
 
 
 def test_unknown_method_and_bad_azimuths_are_refused():

@@ -211,6 +211,17 @@ class HorizonCaster:
 
     def _device_angles(self, az: np.ndarray) -> Iterator[tuple[float, cl.Buffer]]:
         rows, cols = self.heightmap.shape
+        if self._batched():
+            align = max(1, self.runtime.device.mem_base_addr_align // 32)   # floats
+            stride = -(-rows * cols // align) * align          # each band at an aligned offset
+            launch, size = self._batch_launcher({"OCLS_OUT_ANGLE": True}, az.size, 4 * stride)
+            for first in range(0, az.size, size):
+                chunk = az[first:first + size]
+                buf = self.runtime.empty(4 * stride * chunk.size, "horizon angles")
+                launch(chunk, buf, stride, self._dummy)
+                for k, a in enumerate(chunk):
+                    yield float(a), buf.get_sub_region(4 * stride * k, 4 * rows * cols)
+            return
         enqueue = self._enqueuer({"OCLS_OUT_ANGLE": True})
         for a in az:
             buf = self.runtime.empty(4 * rows * cols, "horizon angles")
@@ -230,12 +241,21 @@ class HorizonCaster:
         rows, cols = self.heightmap.shape
         sums = rt.empty(8 * rows * cols, "sky-view factor sums")
         cl.enqueue_fill_buffer(rt.queue, sums, np.float32(0.0), 0, 8 * rows * cols)
-        enqueue = self._enqueuer({"OCLS_OUT_SVF": _SVF_CODE[definition]})
-        for k, a in enumerate(az):
-            enqueue(float(a), self._dummy, sums)
-            if progress is not None:
-                rt.queue.finish()
-                progress(k + 1, az.size)
+        outputs = {"OCLS_OUT_SVF": _SVF_CODE[definition]}
+        if self._batched():
+            launch, size = self._batch_launcher(outputs, az.size, 0)
+            for first in range(0, az.size, size):
+                launch(az[first:first + size], self._dummy, 0, sums)
+                if progress is not None:
+                    rt.queue.finish()
+                    progress(min(first + size, az.size), az.size)
+        else:
+            enqueue = self._enqueuer(outputs)
+            for k, a in enumerate(az):
+                enqueue(float(a), self._dummy, sums)
+                if progress is not None:
+                    rt.queue.finish()
+                    progress(k + 1, az.size)
         acc = np.empty((rows, cols, 2), np.float32)
         cl.enqueue_copy(rt.queue, acc, sums)
         total = acc[..., 0].astype(np.float64) - acc[..., 1]          # the sum less its compensation
@@ -311,11 +331,8 @@ class HorizonCaster:
         the first azimuth that walks, the sweep's at the first it sweeps."""
         rt, hm = self.runtime, self.heightmap
         rows, cols = hm.shape
-        defines = {**outputs, "OCLS_CURVATURE": self.curvature is not None,
-                   "OCLS_MAX_DISTANCE": self.radius is not None,
-                   "OCLS_OWN_BUILTINS": bool(self.knobs["own_builtins"])}
+        defines = self._defines(outputs)
         cell = np.array([hm.dx, hm.dy], np.float32)
-        c, radius = self.coefficient, self.radius or 0.0
         clamped = bool(outputs.get("OCLS_CLAMP"))
         seeded = not clamped and self.radius is None
 
@@ -324,14 +341,13 @@ class HorizonCaster:
             pyr = self.pyramid
             self._heights = None             # a sweep's own copy: the pyramid's heights from now on
             kernel = rt.kernel("horizon.cl", "horizon_cells", defines)
-            walk = {"kernel": kernel, "grid": rt.grid_2d(kernel, cols, rows, wanted=self.knobs["group"]),
+            walk = {"kernel": kernel, "grid": self._grid(kernel, cols, rows),
                     "fixed": (pyr.heights, np.int32(rows), np.int32(cols), pyr.buffer, pyr.offsets,
                               np.int32(pyr.levels))}
             if seeded:
                 seed_rows, seed_cols = (seed_extent(n) for n in (rows, cols))
                 seeder = rt.kernel("horizon.cl", "horizon_seeds", defines)
-                walk.update(seeder=seeder, seed_grid=rt.grid_2d(seeder, seed_cols, seed_rows,
-                                                                wanted=self.knobs["group"]),
+                walk.update(seeder=seeder, seed_grid=self._grid(seeder, seed_cols, seed_rows),
                             seeds=rt.empty(8 * seed_rows * seed_cols, "horizon seeds"))
             return walk
 
@@ -339,14 +355,14 @@ class HorizonCaster:
         def sweeper() -> tuple[cl.Kernel, tuple]:
             lanes = self.knobs["lanes"]
             kernel = rt.kernel("horizon.cl", "horizon_sweep", {**defines, "OCLS_SWEEP": lanes})
-            return kernel, rt.grid_2d(kernel, -(-cols // lanes), rows, wanted=self.knobs["group"])
+            return kernel, self._grid(kernel, -(-cols // lanes), rows)
 
         def launch(kernel: cl.Kernel, grid: tuple, band: tuple[int, int] | None,
                    block: SunBlock | None = None) -> None:
             """The whole grid, or only the band (first row, rows) of it, or exactly a block's cells."""
             if block is not None:
                 size = (block.col1 - block.col0, block.row1 - block.row0)
-                cl.enqueue_nd_range_kernel(rt.queue, kernel, *rt.exact_grid_2d(kernel, *size, wanted=self.knobs["group"]),
+                cl.enqueue_nd_range_kernel(rt.queue, kernel, *self._grid(kernel, *size, exact=True),
                                            global_work_offset=(block.col0, block.row0))
                 return
             (gx, gy), local = grid
@@ -382,14 +398,14 @@ class HorizonCaster:
 
         def enqueue(azimuth: float, angle: cl.Buffer, svf: cl.Buffer, bounds: tuple[float, float] = (),
                     block: SunBlock | None = None) -> None:
-            ux, uy, _ = Sun(azimuth, 0.0).ray(hm.dx, hm.dy)
-            ray = np.array([ux, uy, c, radius], np.float32)
+            ray = self._ray(azimuth)
+            ux, uy = float(ray[0]), float(ray[1])
             if block is not None:     # a block's cells (sun fields, with OCLS_CLAMP): the walk
                 walk(ray, angle, svf, bounds, block=block)
                 return
             route = not clamped and self._route(ux, uy)
             if route is None:
-                self._pilot = pilot(ray, angle, radius * (abs(ux) + abs(uy)))
+                self._pilot = pilot(ray, angle, float(ray[3]) * (abs(ux) + abs(uy)))
                 route = self._pilot.sweeps
             if route:
                 sweep(ray, angle, svf)
@@ -397,6 +413,69 @@ class HorizonCaster:
                 walk(ray, angle, svf, bounds)
 
         return enqueue
+
+    def _grid(self, kernel: cl.Kernel, cols: int, rows: int, exact: bool = False
+              ) -> tuple[tuple[int, int], tuple[int, int]]:
+        """(global, local) sizes for one work-item per (col, row): work-groups of the knob ``group``
+        work-items, the knob ``width`` of them across (:meth:`Runtime.grid_2d`; ``exact``:
+        :meth:`Runtime.exact_grid_2d`, for a block at a global offset)."""
+        grid = self.runtime.exact_grid_2d if exact else self.runtime.grid_2d
+        return grid(kernel, cols, rows, wanted=self.knobs["group"], max_x=self.knobs["width"])
+
+    def _defines(self, outputs: Mapping[str, object]) -> dict[str, object]:
+        return {**outputs, "OCLS_CURVATURE": self.curvature is not None,
+                "OCLS_MAX_DISTANCE": self.radius is not None,
+                "OCLS_OWN_BUILTINS": bool(self.knobs["own_builtins"])}
+
+    def _ray(self, azimuth: float) -> np.ndarray:
+        """kernels/horizon.cl's float4 ray (ux, uy, c, R) at ``azimuth``."""
+        ux, uy, _ = Sun(azimuth, 0.0).ray(self.heightmap.dx, self.heightmap.dy)
+        return np.array([ux, uy, self.coefficient, self.radius or 0.0], np.float32)
+
+    def _batched(self) -> bool:
+        """Whether the whole map's walk takes several azimuths per launch (the knob ``batch``;
+        kernels/horizon.cl, "Batches": the same bits either way)."""
+        return self.radius is None and self.knobs["batch"] > 1
+
+    def _batch_launcher(self, outputs: Mapping[str, object], n_azimuths: int, band_bytes: int
+                        ) -> tuple[Callable[[np.ndarray, cl.Buffer, int, cl.Buffer], None], int]:
+        """(launch, size): ``launch(azimuths, angle, stride, svf)`` enqueues the seeded walk of up to
+        ``size`` azimuths (horizon_seeds_batch, then horizon_cells_batch: the angles of all in one
+        launch into bands ``stride`` floats apart, or the sky-view sums one azimuth at a time, in
+        order); ``size`` is the knob ``batch``, at most ``n_azimuths``, and small enough that the
+        batch's buffers (``band_bytes`` of outputs and the seeds per azimuth) stay within an eighth
+        of the device's memory and one allocation."""
+        rt, hm = self.runtime, self.heightmap
+        rows, cols = hm.shape
+        seed_bytes = 8 * seed_extent(rows) * seed_extent(cols)
+        device = rt.device
+        room = min(device.global_mem_size // 8, device.max_mem_alloc_size) // (band_bytes + seed_bytes)
+        size = int(max(1, min(self.knobs["batch"], n_azimuths, room)))
+        defines = self._defines(outputs)
+        pyr = self.pyramid
+        seeder = rt.kernel("horizon.cl", "horizon_seeds_batch", defines)
+        walker = rt.kernel("horizon.cl", "horizon_cells_batch", defines)
+        (sgx, sgy), (slx, sly) = self._grid(seeder, seed_extent(cols), seed_extent(rows))
+        (gx, gy), (lx, ly) = self._grid(walker, cols, rows)
+        fixed = (pyr.heights, np.int32(rows), np.int32(cols), pyr.buffer, pyr.offsets, np.int32(pyr.levels))
+        seeds = rt.empty(seed_bytes * size, "horizon seeds")
+        cell = np.array([hm.dx, hm.dy], np.float32)
+        per_azimuth = "OCLS_OUT_SVF" in outputs
+
+        def launch(azimuths: np.ndarray, angle: cl.Buffer, stride: int, svf: cl.Buffer) -> None:
+            n = azimuths.size
+            rays = rt.to_device(np.stack([self._ray(float(a)) for a in azimuths]), "horizon rays")
+            seeder.set_args(*fixed, rays, seeds)
+            cl.enqueue_nd_range_kernel(rt.queue, seeder, (sgx, sgy, n), (slx, sly, 1))
+            walker.set_args(*fixed, rays, angle, svf, seeds, cell, np.int32(stride))
+            if per_azimuth:      # the sums of a cell in azimuth order
+                for k in range(n):
+                    cl.enqueue_nd_range_kernel(rt.queue, walker, (gx, gy, 1), (lx, ly, 1),
+                                               global_work_offset=(0, 0, k))
+            else:
+                cl.enqueue_nd_range_kernel(rt.queue, walker, (gx, gy, n), (lx, ly, 1))
+
+        return launch, size
 
     def takes_sweep(self, azimuth: float) -> bool | None:
         """Whether the rays at ``azimuth`` take the sweep (else the walk) for the angles and the
@@ -446,13 +525,15 @@ def _workload(rt: Runtime, knobs: tuning.Values, quick: bool) -> Callable[[], No
     # sweeps the first, 192 both, 64 neither) on the canyon and on the canyon roughened by 20 m of
     # noise (the sweep's cost depends on the crossings alone, the walk's on the ground: rough ground
     # prunes well, like the SRTM tiles, smooth ground badly; docs/solar.md, "The sweep")
+    # The whole map's walk: 16 azimuths of a map half as wide (as many rays as 4 azimuths of the
+    # full one), so that `batch` is measured with more than one azimuth per launch.
     hm = tuning.standard_heightmap(512 if quick else 1024)
     rough = Heightmap.from_array(hm.heights + np.random.default_rng(0).normal(0.0, 20.0, hm.shape), (hm.dx, hm.dy))
-    caster = HorizonCaster(hm, rt, cache=False, knobs=knobs)
+    caster = HorizonCaster(tuning.standard_heightmap(hm.shape[0] // 2), rt, cache=False, knobs=knobs)
     near = HorizonCaster(hm, rt, max_distance=10 * hm.dx, cache=False, knobs=knobs)
     mid = [HorizonCaster(m, rt, max_distance=120 * hm.dx, cache=False, knobs=knobs) for m in (hm, rough)]
     caster.pyramid
-    return lambda: (caster.horizons(4), near.horizons(16), *(c.horizons([0.0, 45.0]) for c in mid))
+    return lambda: (caster.horizons(16), near.horizons(16), *(c.horizons([0.0, 45.0]) for c in mid))
 
 
 #: the horizon kernel's knobs (kernels/horizon.cl)
@@ -460,6 +541,11 @@ TUNING = tuning.register(tuning.Family(
     "horizon",
     (tuning.OWN_BUILTINS_WHERE_CALLED,
      tuning.Param("group", (16, 64, 256), 64, "work-group size (work-items)"),
+     tuning.Param("width", (4, 8, 16, 32), 16, "work-group width in cells (the rest of `group` down the "
+                  "rows: square groups keep a warp's rays alike)"),
+     tuning.Param("batch", (1, 8, 64), 1, "azimuths per launch of the whole map's walk "
+                  "(horizon_seeds_batch / horizon_cells_batch; device memory for that many bands)",
+                  rule="gpu"),
      tuning.Param("lanes", (1, 4, 8, 16), 1, "cells per work-item of the sweep on vector lanes (-D OCLS_SWEEP)",
                   vector=True, rule="width"),
      tuning.Param("sweep_cells", (0, 64, 128, 192, 256), 128,

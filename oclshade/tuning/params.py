@@ -28,7 +28,7 @@ FAMILY_MODULES = ("oclshade.pyramid", "oclshade.shadows", "oclshade.terrain", "o
 
 
 #: the rules a knob can follow (Param.rule; oclshade/tuning/rules.py applies them)
-RULES = ("safe", "width", "wider", "crossings", "host_memory", "library_calls")
+RULES = ("safe", "width", "wider", "crossings", "host_memory", "library_calls", "gpu")
 
 
 @dataclass(frozen=True)
@@ -48,7 +48,8 @@ class Param:
     #: "crossings" (on CPUs the largest legal value up to 16 x that width, at least the smallest
     #: non-zero one: the horizon sweep's reach, whose cost per crossing falls with the lanes),
     #: "host_memory" (1 on CPU devices that share the host's memory) or "library_calls" (1 on
-    #: drivers that leave the built-ins as library calls: PoCL 3.0's CPU devices)
+    #: drivers that leave the built-ins as library calls: PoCL 3.0's CPU devices) or "gpu" (the
+    #: largest legal value on devices that are not CPUs, else the safe value)
     rule: str = "safe"
     #: False for a knob whose best value depends on the input, not only on the device, and that
     #: chooses at run time (horizon sweep_far's pilot): the tuner leaves it at its rule's value,

@@ -97,4 +97,6 @@ def rule_values(family: Family, device: cl.Device) -> Values:
             values[p.name] = int(is_cpu and bool(device.host_unified_memory))
         elif p.rule == "library_calls":
             values[p.name] = int(builtins_are_calls(device))
+        elif p.rule == "gpu" and not is_cpu:
+            values[p.name] = max(p.values)
     return family.check(values)
