@@ -101,12 +101,13 @@
  * wide enough for hundreds of thousands of work-items mostly idle: the seed
  * grid's 1/64 of the cells walk alone (their walks, unseeded, are the longest),
  * and each launch ends on its slowest walks.  horizon_seeds_batch and
- * horizon_cells_batch take B azimuths at once, the third global dimension k
- * naming the azimuth; each work-item computes what horizon_seeds / horizon_cells
- * compute for that azimuth (the same functions), so the outputs are the same
- * bits for every B (the tuning knob `batch`).  With OCLS_OUT_SVF, whose sums
- * per cell must be added in azimuth order, the host launches the cells of one
- * azimuth at a time (global offset k in the third dimension).
+ * horizon_cells_batch take several azimuths per launch; each work-item
+ * computes what horizon_seeds / horizon_cells compute for its azimuth (the
+ * same functions), so the outputs are the same bits for any number per launch
+ * (the tuning knob `batch`).  The angles: one work-item per cell and azimuth,
+ * the azimuth the third global dimension.  The sky-view sums, which a cell
+ * must add in azimuth order: one work-item per cell, walking the launch's
+ * azimuths in order (no launch per azimuth either).
  *
  * Outputs (each compiled in by its -D option; an output not compiled in is
  * not written and its argument may be a 1-byte dummy buffer):
@@ -159,15 +160,18 @@
  *     (min(8 gi, H - 1), min(8 gj, W - 1)) (T = -inf at nodata or where nothing
  *     is seen); global size (Ws, Hs) rounded up to any local size.
  *
- *   __kernel horizon_seeds_batch(h, H, W, ext, lvl_off, nlev, rays, seeds)
- *   __kernel horizon_cells_batch(h, H, W, ext, lvl_off, nlev, rays, angle, svf, seeds, cell, stride)
+ *   __kernel horizon_seeds_batch(h, H, W, ext, lvl_off, nlev, rays, seeds, first)
+ *   __kernel horizon_cells_batch(h, H, W, ext, lvl_off, nlev, rays, angle, svf, seeds, cell, stride,
+ *                                first, count)
  *     (seeded builds only: neither OCLS_MAX_DISTANCE nor OCLS_CLAMP) as horizon_seeds /
- *     horizon_cells for B azimuths: __global const float4 *rays (B rays), seeds B*Hs*Ws
- *     (azimuth k's at k*Hs*Ws), angle B bands of int stride >= H*W floats (azimuth k's at
- *     k*stride: a stride that keeps each band at the device's base-address alignment lets the
- *     host hand out a band as a sub-buffer); global sizes (Ws, Hs, B) and (W, H, B), each
- *     rounded up in the first two dimensions; a launch over part of the third dimension (a
- *     global offset) computes those azimuths only.
+ *     horizon_cells for the count azimuths first .. first + count - 1 of __global const float4
+ *     *rays; seeds count*Hs*Ws (azimuth first + k's at k*Hs*Ws); angle bands int stride >= H*W
+ *     floats apart (azimuth a's at a*stride: a stride that keeps each band at the device's
+ *     base-address alignment lets a host hand out a band as a sub-buffer).  Global sizes
+ *     (Ws, Hs, count) for the seeds; for the cells (W, H, count) (OCLS_OUT_ANGLE alone) or
+ *     (W, H, 1) with OCLS_OUT_SVF (each work-item walks the count azimuths in order, adding
+ *     to svf and writing the angles too with OCLS_OUT_ANGLE); the first two dimensions
+ *     rounded up to any local size, the third's local size 1.
  *
  * Build options: -D OCLS_OUT_ANGLE, OCLS_OUT_SVF=1|2, OCLS_CURVATURE,
  *   OCLS_MAX_DISTANCE, OCLS_CLAMP, OCLS_SWEEP=1|4|8|16 (a build of horizon_sweep alone; the
@@ -619,32 +623,40 @@ __kernel void horizon_cells(__global const float *h, const int H, const int W, _
 }
 
 #ifdef OCLS_SEEDED
-/* Batches ("Batches" above): the whole map's seeded walk for B azimuths in one launch, azimuth k =
- * get_global_id(2) < B with ray rays[k], its seeds at seeds + k Hs Ws and its angles at
- * angle + k stride. */
+/* Batches ("Batches" above): the whole map's seeded walk for several azimuths per launch, azimuth
+ * first + k with ray rays[first + k], its seeds at seeds + k Hs Ws and its angles at
+ * angle + (first + k) stride. */
 __kernel void horizon_seeds_batch(__global const float *h, const int H, const int W, __global const float2 *ext,
                                   __global const int *lvl_off, const int nlev, __global const float4 *rays,
-                                  __global float2 *seeds)
+                                  __global float2 *seeds, const int first)
 {
     const int gj = get_global_id(0), gi = get_global_id(1), k = get_global_id(2);
     const int Hs = ocls_seed_extent(H), Ws = ocls_seed_extent(W);
     if (gj >= Ws || gi >= Hs) return;
-    seeds[((size_t)k * Hs + gi) * Ws + gj] = seed_walk(h, H, W, ext, lvl_off, nlev, rays[k], gi, gj);
+    seeds[((size_t)k * Hs + gi) * Ws + gj] = seed_walk(h, H, W, ext, lvl_off, nlev, rays[first + k], gi, gj);
 }
 
 __kernel void horizon_cells_batch(__global const float *h, const int H, const int W, __global const float2 *ext,
                                   __global const int *lvl_off, const int nlev, __global const float4 *rays,
                                   __global float *angle, __global float2 *svf, __global const float2 *seeds,
-                                  const float2 cell, const int stride)
+                                  const float2 cell, const int stride, const int first, const int count)
 {
-    const int j = get_global_id(0), i = get_global_id(1), k = get_global_id(2);
+    const int j = get_global_id(0), i = get_global_id(1);
     if (j >= W || i >= H) return;
-#ifdef OCLS_OUT_ANGLE
-    angle += (size_t)k * stride;
+#ifdef OCLS_OUT_SVF
+    const int k0 = 0, k1 = count;                      /* a cell's sums in azimuth order */
+#else
+    const int k0 = get_global_id(2), k1 = k0 + 1;
 #endif
-    cell_walk(h, H, W, ext, lvl_off, nlev, rays[k], angle, svf,
-              seeds + (size_t)k * ocls_seed_extent(H) * ocls_seed_extent(W), cell,
-              (float2)(-INFINITY, INFINITY), i, j);
+    const size_t seed_cells = (size_t)ocls_seed_extent(H) * ocls_seed_extent(W);
+    for (int k = k0; k < k1; ++k)
+        cell_walk(h, H, W, ext, lvl_off, nlev, rays[first + k],
+#ifdef OCLS_OUT_ANGLE
+                  angle + (size_t)(first + k) * stride,
+#else
+                  angle,
+#endif
+                  svf, seeds + (size_t)k * seed_cells, cell, (float2)(-INFINITY, INFINITY), i, j);
 }
 #endif
 #endif /* the walk */

@@ -244,7 +244,8 @@ const char *oclshade_program_source(const oclshade *lib, const char *file);
  *   terrain         descend 1..5, leaf 0..4, group 16|64|256, own_builtins 0|1
  *   screen_shadows  group 16|64|256, own_builtins 0|1
  *   ssao            lanes 4|8|16, group 16|64|256, own_builtins 0|1
- *   horizon         group 16|64|256, own_builtins 0|1, lanes 1|4|8|16
+ *   horizon         group 16|64|256, own_builtins 0|1, lanes 1|4|8|16, sweep_cells 0|64|128|192|256,
+ *                   sweep_far 0|1|2, width 4|8|16|32, batch 1|8|64
  * (the Python pyramid knob in_place, a host-memory choice, has no C counterpart).  An
  * unknown family, knob or value is INVALID_ARGUMENT naming the legal ones; nothing
  * changes then.  Applies to the commands enqueued afterwards (programs built with other
@@ -816,6 +817,12 @@ typedef struct oclshade_horizon_params {
                                    svf = 1 - (sum - compensation) / N, NaN at nodata (the Python host's) */
     oclshade_svf_definition svf_definition;
     cl_mem scratch;             /* >= oclshade_horizon_scratch_size (packed copies of pitched fields) */
+    const double *azimuths;     /* n_azimuths > 0: these azimuths (finite degrees) in one call instead of
+                                   `azimuth` (whole map only: max_distance 0); angle then holds
+                                   n_azimuths bands of rows x cols, band k at rows k rows .. (k + 1) rows
+                                   - 1 of the field (n_azimuths * rows rows), and svf adds all of them
+                                   in order.  The same bits as one call per azimuth. */
+    int n_azimuths;             /* 0 (default): the one `azimuth` */
 } oclshade_horizon_params;
 
 /* Defaults: no buffers, 0 x 0, dx = dy = 1, azimuth 0, flat Earth, no search radius, the cosine
@@ -832,8 +839,12 @@ oclshade_status oclshade_horizon_scratch_size(oclshade *lib, const oclshade_hori
  * it, rows and cols >= 2: HorizonCaster's sweeps()) one launch of horizon_sweep instead (the same
  * angles), -D OCLS_SWEEP=lanes, global size (ceil(cols / lanes), rows) rounded up (the pyramid is
  * then not read); past that reach too where the knob sweep_far is 2 (1, the Python host's pilot,
- * walks here: timing would wait for the queue).  Knobs: horizon group, own_builtins, lanes,
- * sweep_cells, sweep_far. */
+ * walks here: timing would wait for the queue).  With n_azimuths > 0 (kernels/horizon.cl,
+ * "Batches"): per knob `batch` azimuths (the last launch fewer), horizon_seeds_batch (global
+ * (seed cols, seed rows, count), scratch for count seed grids) then horizon_cells_batch (global
+ * (cols, rows, count), or (cols, rows, 1) with svf: each cell walks the count azimuths in
+ * order), the rays in scratch.  Knobs: horizon group, width (the work-group's width in cells),
+ * own_builtins, lanes, sweep_cells, sweep_far, batch. */
 oclshade_status oclshade_enqueue_horizon(oclshade *lib, cl_command_queue queue,
                                          const oclshade_horizon_params *params,
                                          cl_uint num_events_in_wait_list, const cl_event *event_wait_list,

@@ -9,7 +9,7 @@
 /* ------------------------------------------------------------------ knobs */
 
 /* What the rule sets a knob to (params.py Param.rule). */
-enum { RULE_SAFE, RULE_WIDTH, RULE_WIDER, RULE_CROSSINGS, RULE_LIBRARY_CALLS };
+enum { RULE_SAFE, RULE_WIDTH, RULE_WIDER, RULE_CROSSINGS, RULE_LIBRARY_CALLS, RULE_GPU };
 
 /* The knobs of the Python host's tuning families the C host has (the TUNING of each oclshade module):
  * legal values, safe value, and the rule that sets it for a device without an entry:
@@ -17,7 +17,8 @@ enum { RULE_SAFE, RULE_WIDTH, RULE_WIDER, RULE_CROSSINGS, RULE_LIBRARY_CALLS };
  * RULE_WIDER (rule="wider"): the same where it exceeds the safe value, else the safe value;
  * RULE_CROSSINGS (rule="crossings"): on a CPU the largest legal value up to 16 x the width, at least
  * the smallest non-zero one;
- * RULE_LIBRARY_CALLS (rule="library_calls"): 1 where the driver leaves built-ins as calls. */
+ * RULE_LIBRARY_CALLS (rule="library_calls"): 1 where the driver leaves built-ins as calls;
+ * RULE_GPU (rule="gpu"): the largest legal value on devices that are not CPUs. */
 typedef struct knob_def {
     const char *family, *name;
     int nlegal;
@@ -49,6 +50,8 @@ static const knob_def KNOBS[N_KNOBS] = {
     [K_HORIZON_LANES] = {"horizon", "lanes", 4, {1, 4, 8, 16}, 1, RULE_WIDTH},
     [K_HORIZON_SWEEP_CELLS] = {"horizon", "sweep_cells", 5, {0, 64, 128, 192, 256}, 128, RULE_CROSSINGS},
     [K_HORIZON_SWEEP_FAR] = {"horizon", "sweep_far", 3, {0, 1, 2}, 1, RULE_SAFE},
+    [K_HORIZON_WIDTH] = {"horizon", "width", 4, {4, 8, 16, 32}, 16, RULE_SAFE},
+    [K_HORIZON_BATCH] = {"horizon", "batch", 3, {1, 8, 64}, 1, RULE_GPU},
 };
 
 /* oclshade/tuning/rules.py TARGET_FLOAT_LANES: float lanes of the LLVM CPU target PoCL names in
@@ -107,7 +110,11 @@ cl_int ocls_rule_values(cl_device_id device, int values[N_KNOBS])
     const cl_uint target = target_float_lanes(device);
     if (target) width = target;
     if (width < 1) width = 1;   /* rules.py: native_vector_width_float or 1 */
-    if (!(type & CL_DEVICE_TYPE_CPU)) return CL_SUCCESS;
+    if (!(type & CL_DEVICE_TYPE_CPU)) {
+        for (int k = 0; k < N_KNOBS; ++k)
+            if (KNOBS[k].rule == RULE_GPU) values[k] = KNOBS[k].legal[KNOBS[k].nlegal - 1];   /* ascending */
+        return CL_SUCCESS;
+    }
     const int calls = builtins_are_calls(device, type);
     for (int k = 0; k < N_KNOBS; ++k) {
         if (KNOBS[k].rule == RULE_LIBRARY_CALLS) values[k] = calls;

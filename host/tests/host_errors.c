@@ -624,6 +624,39 @@ int main(int argc, char **argv)
         hq = hp; hq.angle = fh;
         st = oclshade_enqueue_horizon(lib, queue, &hq, 0, NULL, NULL);
         expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "heights and angle overlap", "horizon: angle aliases the heights");
+        /* several azimuths in one call */
+        double two[2] = {10.0, 200.0}, bad[2] = {10.0, NAN};
+        hq = hp; hq.n_azimuths = -1;
+        st = oclshade_enqueue_horizon(lib, queue, &hq, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "n_azimuths must be >= 0 (0: the one azimuth), got -1",
+                      "horizon: n_azimuths -1");
+        hq = hp; hq.n_azimuths = 2;
+        st = oclshade_enqueue_horizon(lib, queue, &hq, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "azimuths must point to n_azimuths (2) degrees, got NULL",
+                      "horizon: azimuths NULL");
+        hq.azimuths = bad;
+        st = oclshade_enqueue_horizon(lib, queue, &hq, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "azimuths[1] must be finite degrees, got nan",
+                      "horizon: azimuths[1] NaN");
+        hq.azimuths = two; hq.max_distance = 100.0;
+        st = oclshade_enqueue_horizon(lib, queue, &hq, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "are the whole map's walk: max_distance must be 0, got 100",
+                      "horizon: several azimuths within a radius");
+        hq.max_distance = 0.0;
+        st = oclshade_enqueue_horizon(lib, queue, &hq, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "scratch must hold at least",
+                      "horizon: two azimuths in the scratch of one");
+        hq.angle = oclshade_field_of(angles);
+        st = oclshade_horizon_scratch_size(lib, &hq, &horizon_bytes);
+        expect_status(lib, st, OCLSHADE_OK, "", "horizon: the scratch size of two azimuths");
+        cl_mem two_scratch = buffer(ctx, horizon_bytes);
+        hq.scratch = two_scratch;
+        st = oclshade_enqueue_horizon(lib, queue, &hq, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "angle must hold at least", "horizon: one band for two azimuths");
+        hq.angle.buffer = NULL;
+        st = oclshade_enqueue_horizon(lib, queue, &hq, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_OK, "", "horizon: two azimuths' sums in one call");
+        clReleaseMemObject(two_scratch);
         st = oclshade_enqueue_zero(lib, queue, sums, 0, 0, NULL, NULL);
         expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "bytes must be >= 1", "zero: 0 bytes");
         st = oclshade_enqueue_zero(lib, queue, sums2, 8 * n, 0, NULL, NULL);
@@ -666,7 +699,7 @@ int main(int argc, char **argv)
         {"terrain", "leaf"}, {"terrain", "group"}, {"terrain", "own_builtins"}, {"screen_shadows", "group"},
         {"screen_shadows", "own_builtins"}, {"ssao", "lanes"}, {"ssao", "group"}, {"ssao", "own_builtins"},
         {"horizon", "group"}, {"horizon", "own_builtins"}, {"horizon", "lanes"}, {"horizon", "sweep_cells"},
-        {"horizon", "sweep_far"}};
+        {"horizon", "sweep_far"}, {"horizon", "width"}, {"horizon", "batch"}};
     oclshade *fresh = NULL;
     oclshade_create(ctx, device, dir, &fresh);
     for (size_t i = 0; i < sizeof knob_names / sizeof knob_names[0]; ++i) {

@@ -42,7 +42,8 @@
  *       the search radius MAX_DISTANCE (default 0: the whole map); checks itself that a
  *       pitched angle field and another group (at azimuth 360 / N) and, with a radius, at every
  *       azimuth sweep_cells 0 and 256 (walked, swept) and sweep_far 2 (swept past the reach)
- *       give the same bits.
+ *       give the same bits; over the whole map, that all N azimuths in one call (n_azimuths)
+ *       give the same bands and sums at batch 1, 8 and 64, and into a pitched field.
  *   sunshine OUTDIR HEIGHTS.f64 ROWS COLS DX DY N AZ,EL,SECONDS...
  *       sunshine sums over the (daylight) suns: N 0 by each sun's exact mask (shadow pass),
  *       also with pitched heights (pitched_*); N > 0 by the horizons of N grid azimuths;
@@ -655,6 +656,71 @@ static void run_compose(int argc, char **argv)
 static double horizon_max_distance = 0.0;   /* run_horizon's MAX_DISTANCE */
 
 static void horizon_band(const map *m, double dx, double dy, double curvature, double azimuth, oclshade_field *angle,
+                         cl_mem svf, int definition);
+
+/* All n azimuths 360 k / n in one call (n_azimuths: kernels/horizon.cl "Batches") into `angle`
+ * (n bands of rows) and/or `svf`. */
+static void horizon_bands(const map *m, double dx, double dy, double curvature, int n, oclshade_field *angle,
+                          cl_mem svf, int definition)
+{
+    double *azimuths = (double *)xmalloc(sizeof *azimuths * (size_t)n);
+    for (int k = 0; k < n; ++k) azimuths[k] = 360.0 * k / n;
+    oclshade_horizon_params p;
+    oclshade_horizon_params_init(&p);
+    p.heights = oclshade_field_of(m->heights);
+    p.rows = m->rows; p.cols = m->cols; p.dx = dx; p.dy = dy;
+    p.pyramid = m->pyramid; p.offsets = m->offsets;
+    p.azimuths = azimuths;
+    p.n_azimuths = n;
+    p.curvature = curvature;
+    if (angle) p.angle = *angle;
+    p.svf = svf;
+    p.svf_definition = (oclshade_svf_definition)definition;
+    size_t bytes = 0;
+    CHECK(oclshade_horizon_scratch_size(lib, &p, &bytes));
+    p.scratch = scratch_of(bytes);
+    CHECK(oclshade_enqueue_horizon(lib, queue, &p, 0, NULL, NULL));
+    CLCHECK(clFinish(queue));
+    release(p.scratch);
+    free(azimuths);
+}
+
+/* The whole map's n azimuths in one call give the bands and sums of one call per azimuth
+ * (`bands`: n packed bands; `svf`: their sums), at batch 1, 8 and 64, a pitched field too. */
+static void check_horizon_batches(const map *m, double dx, double dy, double curvature, int n, int definition,
+                                  const unsigned char *bands, const void *svf)
+{
+    const size_t row = 4 * (size_t)m->cols, band = 4 * m->n;
+    int default_batch = 0;
+    CHECK(oclshade_get_knob(lib, "horizon", "batch", &default_batch));
+    static const int batches[] = {1, 8, 64};
+    for (size_t b = 0; b < sizeof batches / sizeof batches[0]; ++b) {
+        CHECK(oclshade_set_knob(lib, "horizon", "batch", batches[b]));
+        cl_mem d_angles = buffer(band * (size_t)n, NULL), d_svf = buffer(8 * m->n, NULL);
+        CHECK(oclshade_enqueue_zero(lib, queue, d_svf, 8 * m->n, 0, NULL, NULL));
+        oclshade_field angles = oclshade_field_of(d_angles);
+        horizon_bands(m, dx, dy, curvature, n, &angles, NULL, definition);
+        horizon_bands(m, dx, dy, curvature, n, NULL, d_svf, definition);
+        void *got = read_back(d_angles, band * (size_t)n), *sums = read_back(d_svf, 8 * m->n);
+        if (memcmp(got, bands, band * (size_t)n) != 0) fail("horizon: the azimuths in one call differ from one call each");
+        if (memcmp(sums, svf, 8 * m->n) != 0) fail("horizon: the sky-view sums in one call differ from one call each");
+        if (batches[b] == 8) {   /* a pitched field at an offset, the angles and the sums at once */
+            oclshade_field pitched = pitched_copy(bands, n * m->rows, row, 256, row + 68);
+            CHECK(oclshade_enqueue_zero(lib, queue, d_svf, 8 * m->n, 0, NULL, NULL));
+            horizon_bands(m, dx, dy, curvature, n, &pitched, d_svf, definition);
+            void *again = read_pitched(&pitched, n * m->rows, row), *sums2 = read_back(d_svf, 8 * m->n);
+            if (memcmp(again, bands, band * (size_t)n) != 0) fail("horizon: a pitched field of the bands differs");
+            if (memcmp(sums2, svf, 8 * m->n) != 0) fail("horizon: the sums with the angles differ");
+            free(again); free(sums2);
+            release(pitched.buffer);
+        }
+        free(got); free(sums);
+        release(d_angles); release(d_svf);
+    }
+    CHECK(oclshade_set_knob(lib, "horizon", "batch", default_batch));
+}
+
+static void horizon_band(const map *m, double dx, double dy, double curvature, double azimuth, oclshade_field *angle,
                          cl_mem svf, int definition)
 {
     oclshade_horizon_params p;
@@ -688,6 +754,7 @@ static void run_horizon(int argc, char **argv)
     const size_t row = 4 * (size_t)m.cols;
     cl_mem d_angle = buffer(4 * m.n, NULL), d_svf = buffer(8 * m.n, NULL);
     CHECK(oclshade_enqueue_zero(lib, queue, d_svf, 8 * m.n, 0, NULL, NULL));
+    unsigned char *bands = (unsigned char *)xmalloc(4 * m.n * (size_t)(n > 0 ? n : 1));
     char name[64];
     for (int k = 0; k < n; ++k) {   /* oclshade.horizon.azimuth_grid: 360 k / n */
         oclshade_field angle = oclshade_field_of(d_angle);
@@ -696,6 +763,7 @@ static void run_horizon(int argc, char **argv)
         void *band = read_back(d_angle, 4 * m.n);
         snprintf(name, sizeof name, "angle_%d.f32", k);
         write_file(name, band, 4 * m.n);
+        memcpy(bands + 4 * m.n * (size_t)k, band, 4 * m.n);
         if (k == 1) {   /* a pitched output at an offset, and another group, give the same bits */
             oclshade_field pitched = pitched_copy(band, m.rows, row, 256, row + 68);
             horizon_band(&m, dx, dy, curvature, 360.0 * k / n, &pitched, NULL, definition);
@@ -736,7 +804,9 @@ static void run_horizon(int argc, char **argv)
     }
     void *svf = read_back(d_svf, 8 * m.n);
     write_file("svf.f32", svf, 8 * m.n);
+    if (horizon_max_distance == 0.0 && n > 0) check_horizon_batches(&m, dx, dy, curvature, n, definition, bands, svf);
     free(svf);
+    free(bands);
     release(d_angle); release(d_svf);
     free_map(&m);
 }

@@ -440,11 +440,11 @@ class HorizonCaster:
     def _batch_launcher(self, outputs: Mapping[str, object], n_azimuths: int, band_bytes: int
                         ) -> tuple[Callable[[np.ndarray, cl.Buffer, int, cl.Buffer], None], int]:
         """(launch, size): ``launch(azimuths, angle, stride, svf)`` enqueues the seeded walk of up to
-        ``size`` azimuths (horizon_seeds_batch, then horizon_cells_batch: the angles of all in one
-        launch into bands ``stride`` floats apart, or the sky-view sums one azimuth at a time, in
-        order); ``size`` is the knob ``batch``, at most ``n_azimuths``, and small enough that the
-        batch's buffers (``band_bytes`` of outputs and the seeds per azimuth) stay within an eighth
-        of the device's memory and one allocation."""
+        ``size`` azimuths (horizon_seeds_batch, then horizon_cells_batch: the angles into bands
+        ``stride`` floats apart, or the sky-view sums, each cell's in azimuth order); ``size`` is
+        the knob ``batch``, at most ``n_azimuths``, and small enough that the batch's buffers
+        (``band_bytes`` of outputs and the seeds per azimuth) stay within an eighth of the device's
+        memory and one allocation."""
         rt, hm = self.runtime, self.heightmap
         rows, cols = hm.shape
         seed_bytes = 8 * seed_extent(rows) * seed_extent(cols)
@@ -460,20 +460,15 @@ class HorizonCaster:
         fixed = (pyr.heights, np.int32(rows), np.int32(cols), pyr.buffer, pyr.offsets, np.int32(pyr.levels))
         seeds = rt.empty(seed_bytes * size, "horizon seeds")
         cell = np.array([hm.dx, hm.dy], np.float32)
-        per_azimuth = "OCLS_OUT_SVF" in outputs
+        sums = "OCLS_OUT_SVF" in outputs         # a work-item per cell walks the azimuths in order
 
         def launch(azimuths: np.ndarray, angle: cl.Buffer, stride: int, svf: cl.Buffer) -> None:
             n = azimuths.size
             rays = rt.to_device(np.stack([self._ray(float(a)) for a in azimuths]), "horizon rays")
-            seeder.set_args(*fixed, rays, seeds)
+            seeder.set_args(*fixed, rays, seeds, np.int32(0))
             cl.enqueue_nd_range_kernel(rt.queue, seeder, (sgx, sgy, n), (slx, sly, 1))
-            walker.set_args(*fixed, rays, angle, svf, seeds, cell, np.int32(stride))
-            if per_azimuth:      # the sums of a cell in azimuth order
-                for k in range(n):
-                    cl.enqueue_nd_range_kernel(rt.queue, walker, (gx, gy, 1), (lx, ly, 1),
-                                               global_work_offset=(0, 0, k))
-            else:
-                cl.enqueue_nd_range_kernel(rt.queue, walker, (gx, gy, n), (lx, ly, 1))
+            walker.set_args(*fixed, rays, angle, svf, seeds, cell, np.int32(stride), np.int32(0), np.int32(n))
+            cl.enqueue_nd_range_kernel(rt.queue, walker, (gx, gy, 1 if sums else n), (lx, ly, 1))
 
         return launch, size
 
