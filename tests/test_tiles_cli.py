@@ -13,6 +13,7 @@ import tifffile
 from oclshade import ShadowCaster, Sun
 from oclshade.cli import main
 from oclshade.heightmap import Heightmap
+from oclshade.sun import SunBlock, SunField
 from oclshade.synthetic import canyon_crater
 from oclshade.tiles.cli import memory_size
 from oclshade.tiles.stream import rss_bytes
@@ -149,6 +150,25 @@ def test_shadow_dask_is_lazy_and_equals_the_caster():
     coef = shadow_dask(heights, suns[0], 30.0, nodata=-32768.0, output="coefficient").compute(scheduler="sync")
     expected = ShadowCaster(hm, cache=False).cast(suns[0], outputs="coefficient").coefficient
     assert np.array_equal(coef, expected, equal_nan=True)
+
+
+def test_shadow_dask_traces_a_sun_field_per_block():
+    """Each cell's own sun: a field's blocks, lazily, the caster's field masks bit for bit."""
+    da = pytest.importorskip("dask.array")
+    from oclshade.tiles.dask_adapter import shadow_dask
+
+    h = canyon_crater(150, 170, seed=8, relief=1200.0).astype(np.float64)
+    hm = Heightmap.from_array(h, 30.0)
+    field = SunField(hm.shape, tuple(SunBlock(r, min(r + 64, 150), c, min(c + 96, 170), Sun(120.0 + r / 10 + c / 20, 8.0))
+                                     for r in range(0, 150, 64) for c in range(0, 170, 96)), Sun(125.0, 8.0), 4.0, 0.01)
+    got = shadow_dask(da.from_array(h, chunks=(64, 64)), [field, Sun(300.0, 30.0)], 30.0, tile_size=48,
+                      block=16).compute(scheduler="sync")
+    want = ShadowCaster(hm, cache=False).cast_many([field, Sun(300.0, 30.0)])
+    assert np.array_equal(got[0], want[0].mask) and np.array_equal(got[1], want[1].mask)
+    one_sun = ShadowCaster(hm, cache=False).cast(Sun(125.0, 8.0)).mask
+    assert not np.array_equal(got[0], one_sun)     # the blocks' suns, not the centre's
+    with pytest.raises(ValueError, match="sun field"):
+        shadow_dask(da.from_array(h[:, :100], chunks=64), field, 30.0)
 
 
 def test_shadow_dask_takes_an_xarray_dataarray():

@@ -20,7 +20,7 @@ from typing import Sequence
 import numpy as np
 
 from ..shadows import DEFAULT_K_BRIGHT, DEFAULT_K_DARK, ShadowResult, check_outputs
-from ..sun import SunLike, as_suns
+from ..sun import SunField, SunLike, as_traced
 from .plan import TileJob, TilePlan, plan_tiles
 from .relief import DEFAULT_BLOCK, ReliefGrid
 from .run import Tracing
@@ -78,6 +78,9 @@ def tile_tasks(heights, suns: Sequence, dx: float, dy: float, *, method: str = "
     """The plan of a dask array of float64 heights and, per job, a delayed list of its suns'
     cropped :class:`ShadowResult` (what :func:`shadow_dask` assembles and the CLI writes)."""
     dask, _ = _dask()
+    for sun in suns:
+        if isinstance(sun, SunField):
+            sun.check_shape(heights.shape)
     relief = relief_of(heights, block)
     check_relief(relief, dx, dy)
     tracing = Tracing(tuple(suns), method, tuple(outputs), k_dark, k_bright, dx, dy, relief.base, device)
@@ -96,17 +99,20 @@ def _pick(results: list[ShadowResult], k: int, name: str) -> np.ndarray:
     return getattr(results[k], name)
 
 
-def shadow_dask(heights, suns: SunLike | Sequence[SunLike], cellsize: float | tuple[float, float] | None = None, *,
+def shadow_dask(heights, suns: SunLike | SunField | Sequence[SunLike | SunField],
+                cellsize: float | tuple[float, float] | None = None, *,
                 method: str = "exact", output: str = "mask", k_dark: float = DEFAULT_K_DARK,
                 k_bright: float = DEFAULT_K_BRIGHT, nodata: float | None = None, z_factor: float = 1.0,
                 tile_size: int | None = None, device: str | int | None = None, block: int = DEFAULT_BLOCK):
     """``output`` ("mask", "self" or "coefficient") of every sun over ``heights`` (see the module
     docstring), lazily: (rows, cols) for one sun, (suns, rows, cols) for several; a DataArray
-    (dims ``sun``, ``y``, ``x``, coordinates kept) for a DataArray input."""
+    (dims ``sun``, ``y``, ``x``, coordinates kept) for a DataArray input.  A sun may be a
+    :class:`oclshade.sun.SunField` for this map (:func:`oclshade.solar.sun_field`: each block
+    of cells its own sun), traced per block as :meth:`ShadowCaster.cast` does."""
     dask, da = _dask()
     (out,) = check_outputs(output)
     name, dtype = _FIELDS[out]
-    sun_list = as_suns(suns)
+    sun_list = as_traced(suns)
     xarray_in = hasattr(heights, "dims") and hasattr(heights, "coords")
     if xarray_in:
         dx, dy = cell_sizes(heights) if cellsize is None else _pair(cellsize)
@@ -143,8 +149,15 @@ def shadow_dask(heights, suns: SunLike | Sequence[SunLike], cellsize: float | tu
     dims = heights.dims
     if len(stacks) > 1:
         dims = ("sun",) + tuple(dims)
-        coords["sun"] = [f"az{s.azimuth:g}_alt{s.elevation:g}" for s in sun_list]
+        coords["sun"] = [_sun_label(s) for s in sun_list]
     return xr.DataArray(result, dims=dims, coords=coords, name=out, attrs=dict(heights.attrs))
+
+
+def _sun_label(sun) -> str:
+    """A sun's coordinate label; a field's from its centre sun ("field_" first)."""
+    if isinstance(sun, SunField):
+        return "field_" + _sun_label(sun.centre)
+    return f"az{sun.azimuth:g}_alt{sun.elevation:g}"
 
 
 def _pair(cellsize: float | tuple[float, float]) -> tuple[float, float]:
