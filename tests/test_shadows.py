@@ -33,9 +33,15 @@ def assert_exact(hm: Heightmap, sun: Sun, caster: ShadowCaster | None = None) ->
     ties = 0
     for method, (bad, tied) in counts.items():
         assert bad == 0, f"{method}: {bad} cells differ from the reference at {sun} on {hm.shape}"
-        # ties are exact coincidences (integer DEMs at 45 degrees, rays through
-        # sample points) or margins within float32 rounding: a handful, never most cells
-        assert tied <= max(3, hm.heights.size // 10), f"{method}: {tied} tied mismatches is too many"
+        # ties are exact coincidences (integer DEMs at 45 degrees, rays through sample points)
+        # or margins within float32 rounding.  The latter are a handful.  The former can be
+        # any share of the map: 0 / 1 heights with the sun at 45 degrees from the north put a
+        # coincidence behind every step (a 7 x 15 map: 13 tied mismatches, the same for all
+        # three methods), so there only the exactness outside ties is asserted.
+        h = hm.heights
+        coincidences = sun.elevation == 45.0 and bool(np.all(np.isnan(h) | (h == np.round(h))))
+        if not coincidences:
+            assert tied <= max(3, h.size // 10), f"{method}: {tied} tied mismatches is too many"
         ties = max(ties, tied)
     return ties
 
