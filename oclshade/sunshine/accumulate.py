@@ -174,7 +174,9 @@ class SunshineCaster:
                      ) -> Iterator[tuple[_Unit, cl.Kernel, tuple]]:
         """As :meth:`_by_masks` by horizons: the units in order of azimuth, each between the
         horizon bands of the grid azimuths around its sun.  Only the bands next to some sun are
-        computed, each once, and at most three are held on the device at a time."""
+        computed, each once, and at most three are kept (where the horizon caster batches
+        azimuths, its knob ``batch``, a batch's bands share one device buffer until the last of
+        them is dropped)."""
         horizons = HorizonCaster(self.heightmap, self.runtime)
         kernel = self._kernel("sunshine_horizons", outs)
         grid = self._grid_args(horizons.pyramid.heights)
