@@ -26,7 +26,7 @@ from . import tuning
 from .analysis import SceneAnalysis, slope_fronts
 from .horizon.caster import Curvature
 from .pyramid import ExtremaPyramid, cached_pyramid
-from .runtime import Runtime, get_runtime
+from .runtime import Runtime, get_runtime, set_arg
 from .sun import Sun, SunBlock, SunField, SunLike, Traced, as_sun, as_traced
 
 METHODS = ("exact", "paper", "maxmip", "dda")
@@ -395,17 +395,21 @@ class ShadowCaster:
         run = features.run if features.packeted else 1
         group = self.knobs["group"]
 
-        def launch(sun: Sun, k_dark: float, k_bright: float, block: SunBlock | None = None, bind: bool = True) -> None:
+        def launch(sun: Sun, k_dark: float, k_bright: float, block: SunBlock | None = None, bind: bool = True,
+                   sun_args: tuple | None = None) -> None:
             """One launch; ``bind`` False: only the sun's arguments are set (the rest are as the
-            last launch of this item left them: setting them all costs 60 us in pyopencl)."""
+            last launch of this item left them: setting them all costs 60 us in pyopencl), from
+            ``sun_args`` (the row of a :func:`_block_table`) when given."""
             r0, r1, c0, c1 = (0, rows, 0, cols) if block is None else (block.row0, block.row1, block.col0, block.col1)
-            args = self._args(sun, k_dark, k_bright, features.imaged)
-            cert = certify(sun, block, bind, args)
+            args = self._args(sun, k_dark, k_bright, features.imaged) if bind or sun_args is None else None
+            if sun_args is None:
+                sun_args = tuple(args[i] for i in _SUN_ARGS)
+            cert = certify(sun, block, bind, args, sun_args)
             if bind:
                 kernel.set_args(*args, bufs["mask"], bufs["self"], bufs["coefficient"], *cert)
             else:
-                for index in _SUN_ARGS:
-                    kernel.set_arg(index, args[index])
+                for index, value in zip(_SUN_ARGS, sun_args):
+                    set_arg(kernel, index, value)
             if block is None:
                 cl.enqueue_nd_range_kernel(rt.queue, kernel, *rt.grid_2d(kernel, -(-cols // run), rows, wanted=group))
             else:   # exactly the block's work-items (rounding up would trace cells of later blocks twice)
@@ -415,8 +419,9 @@ class ShadowCaster:
 
         def enqueue(item: Traced, k_dark: float, k_bright: float) -> None:
             if isinstance(item, SunField):
+                rays, vectors, modes = _block_table(item, self.heightmap, self.curvature)
                 for k, block in enumerate(item.blocks):
-                    launch(block.sun, k_dark, k_bright, block, bind=k == 0)
+                    launch(block.sun, k_dark, k_bright, block, bind=k == 0, sun_args=(rays[k], vectors[k], modes[k]))
             else:
                 launch(item, k_dark, k_bright)
 
@@ -475,7 +480,7 @@ class ShadowCaster:
         (zenith, below the horizon) get the buffer unfilled: the kernel does not read it.
         With a block, only the tiles it touches are made."""
         if not features.certified:
-            return lambda sun, block=None, bind=True, args=None: ()
+            return lambda sun, block=None, bind=True, args=None, sun_args=None: ()
         rt = self.runtime
         rows, cols = self.heightmap.shape
         tr, tc = -(-rows // features.cert_tile), -(-cols // features.cert_tile)
@@ -484,18 +489,22 @@ class ShadowCaster:
         s = features.cert_tile
         bound = [False]   # whether this item's certify launches have set all arguments
 
-        def certify(sun: Sun, block: SunBlock | None = None, bind: bool = True, args: tuple | None = None) -> tuple:
+        def certify(sun: Sun, block: SunBlock | None = None, bind: bool = True, args: tuple | None = None,
+                    sun_args: tuple | None = None) -> tuple:
             """``bind`` False: only the ray is set (as the cells' launcher); ``args``: the
-            sun's kernel arguments (:meth:`_args`) when already made."""
-            args = args or self._args(sun, 0.0, 1.0, features.imaged)
+            sun's kernel arguments (:meth:`_args`) when already made; ``sun_args``: its (ray,
+            vector, mode) alone (enough once an earlier launch of the item has set the rest)."""
+            if sun_args is None or (args is None and not bound[0]):
+                args = args or self._args(sun, 0.0, 1.0, features.imaged)
+            ray, _, mode = sun_args if sun_args is not None else (args[i] for i in _SUN_ARGS)
             if bind:
                 bound[0] = False
-            if int(args[-1]) == 0:
+            if int(mode) == 0:
                 if not bound[0]:
-                    kernel.set_args(*args[1:8], buf)   # H, W, origin, ext, lvl_off, nlev, ray
+                    kernel.set_args(*args[1:7], ray, buf)   # H, W, origin, ext, lvl_off, nlev, ray
                     bound[0] = True
                 else:
-                    kernel.set_arg(6, args[7])         # the ray
+                    set_arg(kernel, 6, ray)
                 if block is None:
                     cl.enqueue_nd_range_kernel(rt.queue, kernel, *rt.grid_2d(kernel, tc, tr))
                 else:
@@ -516,17 +525,32 @@ class ShadowCaster:
             heights, extrema, level_table = imgs.heights, imgs.extrema, imgs.level_rows
         else:
             heights, extrema, level_table = pyr.heights, pyr.buffer, pyr.offsets
-        ux, uy, w = sun.ray(hm.dx, hm.dy)
-        mode = 2 if sun.below_horizon else (1 if sun.at_zenith else 0)
-        if mode:
-            ux = uy = w = 0.0
-        s = sun.vector()
+        ray, vector, mode = _sun_row(sun, hm, self.curvature)
         rows, cols = hm.shape
         return (heights, np.int32(rows), np.int32(cols), np.array(self.origin[::-1], np.int32),
-                extrema, level_table, np.int32(pyr.levels),
-                np.array([ux, uy, w, curvature_coefficient(self.curvature)], np.float32),
-                np.array([s[0], s[1], s[2], 0.0], np.float32),
+                extrema, level_table, np.int32(pyr.levels), np.array(ray, np.float32), np.array(vector, np.float32),
                 np.array([hm.dx, hm.dy], np.float32), np.array([k_dark, k_bright], np.float32), np.int32(mode))
+
+
+def _sun_row(sun: Sun, hm: Heightmap, curvature: Curvature | None) -> tuple[tuple, tuple, int]:
+    """shadow_cells' sun arguments as Python numbers: the ray (ux, uy, w, curvature), the sun
+    vector (east, north, up, 0) and the mode (0 trace, 1 zenith, 2 at or below the horizon)."""
+    ux, uy, w = sun.ray(hm.dx, hm.dy)
+    mode = 2 if sun.below_horizon else (1 if sun.at_zenith else 0)
+    if mode:
+        ux = uy = w = 0.0
+    s = sun.vector()
+    return (ux, uy, w, curvature_coefficient(curvature)), (s[0], s[1], s[2], 0.0), mode
+
+
+def _block_table(field: SunField, hm: Heightmap, curvature: Curvature | None
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(rays float32 (N, 4), vectors float32 (N, 4), modes int32 (N,)): :func:`_sun_row` of each
+    block's sun, made at once (the rows are the arrays :meth:`ShadowCaster._args` makes one by
+    one, the same float32 values: a field's blocks are launched thousands of times)."""
+    rows = [_sun_row(block.sun, hm, curvature) for block in field.blocks]
+    return (np.array([r[0] for r in rows], np.float32), np.array([r[1] for r in rows], np.float32),
+            np.array([r[2] for r in rows], np.int32))
 
 
 _ARRAYS = ("mask", "self_shadow", "coefficient")

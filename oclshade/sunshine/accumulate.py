@@ -139,9 +139,14 @@ class SunshineCaster:
         bind = None
         last = {unit.step: k for k, unit in enumerate(units)}     # a step's last unit (as listed)
         finals = {id(units[k]) for k in last.values()}
+        vectors = _sun_vectors(units)
+        row = {id(unit): k for k, unit in enumerate(units)}
+        # one pair of objects per step, so that the binder sees them unchanged across a field's blocks
+        step_weights = {step: (np.uint32(int(weights[step])), np.float32(int(weights[step]) / 3600.0))
+                        for step in last}
         for done, (unit, kernel, args) in enumerate(launches if units else (), 1):
             bind = bind or ArgBinder(kernel)                       # one kernel per call
-            bind(*args, *_sun_args(unit.sun, int(weights[unit.step])), *sums.values())
+            bind(*args, vectors[row[id(unit)]], *step_weights[unit.step], *sums.values())
             if unit.block is None:
                 cl.enqueue_nd_range_kernel(rt.queue, kernel, *rt.grid_2d(kernel, cols, rows))
             else:   # exactly the block's cells
@@ -243,10 +248,9 @@ class SunshineCaster:
         return maps
 
 
-def _sun_args(sun: Sun, weight: int) -> tuple:
-    """sunshine.cl's (sunvec, weight, hours) of one sun."""
-    s = sun.vector()
-    return np.array([s[0], s[1], s[2], 0.0], np.float32), np.uint32(weight), np.float32(weight / 3600.0)
+def _sun_vectors(units: list[_Unit]) -> np.ndarray:
+    """sunshine.cl's sunvec of each unit's sun, float32 (units, 4): (east, north, up, 0)."""
+    return np.array([(*unit.sun.vector(), 0.0) for unit in units], np.float32).reshape(len(units), 4)
 
 
 def _daylight_map(units: list[_Unit], weights: np.ndarray, shape: tuple[int, int]) -> np.ndarray | None:
