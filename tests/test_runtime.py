@@ -139,3 +139,28 @@ def test_exit_while_kernels_run_is_clean():
     done = subprocess.run([sys.executable, "-c", _EXIT_WITH_KERNELS_RUNNING], capture_output=True,
                           text=True, timeout=600)
     assert (done.returncode, done.stdout) == (0, "queued\n"), done.stderr[-2000:]
+
+
+@pytest.mark.parametrize("fast", [True, False])
+def test_set_arg_takes_numpy_values_by_either_path(fast, monkeypatch):
+    """runtime.set_arg: pyopencl's _set_arg_buf for contiguous numpy values (or set_arg where a
+    pyopencl lacks it), set_arg for the rest: the kernel sees the same values either way."""
+    import pyopencl as cl
+
+    if not fast:
+        monkeypatch.setattr(runtime, "_SET_ARG_BUF", None)
+    rt = get_runtime(None)
+    prg = cl.Program(rt.context, "__kernel void k(__global float *out, float4 r, int m, __global const float *b)"
+                                 "{ out[0] = r.x + 10.0f * r.w + 100.0f * m + 1000.0f * b[0]; }").build()
+    kernel = cl.Kernel(prg, "k")
+    out = rt.empty(4, "out")
+    table = np.arange(16, dtype=np.float32).reshape(4, 4)
+    first, second = (rt.to_device(np.array([v], np.float32), "b") for v in (0.0, 3.0))
+    kernel.set_args(out, table[0], np.int32(0), first)
+    runtime.set_arg(kernel, 1, table[2])                                  # a row of a table
+    runtime.set_arg(kernel, 2, np.arange(3, dtype=np.int32)[2])           # a numpy scalar
+    runtime.set_arg(kernel, 3, second)                                    # a buffer: set_arg
+    cl.enqueue_nd_range_kernel(rt.queue, kernel, (1,), None)
+    got = np.empty(1, np.float32)
+    cl.enqueue_copy(rt.queue, got, out)
+    assert got[0] == 8.0 + 10.0 * 11.0 + 100.0 * 2 + 1000.0 * 3.0
