@@ -67,6 +67,18 @@ def test_equal_to_reference(h, az, cell):
     assert_matches_reference(Heightmap.from_array(h, cell), [az])
 
 
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(h=terrains(), az=st.lists(azimuths, min_size=1, max_size=5), cell=cell_sizes, curved=st.booleans())
+def test_batches_are_the_one_azimuth_walk(h, az, cell, curved):
+    """Several azimuths per launch (kernels/horizon.cl, "Batches"): the angles and the sky-view
+    sums of one azimuth per launch, bit for bit, on random maps (holes, flats, any size)."""
+    hm = Heightmap.from_array(h, cell)
+    curvature = Curvature() if curved else None
+    one, batched = (HorizonCaster(hm, curvature=curvature, cache=False, knobs={"batch": b}) for b in (1, 8))
+    assert np.array_equal(batched.horizons(az), one.horizons(az), equal_nan=True)
+    assert np.array_equal(batched.sky_view_factor(az), one.sky_view_factor(az), equal_nan=True)
+
+
 @settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(h=terrains(), az=azimuths, radius=st.sampled_from([50.0, 2000.0, 6371008.8]),
        k=st.sampled_from([0.0, 0.13]))
