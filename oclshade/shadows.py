@@ -494,13 +494,15 @@ class ShadowCaster:
             """``bind`` False: only the ray is set (as the cells' launcher); ``args``: the
             sun's kernel arguments (:meth:`_args`) when already made; ``sun_args``: its (ray,
             vector, mode) alone (enough once an earlier launch of the item has set the rest)."""
-            if sun_args is None or (args is None and not bound[0]):
-                args = args or self._args(sun, 0.0, 1.0, features.imaged)
-            ray, _, mode = sun_args if sun_args is not None else (args[i] for i in _SUN_ARGS)
             if bind:
                 bound[0] = False
+            if sun_args is None:
+                args = args or self._args(sun, 0.0, 1.0, features.imaged)
+                sun_args = tuple(args[i] for i in _SUN_ARGS)
+            ray, _, mode = sun_args
             if int(mode) == 0:
                 if not bound[0]:
+                    args = args or self._args(sun, 0.0, 1.0, features.imaged)
                     kernel.set_args(*args[1:7], ray, buf)   # H, W, origin, ext, lvl_off, nlev, ray
                     bound[0] = True
                 else:

@@ -159,24 +159,17 @@ static oclshade_status horizon_body(ocls_pass *ps, const void *params)
     cl_mem h, angle, seeds = NULL;
     oclshade_status st;
     ocls_defines d = {0};
-    if (p->n_azimuths > 0) {
-        if ((st = ocls_bind_in(ps, &p->heights, p->rows, 4 * W, "heights", &h)) != OCLSHADE_OK) return st;
-        ocls_def_flag(&d, "OCLS_OUT_ANGLE", p->angle.buffer != NULL);
-        if (p->svf != NULL) ocls_def_int(&d, "OCLS_OUT_SVF", (int)p->svf_definition);
-        ocls_def_flag(&d, "OCLS_CURVATURE", p->curvature > 0.0);
-        ocls_def_flag(&d, "OCLS_OWN_BUILTINS", ocls_knob(lib, K_HORIZON_OWN_BUILTINS));
-        return horizon_batch_body(ps, j, h, &d);
-    }
-    if ((st = ocls_bind_in(ps, &p->heights, p->rows, 4 * W, "heights", &h)) != OCLSHADE_OK ||
-        (st = ocls_bind_out(ps, &p->angle, p->rows, 4 * W, "angle", &angle)) != OCLSHADE_OK ||
+    ocls_def_flag(&d, "OCLS_OUT_ANGLE", p->angle.buffer != NULL);
+    if (p->svf != NULL) ocls_def_int(&d, "OCLS_OUT_SVF", (int)p->svf_definition);
+    ocls_def_flag(&d, "OCLS_CURVATURE", p->curvature > 0.0);
+    ocls_def_flag(&d, "OCLS_MAX_DISTANCE", j->ray.s[3] > 0.0f);   /* never with n_azimuths (checked) */
+    ocls_def_flag(&d, "OCLS_OWN_BUILTINS", ocls_knob(lib, K_HORIZON_OWN_BUILTINS));
+    if ((st = ocls_bind_in(ps, &p->heights, p->rows, 4 * W, "heights", &h)) != OCLSHADE_OK) return st;
+    if (p->n_azimuths > 0) return horizon_batch_body(ps, j, h, &d);
+    if ((st = ocls_bind_out(ps, &p->angle, p->rows, 4 * W, "angle", &angle)) != OCLSHADE_OK ||
         (seeded && (st = ocls_scratch(ps, 8 * (size_t)seed_rows * (size_t)seed_cols, "horizon seeds", &seeds)) != OCLSHADE_OK) ||
         !ps->run)
         return st;
-    ocls_def_flag(&d, "OCLS_OUT_ANGLE", angle != NULL);
-    if (p->svf != NULL) ocls_def_int(&d, "OCLS_OUT_SVF", (int)p->svf_definition);
-    ocls_def_flag(&d, "OCLS_CURVATURE", p->curvature > 0.0);
-    ocls_def_flag(&d, "OCLS_MAX_DISTANCE", j->ray.s[3] > 0.0f);
-    ocls_def_flag(&d, "OCLS_OWN_BUILTINS", ocls_knob(lib, K_HORIZON_OWN_BUILTINS));
     const size_t group = (size_t)ocls_knob(lib, K_HORIZON_GROUP), width = (size_t)ocls_knob(lib, K_HORIZON_WIDTH);
     const cl_int H = p->rows, Wi = p->cols;
     /* an output not compiled in is not written (nor are the seeds read with a search radius): its

@@ -652,27 +652,22 @@ static void run_compose(int argc, char **argv)
 
 /* ------------------------------------------------------------------ sunshine and horizons */
 
-/* Horizon angles of azimuth 360 k / n into `angle` (a packed field when pitched is 0). */
 static double horizon_max_distance = 0.0;   /* run_horizon's MAX_DISTANCE */
 
-static void horizon_band(const map *m, double dx, double dy, double curvature, double azimuth, oclshade_field *angle,
-                         cl_mem svf, int definition);
-
-/* All n azimuths 360 k / n in one call (n_azimuths: kernels/horizon.cl "Batches") into `angle`
- * (n bands of rows) and/or `svf`. */
-static void horizon_bands(const map *m, double dx, double dy, double curvature, int n, oclshade_field *angle,
-                          cl_mem svf, int definition)
+/* One oclshade_enqueue_horizon call into `angle` and/or `svf`: the azimuth azimuths[0] (n 0), or the
+ * n azimuths in one call (n_azimuths: kernels/horizon.cl "Batches"; `angle` then n bands of rows). */
+static void horizon_call(const map *m, double dx, double dy, double curvature, const double *azimuths, int n,
+                         oclshade_field *angle, cl_mem svf, int definition)
 {
-    double *azimuths = (double *)xmalloc(sizeof *azimuths * (size_t)n);
-    for (int k = 0; k < n; ++k) azimuths[k] = 360.0 * k / n;
     oclshade_horizon_params p;
     oclshade_horizon_params_init(&p);
     p.heights = oclshade_field_of(m->heights);
     p.rows = m->rows; p.cols = m->cols; p.dx = dx; p.dy = dy;
     p.pyramid = m->pyramid; p.offsets = m->offsets;
-    p.azimuths = azimuths;
-    p.n_azimuths = n;
+    p.azimuth = azimuths[0];
+    if (n > 0) { p.azimuths = azimuths; p.n_azimuths = n; }
     p.curvature = curvature;
+    p.max_distance = horizon_max_distance;
     if (angle) p.angle = *angle;
     p.svf = svf;
     p.svf_definition = (oclshade_svf_definition)definition;
@@ -682,6 +677,21 @@ static void horizon_bands(const map *m, double dx, double dy, double curvature, 
     CHECK(oclshade_enqueue_horizon(lib, queue, &p, 0, NULL, NULL));
     CLCHECK(clFinish(queue));
     release(p.scratch);
+}
+
+static void horizon_band(const map *m, double dx, double dy, double curvature, double azimuth, oclshade_field *angle,
+                         cl_mem svf, int definition)
+{
+    horizon_call(m, dx, dy, curvature, &azimuth, 0, angle, svf, definition);
+}
+
+/* All n azimuths 360 k / n in one call into `angle` (n bands of rows) and/or `svf`. */
+static void horizon_bands(const map *m, double dx, double dy, double curvature, int n, oclshade_field *angle,
+                          cl_mem svf, int definition)
+{
+    double *azimuths = (double *)xmalloc(sizeof *azimuths * (size_t)n);
+    for (int k = 0; k < n; ++k) azimuths[k] = 360.0 * k / n;
+    horizon_call(m, dx, dy, curvature, azimuths, n, angle, svf, definition);
     free(azimuths);
 }
 
@@ -718,28 +728,6 @@ static void check_horizon_batches(const map *m, double dx, double dy, double cur
         release(d_angles); release(d_svf);
     }
     CHECK(oclshade_set_knob(lib, "horizon", "batch", default_batch));
-}
-
-static void horizon_band(const map *m, double dx, double dy, double curvature, double azimuth, oclshade_field *angle,
-                         cl_mem svf, int definition)
-{
-    oclshade_horizon_params p;
-    oclshade_horizon_params_init(&p);
-    p.heights = oclshade_field_of(m->heights);
-    p.rows = m->rows; p.cols = m->cols; p.dx = dx; p.dy = dy;
-    p.pyramid = m->pyramid; p.offsets = m->offsets;
-    p.azimuth = azimuth;
-    p.curvature = curvature;
-    p.max_distance = horizon_max_distance;
-    if (angle) p.angle = *angle;
-    p.svf = svf;
-    p.svf_definition = (oclshade_svf_definition)definition;
-    size_t bytes = 0;
-    CHECK(oclshade_horizon_scratch_size(lib, &p, &bytes));
-    p.scratch = scratch_of(bytes);
-    CHECK(oclshade_enqueue_horizon(lib, queue, &p, 0, NULL, NULL));
-    CLCHECK(clFinish(queue));
-    release(p.scratch);
 }
 
 static void run_horizon(int argc, char **argv)

@@ -291,9 +291,8 @@ class HorizonCaster:
         def strips() -> Iterator[np.ndarray]:
             for k in range(columns):      # strip k of every block's disc, each over its block's cells
                 for block, (azimuths, half_chords) in zip(field.blocks, discs):
-                    c = half_chords[k]
-                    lo, hi = (math.tan(math.radians(block.sun.elevation + s * (c + STRIP_MARGIN))) for s in (-1, 1))
-                    enqueue(float(azimuths[k]), buf, self._dummy, (lo, hi), block)
+                    enqueue(float(azimuths[k]), buf, self._dummy, strip_bounds(block.sun.elevation, half_chords[k]),
+                            block)
                 band = np.empty((rows, cols), np.float32)
                 cl.enqueue_copy(self.runtime.queue, band, buf)
                 if progress is not None:
@@ -312,8 +311,7 @@ class HorizonCaster:
         enqueue = self._enqueuer({"OCLS_OUT_ANGLE": True, "OCLS_CLAMP": True})
         buf = self.runtime.empty(4 * rows * cols, "horizon angles")
         for k, (a, c) in enumerate(zip(azimuths, half_chords)):
-            lo, hi = (math.tan(math.radians(elevation + s * (c + STRIP_MARGIN))) for s in (-1, 1))
-            enqueue(float(a), buf, self._dummy, (lo, hi))
+            enqueue(float(a), buf, self._dummy, strip_bounds(elevation, c))
             band = np.empty((rows, cols), np.float32)
             cl.enqueue_copy(self.runtime.queue, band, buf)
             if progress is not None:
@@ -490,6 +488,13 @@ class HorizonCaster:
         if far == SWEEP_FAR["walk"] or rows < PILOT_MIN_ROWS or rows * cols < PILOT_MIN_CELLS:
             return False
         return None if self._pilot is None else self._pilot.sweeps
+
+
+def strip_bounds(elevation: float, half_chord: float) -> tuple[float, float]:
+    """The (lo, hi) tangents a strip of the sun's disc clamps its horizons to: its elevations
+    [e - c, e + c] widened by :data:`STRIP_MARGIN`."""
+    return (math.tan(math.radians(elevation - (half_chord + STRIP_MARGIN))),
+            math.tan(math.radians(elevation + (half_chord + STRIP_MARGIN))))
 
 
 def sweeps(ux: float, uy: float, radius: float, sweep_cells: int) -> bool:
