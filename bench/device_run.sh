@@ -22,7 +22,8 @@
 # also tune:FAMILY[,FAMILY] (those families only), tests:FILE[,FILE] (those test files), tilesmem
 # (bench/prototypes/gpu_tiles_rss.py: the resident memory of a --max-memory 200M run, tile by tile),
 # profile (bench/prototypes/horizon_gpu_profile.py, PROFILE_ARGS its arguments: where a batched horizon
-# frame's time goes))
+# frame's time goes), walk (bench/prototypes/horizon_walk_gpu.py, WALK_ARGS its arguments, WALK_LIMIT its
+# time limit: the record's frame for variants of the walk's kernel and knobs))
 set -u
 OUT="${OUT:-/tmp/device-out}"
 RES=/tmp/res
@@ -102,6 +103,7 @@ run_stage() {
       TAIL=12 OCLSHADE_NO_PROBE=1 stage tests_more 120 $PY -m pytest -q -p no:cacheprovider -n 16 -rfE ${files//,/ } ;;
     tilesmem) TAIL=30 stage tilesmem 40 $PY bench/prototypes/gpu_tiles_rss.py 200M ;;
     profile) TAIL=40 stage profile 90 $PY bench/prototypes/horizon_gpu_profile.py ${PROFILE_ARGS:-} --verbose-build --out "$RES/profile" ;;
+    walk) TAIL=40 stage walk ${WALK_LIMIT:-200} $PY bench/prototypes/horizon_walk_gpu.py --device "$SPEC" ${WALK_ARGS:-} --out "$RES/walk.json" ;;
     quick) stage quick 90 $PY -m oclshade bench --quick --device "$SPEC" --out "$RES/bench_quick" ;;
     bench) stage bench 120 $PY -m oclshade bench --device "$SPEC" --out "$RES/bench_full" ;;
     record) stage record ${RECORD_LIMIT:-90} $PY bench/horizon_record.py --device "$SPEC" --reps 5 --samples ${SAMPLES:-60} \

@@ -26,8 +26,9 @@
  *   -D options OCLS_OUT_ANGLE, OCLS_OUT_SVF=1|2 (cosine | solid-angle sky-view
  *   term), OCLS_CURVATURE (read c), OCLS_MAX_DISTANCE (read R: a search
  *   radius), OCLS_CLAMP (a trailing float2 argument: only T within [lo, hi]
- *   is wanted), OCLS_SWEEP (lanes: the sweep's build), OCLS_OWN_BUILTINS
- *   (common.h); no others.
+ *   is wanted), OCLS_LEVEL_SCAN (how the walk finds its level: "Levels"),
+ *   OCLS_SWEEP (lanes: the sweep's build), OCLS_OWN_BUILTINS (common.h); no
+ *   others.
  *
  * Geometry (as shadow.cl).  Sample (i, j) sits at x = j (east), y = i
  * (south) in cell units; the surface is bilinear over patches (pyramid.cl).
@@ -53,8 +54,9 @@
  *                ray's segment [t, t_out] in it, M - z0 - c s^2 > T s; the
  *                threshold T s + c s^2 is at least T t_lo + c t^2 there
  *                (t_lo = t when T >= 0, else t_out), so the tile is skipped
- *                when M - z0 <= T t_lo + c t^2 (exact pruning), else the
- *                traversal descends;
+ *                when M - z0 <= T t_lo + c t^2 (exact pruning); t is where
+ *                the walk is, inside the tile or at its edge: the test holds
+ *                for the rest of the ray in it (see "Levels");
  *   level 0      the patch's sup in closed form: along the ray the surface
  *                less the curvature drop is a quadratic f(t), and f(t) / t
  *                has its maximum at an end of the segment or at the one
@@ -62,8 +64,9 @@
  *                C t^2, a maximum iff A, C < 0: the tangent from the eye to
  *                the surface), where f / t is evaluated (an error in t*
  *                changes the value only to second order);
- *   climbing     after a tile as shadow.cl (one level up when the ray has
- *                just entered that level's tile too);
+ *   levels       at each step the walk skips the largest tile around its
+ *                patch that passes the test, else evaluates the patch
+ *                ("Levels" below);
  *   exit         when (z_top - z0) - c t^2 <= T t (nothing further can be
  *                higher: both terms of (z_top - z0) / s - c s decrease) or
  *                the ray leaves the map.
@@ -96,6 +99,25 @@
  * within the float32 band of the float64 reference.  S is therefore part of
  * the algorithm (the hosts mirror it), not a tuning knob.  Measured:
  * docs/solar.md, "Seeded walks".
+ *
+ * Levels.  Paper 000's traversal (and shadow.cl's) descends one level per
+ * step while a tile fails the test and climbs one level when the ray has just
+ * entered the tile above too.  Here each step takes the largest tile around
+ * the current patch that passes the test from the current t (prunable()),
+ * whether or not the ray has just entered it: with the best tangent raised, a
+ * tile the walk descended into can pass from where the walk now is.  Without
+ * a search radius the test is monotone in the level (a larger tile has the
+ * larger max and, for T < 0, the later exit and so the lower bar; float32
+ * rounding is monotone too), so that tile is one tile, found two ways (the
+ * tuning knob `scan`, -D OCLS_LEVEL_SCAN; the same bits either way): 0 moves
+ * up or down from the last step's level, one read after the other (few reads:
+ * CPUs); 1 reads every level's tile at once and keeps the largest that passes
+ * (more reads but no chain of them, each waiting for the last: meant for GPUs,
+ * where such a chain cost more than the reads).  With a search radius the
+ * outputs are the sweep's whatever tiles are skipped ("The sweep").  Against
+ * the walk before (one level a step; docs/solar.md, "Levels"): 39-54 % fewer
+ * steps on the record's maps, a few angles in 10^4 different in their last
+ * float32 bits, all within the float32 band of the float64 reference.
  *
  * Batches (the seeded walk alone).  One azimuth's launches leave a device
  * wide enough for hundreds of thousands of work-items mostly idle: the seed
@@ -174,7 +196,8 @@
  *     rounded up to any local size, the third's local size 1.
  *
  * Build options: -D OCLS_OUT_ANGLE, OCLS_OUT_SVF=1|2, OCLS_CURVATURE,
- *   OCLS_MAX_DISTANCE, OCLS_CLAMP, OCLS_SWEEP=1|4|8|16 (a build of horizon_sweep alone; the
+ *   OCLS_MAX_DISTANCE, OCLS_CLAMP, OCLS_LEVEL_SCAN=0|1 ("Levels"; default 0), OCLS_SWEEP=1|4|8|16
+ *   (a build of horizon_sweep alone; the
  *   others build horizon_seeds and horizon_cells), OCLS_FORCE_SEED_FALLBACK (tests only: the
  *   seeded walk's bound is +inf, so every cell takes step 3's walk from -inf),
  *   OCLS_OWN_BUILTINS (common.h) and -cl-std=CL1.2, nothing else (no fast-math); the hosts
@@ -186,6 +209,9 @@
 #define OCLS_SEED_STRIDE 8                 /* the seed grid's spacing in cells ("Seeds" above) */
 #if !defined(OCLS_CLAMP) && !defined(OCLS_MAX_DISTANCE)
 #define OCLS_SEEDED                        /* the whole-map walk starts from its seeds' bound */
+#endif
+#ifndef OCLS_LEVEL_SCAN
+#define OCLS_LEVEL_SCAN 0                  /* how the walk finds its level ("Levels"): the tuning knob `scan` */
 #endif
 #define OCLS_CORNER_EPS (4.0f * FLT_EPSILON)
 #define OCLS_SLACK 1e-6f                   /* prune_slack's relative margin */
@@ -449,6 +475,28 @@ OCLS_INLINE float prune_slack(const HRay *r, float2 e, float z0, float bar, floa
 #endif
 }
 
+/* Whether the level-k tile (k >= 1) around patch (pr, pc) cannot raise T from ray parameter t on,
+ * best being T so far (step "level l > 0" above): its max M, less z0, is at most the bar best t + drop
+ * (best >= 0; else best t_end + drop, t_end the ray's exit from the tile within the radius), with
+ * prune_slack's margin within a search radius.  Without a radius this is monotone in k (a larger tile
+ * has the larger max and, for best < 0, the later exit: the lower bar, float32 rounding being
+ * monotone too), so "the largest such tile" is one tile however it is searched for. */
+OCLS_INLINE int prunable(__global const float2 *ext, __global const int *lvl_off, int Wp, const HRay *r, float z0,
+                         float best, float t, int pr, int pc, int k)
+{
+    const float2 e = ext[lvl_off[k] + (pr >> k) * ocls_level_extent(Wp, k) + (pc >> k)];
+    float t_end = INFINITY;
+#ifndef OCLS_MAX_DISTANCE
+    if (best < 0.0f)
+#endif
+    {
+        int via_x, via_y;
+        t_end = fmin(exit_t(r, (pr >> k) << k, (pc >> k) << k, 1 << k, &via_x, &via_y), OCLS_RADIUS(r));
+    }
+    const float bar = best * (best >= 0.0f ? t : t_end) + OCLS_DROP(r->c, t);
+    return !(e.x - z0 > bar || e.x - z0 + prune_slack(r, e, z0, bar, t_end) > bar);
+}
+
 /* T of cell (i, j) (height z0, not nodata), starting from lo; with -D OCLS_CLAMP
  * it stops once T >= hi.  *t_best: a ray parameter where T is reached (left as it
  * was when T = lo). */
@@ -465,25 +513,31 @@ OCLS_INLINE float horizon_tan(__global const float *h, int H, int W, __global co
     float best = lo, t = 0.0f;
     int l = 0;
     for (int it = 0; it < OCLS_MAX_ITERATIONS; ++it) {
-        const int size = 1 << l, r0 = (pr >> l) << l, c0 = (pc >> l) << l;
-        int via_x, via_y;
-        const float t_out = exit_t(r, r0, c0, size, &via_x, &via_y);
         if (t > 0.0f && rise - OCLS_DROP(r->c, t) <= best * t &&        /* nothing further is higher */
             rise - OCLS_DROP(r->c, t) + prune_slack(r, e_top, z0, best * t, t) <= best * t) break;
 #ifdef OCLS_MAX_DISTANCE
         if (t >= OCLS_RADIUS(r)) break;                    /* the search radius */
 #endif
-        const float t_end = fmin(t_out, OCLS_RADIUS(r));   /* the segment's end within the radius */
-        if (l > 0) {
-            const float2 e = ext[lvl_off[l] + (pr >> l) * ocls_level_extent(Wp, l) + (pc >> l)];
-            const float bar = best * (best >= 0.0f ? t : t_end) + OCLS_DROP(r->c, t);
-            if (e.x - z0 > bar || e.x - z0 + prune_slack(r, e, z0, bar, t_end) > bar) {
-                l -= 1;                                    /* the tile may raise T: descend */
-                continue;
-            }
+        /* the level: the largest tile around the patch that cannot raise T from here on (0: none,
+         * the patch itself), "Levels" above; OCLS_LEVEL_SCAN tests every level at once, else the
+         * search moves from the last step's level */
+#if OCLS_LEVEL_SCAN
+        l = 0;
+        for (int k = 1; k <= top; ++k)
+            if (prunable(ext, lvl_off, Wp, r, z0, best, t, pr, pc, k)) l = k;
+#else
+        if (l > 0 && !prunable(ext, lvl_off, Wp, r, z0, best, t, pr, pc, l)) {
+            do --l; while (l > 0 && !prunable(ext, lvl_off, Wp, r, z0, best, t, pr, pc, l));
         } else {
+            while (l < top && prunable(ext, lvl_off, Wp, r, z0, best, t, pr, pc, l + 1)) ++l;
+        }
+#endif
+        const int size = 1 << l, r0 = (pr >> l) << l, c0 = (pc >> l) << l;
+        int via_x, via_y;
+        const float t_out = exit_t(r, r0, c0, size, &via_x, &via_y);
+        if (l == 0) {                                      /* the patch: its sup (the tile's skipped) */
             float t_at = t;
-            const float patch = patch_sup(h, H, W, pr, pc, r, z0, t, t_end, &t_at);
+            const float patch = patch_sup(h, H, W, pr, pc, r, z0, t, fmin(t_out, OCLS_RADIUS(r)), &t_at);
             if (patch > best) *t_best = t_at;
             best = fmax(best, patch);
             if (via_x && via_y && t_out <= OCLS_RADIUS(r) && !valid_patch(h, H, W, pr, pc)) {
@@ -495,7 +549,6 @@ OCLS_INLINE float horizon_tan(__global const float *h, int H, int W, __global co
             if (best >= hi) break;                         /* as high as the caller asks */
 #endif
         }
-        const int opr = pr, opc = pc;
         float t_next = t_out;
         if (via_x) pc = r->sx > 0 ? c0 + size : c0 - 1;
         else if (r->sx) pc = along(r->j, r->ux, r->ix, r->sx, &t_next, c0, c0 + size - 1);
@@ -503,8 +556,6 @@ OCLS_INLINE float horizon_tan(__global const float *h, int H, int W, __global co
         else if (r->sy) pr = along(r->i, r->uy, r->iy, r->sy, &t_next, r0, r0 + size - 1);
         t = t_next;
         if (pr < 0 || pr >= Hp || pc < 0 || pc >= Wp) break;
-        const int diff = (pr ^ opr) | (pc ^ opc);          /* climb as shadow.cl */
-        l = min(min(31 - (int)clz(diff), top), l + 1);
     }
     return best;
 }

@@ -267,7 +267,7 @@ def test_c_error_paths_and_build_options(host: dict) -> None:
     assert default == {k: rule[k] for k in default}, (default, device)
     # every knob the C host has starts with the Python host's rule for the device
     knobs = [line.split()[1:] for line in lines if line.startswith("default_knob ")]
-    assert len(knobs) == 24
+    assert len(knobs) == 25
     for fam, name, value in knobs:
         assert int(value) == rule_values(family(fam), device)[name], (fam, name)
     assert tuned == {"lanes": 4, "run": 16, "group": 16}

@@ -164,6 +164,7 @@ static oclshade_status horizon_body(ocls_pass *ps, const void *params)
     ocls_def_flag(&d, "OCLS_CURVATURE", p->curvature > 0.0);
     ocls_def_flag(&d, "OCLS_MAX_DISTANCE", j->ray.s[3] > 0.0f);   /* never with n_azimuths (checked) */
     ocls_def_flag(&d, "OCLS_OWN_BUILTINS", ocls_knob(lib, K_HORIZON_OWN_BUILTINS));
+    if (ocls_knob(lib, K_HORIZON_SCAN)) ocls_def_int(&d, "OCLS_LEVEL_SCAN", 1);
     if ((st = ocls_bind_in(ps, &p->heights, p->rows, 4 * W, "heights", &h)) != OCLSHADE_OK) return st;
     if (p->n_azimuths > 0) return horizon_batch_body(ps, j, h, &d);
     if ((st = ocls_bind_out(ps, &p->angle, p->rows, 4 * W, "angle", &angle)) != OCLSHADE_OK ||

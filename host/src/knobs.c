@@ -52,6 +52,7 @@ static const knob_def KNOBS[N_KNOBS] = {
     [K_HORIZON_SWEEP_FAR] = {"horizon", "sweep_far", 3, {0, 1, 2}, 1, RULE_SAFE},
     [K_HORIZON_WIDTH] = {"horizon", "width", 4, {4, 8, 16, 32}, 16, RULE_SAFE},
     [K_HORIZON_BATCH] = {"horizon", "batch", 3, {1, 8, 64}, 1, RULE_GPU},
+    [K_HORIZON_SCAN] = {"horizon", "scan", 2, {0, 1}, 0, RULE_GPU},
 };
 
 /* oclshade/tuning/rules.py TARGET_FLOAT_LANES: float lanes of the LLVM CPU target PoCL names in

@@ -699,7 +699,7 @@ int main(int argc, char **argv)
         {"terrain", "leaf"}, {"terrain", "group"}, {"terrain", "own_builtins"}, {"screen_shadows", "group"},
         {"screen_shadows", "own_builtins"}, {"ssao", "lanes"}, {"ssao", "group"}, {"ssao", "own_builtins"},
         {"horizon", "group"}, {"horizon", "own_builtins"}, {"horizon", "lanes"}, {"horizon", "sweep_cells"},
-        {"horizon", "sweep_far"}, {"horizon", "width"}, {"horizon", "batch"}};
+        {"horizon", "sweep_far"}, {"horizon", "width"}, {"horizon", "batch"}, {"horizon", "scan"}};
     oclshade *fresh = NULL;
     oclshade_create(ctx, device, dir, &fresh);
     for (size_t i = 0; i < sizeof knob_names / sizeof knob_names[0]; ++i) {

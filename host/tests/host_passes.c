@@ -696,16 +696,19 @@ static void horizon_bands(const map *m, double dx, double dy, double curvature, 
 }
 
 /* The whole map's n azimuths in one call give the bands and sums of one call per azimuth
- * (`bands`: n packed bands; `svf`: their sums), at batch 1, 8 and 64, a pitched field too. */
+ * (`bands`: n packed bands; `svf`: their sums), at batch 1, 8 and 64, a pitched field too, and
+ * either level search (knob scan: the other value than the handle's with batch 8). */
 static void check_horizon_batches(const map *m, double dx, double dy, double curvature, int n, int definition,
                                   const unsigned char *bands, const void *svf)
 {
     const size_t row = 4 * (size_t)m->cols, band = 4 * m->n;
-    int default_batch = 0;
+    int default_batch = 0, default_scan = 0;
     CHECK(oclshade_get_knob(lib, "horizon", "batch", &default_batch));
+    CHECK(oclshade_get_knob(lib, "horizon", "scan", &default_scan));
     static const int batches[] = {1, 8, 64};
     for (size_t b = 0; b < sizeof batches / sizeof batches[0]; ++b) {
         CHECK(oclshade_set_knob(lib, "horizon", "batch", batches[b]));
+        CHECK(oclshade_set_knob(lib, "horizon", "scan", batches[b] == 8 ? !default_scan : default_scan));
         cl_mem d_angles = buffer(band * (size_t)n, NULL), d_svf = buffer(8 * m->n, NULL);
         CHECK(oclshade_enqueue_zero(lib, queue, d_svf, 8 * m->n, 0, NULL, NULL));
         oclshade_field angles = oclshade_field_of(d_angles);
@@ -728,6 +731,7 @@ static void check_horizon_batches(const map *m, double dx, double dy, double cur
         release(d_angles); release(d_svf);
     }
     CHECK(oclshade_set_knob(lib, "horizon", "batch", default_batch));
+    CHECK(oclshade_set_knob(lib, "horizon", "scan", default_scan));
 }
 
 static void run_horizon(int argc, char **argv)

@@ -423,6 +423,7 @@ class HorizonCaster:
     def _defines(self, outputs: Mapping[str, object]) -> dict[str, object]:
         return {**outputs, "OCLS_CURVATURE": self.curvature is not None,
                 "OCLS_MAX_DISTANCE": self.radius is not None,
+                "OCLS_LEVEL_SCAN": 1 if self.knobs["scan"] else None,
                 "OCLS_OWN_BUILTINS": bool(self.knobs["own_builtins"])}
 
     def _ray(self, azimuth: float) -> np.ndarray:
@@ -546,6 +547,9 @@ TUNING = tuning.register(tuning.Family(
      tuning.Param("batch", (1, 8, 64), 1, "azimuths per launch of the whole map's walk "
                   "(horizon_seeds_batch / horizon_cells_batch; device memory for that many bands)",
                   rule="gpu"),
+     tuning.Param("scan", (0, 1), 0, "how the walk finds the largest tile it may skip (-D OCLS_LEVEL_SCAN): 0 "
+                  "from the last step's level up or down, one read after another; 1 every level's read at once "
+                  "(more reads, no chain of them: GPUs); the same tile either way", rule="gpu"),
      tuning.Param("lanes", (1, 4, 8, 16), 1, "cells per work-item of the sweep on vector lanes (-D OCLS_SWEEP)",
                   vector=True, rule="width"),
      tuning.Param("sweep_cells", (0, 64, 128, 192, 256), 128,
