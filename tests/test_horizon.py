@@ -259,13 +259,14 @@ def test_knobs_do_not_change_results():
             caster = HorizonCaster(hm, max_distance=radius, knobs=knobs, curvature=None)
             assert np.array_equal(caster.horizons(6), angles, equal_nan=True), (radius, knobs)
             assert np.array_equal(caster.sky_view_factor(6), svf, equal_nan=True), (radius, knobs)
-    # several azimuths per launch of the whole map's walk: one batch, a batch and a part (8 + 3)
-    base = HorizonCaster(hm, knobs={"batch": 1})
+    # several azimuths per launch of the whole map's walk: one batch, a batch and a part (8 + 3); either
+    # level search
+    base = HorizonCaster(hm, knobs={"batch": 1, "scan": 0})
     angles, svf = base.horizons(11), base.sky_view_factor(11)
-    for batch, group, width in ((8, 16, 4), (8, 256, 16), (64, 64, 4), (64, 256, 32)):
-        caster = HorizonCaster(hm, knobs={"batch": batch, "group": group, "width": width})
-        assert np.array_equal(caster.horizons(11), angles, equal_nan=True), (batch, group, width)
-        assert np.array_equal(caster.sky_view_factor(11), svf, equal_nan=True), (batch, group, width)
+    for batch, group, width, scan in ((8, 16, 4, 0), (8, 256, 16, 1), (64, 64, 4, 1), (64, 256, 32, 0), (1, 64, 16, 1)):
+        caster = HorizonCaster(hm, knobs={"batch": batch, "group": group, "width": width, "scan": scan})
+        assert np.array_equal(caster.horizons(11), angles, equal_nan=True), caster.knobs
+        assert np.array_equal(caster.sky_view_factor(11), svf, equal_nan=True), caster.knobs
         on_device = list(caster.angles_on_device(11))
         assert [az for az, _ in on_device] == list(azimuth_grid(11))
         for k, (_, buf) in enumerate(on_device):      # each band its own (sub-)buffer of rows * cols
