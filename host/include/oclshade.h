@@ -245,7 +245,7 @@ const char *oclshade_program_source(const oclshade *lib, const char *file);
  *   screen_shadows  group 16|64|256, own_builtins 0|1
  *   ssao            lanes 4|8|16, group 16|64|256, own_builtins 0|1
  *   horizon         group 16|64|256, own_builtins 0|1, lanes 1|4|8|16, sweep_cells 0|64|128|192|256,
- *                   sweep_far 0|1|2, width 4|8|16|32, batch 1|8|64
+ *                   sweep_far 0|1|2, width 4|8|16|32, batch 1|8|64, scan 0|1
  * (the Python pyramid knob in_place, a host-memory choice, has no C counterpart).  An
  * unknown family, knob or value is INVALID_ARGUMENT naming the legal ones; nothing
  * changes then.  Applies to the commands enqueued afterwards (programs built with other
@@ -844,7 +844,8 @@ oclshade_status oclshade_horizon_scratch_size(oclshade *lib, const oclshade_hori
  * (seed cols, seed rows, count), scratch for count seed grids) then horizon_cells_batch (global
  * (cols, rows, count), or (cols, rows, 1) with svf: each cell walks the count azimuths in
  * order), the rays in scratch.  Knobs: horizon group, width (the work-group's width in cells),
- * own_builtins, lanes, sweep_cells, sweep_far, batch. */
+ * own_builtins, lanes, sweep_cells, sweep_far, batch, scan (-D OCLS_LEVEL_SCAN: how the walk finds the
+ * tile it may skip; the same bits). */
 oclshade_status oclshade_enqueue_horizon(oclshade *lib, cl_command_queue queue,
                                          const oclshade_horizon_params *params,
                                          cl_uint num_events_in_wait_list, const cl_event *event_wait_list,
