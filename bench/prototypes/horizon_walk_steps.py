@@ -8,7 +8,7 @@ commit's, ``git show REV:kernels/horizon.cl``).  Per map: the mean steps, the wa
 cell, as the warps' longest walks make it), the proxy if each work-item walked ``--merge`` cells
 one after another (bench/prototypes/horizon_walk_merged.patch), and the steps after the last raise
 of the tangent (the proof that nothing further is higher).  For the record's frame on the H200 the
-proxy of the walk before "Levels" tracked the time at 0.74-0.75 ms per unit on all three maps.
+proxy of the walk before "Levels" (16 azimuths) tracked the time at 0.76-0.79 ms per unit on all three maps.
 """
 from __future__ import annotations
 
