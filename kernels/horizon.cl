@@ -115,7 +115,7 @@
  * (more reads but no chain of them, each waiting for the last: meant for GPUs,
  * where such a chain cost more than the reads).  With a search radius the
  * outputs are the sweep's whatever tiles are skipped ("The sweep").  Against
- * the walk before (one level a step; docs/solar.md, "Levels"): 39-54 % fewer
+ * the walk before (one level a step; docs/solar.md, "Levels"): 39-59 % fewer
  * steps on the record's maps, a few angles in 10^4 different in their last
  * float32 bits, all within the float32 band of the float64 reference.
  *
