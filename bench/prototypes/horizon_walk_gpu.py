@@ -13,14 +13,13 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import oclshade.runtime as runtime  # noqa: E402
-from horizon_record import load  # noqa: E402
+from horizon_record import load, timed  # noqa: E402
 from shadow_masks import DEFAULT_DATA  # noqa: E402
 from oclshade.bench.machine import machine_facts  # noqa: E402
 from oclshade.horizon import HorizonCaster, azimuth_grid  # noqa: E402
@@ -30,7 +29,13 @@ ORIGINAL = runtime.kernel_source
 
 
 def use_source(text: str | None) -> None:
+    """Build horizon.cl from ``text`` from now on (None: kernels/ again)."""
     runtime.kernel_source = ORIGINAL if text is None else (lambda n: text if n == "horizon.cl" else ORIGINAL(n))
+
+
+def kernel_text(path: Path) -> str:
+    """A horizon.cl file's text with common.h pasted in (what the hosts build)."""
+    return path.read_text().replace('#include "common.h"', ORIGINAL("common.h"))
 
 
 def main() -> int:
@@ -42,7 +47,7 @@ def main() -> int:
     ap.add_argument("--maps", default="canyon,srtm_N22W160,puget")
     ap.add_argument("--head", type=Path, default=None)
     ap.add_argument("--defines", default="", help="comma-separated macro names, each a variant of new")
-    ap.add_argument("--knobs", default="cells=1;cells=4;cells=8", help="';'-separated knob sets k=v,k=v")
+    ap.add_argument("--knobs", default="scan=0;scan=1", help="';'-separated knob sets k=v,k=v")
     ap.add_argument("--svf", action="store_true", help="also time sky_view_factor(azimuths)")
     ap.add_argument("--out", type=Path, default=Path("/tmp/walk_gpu.json"))
     args = ap.parse_args()
@@ -50,7 +55,7 @@ def main() -> int:
     az = azimuth_grid(args.azimuths)
     sources: dict[str, str | None] = {}
     if args.head:
-        sources["head"] = args.head.read_text().replace('#include "common.h"', ORIGINAL("common.h"))
+        sources["head"] = kernel_text(args.head)
     sources["new"] = None
     for d in filter(None, args.defines.split(",")):
         sources[d] = f"#define {d}\n" + ORIGINAL("horizon.cl")
@@ -66,26 +71,18 @@ def main() -> int:
                 use_source(src)
                 key = label + ("" if not knobs else " " + ",".join(f"{k}={v}" for k, v in knobs.items()))
                 try:
-                    def frame() -> None:
+                    def frame(knobs: dict = knobs) -> None:
                         for _ in HorizonCaster(hm, rt, cache=False, knobs=knobs).angles_on_device(az):
                             pass
                         rt.queue.finish()
-                    frame()
-                    times = []
-                    for _ in range(args.reps):
-                        t = time.perf_counter()
-                        frame()
-                        times.append(1e3 * (time.perf_counter() - t))
-                    angles = HorizonCaster(hm, rt, cache=False, knobs=knobs).horizons(az)
-                    row = {"min_ms": round(min(times), 2), "median_ms": round(float(np.median(times)), 2)}
-                    if args.svf:
+
+                    def svf(knobs: dict = knobs) -> None:
                         HorizonCaster(hm, rt, cache=False, knobs=knobs).sky_view_factor(az)
-                        st = []
-                        for _ in range(args.reps):
-                            t = time.perf_counter()
-                            HorizonCaster(hm, rt, cache=False, knobs=knobs).sky_view_factor(az)
-                            st.append(1e3 * (time.perf_counter() - t))
-                        row["svf_min_ms"] = round(min(st), 2)
+
+                    row = timed(frame, args.reps)
+                    if args.svf:
+                        row["svf_min_ms"] = timed(svf, args.reps)["min_ms"]
+                    angles = HorizonCaster(hm, rt, cache=False, knobs=knobs).horizons(az)
                     if first is None:
                         first = angles
                     row["differ_from_first"] = int(np.sum(angles != first) - np.sum(np.isnan(first)))

@@ -20,13 +20,12 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-import oclshade.runtime as runtime  # noqa: E402
 from horizon_record import load  # noqa: E402
 from shadow_masks import DEFAULT_DATA  # noqa: E402
 from oclshade.horizon import HorizonCaster, azimuth_grid  # noqa: E402
 from oclshade.runtime import get_runtime  # noqa: E402
+from prototypes.horizon_walk_gpu import ORIGINAL, kernel_text, use_source  # noqa: E402
 
-ORIGINAL = runtime.kernel_source
 LOOP = "for (int it = 0; it < OCLS_MAX_ITERATIONS; ++it) {"
 RAISE = "if (patch > best) *t_best = t_at;"
 
@@ -34,7 +33,6 @@ RAISE = "if (patch > best) *t_best = t_at;"
 def counting(text: str, kind: str) -> str:
     """horizon.cl with a per-cell step counter (``all`` steps, or ``tail``: those after the last
     raise) written to the angle output."""
-    text = text.replace('#include "common.h"', ORIGINAL("common.h"))
     edits = [("float *t_best)\n{", "float *t_best, int *ocls_steps)\n{"), ("&t_best)", "&t_best, &ocls_steps)"),
              ("float t_best = 0.0f", "float t_best = 0.0f; int ocls_steps = 0"),
              ("    store_outputs(angle, svf, idx, T);\n}", "    angle[idx] = (float)ocls_steps;\n}"),
@@ -49,11 +47,11 @@ def counting(text: str, kind: str) -> str:
 
 
 def steps(hm, rt, text: str, azimuths: np.ndarray) -> np.ndarray:
-    runtime.kernel_source = lambda name: text if name == "horizon.cl" else ORIGINAL(name)
+    use_source(text)
     try:
         return HorizonCaster(hm, rt, cache=False, knobs={"batch": 1}).horizons(azimuths)
     finally:
-        runtime.kernel_source = ORIGINAL
+        use_source(None)
 
 
 def warp_proxy(a: np.ndarray, merge: int, bw: int = 4, bh: int = 8) -> dict[str, float]:
@@ -76,7 +74,7 @@ def main() -> int:
     ap.add_argument("--maps", default="canyon,srtm_N22W160,puget")
     ap.add_argument("--out", type=Path, default=None)
     args = ap.parse_args()
-    text = args.kernel.read_text() if args.kernel else ORIGINAL("horizon.cl")
+    text = kernel_text(args.kernel) if args.kernel else ORIGINAL("horizon.cl")
     rt = get_runtime(None)
     az = azimuth_grid(64)[::max(1, 64 // args.azimuths)]
     res = {"kernel": str(args.kernel or "kernels/horizon.cl"), "device": rt.device.name, "azimuths": az.tolist(),
