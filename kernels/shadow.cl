@@ -25,6 +25,9 @@
  *                  usually on CPU devices): shadow_cells' results, OCLS_LANES
  *                  rays per work-item on vector lanes ("ray packets" below);
  *                  global size (ceil(W / run), H).
+ *   -D OCLS_SUN_TABLE (shadow_cells, shadow_cells_packet, shadow_certify):
+ *                  each cell's sun from a table of blocks (a sun that varies
+ *                  over the map, traced in one launch; "sun tables" below).
  *   -D options OCLS_METHOD, OCLS_OUT_MASK, OCLS_OUT_SELF (cells only),
  *   OCLS_OUT_COEF, OCLS_OUT_LOD (pixels only), OCLS_STATS, OCLS_CERT (cells
  *   only, with OCLS_CERT_K / _D0 / _SUB / _SPAN), OCLS_CURVATURE (both),
@@ -550,6 +553,45 @@ OCLS_INLINE int trace(OCLS_HEIGHTS h, int H, int W, OCLS_EXTREMA ext,
 }
 #endif
 
+/* ------------------------------------------------------------- sun tables
+ * -D OCLS_SUN_TABLE (shadow_cells, shadow_cells_packet, shadow_certify): each
+ * cell takes its sun from a table instead of the ray / sunvec / mode
+ * arguments (which stay in the ABI, unread).  A map whose sun varies over it
+ * (oclshade/sun.py SunField: rectangles of cells, each traced with its own
+ * sun) is then traced in one launch instead of one launch per rectangle.  The
+ * blocks form a grid of row bands and column bands (the host cuts any tiling
+ * into one), and cell (i, j) is in block
+ *     b = band[i] + band[H + j],
+ * band[i] being the row band of row i times the number of column bands and
+ * band[H + j] the column band of column j.  Block b's ray and sun vector are
+ * sun_table[2 b] and sun_table[2 b + 1] (as the ray and sunvec arguments),
+ * its mode sun_mode[b].  Extra arguments after cert (before stats):
+ *     __global const int    *band       H + W ints
+ *     __global const float4 *sun_table  2 per block
+ *     __global const int    *sun_mode   1 per block
+ * shadow_certify takes them after cert: it makes a tile's certificates for
+ * the block holding the tile's first cell (row tr s, column tc s; nothing
+ * when that block's mode is not 0), and a cell uses them only when it lies in
+ * that block (cert_owned); other cells trace their rays in full, with the
+ * same results (certificates only end provably lit rays early).  A packet
+ * run must not cross a column band: the host makes OCLS_PACKET divide every
+ * band's first column. */
+#ifdef OCLS_SUN_TABLE
+#define OCLS_SUN_PARAMS , __global const int *band, __global const float4 *sun_table, __global const int *sun_mode
+#define OCLS_SUN_ARG(name) name##_unread
+#define OCLS_BAND band
+/* the sun of cell (i, j): declares ray, sunvec and mode */
+#define OCLS_TABLE_SUN(i, j) \
+    const int block_ = band[i] + band[H + (j)]; \
+    const float4 ray = sun_table[2 * block_], sunvec = sun_table[2 * block_ + 1]; \
+    const int mode = sun_mode[block_]
+#else
+#define OCLS_SUN_PARAMS
+#define OCLS_SUN_ARG(name) name
+#define OCLS_BAND 0
+#define OCLS_TABLE_SUN(i, j) (void)0
+#endif
+
 /* ------------------------------------------------- far-field certificates
  * -D OCLS_CERT=s (a power of two >= 2; EXACT and MAXMIP only): one
  * certificate per s x s tile of cells, computed per sun by shadow_certify and
@@ -602,12 +644,18 @@ OCLS_INLINE int trace(OCLS_HEIGHTS h, int H, int W, OCLS_EXTREMA ext,
 #endif
 
 __kernel void shadow_certify(const int H, const int W, const int2 origin, OCLS_EXTREMA ext,
-                             __global const int *lvl_off, const int nlev, const float4 ray,
-                             __global float *cert)
+                             __global const int *lvl_off, const int nlev, const float4 OCLS_SUN_ARG(ray),
+                             __global float *cert OCLS_SUN_PARAMS)
 {
     const int s = OCLS_CERT, nc = (W + s - 1) / s, nr = (H + s - 1) / s;
     const int tc = get_global_id(0), tr = get_global_id(1);
     if (tc >= nc || tr >= nr) return;
+#ifdef OCLS_SUN_TABLE
+    /* the sun of the block holding the tile's first cell (only its cells use these) */
+    const int block = band[tr * s] + band[H + tc * s];
+    if (sun_mode[block] != 0) return;
+    const float4 ray = sun_table[2 * block];
+#endif
     const int Hp = max(H - 1, 1), Wp = max(W - 1, 1), top = nlev - 1;
     const float ux = ray.x, uy = ray.y, w = ray.z, major = fmax(fabs(ux), fabs(uy));
     const float z_top = ext_at(ext, lvl_off, 0, Wp, top, 0, 0).x;
@@ -665,6 +713,14 @@ OCLS_INLINE float cert_distance(int k, float4 ray)
     return 1.001f * ((float)OCLS_CERT_D0 * (float)(1u << k) / fmax(fabs(ray.x), fabs(ray.y)));
 }
 
+/* Whether cell (i, j) may use its tile's certificates: always with one sun;
+ * with a sun table (band, else 0) when the tile's first cell lies in the
+ * cell's block, whose sun they were made for. */
+OCLS_INLINE int cert_owned(__global const int *band, int H, int i, int j)
+{
+    return !band || (band[i / OCLS_CERT * OCLS_CERT] == band[i] && band[H + j / OCLS_CERT * OCLS_CERT] == band[H + j]);
+}
+
 /* The least k whose certificate cell (i, j) of height z0 clears, OCLS_CERT_K if none. */
 OCLS_INLINE int cert_index(__global const float *cert, int W, int i, int j, float z0)
 {
@@ -676,14 +732,16 @@ OCLS_INLINE int cert_index(__global const float *cert, int W, int i, int j, floa
 }
 
 /* The traversal limit of cell (i, j) of height z0: t_k (times 1.001) for the
- * least k whose certificate it clears, else infinity. */
-OCLS_INLINE float cert_limit(__global const float *cert, int W, int i, int j, float z0, float4 ray)
+ * least k whose certificate it clears (and owns, cert_owned), else infinity. */
+OCLS_INLINE float cert_limit(__global const float *cert, __global const int *band, int H, int W, int i, int j,
+                             float z0, float4 ray)
 {
+    if (!cert_owned(band, H, i, j)) return INFINITY;
     const int k = cert_index(cert, W, i, j, z0);
     return k < OCLS_CERT_K ? cert_distance(k, ray) : INFINITY;
 }
 #else
-#define cert_limit(cert, W, i, j, z0, ray) INFINITY
+#define cert_limit(cert, band, H, W, i, j, z0, ray) INFINITY
 #endif
 
 /* Self-shadow: sun at or below the tangent plane of the central-difference
@@ -699,12 +757,13 @@ OCLS_INLINE int self_shadowed(OCLS_HEIGHTS h, int H, int W, int i, int j, float2
 /* Cast shadow of cell (i, j) of height z0 (not nodata) by the scalar traversal. */
 OCLS_INLINE int cell_shadow(OCLS_HEIGHTS h, int H, int W, int2 origin, OCLS_EXTREMA ext,
                             __global const int *lvl_off, int nlev, float4 ray, int mode,
-                            __global const float *cert, int i, int j, float z0, uint *steps)
+                            __global const float *cert, __global const int *band, int i, int j, float z0,
+                            uint *steps)
 {
     if (mode != 0) return mode == 2;
     const Ray r = make_cell_ray(i, j, origin, z0, ray);
     return trace(h, H, W, ext, lvl_off, nlev, 0, ext_at(ext, lvl_off, 0, max(W - 1, 1), nlev - 1, 0, 0).x,
-                 cert_limit(cert, W, i, j, z0, ray), &r, steps);
+                 cert_limit(cert, band, H, W, i, j, z0, ray), &r, steps);
 }
 
 /* The outputs of cell (i, j) from its cast-shadow flag (ignored for nodata). */
@@ -738,9 +797,9 @@ OCLS_INLINE void write_cell(OCLS_HEIGHTS h, int H, int W, int i, int j, int shad
 #endif
 #define OCLS_CELLS_PARAMS \
     OCLS_HEIGHTS h, const int H, const int W, const int2 origin, OCLS_EXTREMA ext, \
-    __global const int *lvl_off, const int nlev, const float4 ray, const float4 sunvec, const float2 cell, \
-    const float2 kcoef, const int mode, __global uchar *mask, __global uchar *self, __global float *coef \
-    OCLS_CERT_PARAM
+    __global const int *lvl_off, const int nlev, const float4 OCLS_SUN_ARG(ray), \
+    const float4 OCLS_SUN_ARG(sunvec), const float2 cell, const float2 kcoef, const int OCLS_SUN_ARG(mode), \
+    __global uchar *mask, __global uchar *self, __global float *coef OCLS_CERT_PARAM OCLS_SUN_PARAMS
 
 __kernel void shadow_cells(OCLS_CELLS_PARAMS
 #ifdef OCLS_STATS
@@ -751,11 +810,12 @@ __kernel void shadow_cells(OCLS_CELLS_PARAMS
     OCLS_STEPS_BEGIN;
     const int j = get_global_id(0), i = get_global_id(1);
     if (j >= W || i >= H) return;
+    OCLS_TABLE_SUN(i, j);
     const float z0 = OCLS_H_AT(h, W, i, j);
     int shadow = 0;
 #if defined(OCLS_OUT_MASK) || defined(OCLS_OUT_COEF)
-    if (!isnan(z0)) shadow = cell_shadow(h, H, W, origin, ext, lvl_off, nlev, ray, mode, OCLS_CERT_BUF, i, j, z0,
-                                         steps);
+    if (!isnan(z0)) shadow = cell_shadow(h, H, W, origin, ext, lvl_off, nlev, ray, mode, OCLS_CERT_BUF, OCLS_BAND,
+                                         i, j, z0, steps);
 #endif
     OCLS_STEPS_END(nlev);
     write_cell(h, H, W, i, j, shadow, mode, sunvec, cell, kcoef, mask, self, coef);
@@ -971,8 +1031,8 @@ OCLS_INLINE ocls_intv packet_step(__global const float *h, int H, int W, int2 or
  * ray leaves the map at once) get res[] now; the others get their state in
  * *s and their bit in the returned mask. */
 OCLS_INLINE int first_steps(__global const float *h, int H, int W, int2 origin, float4 ray, float z_top, int top,
-                            __global const float *cert, const float *tk, int i, int j0, int c, int n,
-                            uchar *res, Packet *s)
+                            __global const float *cert, __global const int *band, const float *tk, int i, int j0,
+                            int c, int n, uchar *res, Packet *s)
 {
     const int Wp = W - 1, east = ray.x > 0.0f, pr0 = ray.y > 0.0f ? i : i - 1;
     const ocls_intv cells = c + OCLS_LANE_IDS, j = j0 + cells, pc = east ? j : j - 1;
@@ -989,10 +1049,12 @@ OCLS_INLINE int first_steps(__global const float *h, int H, int W, int2 origin, 
     ocls_intv ended = (ocls_intv)(0), shadow = (ocls_intv)(0);
     if (any(start)) {
 #ifdef OCLS_CERT
-        /* cert_index for the chunk's one certificate tile (OCLS_CERT % OCLS_LANES == 0) */
+        /* cert_index for the chunk's one certificate tile (OCLS_CERT % OCLS_LANES == 0), in the
+         * run's one block */
         __global const float *ck = cert + ((i / OCLS_CERT) * ((W + OCLS_CERT - 1) / OCLS_CERT) +
                                            (j0 + c) / OCLS_CERT) * OCLS_CERT_K;
-        for (int k = OCLS_CERT_K - 1; k >= 0; --k) s->t_lim = select(s->t_lim, (ocls_floatv)(tk[k]), s->z0 > ck[k]);
+        if (cert_owned(band, H, i, j0 + c))
+            for (int k = OCLS_CERT_K - 1; k >= 0; --k) s->t_lim = select(s->t_lim, (ocls_floatv)(tk[k]), s->z0 > ck[k]);
 #endif
         const int col = start_col(j0 + c, east);
         __global const float *r0 = h + pr0 * W, *r1 = r0 + W;
@@ -1013,7 +1075,7 @@ OCLS_INLINE int first_steps(__global const float *h, int H, int W, int2 origin, 
  * whose ray has ended is refilled by blending in the next ray's state. */
 OCLS_INLINE void trace_run(__global const float *h, int H, int W, int2 origin, __global const float2 *ext,
                            __global const int *lvl_off, int nlev, float4 ray,
-                           __global const float *cert, int i, int j0, int n, uchar *res)
+                           __global const float *cert, __global const int *band, int i, int j0, int n, uchar *res)
 {
     const int Wp = W - 1, top = nlev - 1;
     const float z_top = ext[lvl_off[top]].x;
@@ -1035,7 +1097,7 @@ OCLS_INLINE void trace_run(__global const float *h, int H, int W, int2 origin, _
     for (;;) {
         while (refill) {                               /* new rays into the lanes that ended */
             while (!pending && next < n) {             /* the next chunk's first iterations */
-                pending = first_steps(h, H, W, origin, ray, z_top, top, cert, tk, i, j0, next, n, res, &chunk);
+                pending = first_steps(h, H, W, origin, ray, z_top, top, cert, band, tk, i, j0, next, n, res, &chunk);
                 OCLS_VSTORE(chunk.z0, 0, cz0); OCLS_VSTORE(chunk.t, 0, ct);
                 OCLS_VSTORE(chunk.t_lim, 0, ctl); OCLS_VSTORE(chunk.pr, 0, cpr); OCLS_VSTORE(chunk.pc, 0, cpc);
                 OCLS_VSTORE(chunk.l, 0, cl);
@@ -1093,17 +1155,18 @@ __kernel void shadow_cells_packet(OCLS_CELLS_PARAMS)
 {
     const int i = get_global_id(1), j0 = get_global_id(0) * OCLS_RUN;
     if (i >= H || j0 >= W) return;
+    OCLS_TABLE_SUN(i, j0);                             /* the run lies in one block */
     const int n = min(OCLS_RUN, W - j0);
     uchar res[OCLS_RUN];
 #if defined(OCLS_OUT_MASK) || defined(OCLS_OUT_COEF)
     if (mode == 0 && ray.x != 0.0f && ray.y != 0.0f && H > 1 && W > 1) {
-        trace_run(h, H, W, origin, ext, lvl_off, nlev, ray, OCLS_CERT_BUF, i, j0, n, res);
+        trace_run(h, H, W, origin, ext, lvl_off, nlev, ray, OCLS_CERT_BUF, OCLS_BAND, i, j0, n, res);
     } else {
         for (int c = 0; c < n; ++c) {
             const float z0 = h[i * W + j0 + c];
             uint steps[1];
             res[c] = !isnan(z0) && cell_shadow(h, H, W, origin, ext, lvl_off, nlev, ray, mode, OCLS_CERT_BUF,
-                                                i, j0 + c, z0, steps);
+                                                OCLS_BAND, i, j0 + c, z0, steps);
         }
     }
 #else

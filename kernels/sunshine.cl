@@ -50,8 +50,24 @@
  *     of the horizon between the two azimuths)
  *   global size (W, H) rounded up to the local size; any local size.
  *
- * Build options: -D OCLS_OUT_SUN / OCLS_OUT_CAST / OCLS_OUT_BEAM and
- * -cl-std=CL1.2, nothing else (no fast-math).
+ * Sun tables (-D OCLS_SUN_TABLE, both kernels): a step whose sun varies over
+ * the map (a sun field of blocks, as shadow.cl's "sun tables") is summed in
+ * one launch: each cell takes its block's sun from a table and the sunvec,
+ * frac and elevation arguments are not read.  Extra arguments after beam:
+ *     __global const int    *band   H + W ints: cell (i, j) is in block
+ *                                   b = band[i] + band[H + j] (shadow.cl)
+ *     __global const float4 *suns   2 per block: the sun vector, then
+ *                                   (frac, elevation, 0, 0) (horizons only)
+ *     __global const int    *keys   1 per block
+ *     int key                       a cell adds to its sums only when
+ *                                   keys[b] == key (the host gives the blocks
+ *                                   whose sun is down a key no launch has;
+ *                                   the horizon route launches once per
+ *                                   interval of grid azimuths holding some
+ *                                   block's sun, keyed by the interval)
+ *
+ * Build options: -D OCLS_OUT_SUN / OCLS_OUT_CAST / OCLS_OUT_BEAM,
+ * OCLS_SUN_TABLE and -cl-std=CL1.2, nothing else (no fast-math).
  */
 #include "common.h"
 
@@ -77,24 +93,44 @@ OCLS_INLINE void accumulate(__global const float *h, int H, int W, int i, int j,
 #endif
 }
 
+#ifdef OCLS_SUN_TABLE
+#define OCLS_SUN_PARAMS , __global const int *band, __global const float4 *suns, __global const int *keys, \
+    const int key
+#define OCLS_SUN_ARG(name) name##_unread
+/* the sun of cell (i, j): declares sunvec, frac and elevation; returns when its block's key is not key */
+#define OCLS_TABLE_SUN(i, j) \
+    const int block_ = band[i] + band[H + (j)]; \
+    if (keys[block_] != key) return; \
+    const float4 sunvec = suns[2 * block_], at_ = suns[2 * block_ + 1]; \
+    const float frac = at_.x, elevation = at_.y
+#else
+#define OCLS_SUN_PARAMS
+#define OCLS_SUN_ARG(name) name
+#define OCLS_TABLE_SUN(i, j) (void)0
+#endif
+
 __kernel void sunshine_masks(__global const float *h, const int H, const int W, const float2 cell,
-                             __global const uchar *mask, const float4 sunvec, const uint weight, const float hours,
-                             __global uint *sun, __global uint *cast, __global float2 *beam)
+                             __global const uchar *mask, const float4 OCLS_SUN_ARG(sunvec), const uint weight,
+                             const float hours, __global uint *sun, __global uint *cast, __global float2 *beam
+                             OCLS_SUN_PARAMS)
 {
     const int j = get_global_id(0), i = get_global_id(1);
     if (j >= W || i >= H) return;
+    OCLS_TABLE_SUN(i, j);
     const uchar m = mask[i * W + j];
     if (m == 255) return;
     accumulate(h, H, W, i, j, cell, m == 1, sunvec, weight, hours, sun, cast, beam);
 }
 
 __kernel void sunshine_horizons(__global const float *h, const int H, const int W, const float2 cell,
-                                __global const float *low, __global const float *high, const float frac,
-                                const float elevation, const float4 sunvec, const uint weight, const float hours,
-                                __global uint *sun, __global uint *cast, __global float2 *beam)
+                                __global const float *low, __global const float *high,
+                                const float OCLS_SUN_ARG(frac), const float OCLS_SUN_ARG(elevation),
+                                const float4 OCLS_SUN_ARG(sunvec), const uint weight, const float hours,
+                                __global uint *sun, __global uint *cast, __global float2 *beam OCLS_SUN_PARAMS)
 {
     const int j = get_global_id(0), i = get_global_id(1);
     if (j >= W || i >= H) return;
+    OCLS_TABLE_SUN(i, j);
     const int idx = i * W + j;
     if (isnan(h[idx])) return;
     const float a = low[idx], b = high[idx];

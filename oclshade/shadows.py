@@ -26,8 +26,8 @@ from . import tuning
 from .analysis import SceneAnalysis, slope_fronts
 from .horizon.caster import Curvature
 from .pyramid import ExtremaPyramid, cached_pyramid
-from .runtime import Runtime, get_runtime, set_arg
-from .sun import Sun, SunBlock, SunField, SunLike, Traced, as_sun, as_traced
+from .runtime import Runtime, get_runtime
+from .sun import Sun, SunField, SunLike, Traced, as_sun, as_traced, sun_rays, sun_vectors
 
 METHODS = ("exact", "paper", "maxmip", "dda")
 OUTPUTS = ("mask", "self", "coefficient")
@@ -108,6 +108,7 @@ class ShadowFeatures:
     cert_tile: int = CERT_TILE  # cells per side of a certificate tile (tuning knob)
     curvature: bool = False    # Earth curvature along the rays (the drop per m^2 rides in the ray's 4th value)
     images: bool = False       # heights and pyramid read from images (tuning knob; one-ray kernel only)
+    sun_table: bool = False    # each cell's sun from a sun field's table (-D OCLS_SUN_TABLE)
 
     @property
     def certified(self) -> bool:
@@ -143,6 +144,7 @@ class ShadowFeatures:
             "OCLS_HW_GATHER": self.gather and self.packeted,
             "OCLS_CURVATURE": self.curvature,
             "OCLS_IMAGES": self.imaged,
+            "OCLS_SUN_TABLE": self.sun_table,
         }
 
 
@@ -371,19 +373,19 @@ class ShadowCaster:
         """A function enqueueing the traversal of one sun or sun field into device buffers, and
         those buffers ("mask", "self", "coefficient"; a dummy for an output not in ``outs``;
         ``bufs``: buffers to reuse).  Buffers and kernel are shared by its calls.
-        ``column_step``: for sun fields whose blocks start at multiples of it (0: all at column
-        0), the packet kernel's runs are made to divide it (or the one-ray kernel runs).
+        ``column_step``: None for suns; for sun fields whose blocks start at multiples of it
+        (0: all at column 0), the packet kernel's runs are made to divide it (or the one-ray
+        kernel runs), so that no run crosses a block.
 
-        A field's blocks are traced one launch each, over their own cells (a global work
-        offset and a local size that divides the block, so nothing past it is traced), in
-        raster order on the in-order queue: the certificates of the tiles a block touches are
-        made for its sun just before its cells (a tile shared with the next block is made
-        again for that block's sun).  So every cell gets its own block's result."""
+        A field is traced in one launch (and one of the certificates) of the kernel built with
+        -D OCLS_SUN_TABLE: each cell reads its block's sun from the field's table
+        (:func:`_sun_table`; kernels/shadow.cl, "sun tables"), so every cell gets its own
+        block's result at the cost of one sun."""
         rt, hm = self.runtime, self.heightmap
         self.pyramid  # built (once) before the launches
         rows, cols = hm.shape
         n = rows * cols
-        features = self._features(method, outs, column_step)
+        features = self._features(method, outs, column_step, sun_table=column_step is not None)
         kernel = rt.kernel("shadow.cl", features.cells_kernel, features.defines())
         certify = self._certifier(features)
         bufs = dict(bufs or {})
@@ -395,45 +397,31 @@ class ShadowCaster:
         run = features.run if features.packeted else 1
         group = self.knobs["group"]
 
-        def launch(sun: Sun, k_dark: float, k_bright: float, block: SunBlock | None = None, bind: bool = True,
-                   sun_args: tuple | None = None) -> None:
-            """One launch; ``bind`` False: only the sun's arguments are set (the rest are as the
-            last launch of this item left them: setting them all costs 60 us in pyopencl), from
-            ``sun_args`` (the row of a :func:`_block_table`) when given."""
-            r0, r1, c0, c1 = (0, rows, 0, cols) if block is None else (block.row0, block.row1, block.col0, block.col1)
-            args = self._args(sun, k_dark, k_bright, features.imaged) if bind or sun_args is None else None
-            if sun_args is None:
-                sun_args = tuple(args[i] for i in _SUN_ARGS)
-            cert = certify(sun, block, bind, args, sun_args)
-            if bind:
-                kernel.set_args(*args, bufs["mask"], bufs["self"], bufs["coefficient"], *cert)
-            else:
-                for index, value in zip(_SUN_ARGS, sun_args):
-                    set_arg(kernel, index, value)
-            if block is None:
-                cl.enqueue_nd_range_kernel(rt.queue, kernel, *rt.grid_2d(kernel, -(-cols // run), rows, wanted=group))
-            else:   # exactly the block's work-items (rounding up would trace cells of later blocks twice)
-                cl.enqueue_nd_range_kernel(rt.queue, kernel, *rt.exact_grid_2d(kernel, -(-(c1 - c0) // run), r1 - r0,
-                                                                              wanted=group),
-                                           global_work_offset=(c0 // run, r0))
-
         def enqueue(item: Traced, k_dark: float, k_bright: float) -> None:
-            if isinstance(item, SunField):
-                rays, vectors, modes = _block_table(item, self.heightmap, self.curvature)
-                for k, block in enumerate(item.blocks):
-                    launch(block.sun, k_dark, k_bright, block, bind=k == 0, sun_args=(rays[k], vectors[k], modes[k]))
-            else:
-                launch(item, k_dark, k_bright)
+            table = self._table_buffers(item) if features.sun_table else ()
+            sun = item.centre if isinstance(item, SunField) else item
+            args = self._args(sun, k_dark, k_bright, features.imaged)
+            cert = certify(args, table)
+            kernel.set_args(*args, bufs["mask"], bufs["self"], bufs["coefficient"], *cert, *table)
+            cl.enqueue_nd_range_kernel(rt.queue, kernel, *rt.grid_2d(kernel, -(-cols // run), rows, wanted=group))
 
         return enqueue, bufs
 
-    def _features(self, method: str, outs: tuple[str, ...], column_step: int | None = None) -> ShadowFeatures:
-        """The kernel features of the knobs; ``column_step`` as :meth:`_enqueuer`."""
+    def _table_buffers(self, field: SunField) -> tuple[cl.Buffer, cl.Buffer, cl.Buffer]:
+        """The sun table arguments of a field (band, sun_table, sun_mode) on the device."""
+        band, suns, modes = _sun_table(field, self.heightmap, self.curvature)
+        return tuple(self.runtime.to_device(a, what) for a, what in ((band, "sun table bands"), (suns, "sun table"),
+                                                                   (modes, "sun table modes")))
+
+    def _features(self, method: str, outs: tuple[str, ...], column_step: int | None = None,
+                  sun_table: bool = False) -> ShadowFeatures:
+        """The kernel features of the knobs; ``column_step`` as :meth:`_enqueuer`; ``sun_table``:
+        for sun fields."""
         features = ShadowFeatures(method, outs, certificate=self.certificates, lanes=self.knobs["lanes"],
                                   run=self.knobs["run"], own_builtins=bool(self.knobs["own_builtins"]),
                                   gather=bool(self.knobs["gather"]),
                                   cert_tile=self.knobs["cert_tile"], curvature=self.curvature is not None,
-                                  images=bool(self.knobs["images"]))
+                                  images=bool(self.knobs["images"]), sun_table=sun_table)
         if features.imaged and self.pyramid.images() is None:   # the device cannot hold them: buffers
             features = replace(features, images=False)
         if column_step and features.packeted and column_step % features.run:
@@ -454,8 +442,9 @@ class ShadowCaster:
                                   cert_tile=self.knobs["cert_tile"], curvature=self.curvature is not None)
         kernel = rt.kernel("shadow.cl", "shadow_cells", features.defines())
         mask = rt.empty(rows * cols, "shadow mask")
-        cert = self._certifier(features)(as_sun(sun))   # kept referenced while the kernel runs
-        args = (*self._args(as_sun(sun), 0.0, 1.0), mask, self._dummy_u8, self._dummy_f32, *cert)
+        sun_args = self._args(as_sun(sun), 0.0, 1.0)
+        cert = self._certifier(features)(sun_args)   # kept referenced while the kernel runs
+        args = (*sun_args, mask, self._dummy_u8, self._dummy_f32, *cert)
         return rt.count_in_bands(kernel, args, pyr.levels, cols, rows, band_cells)
 
     def tile_certificates(self, sun: SunLike) -> np.ndarray:
@@ -466,7 +455,8 @@ class ShadowCaster:
         sun = as_sun(sun)
         if sun.below_horizon or sun.at_zenith:
             raise ValueError(f"sun must be above the horizon and below the zenith to trace, got {sun}")
-        (buf,) = self._certifier(self._features("exact", ("mask",)))(sun)
+        features = self._features("exact", ("mask",))
+        (buf,) = self._certifier(features)(self._args(sun, 0.0, 1.0, features.imaged))
         rows, cols = self.heightmap.shape
         s = self.knobs["cert_tile"]
         out = np.empty((-(-rows // s), -(-cols // s), CERT_K), np.float32)
@@ -475,45 +465,23 @@ class ShadowCaster:
 
     def _certifier(self, features: ShadowFeatures) -> Callable[..., tuple]:
         """A function enqueueing the far-field tile certificates of a sun (kernels/shadow.cl,
-        shadow_certify) and returning shadow_cells' extra argument: () when the
-        features have none, else (certificate buffer,).  Suns that do not trace
-        (zenith, below the horizon) get the buffer unfilled: the kernel does not read it.
-        With a block, only the tiles it touches are made."""
+        shadow_certify) from the cells kernel's arguments (:meth:`_args`) and sun table (the
+        :meth:`_table_buffers`, or ()) and returning shadow_cells' extra argument: () when the
+        features have none, else (certificate buffer,).  A sun that does not trace (zenith,
+        below the horizon; a table: every block's) gets the buffer unfilled: the kernel does not
+        read it."""
         if not features.certified:
-            return lambda sun, block=None, bind=True, args=None, sun_args=None: ()
+            return lambda args, table=(): ()
         rt = self.runtime
         rows, cols = self.heightmap.shape
         tr, tc = -(-rows // features.cert_tile), -(-cols // features.cert_tile)
         kernel = rt.kernel("shadow.cl", "shadow_certify", features.defines())
         buf = rt.empty(tr * tc * CERT_K * 4, "shadow certificates")
-        s = features.cert_tile
-        bound = [False]   # whether this item's certify launches have set all arguments
 
-        def certify(sun: Sun, block: SunBlock | None = None, bind: bool = True, args: tuple | None = None,
-                    sun_args: tuple | None = None) -> tuple:
-            """``bind`` False: only the ray is set (as the cells' launcher); ``args``: the
-            sun's kernel arguments (:meth:`_args`) when already made; ``sun_args``: its (ray,
-            vector, mode) alone (enough once an earlier launch of the item has set the rest)."""
-            if bind:
-                bound[0] = False
-            if sun_args is None:
-                args = args or self._args(sun, 0.0, 1.0, features.imaged)
-                sun_args = tuple(args[i] for i in _SUN_ARGS)
-            ray, _, mode = sun_args
-            if int(mode) == 0:
-                if not bound[0]:
-                    args = args or self._args(sun, 0.0, 1.0, features.imaged)
-                    kernel.set_args(*args[1:7], ray, buf)   # H, W, origin, ext, lvl_off, nlev, ray
-                    bound[0] = True
-                else:
-                    set_arg(kernel, 6, ray)
-                if block is None:
-                    cl.enqueue_nd_range_kernel(rt.queue, kernel, *rt.grid_2d(kernel, tc, tr))
-                else:
-                    t_r0, t_c0 = block.row0 // s, block.col0 // s
-                    t_r1, t_c1 = -(-block.row1 // s), -(-block.col1 // s)
-                    cl.enqueue_nd_range_kernel(rt.queue, kernel, *rt.exact_grid_2d(kernel, t_c1 - t_c0, t_r1 - t_r0),
-                                               global_work_offset=(t_c0, t_r0))
+        def certify(args: tuple, table: tuple = ()) -> tuple:
+            if table or int(args[_MODE_ARG]) == 0:
+                kernel.set_args(*args[1:8], buf, *table)   # H, W, origin, ext, lvl_off, nlev, ray
+                cl.enqueue_nd_range_kernel(rt.queue, kernel, *rt.grid_2d(kernel, tc, tr))
             return (buf,)
 
         return certify
@@ -527,41 +495,42 @@ class ShadowCaster:
             heights, extrema, level_table = imgs.heights, imgs.extrema, imgs.level_rows
         else:
             heights, extrema, level_table = pyr.heights, pyr.buffer, pyr.offsets
-        ray, vector, mode = _sun_row(sun, hm, self.curvature)
+        suns, modes = _sun_rows([sun.azimuth], [sun.elevation], hm, self.curvature)
+        ray, vector, mode = suns[0, 0], suns[0, 1], modes[0]
         rows, cols = hm.shape
         return (heights, np.int32(rows), np.int32(cols), np.array(self.origin[::-1], np.int32),
-                extrema, level_table, np.int32(pyr.levels), np.array(ray, np.float32), np.array(vector, np.float32),
+                extrema, level_table, np.int32(pyr.levels), ray.copy(), vector.copy(),
                 np.array([hm.dx, hm.dy], np.float32), np.array([k_dark, k_bright], np.float32), np.int32(mode))
 
 
-def _sun_row(sun: Sun, hm: Heightmap, curvature: Curvature | None) -> tuple[tuple, tuple, int]:
-    """shadow_cells' sun arguments as Python numbers: the ray (ux, uy, w, curvature), the sun
-    vector (east, north, up, 0) and the mode (0 trace, 1 zenith, 2 at or below the horizon)."""
-    ux, uy, w = sun.ray(hm.dx, hm.dy)
-    mode = 2 if sun.below_horizon else (1 if sun.at_zenith else 0)
-    if mode:
-        ux = uy = w = 0.0
-    s = sun.vector()
-    return (ux, uy, w, curvature_coefficient(curvature)), (s[0], s[1], s[2], 0.0), mode
+def _sun_rows(azimuth: np.ndarray, elevation: np.ndarray, hm: Heightmap, curvature: Curvature | None
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """shadow_cells' sun arguments of suns (degrees): float32 (N, 2, 4), the ray (ux, uy, w,
+    curvature) and the sun vector (east, north, up, 0), and the modes int32 (N,) (0 trace, 1
+    zenith, 2 at or below the horizon; the ray 0 unless 0)."""
+    elevation = np.asarray(elevation, np.float64)
+    modes = np.where(elevation <= 0.0, 2, np.where(elevation >= 90.0, 1, 0)).astype(np.int32)
+    rows = np.zeros((len(elevation), 2, 4), np.float32)
+    rows[:, 0, :3] = np.where(modes[:, None] == 0, sun_rays(azimuth, elevation, hm.dx, hm.dy), np.float32(0.0))
+    rows[:, 0, 3] = curvature_coefficient(curvature)
+    rows[:, 1, :3] = sun_vectors(azimuth, elevation)
+    return rows, modes
 
 
-def _block_table(field: SunField, hm: Heightmap, curvature: Curvature | None
-                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(rays float32 (N, 4), vectors float32 (N, 4), modes int32 (N,)): :func:`_sun_row` of each
-    block's sun, made at once (the rows are the arrays :meth:`ShadowCaster._args` makes one by
-    one, the same float32 values: a field's blocks are launched thousands of times)."""
-    rows = [_sun_row(block.sun, hm, curvature) for block in field.blocks]
-    return (np.array([r[0] for r in rows], np.float32), np.array([r[1] for r in rows], np.float32),
-            np.array([r[2] for r in rows], np.int32))
+def _sun_table(field: SunField, hm: Heightmap, curvature: Curvature | None
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A field's sun table (kernels/shadow.cl, "sun tables"): band int32 (rows + cols,) as
+    :attr:`oclshade.sun.SunField.bands`, the suns float32 (band cells, 2, 4) and the modes int32
+    (band cells,) of :func:`_sun_rows`: the values a one-sun launch passes."""
+    band, owner = field.bands
+    suns, modes = _sun_rows(*field.angles, hm, curvature)
+    return band, np.ascontiguousarray(suns[owner]), np.ascontiguousarray(modes[owner])
 
 
 _ARRAYS = ("mask", "self_shadow", "coefficient")
 
 
-# the arguments of shadow_cells that depend on the sun (ray, sunvec, mode): the only ones a field's
-# later blocks set.  runtime.ArgBinder, which compares every argument, was measured 50 % slower
-# per mask here (0.36 against 0.24 s for the 3999 blocks of an SRTM tile)
-_SUN_ARGS = (7, 8, 11)
+_MODE_ARG = 11   # shadow_cells' mode argument (0: the sun traces)
 
 
 def _column_step(item: Traced) -> int | None:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Iterable, Sequence, Union
 
 import numpy as np
@@ -14,23 +15,42 @@ DEFAULT_ELEVATION = 45.0
 DEFAULT_SUN_TOLERANCE = 0.01   # degrees between a cell's own sun and its block's (oclshade.solar.field)
 
 
-def sincos_degrees(angle: float) -> tuple[float, float]:
-    """(sin, cos) of an angle in degrees, exact at multiples of 90 degrees (and
-    of equal magnitude at odd multiples of 45), so that azimuths 0/90/180/270
-    give rays exactly along the grid and 45/135/... exactly diagonal ones."""
-    a = math.fmod(angle, 360.0)
-    if a < 0.0:
-        a += 360.0
-        if a == 360.0:  # a tiny negative angle rounds up to 360: it is north, not a diagonal
-            a = 0.0
-    exact = {0.0: (0.0, 1.0), 90.0: (1.0, 0.0), 180.0: (0.0, -1.0), 270.0: (-1.0, 0.0)}
-    if a in exact:
-        return exact[a]
-    if a % 45.0 == 0.0:  # odd multiples of 45: |sin| == |cos| exactly, diagonals stay diagonal
-        r = math.sqrt(0.5)
-        return (r if a < 180.0 else -r), (r if a in (45.0, 315.0) else -r)
-    r = math.radians(a)
-    return math.sin(r), math.cos(r)
+def sincos_degrees(angle: float | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(sin, cos) of angles in degrees (float64 arrays of the angles' shape), exact at multiples
+    of 90 degrees (and of equal magnitude at odd multiples of 45), so that azimuths 0/90/180/270
+    give rays exactly along the grid and 45/135/... exactly diagonal ones.  Elsewhere numpy's
+    sin and cos of the radians, which are the C library's (tests/test_sun.py checks them against
+    Python's math module, as the C host's rays need)."""
+    a = np.fmod(np.asarray(angle, np.float64), 360.0)
+    a = np.where(a < 0.0, a + 360.0, a)
+    a = np.where(a == 360.0, 0.0, a)    # a tiny negative angle rounds up to 360: it is north, not a diagonal
+    r = np.radians(a)
+    sin, cos = np.sin(r), np.cos(r)
+    half = math.sqrt(0.5)               # odd multiples of 45: |sin| == |cos| exactly, diagonals stay diagonal
+    diagonal = np.fmod(a, 45.0) == 0.0
+    sin = np.where(diagonal, np.where(a < 180.0, half, -half), sin)
+    cos = np.where(diagonal, np.where((a == 45.0) | (a == 315.0), half, -half), cos)
+    for at, (s, c) in {0.0: (0.0, 1.0), 90.0: (1.0, 0.0), 180.0: (0.0, -1.0), 270.0: (-1.0, 0.0)}.items():
+        sin, cos = np.where(a == at, s, sin), np.where(a == at, c, cos)
+    return sin, cos
+
+
+def sun_vectors(azimuth: np.ndarray, elevation: np.ndarray) -> np.ndarray:
+    """Unit vectors towards suns (degrees) in (east, north, up), float64 (..., 3)."""
+    sa, ca = sincos_degrees(azimuth)
+    se, ce = sincos_degrees(elevation)
+    return np.stack([sa * ce, ca * ce, se], axis=-1)
+
+
+def sun_rays(azimuth: np.ndarray, elevation: np.ndarray, dx: float, dy: float) -> np.ndarray:
+    """(ux, uy, w) of suns (degrees) as :meth:`Sun.ray`, float32 (..., 3), subnormals 0."""
+    sa, ca = sincos_degrees(azimuth)
+    el = np.asarray(elevation, np.float64)
+    se, ce = sincos_degrees(el)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        w = np.where(el == 45.0, 1.0, np.where(ce > 0.0, se / np.where(ce > 0.0, ce, 1.0), np.inf))
+    rays = np.stack([sa / dx, -ca / dy, w], axis=-1).astype(np.float32)
+    return np.where(np.abs(rays) < np.finfo(np.float32).tiny, np.float32(0.0), rays)
 
 
 @dataclass(frozen=True)
@@ -58,9 +78,7 @@ class Sun:
 
     def vector(self) -> tuple[float, float, float]:
         """Unit vector towards the sun in (east, north, up)."""
-        sa, ca = sincos_degrees(self.azimuth)
-        se, ce = sincos_degrees(self.elevation)
-        return sa * ce, ca * ce, se
+        return tuple(float(v) for v in sun_vectors(self.azimuth, self.elevation))
 
     def ray(self, dx: float, dy: float) -> tuple[float, float, float]:
         """(ux, uy, w): cells per metre along x (east) and y (south, rows), and
@@ -69,16 +87,7 @@ class Sun:
         Rounded to float32 (subnormals to 0) so that the kernels and the
         float64 reference trace the very same ray.
         """
-        sa, ca = sincos_degrees(self.azimuth)
-        se, ce = sincos_degrees(self.elevation)
-        w = 1.0 if self.elevation == 45.0 else (se / ce if ce > 0.0 else math.inf)
-        return _float32(sa / dx), _float32(-ca / dy), _float32(w)
-
-
-def _float32(value: float) -> float:
-    """value rounded to the nearest float32; subnormals (flushed by many devices) become 0."""
-    v = float(np.float32(value))
-    return 0.0 if abs(v) < float(np.finfo(np.float32).tiny) else v
+        return tuple(float(v) for v in sun_rays(self.azimuth, self.elevation, dx, dy))
 
 
 SunLike = Union[Sun, Sequence[float]]
@@ -150,10 +159,45 @@ class SunField:
         """One sun for the whole map."""
         return len(self.blocks) == 1
 
-    @property
+    @cached_property
     def column_step(self) -> int:
         """The largest number dividing every block's first column (0 when all start at column 0)."""
         return math.gcd(*(b.col0 for b in self.blocks))
+
+    @cached_property
+    def angles(self) -> tuple[np.ndarray, np.ndarray]:
+        """The blocks' sun azimuths and elevations in degrees, float64 (blocks,) each."""
+        return (np.array([b.sun.azimuth for b in self.blocks], np.float64),
+                np.array([b.sun.elevation for b in self.blocks], np.float64))
+
+    @cached_property
+    def bands(self) -> tuple[np.ndarray, np.ndarray]:
+        """The blocks as a grid of row bands and column bands, as the kernels' sun tables read
+        them (kernels/shadow.cl, "sun tables"): ``band`` int32 (rows + cols,), the row band of
+        row i times the number of column bands at [i] and the column band of column j at
+        [rows + j]; ``owner`` int64, for each band cell in raster order the index of the block
+        holding it.  The band edges are every block's first and last rows and columns, so each
+        band cell lies in one block (a field's own blocks: one band cell each)."""
+        rows, cols = self.shape
+        r0, r1, c0, c1 = (np.array([getattr(b, k) for b in self.blocks], np.int64)
+                          for k in ("row0", "row1", "col0", "col1"))
+        row_edges = np.unique(np.concatenate([[0, rows], r0, r1]))
+        col_edges = np.unique(np.concatenate([[0, cols], c0, c1]))
+        a0, a1 = np.searchsorted(row_edges, r0), np.searchsorted(row_edges, r1)
+        b0, b1 = np.searchsorted(col_edges, c0), np.searchsorted(col_edges, c1)
+        owner = np.full((len(row_edges) - 1, len(col_edges) - 1), -1, np.int64)
+        if np.all(a1 - a0 == 1) and np.all(b1 - b0 == 1):
+            owner[a0, b0] = np.arange(len(self.blocks))
+        else:
+            for k in range(len(self.blocks)):
+                owner[a0[k]:a1[k], b0[k]:b1[k]] = k
+        if np.any(owner < 0):
+            raise ValueError(f"sun field blocks must tile the {cols}x{rows} map once: some cells are in no block")
+        ncb = owner.shape[1]
+        row_band = np.searchsorted(row_edges, np.arange(rows), side="right") - 1
+        col_band = np.searchsorted(col_edges, np.arange(cols), side="right") - 1
+        band = np.concatenate([row_band * ncb, col_band]).astype(np.int32)
+        return band, owner.ravel()
 
     def check_shape(self, shape: tuple[int, int]) -> None:
         if tuple(shape) != tuple(self.shape):

@@ -137,12 +137,32 @@ def partitions(draw):
 KNOBS = [None, {"lanes": 0}, {"lanes": 8, "run": 64}, {"lanes": 0, "images": 1}]
 
 
+def recut(field, seed):
+    """The field with some blocks cut in two across a row or a column of their own (the second
+    part with another sun, some at or below the horizon or at the zenith): the blocks no longer
+    form a grid of bands, which the sun table makes of them."""
+    rng = np.random.default_rng(seed)
+    blocks = []
+    for b in field.blocks:
+        other = Sun(float(rng.uniform(0.0, 360.0)), float(rng.choice([-3.0, 0.0, 90.0, rng.uniform(2.0, 70.0)])))
+        if rng.random() < 0.4 and b.row1 - b.row0 > 1:
+            r = int(rng.integers(b.row0 + 1, b.row1))
+            blocks += [SunBlock(b.row0, r, b.col0, b.col1, b.sun), SunBlock(r, b.row1, b.col0, b.col1, other)]
+        elif rng.random() < 0.4 and b.col1 - b.col0 > 1:
+            c = int(rng.integers(b.col0 + 1, b.col1))
+            blocks += [SunBlock(b.row0, b.row1, b.col0, c, other), SunBlock(b.row0, b.row1, c, b.col1, b.sun)]
+        else:
+            blocks.append(b)
+    return SunField(field.shape, tuple(blocks), field.centre)
+
+
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(part=partitions(), knobs=st.sampled_from(KNOBS), certificates=st.booleans())
-def test_a_field_traces_each_block_as_its_own_sun(part, knobs, certificates):
+@given(part=partitions(), knobs=st.sampled_from(KNOBS), certificates=st.booleans(), cut=st.booleans())
+def test_a_field_traces_each_block_as_its_own_sun(part, knobs, certificates, cut):
     """Bit for bit the whole-map outputs of each block's sun on that block's cells, whatever the
     kernel variant (packet runs cut to the block columns, one ray per item, images, with and
-    without certificates) and wherever the blocks are cut."""
+    without certificates), wherever the blocks are cut (``cut``: not on a grid of bands, some
+    suns down or at the zenith): one launch with the field's sun table."""
     rows, cols, cut_r, cut_c, seed = part
     rng = np.random.default_rng(seed)
     h = np.cumsum(np.cumsum(rng.normal(size=(rows, cols)), 0), 1) * 3.0
@@ -150,6 +170,7 @@ def test_a_field_traces_each_block_as_its_own_sun(part, knobs, certificates):
     hm = Heightmap.from_array(h, 10.0)
     caster = ShadowCaster(hm, cache=False, knobs=knobs, certificates=certificates)
     field = random_field(hm.shape, cut_r, cut_c, seed)
+    field = recut(field, seed) if cut else field
     outputs = ("mask", "self", "coefficient")
     got = caster.cast_many([field], outputs=outputs)[0]
     assert got.sun == field.centre
@@ -332,17 +353,23 @@ def test_block_launches_divide_the_block_exactly():
         assert (gx, gy) == (cols, rows) and cols % lx == 0 and rows % ly == 0 and lx * ly <= 64
 
 
-def test_sunshine_progress_with_fields_reports_once_a_step():
-    """With sun fields the progress callback comes once a step (after its last block), counting
-    blocks, and ends at the total."""
+def test_sunshine_progress_with_fields_reports_once_a_launch():
+    """With sun fields each daylight step is one launch (its sun table), so the progress callback
+    comes once a daylight step, in order, ending at the total; the horizon route launches once a
+    step and interval of grid azimuths holding one of its block suns."""
     hm = Heightmap.from_array(np.cumsum(np.ones((20, 40)), 1), 10.0)
     steps = [random_field(hm.shape, [0, 10, 20], [0, 16, 40], 1), Sun(90.0, 20.0),
-             random_field(hm.shape, [0, 20], [0, 32, 40], 2, low=-30.0)]
+             random_field(hm.shape, [0, 20], [0, 32, 40], 2, low=-30.0), Sun(200.0, -1.0)]
+    day = 2 + any(b.sun.elevation > 0 for b in steps[2].blocks)
     calls = []
     SunshineCaster(hm).accumulate(steps, 60, progress=lambda done, total: calls.append((done, total)))
-    up = 4 + 1 + sum(b.sun.elevation > 0 for b in steps[2].blocks)
-    assert calls[-1] == (up, up) and len(calls) == 2 + any(b.sun.elevation > 0 for b in steps[2].blocks)
-    assert [d for d, _ in calls] == sorted(d for d, _ in calls)
+    assert calls == [(k, day) for k in range(1, day + 1)]
+    calls.clear()
+    SunshineCaster(hm).accumulate(steps, 60, method="horizons", azimuths=8,
+                                  progress=lambda done, total: calls.append((done, total)))
+    intervals = {(k, int(b.sun.azimuth % 360.0 // 45.0)) for k, s in enumerate(steps[:3]) if isinstance(s, SunField)
+                 for b in s.blocks if b.sun.elevation > 0} | {(1, 2)}
+    assert calls == [(k, len(intervals)) for k in range(1, len(intervals) + 1)] and len(intervals) > day
 
 
 @settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])

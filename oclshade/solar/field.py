@@ -14,12 +14,16 @@ pvlib).  A map small enough is one block, traced exactly as a single sun.
 
 How the blocks are sized: the sun's turn per row and per column is measured on a 9 x 9
 lattice over the map; blocks are made that many cells tall and wide that half a block's
-turn in each direction adds up to the tolerance; then the sun at every block corner is
-computed and compared with its block's, and the blocks shrink until all are within the
+turn in each direction adds up to at most the tolerance; then the sun at every block corner
+is computed and compared with its block's, and the blocks shrink until all are within the
 tolerance (the turn is smooth and nearly linear over a block, so the largest difference
-inside a rectangle is at a corner; tests/test_field.py checks every cell).  Block widths
-are multiples of 16 columns where they can be, of 64 from 128 on (the packet kernels' runs
-divide them: long runs keep the packets' lanes full).
+inside a rectangle is at a corner; tests/test_field.py checks every cell).  Block sides are
+multiples of 16 cells where a 16 x 16 block holds the tolerance (of the sides that do, the
+largest area; widths of 64 from 128 on): the packet kernels' runs then divide the block
+widths and no 16 x 16 certificate tile crosses a block, so a field traces at the speed of one
+sun (kernels/shadow.cl, "sun tables"; bench/results/sun_field.md).  Where the sun turns faster
+than that (coarse cells, a tight tolerance) the sides are the balanced ones above, any
+number of cells.
 """
 from __future__ import annotations
 
@@ -36,7 +40,7 @@ from .position import sun_position
 from .site import grid_azimuths, projected_crs
 
 LATTICE = 9                # points per side where the turn per cell is measured
-COLUMN_STEP = 16           # block widths are multiples of this where the tolerance allows (4x from 8x on)
+ALIGN = 16                 # block sides are multiples of this where the tolerance allows (widths: 4x from 8x on)
 MAX_SHRINK = 12            # tries to shrink the blocks into the tolerance
 
 
@@ -128,17 +132,22 @@ def sun_field(places: MapPlaces, when: datetime, tolerance: float = DEFAULT_TOLE
         return SunField.single(centre, places.shape, spread, float(tolerance))
     per_row = sun_differences(v[1:], v[:-1]).max() / (r[1] - r[0])
     per_col = sun_differences(v[:, 1:], v[:, :-1]).max() / (c[1] - c[0])
-    height = tolerance / per_row if per_row > 0 else float(rows)
-    width = tolerance / per_col if per_col > 0 else float(cols)
+    budget, smallest = float(tolerance), (min(ALIGN, rows), min(ALIGN, cols))
+    aligned = True            # multiples of ALIGN until the smallest such block has been tried
     for _ in range(MAX_SHRINK):
-        block_rows, block_cols = _block_size(height, rows), _block_size(width, cols, COLUMN_STEP)
-        blocks, deviation = _blocks(places, when, block_rows, block_cols)
+        shape = _aligned_shape(per_row, per_col, budget, rows, cols) if aligned else None
+        if aligned and shape is None:
+            shape = smallest
+        if shape == smallest:
+            aligned = False
+        if shape is None:
+            shape = _balanced_shape(per_row, per_col, budget, rows, cols)
+        blocks, deviation = _blocks(places, when, *shape)
         if deviation <= tolerance:
             return SunField(places.shape, blocks, centre, deviation, float(tolerance))
-        if block_rows == 1 and block_cols == 1:
+        if shape == (1, 1):
             break
-        shrink = 0.9 * tolerance / deviation
-        height, width = block_rows * shrink, block_cols * shrink
+        budget *= 0.9 * tolerance / deviation
     raise ValueError(f"the sun cannot be held within {tolerance:g} degrees of each cell's own here "
                      f"(one cell's corners differ by more): give a larger tolerance")
 
@@ -165,14 +174,37 @@ def _lattice(places: MapPlaces, when: datetime) -> tuple[Sun, float, np.ndarray,
     return Sun(float(az[0]), float(el[0])), spread, r, c, v
 
 
-def _block_size(size: float, limit: int, step: int = 1) -> int:
-    """A block side of at most ``size`` cells (at least 1, at most ``limit``), a multiple of
-    ``step`` when ``size`` allows, of 4 ``step`` when it is 8 ``step`` or more (long packet runs)."""
-    n = max(1, min(limit, int(size)))
-    if n >= limit:
-        return n
-    unit = 4 * step if n >= 8 * step else (step if n >= step else 1)
-    return n // unit * unit
+def _aligned_shape(per_row: float, per_col: float, budget: float, rows: int, cols: int) -> tuple[int, int] | None:
+    """(block rows, block cols), multiples of :data:`ALIGN` (or the map's side), of the largest
+    area whose half turns per_row rows / 2 and per_col cols / 2 add up as perpendicular vectors to
+    at most ``budget`` degrees; None if none does.  A guess: the caller checks the corners."""
+    best = (0, 0, 0)
+    for h in range(ALIGN, rows + ALIGN, ALIGN):
+        h = min(h, rows)
+        rows_turn = per_row * h / 2.0
+        if rows_turn >= budget:
+            break
+        left = math.sqrt(budget * budget - rows_turn * rows_turn)   # the half turn the columns may take
+        if left < per_col * min(ALIGN, cols) / 2.0:
+            break
+        w = cols if per_col == 0.0 else min(cols, int(2.0 * left / per_col) // ALIGN * ALIGN)
+        w = _long_run(w, cols)
+        best = max(best, (h * w, h, w))
+    return (best[1], best[2]) if best[0] else None
+
+
+def _balanced_shape(per_row: float, per_col: float, budget: float, rows: int, cols: int) -> tuple[int, int]:
+    """(block rows, block cols), any number of cells, whose half turns add up to ``budget``
+    degrees even in line, each direction taking half."""
+    height = budget / per_row if per_row > 0 else float(rows)
+    width = budget / per_col if per_col > 0 else float(cols)
+    return max(1, min(rows, int(height))), max(1, min(cols, int(width)))
+
+
+def _long_run(width: int, cols: int) -> int:
+    """A width that is a multiple of ALIGN, made a multiple of 4 ALIGN from 8 ALIGN on (long packet
+    runs keep the lanes full), unless it is the whole map's."""
+    return width if width >= cols or width < 8 * ALIGN else width // (4 * ALIGN) * (4 * ALIGN)
 
 
 def _blocks(places: MapPlaces, when: datetime, block_rows: int, block_cols: int) -> tuple[tuple[SunBlock, ...], float]:

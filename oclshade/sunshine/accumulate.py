@@ -16,9 +16,10 @@ docs/solar.md; float64 twin :func:`oclshade.reference.sunshine_sums`.
 
 A step's sun may be a :class:`oclshade.sun.SunField` (each cell's own sun to a tolerance,
 :func:`oclshade.solar.sun_field`): each of its blocks whose sun is up adds its cells' share
-with its own sun, one launch per block (of exactly its cells: the sums are not idempotent, so
-no launch may round up past its block), and a cell's daylight time, the denominator of its
-``fraction``, is the sum over the steps whose block sun was up there.
+with its own sun, read from the step's sun table in one launch over the map (-D
+OCLS_SUN_TABLE; the horizon route: one launch per interval of grid azimuths holding some
+block's sun), and a cell's daylight time, the denominator of its ``fraction``, is the sum over
+the steps whose block sun was up there.
 """
 from __future__ import annotations
 
@@ -32,7 +33,7 @@ from ..heightmap import Heightmap
 from ..horizon import HorizonCaster, azimuth_grid
 from ..runtime import ArgBinder, Runtime
 from ..shadows import ShadowCaster, check_outputs
-from ..sun import Sun, SunBlock, SunField, SunLike, Traced, as_traced
+from ..sun import Sun, SunBlock, SunField, SunLike, Traced, as_traced, sun_vectors
 
 OUTPUTS = ("hours", "fraction", "irradiation")
 METHODS = ("masks", "horizons")
@@ -57,24 +58,21 @@ class SunshineMaps:
 
 
 @dataclass(frozen=True)
-class _Unit:
-    """One launch's share of a step: the step's index, its sun, and the block (None: the map)."""
+class _Launch:
+    """One launch of a daylight step: the step's index, the kernel, its arguments up to the sun
+    vector, and after the sums the sun table's (band, suns, keys, key), () for one sun."""
 
     step: int
-    sun: Sun
-    block: SunBlock | None = None
+    kernel: cl.Kernel
+    head: tuple
+    table: tuple = ()
 
 
-def _units(steps: list[Traced]) -> list[_Unit]:
-    """The daylight launches of the steps, in step order: a sun above the horizon, or each block
-    of a field whose sun is."""
-    out = []
-    for k, step in enumerate(steps):
-        if isinstance(step, SunField):
-            out += [_Unit(k, b.sun, b) for b in step.blocks if b.sun.elevation > 0.0]
-        elif step.elevation > 0.0:
-            out.append(_Unit(k, step))
-    return out
+def _has_daylight(step: Traced) -> bool:
+    """A sun above the horizon, or a field with a block whose sun is."""
+    if isinstance(step, SunField):
+        return any(b.sun.elevation > 0.0 for b in step.blocks)
+    return step.elevation > 0.0
 
 
 def daylight(suns: Iterable[SunLike | SunField], seconds: int | Sequence[int] | np.ndarray
@@ -88,7 +86,7 @@ def daylight(suns: Iterable[SunLike | SunField], seconds: int | Sequence[int] | 
         raise ValueError(f"seconds must be one number or one per sun ({len(sun_list)}), got {weights.shape[0]}")
     if weights.dtype.kind not in "iu" or np.any(weights < 1):
         raise ValueError(f"seconds must be whole numbers >= 1, got {seconds!r}")
-    keep = sorted({unit.step for unit in _units(sun_list)})
+    keep = [k for k, step in enumerate(sun_list) if _has_daylight(step)]
     weights = weights[keep].astype(np.int64)
     if int(weights.sum()) > MAX_SECONDS:
         raise ValueError(f"the daylight steps add up to {int(weights.sum())} s; at most {MAX_SECONDS} s "
@@ -118,7 +116,8 @@ class SunshineCaster:
         (horizon angles at ``azimuths`` equally spaced azimuths, computed once, interpolated
         linearly at each sun's azimuth: approximate, docs/solar.md).  A sun may be a
         :class:`oclshade.sun.SunField` (see the module docstring).  ``progress(done, total)``
-        after each daylight sun (each block of a field) is complete on the device."""
+        after each launch is complete on the device: one per daylight step (the horizon route:
+        per step and interval of grid azimuths holding its sun)."""
         outs = check_outputs(outputs, OUTPUTS)
         if method not in METHODS:
             raise ValueError(f"method must be one of {', '.join(METHODS)}; got {method!r}")
@@ -130,65 +129,76 @@ class SunshineCaster:
                 step.check_shape(self.heightmap.shape)
                 if step.uniform:
                     day[k] = step.blocks[0].sun
-        units = _units(day)
         sums = self._sums(outs)
-        launches = self._by_masks(day, units, outs) if method == "masks" else \
-            self._by_horizons(units, outs, azimuths)
+        total, launches = (0, iter(())) if not day else \
+            self._by_masks(day, outs) if method == "masks" else self._by_horizons(day, outs, azimuths)
         rt = self.runtime
         rows, cols = self.heightmap.shape
-        bind = None
-        last = {unit.step: k for k, unit in enumerate(units)}     # a step's last unit (as listed)
-        finals = {id(units[k]) for k in last.values()}
-        vectors = _sun_vectors(units)
-        row = {id(unit): k for k, unit in enumerate(units)}
-        # one pair of objects per step, so that the binder sees them unchanged across a field's blocks
-        step_weights = {step: (np.uint32(int(weights[step])), np.float32(int(weights[step]) / 3600.0))
-                        for step in last}
-        for done, (unit, kernel, args) in enumerate(launches if units else (), 1):
-            bind = bind or ArgBinder(kernel)                       # one kernel per call
-            bind(*args, vectors[row[id(unit)]], *step_weights[unit.step], *sums.values())
-            if unit.block is None:
-                cl.enqueue_nd_range_kernel(rt.queue, kernel, *rt.grid_2d(kernel, cols, rows))
-            else:   # exactly the block's cells
-                b = unit.block
-                cl.enqueue_nd_range_kernel(rt.queue, kernel, *rt.exact_grid_2d(kernel, b.col1 - b.col0, b.row1 - b.row0),
-                                           global_work_offset=(b.col0, b.row0))
-            if progress is not None and (id(unit) in finals or done == len(units)):
-                rt.queue.finish()          # once a step (a field's last block), not every block
-                progress(done, len(units))
-        return self._maps(outs, sums, int(weights.sum()), len(day), _daylight_map(units, weights, self.heightmap.shape))
+        binders: dict[cl.Kernel, ArgBinder] = {}
+        # one pair of objects per step, so that the binder sees them unchanged across its launches
+        step_weights = [(np.uint32(int(w)), np.float32(int(w) / 3600.0)) for w in weights]
+        for done, launch in enumerate(launches, 1):
+            bind = binders.setdefault(launch.kernel, ArgBinder(launch.kernel))
+            bind(*launch.head, *step_weights[launch.step], *sums.values(), *launch.table)
+            cl.enqueue_nd_range_kernel(rt.queue, launch.kernel, *rt.grid_2d(launch.kernel, cols, rows))
+            if progress is not None:
+                rt.queue.finish()
+                progress(done, total)
+        return self._maps(outs, sums, int(weights.sum()), len(day), _daylight_map(day, weights, self.heightmap.shape))
 
     def _grid_args(self, heights: cl.Buffer) -> tuple:
         hm = self.heightmap
         return heights, np.int32(hm.shape[0]), np.int32(hm.shape[1]), np.array([hm.dx, hm.dy], np.float32)
 
-    def _by_masks(self, day: list[Traced], units: list[_Unit], outs: tuple[str, ...]
-                  ) -> Iterator[tuple[_Unit, cl.Kernel, tuple]]:
-        """(unit, kernel, arguments before the sun's) per unit: each step's exact mask (per
-        block for a field), traced into the device buffer that ``sunshine_masks`` reads next."""
-        kernel = self._kernel("sunshine_masks", outs)
-        grid = self._grid_args(self.shadows.pyramid.heights)
-        by_step: dict[int, list[_Unit]] = {}
-        for unit in units:
-            by_step.setdefault(unit.step, []).append(unit)
-        for k, (_, mask) in enumerate(self.shadows.masks_on_device(day)):
-            for unit in by_step.get(k, ()):
-                yield unit, kernel, (*grid, mask)
+    def _by_masks(self, day: list[Traced], outs: tuple[str, ...]) -> tuple[int, Iterator[_Launch]]:
+        """How many launches, and the launches: one per step, reading the step's exact mask (a
+        field's: traced with its sun table), which :meth:`ShadowCaster.masks_on_device` leaves in
+        its one device buffer just before (the queue is in order: each launch must be enqueued
+        before the next is made)."""
+        return len(day), self._mask_launches(day, outs)
 
-    def _by_horizons(self, units: list[_Unit], outs: tuple[str, ...], n: int
-                     ) -> Iterator[tuple[_Unit, cl.Kernel, tuple]]:
-        """As :meth:`_by_masks` by horizons: the units in order of azimuth, each between the
-        horizon bands of the grid azimuths around its sun.  Only the bands next to some sun are
+    def _mask_launches(self, day: list[Traced], outs: tuple[str, ...]) -> Iterator[_Launch]:
+        kernels = {table: self._kernel("sunshine_masks", outs, table) for table in (False, True)}
+        grid = self._grid_args(self.shadows.pyramid.heights)
+        no_sun = np.zeros(4, np.float32)
+        for k, (step, mask) in enumerate(self.shadows.masks_on_device(day)):
+            if isinstance(step, SunField):
+                up = step.angles[1] > 0.0
+                table = self._table(step, np.where(up, 0, -1), np.zeros((len(up), 4)))
+                yield _Launch(k, kernels[True], (*grid, mask, no_sun), (*table, np.int32(0)))
+            else:
+                yield _Launch(k, kernels[False], (*grid, mask, _sun_vector(step)))
+
+    def _by_horizons(self, day: list[Traced], outs: tuple[str, ...], n: int) -> tuple[int, Iterator[_Launch]]:
+        """As :meth:`_by_masks` by horizons: one launch per step and interval of grid azimuths
+        holding its sun (a field: some block's sun up), in order of the interval, each between the
+        horizon bands of the grid azimuths around it.  Only the bands next to some sun are
         computed, each once, and at most three are kept (where the horizon caster batches
         azimuths, its knob ``batch``, a batch's bands share one device buffer until the last of
         them is dropped)."""
+        kernels = {table: self._kernel("sunshine_horizons", outs, table) for table in (False, True)}
+        no_sun = (np.float32(0.0), np.float32(0.0), np.zeros(4, np.float32))
+        planned: list[tuple[int, int, tuple, tuple]] = []    # (interval, step, sun arguments, table)
+        for k, step in enumerate(day):
+            azimuth, elevation = step.angles if isinstance(step, SunField) else \
+                (np.array([step.azimuth]), np.array([step.elevation]))
+            position = np.mod(azimuth, 360.0) * n / 360.0
+            interval = np.minimum(np.floor(position).astype(np.int64), n - 1)
+            if isinstance(step, SunField):
+                up = elevation > 0.0
+                at = np.stack([position - interval, elevation, np.zeros_like(elevation), np.zeros_like(elevation)], axis=1)
+                table = self._table(step, np.where(up, interval, -1), at)
+                planned += [(int(i), k, no_sun, (*table, np.int32(i))) for i in sorted(set(interval[up].tolist()))]
+            else:
+                i = int(interval[0])
+                planned.append((i, k, (np.float32(position[0] - i), np.float32(step.elevation), _sun_vector(step)), ()))
+        return len(planned), self._horizon_launches(planned, kernels, n)
+
+    def _horizon_launches(self, planned: list[tuple[int, int, tuple, tuple]], kernels: dict[bool, cl.Kernel], n: int
+                          ) -> Iterator[_Launch]:
         horizons = HorizonCaster(self.heightmap, self.runtime)
-        kernel = self._kernel("sunshine_horizons", outs)
         grid = self._grid_args(horizons.pyramid.heights)
-        day = [unit.sun for unit in units]
-        position = np.array([sun.azimuth % 360.0 for sun in day]) * n / 360.0
-        interval = np.minimum(np.floor(position).astype(np.int64), n - 1)
-        pending = sorted(set(interval.tolist()))                  # intervals with suns, in azimuth order
+        pending = sorted({p[0] for p in planned})                  # intervals with suns, in azimuth order
         needed = sorted(set(pending) | {(i + 1) % n for i in pending})
         bands: dict[int, cl.Buffer] = {}
         for k, (_, buf) in zip(needed, horizons.angles_on_device(azimuth_grid(n)[needed])):
@@ -196,14 +206,26 @@ class SunshineCaster:
             while pending and pending[0] in bands and (pending[0] + 1) % n in bands:
                 i = pending.pop(0)
                 low, high = bands[i], bands[(i + 1) % n]
-                for s in np.flatnonzero(interval == i):
-                    frac = np.float32(position[s] - i)
-                    yield units[s], kernel, (*grid, low, high, frac, np.float32(day[s].elevation))
+                for interval_, step_index, sun_args, table in planned:
+                    if interval_ == i:
+                        yield _Launch(step_index, kernels[bool(table)], (*grid, low, high, *sun_args), table)
                 keep = set(pending) | {(j + 1) % n for j in pending}
                 bands = {j: b for j, b in bands.items() if j in keep}
 
-    def _kernel(self, name: str, outs: tuple[str, ...]) -> cl.Kernel:
-        return self.runtime.kernel("sunshine.cl", name, {_SUMS[out][2]: True for out in outs})
+    def _table(self, field: SunField, block_keys: np.ndarray, block_at: np.ndarray) -> tuple[cl.Buffer, ...]:
+        """sunshine.cl's sun table of a field on the device (band, suns, keys): each block's sun
+        vector and ``block_at`` (frac, elevation, 0, 0), and its key."""
+        band, owner = field.bands
+        vectors = np.concatenate([sun_vectors(*field.angles), np.zeros((len(field.blocks), 1))], axis=1)
+        suns = np.stack([vectors, np.asarray(block_at, np.float64)], axis=1).astype(np.float32)[owner]
+        keys = np.asarray(block_keys, np.int32)[owner]
+        rt = self.runtime
+        return (rt.to_device(band, "sun table bands"), rt.to_device(np.ascontiguousarray(suns), "sun table"),
+                rt.to_device(np.ascontiguousarray(keys), "sun table keys"))
+
+    def _kernel(self, name: str, outs: tuple[str, ...], table: bool = False) -> cl.Kernel:
+        return self.runtime.kernel("sunshine.cl", name, {**{_SUMS[out][2]: True for out in outs},
+                                                         "OCLS_SUN_TABLE": table})
 
     def _sums(self, outs: tuple[str, ...]) -> dict[str, cl.Buffer]:
         """The per-cell sums of the outputs, zeroed on the device, in kernel argument order
@@ -248,26 +270,26 @@ class SunshineCaster:
         return maps
 
 
-def _sun_vectors(units: list[_Unit]) -> np.ndarray:
-    """sunshine.cl's sunvec of each unit's sun, float32 (units, 4): (east, north, up, 0)."""
-    return np.array([(*unit.sun.vector(), 0.0) for unit in units], np.float32).reshape(len(units), 4)
+def _sun_vector(sun: Sun) -> np.ndarray:
+    """sunshine.cl's sunvec of a sun, float32 (east, north, up, 0)."""
+    return np.array([*sun.vector(), 0.0], np.float32)
 
 
-def _daylight_map(units: list[_Unit], weights: np.ndarray, shape: tuple[int, int]) -> np.ndarray | None:
+def _daylight_map(day: list[Traced], weights: np.ndarray, shape: tuple[int, int]) -> np.ndarray | None:
     """Each cell's daylight seconds (int64) when some step's sun is up on part of the map only
     (a field's blocks), by a 2-D difference array: O(1) per block; else None."""
-    if all(unit.block is None for unit in units):
+    if not any(isinstance(step, SunField) for step in day):
         return None
     rows, cols = shape
     diff = np.zeros((rows + 1, cols + 1), np.int64)
-    for unit in units:
-        w = int(weights[unit.step])
-        r0, r1, c0, c1 = (0, rows, 0, cols) if unit.block is None else \
-            (unit.block.row0, unit.block.row1, unit.block.col0, unit.block.col1)
-        diff[r0, c0] += w
-        diff[r0, c1] -= w
-        diff[r1, c0] -= w
-        diff[r1, c1] += w
+    for step, w in zip(day, weights):
+        blocks = step.blocks if isinstance(step, SunField) else [SunBlock(0, rows, 0, cols, step)]
+        for b in blocks:
+            if b.sun.elevation > 0.0:
+                diff[b.row0, b.col0] += int(w)
+                diff[b.row0, b.col1] -= int(w)
+                diff[b.row1, b.col0] -= int(w)
+                diff[b.row1, b.col1] += int(w)
     return np.cumsum(np.cumsum(diff, axis=0), axis=1)[:rows, :cols]
 
 
