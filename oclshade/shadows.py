@@ -283,7 +283,7 @@ class ShadowCaster:
         return items
 
     def _casts_nothing(self, item: Traced) -> bool:
-        suns = [b.sun for b in item.blocks] if isinstance(item, SunField) else [item]
+        suns = (b.sun for b in item.blocks) if isinstance(item, SunField) else iter([item])
         return self.analyse and all(self.analysis.casts_nothing(sun) for sun in suns)
 
     def _results(self, items: list[Traced], method: str, outs: tuple[str, ...], k_dark: float, k_bright: float,

@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from functools import cached_property
-from typing import Iterable, Sequence, Union
+from typing import Iterable, Iterator, Sequence, Union
 
 import numpy as np
 
@@ -126,24 +126,87 @@ class SunBlock:
     sun: Sun
 
 
+@dataclass(frozen=True, eq=False)
+class BlockGrid(Sequence[SunBlock]):
+    """A field's blocks on a grid, held as arrays: block (a, b), number a * columns + b in raster
+    order, covers rows [row_edges[a], row_edges[a + 1]) and columns [col_edges[b],
+    col_edges[b + 1]) with the sun (azimuth[a, b], elevation[a, b]).  Its :class:`SunBlock` s are
+    made when asked for, not kept: a month of 10-minute fields of thousands of blocks each holds
+    arrays, not millions of objects."""
+
+    row_edges: np.ndarray    # int64, from 0 to the map's rows, increasing
+    col_edges: np.ndarray    # int64, from 0 to the map's columns, increasing
+    azimuth: np.ndarray      # float64 (row blocks, column blocks), degrees
+    elevation: np.ndarray
+
+    def __post_init__(self) -> None:
+        shape = (len(self.row_edges) - 1, len(self.col_edges) - 1)
+        if (np.shape(self.azimuth) != shape or np.shape(self.elevation) != shape or min(shape) < 1
+                or np.any(np.diff(self.row_edges) < 1) or np.any(np.diff(self.col_edges) < 1)
+                or self.row_edges[0] != 0 or self.col_edges[0] != 0):
+            raise ValueError(f"a block grid needs increasing edges from 0 and one sun per block, got "
+                             f"{len(self.row_edges)} row and {len(self.col_edges)} column edges and suns of "
+                             f"shape {np.shape(self.azimuth)}")
+
+    def __len__(self) -> int:
+        return self.azimuth.size
+
+    def __getitem__(self, k):  # type: ignore[override]
+        if isinstance(k, slice):
+            return tuple(self[i] for i in range(len(self))[k])
+        n = len(self)
+        if not -n <= k < n:
+            raise IndexError(f"block {k} of {n}")
+        a, b = divmod(k % n, self.azimuth.shape[1])
+        return SunBlock(int(self.row_edges[a]), int(self.row_edges[a + 1]), int(self.col_edges[b]),
+                        int(self.col_edges[b + 1]), Sun(float(self.azimuth[a, b]), float(self.elevation[a, b])))
+
+    def __iter__(self) -> Iterator[SunBlock]:
+        return (self[k] for k in range(len(self)))
+
+    def __eq__(self, other: object) -> bool:
+        if isinstance(other, BlockGrid):
+            return all(np.array_equal(getattr(self, f), getattr(other, f))
+                       for f in ("row_edges", "col_edges", "azimuth", "elevation"))
+        return isinstance(other, Sequence) and tuple(self) == tuple(other)
+
+    def __hash__(self) -> int:
+        return hash(tuple(np.ascontiguousarray(getattr(self, f)).tobytes()
+                          for f in ("row_edges", "col_edges", "azimuth", "elevation")))
+
+    def bands(self) -> tuple[np.ndarray, np.ndarray]:
+        """:attr:`SunField.bands` of the grid: its own rows and columns of blocks."""
+        columns = self.azimuth.shape[1]
+        row_band = np.repeat(np.arange(self.azimuth.shape[0]) * columns, np.diff(self.row_edges))
+        col_band = np.repeat(np.arange(columns), np.diff(self.col_edges))
+        return np.concatenate([row_band, col_band]).astype(np.int32), np.arange(len(self))
+
+
 @dataclass(frozen=True)
 class SunField:
     """A map's sun at one instant, per block of cells (in raster order, covering the map once).
 
-    ``centre``: the sun at the map's centre (in grid azimuth, as every sun here);
-    ``deviation``: the largest angle in degrees found between a block's sun and the sun at its
-    corners (for one block: between the centre's and the map corners'); ``tolerance``: the
-    bound it was made to.  Checked: the blocks lie inside the map and their areas add up to
-    it (they must tile it: a cell in no block would keep an earlier sun's output)."""
+    ``blocks``: :class:`SunBlock` s, or a :class:`BlockGrid` (how
+    :func:`oclshade.solar.sun_field` makes them); ``centre``: the sun at the map's centre (in
+    grid azimuth, as every sun here); ``deviation``: the largest angle in degrees found between
+    a block's sun and the sun at its corners (for one block: between the centre's and the map
+    corners'); ``tolerance``: the bound it was made to.  Checked: the blocks lie inside the map
+    and their areas add up to it (they must tile it: a cell in no block would keep an earlier
+    sun's output; :attr:`bands` finds any overlap)."""
 
     shape: tuple[int, int]
-    blocks: tuple[SunBlock, ...]
+    blocks: Sequence[SunBlock]
     centre: Sun
     deviation: float = 0.0
     tolerance: float = DEFAULT_SUN_TOLERANCE
 
     def __post_init__(self) -> None:
         rows, cols = self.shape
+        if isinstance(self.blocks, BlockGrid):
+            if (int(self.blocks.row_edges[-1]), int(self.blocks.col_edges[-1])) != (rows, cols):
+                raise ValueError(f"sun field block grid ends at row {self.blocks.row_edges[-1]}, column "
+                                 f"{self.blocks.col_edges[-1]}: it must cover the {cols}x{rows} map")
+            return
         area = 0
         for b in self.blocks:
             if not (0 <= b.row0 < b.row1 <= rows and 0 <= b.col0 < b.col1 <= cols):
@@ -162,22 +225,31 @@ class SunField:
     @cached_property
     def column_step(self) -> int:
         """The largest number dividing every block's first column (0 when all start at column 0)."""
+        if isinstance(self.blocks, BlockGrid):
+            return int(np.gcd.reduce(self.blocks.col_edges[:-1]))
         return math.gcd(*(b.col0 for b in self.blocks))
 
     @cached_property
     def angles(self) -> tuple[np.ndarray, np.ndarray]:
         """The blocks' sun azimuths and elevations in degrees, float64 (blocks,) each."""
+        if isinstance(self.blocks, BlockGrid):
+            return self.blocks.azimuth.ravel(), self.blocks.elevation.ravel()
         return (np.array([b.sun.azimuth for b in self.blocks], np.float64),
                 np.array([b.sun.elevation for b in self.blocks], np.float64))
 
-    @cached_property
+    @property
     def bands(self) -> tuple[np.ndarray, np.ndarray]:
         """The blocks as a grid of row bands and column bands, as the kernels' sun tables read
         them (kernels/shadow.cl, "sun tables"): ``band`` int32 (rows + cols,), the row band of
         row i times the number of column bands at [i] and the column band of column j at
         [rows + j]; ``owner`` int64, for each band cell in raster order the index of the block
         holding it.  The band edges are every block's first and last rows and columns, so each
-        band cell lies in one block (a field's own blocks: one band cell each)."""
+        band cell lies in one block (a :class:`BlockGrid`: its own blocks, made on each call;
+        other blocks: found once and kept)."""
+        return self.blocks.bands() if isinstance(self.blocks, BlockGrid) else self._tiling_bands
+
+    @cached_property
+    def _tiling_bands(self) -> tuple[np.ndarray, np.ndarray]:
         rows, cols = self.shape
         r0, r1, c0, c1 = (np.array([getattr(b, k) for b in self.blocks], np.int64)
                           for k in ("row0", "row1", "col0", "col1"))

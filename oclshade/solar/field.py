@@ -35,7 +35,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from ..io import Raster, geotransform
-from ..sun import DEFAULT_SUN_TOLERANCE as DEFAULT_TOLERANCE, Sun, SunBlock, SunField
+from ..sun import DEFAULT_SUN_TOLERANCE as DEFAULT_TOLERANCE, BlockGrid, Sun, SunField
 from .position import sun_position
 from .site import grid_azimuths, projected_crs
 
@@ -142,9 +142,9 @@ def sun_field(places: MapPlaces, when: datetime, tolerance: float = DEFAULT_TOLE
             aligned = False
         if shape is None:
             shape = _balanced_shape(per_row, per_col, budget, rows, cols)
-        blocks, deviation = _blocks(places, when, *shape)
+        grid, deviation = _block_suns(places, when, *shape)
         if deviation <= tolerance:
-            return SunField(places.shape, blocks, centre, deviation, float(tolerance))
+            return SunField(places.shape, BlockGrid(*grid), centre, deviation, float(tolerance))
         if shape == (1, 1):
             break
         budget *= 0.9 * tolerance / deviation
@@ -207,22 +207,20 @@ def _long_run(width: int, cols: int) -> int:
     return width if width >= cols or width < 8 * ALIGN else width // (4 * ALIGN) * (4 * ALIGN)
 
 
-def _blocks(places: MapPlaces, when: datetime, block_rows: int, block_cols: int) -> tuple[tuple[SunBlock, ...], float]:
-    """The blocks of this size in raster order with their centre suns, and the largest angle
-    between a block's sun and the sun at any of its corners."""
+def _block_suns(places: MapPlaces, when: datetime, block_rows: int, block_cols: int
+                ) -> tuple[tuple[np.ndarray, ...], float]:
+    """The blocks of this size, as :class:`BlockGrid`'s arrays (row edges, column edges, centre
+    sun azimuths and elevations), and the largest angle between a block's sun and the sun at any
+    of its corners."""
     rows, cols = places.shape
-    r0 = np.arange(0, rows, block_rows)
-    c0 = np.arange(0, cols, block_cols)
-    r1, c1 = np.minimum(r0 + block_rows, rows), np.minimum(c0 + block_cols, cols)
-    mid_r, mid_c = np.meshgrid((r0 + r1) / 2.0, (c0 + c1) / 2.0, indexing="ij")
+    edge_r = np.append(np.arange(0, rows, block_rows), rows)
+    edge_c = np.append(np.arange(0, cols, block_cols), cols)
+    mid_r, mid_c = np.meshgrid((edge_r[:-1] + edge_r[1:]) / 2.0, (edge_c[:-1] + edge_c[1:]) / 2.0, indexing="ij")
     az, el = places.suns(when, mid_r, mid_c)
-    centres = unit_vectors(az, el).reshape(len(r0), len(c0), 3)
-    edge_r, edge_c = np.append(r0, rows), np.append(c0, cols)
+    centres = unit_vectors(az, el).reshape(len(edge_r) - 1, len(edge_c) - 1, 3)
     er, ec = np.meshgrid(edge_r, edge_c, indexing="ij")
     v = unit_vectors(*places.suns(when, er, ec)).reshape(len(edge_r), len(edge_c), 3)
     deviation = max(float(sun_differences(centres, v[:-1, :-1]).max()), float(sun_differences(centres, v[:-1, 1:]).max()),
                     float(sun_differences(centres, v[1:, :-1]).max()), float(sun_differences(centres, v[1:, 1:]).max()))
-    az, el = az.reshape(len(r0), len(c0)), el.reshape(len(r0), len(c0))
-    blocks = tuple(SunBlock(int(r0[a]), int(r1[a]), int(c0[b]), int(c1[b]), Sun(float(az[a, b]), float(el[a, b])))
-                   for a in range(len(r0)) for b in range(len(c0)))
-    return blocks, deviation
+    grid = tuple(np.ascontiguousarray(np.reshape(a, centres.shape[:2]), np.float64) for a in (az, el))
+    return (edge_r, edge_c, *grid), deviation

@@ -33,7 +33,7 @@ from ..heightmap import Heightmap
 from ..horizon import HorizonCaster, azimuth_grid
 from ..runtime import ArgBinder, Runtime
 from ..shadows import ShadowCaster, check_outputs
-from ..sun import Sun, SunBlock, SunField, SunLike, Traced, as_traced, sun_vectors
+from ..sun import Sun, SunField, SunLike, Traced, as_traced, sun_vectors
 
 OUTPUTS = ("hours", "fraction", "irradiation")
 METHODS = ("masks", "horizons")
@@ -71,7 +71,7 @@ class _Launch:
 def _has_daylight(step: Traced) -> bool:
     """A sun above the horizon, or a field with a block whose sun is."""
     if isinstance(step, SunField):
-        return any(b.sun.elevation > 0.0 for b in step.blocks)
+        return bool(np.any(step.angles[1] > 0.0))
     return step.elevation > 0.0
 
 
@@ -177,27 +177,23 @@ class SunshineCaster:
         azimuths, its knob ``batch``, a batch's bands share one device buffer until the last of
         them is dropped)."""
         kernels = {table: self._kernel("sunshine_horizons", outs, table) for table in (False, True)}
-        no_sun = (np.float32(0.0), np.float32(0.0), np.zeros(4, np.float32))
-        planned: list[tuple[int, int, tuple, tuple]] = []    # (interval, step, sun arguments, table)
+        planned: list[tuple[int, int, Traced]] = []           # (interval, step index, step)
         for k, step in enumerate(day):
-            azimuth, elevation = step.angles if isinstance(step, SunField) else \
-                (np.array([step.azimuth]), np.array([step.elevation]))
-            position = np.mod(azimuth, 360.0) * n / 360.0
-            interval = np.minimum(np.floor(position).astype(np.int64), n - 1)
             if isinstance(step, SunField):
-                up = elevation > 0.0
-                at = np.stack([position - interval, elevation, np.zeros_like(elevation), np.zeros_like(elevation)], axis=1)
-                table = self._table(step, np.where(up, interval, -1), at)
-                planned += [(int(i), k, no_sun, (*table, np.int32(i))) for i in sorted(set(interval[up].tolist()))]
+                interval, up = _intervals(*step.angles, n)
+                planned += [(int(i), k, step) for i in sorted(set(interval[up].tolist()))]
             else:
-                i = int(interval[0])
-                planned.append((i, k, (np.float32(position[0] - i), np.float32(step.elevation), _sun_vector(step)), ()))
+                planned.append((int(_intervals(np.array([step.azimuth]), np.array([step.elevation]), n)[0][0]), k,
+                                step))
         return len(planned), self._horizon_launches(planned, kernels, n)
 
-    def _horizon_launches(self, planned: list[tuple[int, int, tuple, tuple]], kernels: dict[bool, cl.Kernel], n: int
+    def _horizon_launches(self, planned: list[tuple[int, int, Traced]], kernels: dict[bool, cl.Kernel], n: int
                           ) -> Iterator[_Launch]:
+        """The planned launches as the bands they read are made; a field's sun table is made and
+        sent at its launch (not at planning: the device holds one step's table at a time)."""
         horizons = HorizonCaster(self.heightmap, self.runtime)
         grid = self._grid_args(horizons.pyramid.heights)
+        no_sun = (np.float32(0.0), np.float32(0.0), np.zeros(4, np.float32))
         pending = sorted({p[0] for p in planned})                  # intervals with suns, in azimuth order
         needed = sorted(set(pending) | {(i + 1) % n for i in pending})
         bands: dict[int, cl.Buffer] = {}
@@ -206,9 +202,21 @@ class SunshineCaster:
             while pending and pending[0] in bands and (pending[0] + 1) % n in bands:
                 i = pending.pop(0)
                 low, high = bands[i], bands[(i + 1) % n]
-                for interval_, step_index, sun_args, table in planned:
-                    if interval_ == i:
-                        yield _Launch(step_index, kernels[bool(table)], (*grid, low, high, *sun_args), table)
+                for interval, step_index, step in planned:
+                    if interval != i:
+                        continue
+                    if isinstance(step, SunField):
+                        azimuth, elevation = step.angles
+                        position = np.mod(azimuth, 360.0) * n / 360.0
+                        intervals, up = _intervals(azimuth, elevation, n)
+                        zero = np.zeros_like(elevation)
+                        table = self._table(step, np.where(up, intervals, -1),
+                                            np.stack([position - intervals, elevation, zero, zero], axis=1))
+                        yield _Launch(step_index, kernels[True], (*grid, low, high, *no_sun), (*table, np.int32(i)))
+                    else:
+                        frac = np.float32(step.azimuth % 360.0 * n / 360.0 - i)
+                        yield _Launch(step_index, kernels[False],
+                                      (*grid, low, high, frac, np.float32(step.elevation), _sun_vector(step)))
                 keep = set(pending) | {(j + 1) % n for j in pending}
                 bands = {j: b for j, b in bands.items() if j in keep}
 
@@ -270,6 +278,12 @@ class SunshineCaster:
         return maps
 
 
+def _intervals(azimuth: np.ndarray, elevation: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """The interval of ``n`` grid azimuths holding each sun (the band at its lower end) and
+    whether the sun is up."""
+    return np.minimum(np.floor(np.mod(azimuth, 360.0) * n / 360.0).astype(np.int64), n - 1), elevation > 0.0
+
+
 def _sun_vector(sun: Sun) -> np.ndarray:
     """sunshine.cl's sunvec of a sun, float32 (east, north, up, 0)."""
     return np.array([*sun.vector(), 0.0], np.float32)
@@ -277,20 +291,23 @@ def _sun_vector(sun: Sun) -> np.ndarray:
 
 def _daylight_map(day: list[Traced], weights: np.ndarray, shape: tuple[int, int]) -> np.ndarray | None:
     """Each cell's daylight seconds (int64) when some step's sun is up on part of the map only
-    (a field's blocks), by a 2-D difference array: O(1) per block; else None."""
+    (a field's blocks: through its bands, :attr:`oclshade.sun.SunField.bands`); else None."""
     if not any(isinstance(step, SunField) for step in day):
         return None
-    rows, cols = shape
-    diff = np.zeros((rows + 1, cols + 1), np.int64)
+    rows = shape[0]
+    total = np.zeros(shape, np.int64)
+    by_bands: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}   # fields on the same bands summed there first
     for step, w in zip(day, weights):
-        blocks = step.blocks if isinstance(step, SunField) else [SunBlock(0, rows, 0, cols, step)]
-        for b in blocks:
-            if b.sun.elevation > 0.0:
-                diff[b.row0, b.col0] += int(w)
-                diff[b.row0, b.col1] -= int(w)
-                diff[b.row1, b.col0] -= int(w)
-                diff[b.row1, b.col1] += int(w)
-    return np.cumsum(np.cumsum(diff, axis=0), axis=1)[:rows, :cols]
+        if not isinstance(step, SunField):
+            total += int(w)
+            continue
+        band, owner = step.bands
+        up = np.where(step.angles[1] > 0.0, int(w), 0)[owner]
+        key = band.tobytes()
+        by_bands[key] = (band, by_bands[key][1] + up if key in by_bands else up)
+    for band, up in by_bands.values():
+        total += up[band[:rows, None] + band[None, rows:]]
+    return total
 
 
 def _finish(values: np.ndarray, nodata: np.ndarray) -> np.ndarray:
