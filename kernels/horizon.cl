@@ -176,6 +176,14 @@
  *                                    (soft shadows: each strip of the sun's disc,
  *                                    oclshade/horizon/disc.py), at about the cost
  *                                    of a cast-shadow ray
+ *     -D OCLS_SUN_TABLE (with OCLS_CLAMP): each cell's ray and bounds from a table
+ *     of blocks instead (the ray and bounds arguments stay, unread), for a sun that
+ *     varies over the map (the strip of each block's own disc in one launch), after
+ *     bounds:
+ *       __global const int *band        H + W ints: cell (i, j) is in block
+ *                                       b = band[i] + band[H + j] (shadow.cl's
+ *                                       "sun tables")
+ *       __global const float4 *strips   2 per block: its ray, then (lo, hi, 0, 0)
  *   global size (W, H) rounded up to any local size.
  *   __kernel horizon_seeds(h, H, W, ext, lvl_off, nlev, ray, seeds)
  *     arguments as horizon_cells; writes seeds[gi * Ws + gj] = (T, t) of cell
@@ -656,18 +664,30 @@ OCLS_INLINE void cell_walk(__global const float *h, int H, int W, __global const
     store_outputs(angle, svf, idx, T);
 }
 
+#if defined(OCLS_CLAMP) && defined(OCLS_SUN_TABLE)
+#define OCLS_TABLE_RAY ray_unread
+#else
+#define OCLS_TABLE_RAY ray
+#endif
 __kernel void horizon_cells(__global const float *h, const int H, const int W, __global const float2 *ext,
-                            __global const int *lvl_off, const int nlev, const float4 ray,
+                            __global const int *lvl_off, const int nlev, const float4 OCLS_TABLE_RAY,
                             __global float *angle, __global float2 *svf, __global const float2 *seeds,
                             const float2 cell
-#ifdef OCLS_CLAMP
+#if defined(OCLS_CLAMP) && defined(OCLS_SUN_TABLE)
+                            , const float2 bounds_unread, __global const int *band,
+                            __global const float4 *strips
+#elif defined(OCLS_CLAMP)
                             , const float2 bounds
 #endif
                             )
 {
     const int j = get_global_id(0), i = get_global_id(1);
     if (j >= W || i >= H) return;
-#ifndef OCLS_CLAMP
+#if defined(OCLS_CLAMP) && defined(OCLS_SUN_TABLE)
+    const int block = band[i] + band[H + j];
+    const float4 ray = strips[2 * block];
+    const float2 bounds = strips[2 * block + 1].xy;
+#elif !defined(OCLS_CLAMP)
     const float2 bounds = (float2)(-INFINITY, INFINITY);
 #endif
     cell_walk(h, H, W, ext, lvl_off, nlev, ray, angle, svf, seeds, cell, bounds, i, j);

@@ -911,9 +911,11 @@ output bands (float32, NaN = nodata; band names as below):
 time steps: [--start, --end) cut into --step steps from --start (the last one shorter
   when --step does not divide the period); each step counts its length, with the sun
   (NREL SPA, with refraction) at its midpoint. Datetimes as for 'oclshade sun': ISO
-  8601 with a UTC offset, or local times with --tz. The place: --lat/--lon, else
-  INPUT's centre through its CRS (one sun for the whole map); on a projected map each
-  true azimuth is turned to the grid (meridian convergence).
+  8601 with a UTC offset, or local times with --tz. The place: --lat/--lon (one sun
+  for the whole map), else each cell's own place through INPUT's CRS: the map is cut
+  into blocks, each summed with the sun of its centre, every cell's own sun within
+  --sun-tolerance (default 0.01 degrees) of its block's, in one launch a step; on a
+  projected map each true azimuth is turned to the grid (meridian convergence).
 
 routes (--method): masks (default) traces the exact cast-shadow mask of every daylight
   step; horizons computes the horizon angles of --azimuths N directions once and
@@ -970,7 +972,7 @@ def add_sunshine_parser(sub) -> None:
     ss.add_argument("--end", required=True, metavar="ISO", help="end of the period, not included")
     ss.add_argument("--step", type=_step, default=_step("10min"), metavar="STEP",
                     help="time step: a whole number with s, min, h or d (default 10min)")
-    solar_cli.add_place_arguments(ss, "--start and --end", per_block=False)
+    solar_cli.add_place_arguments(ss, "--start and --end")
     ss.add_argument("--output", dest="outputs", type=_sunshine_outputs, default=("hours",), metavar="LIST",
                     help="comma-separated bands to write: hours, fraction, irradiation, or all (default hours)")
     ss.add_argument("--method", default="masks", choices=("masks", "horizons"),
@@ -1009,8 +1011,6 @@ def run_sunshine(args: argparse.Namespace) -> int:
     raster, heightmap = read_input(args, cellsize)
     placed = solar_cli.suns_for(steps.times, args, raster, "--start and --end")
     suns, site = placed.traced, placed.site
-    if warning := placed.spread_warning("sunshine"):
-        print(f"{PROG}: warning: {warning} (--sun-tolerance DEG: per block)", file=sys.stderr)
     rows, cols = heightmap.shape
     _make_parents(args.output)
     with RasterWriter(args.output, (len(args.outputs), rows, cols), np.float32, like=raster, nodata=math.nan,

@@ -276,8 +276,6 @@ class Runtime:
         self._programs: dict[tuple[str, tuple[str, ...]], cl.Program] = {}
         self._kernels: dict[tuple[int, str], cl.Kernel] = {}
         self._local_sizes: dict[tuple[cl.Kernel, int], int] = {}   # the key keeps its kernel alive
-        # exact_grid_2d's answers: a sun field's blocks launch thousands of times with a few shapes
-        self._exact_grids: dict[tuple, tuple[tuple[int, int], tuple[int, int]]] = {}
         self._lock = threading.Lock()
         self.build_hits = 0
         self.build_misses = 0
@@ -387,7 +385,7 @@ class Runtime:
 
     def local_size(self, kernel: cl.Kernel, wanted: int) -> int:
         """Largest power of two <= wanted that the device and this kernel accept (asked of the
-        driver once per kernel: launches per block of a map ask it thousands of times)."""
+        driver once per kernel: loops of launches ask it many times)."""
         size = self._local_sizes.get((kernel, wanted))
         if size is None:
             limit = min(
@@ -410,20 +408,6 @@ class Runtime:
         ly = max(1, ls // lx)
         return (-(-cols // lx) * lx, -(-rows // ly) * ly), (lx, ly)
 
-    def exact_grid_2d(self, kernel: cl.Kernel, cols: int, rows: int, wanted: int = 64,
-                      max_x: int = 16) -> tuple[tuple[int, int], tuple[int, int]]:
-        """As :meth:`grid_2d` for a launch over exactly ``cols`` x ``rows`` items (a block of a
-        map, at a global offset): each side of the local size is the largest power of two that
-        divides that side within the limits, so nothing is computed past the block."""
-        key = (kernel, cols, rows, wanted, max_x)
-        grid = self._exact_grids.get(key)
-        if grid is None:
-            ls = self.local_size(kernel, wanted)
-            lx = _power_of_two_divisor(cols, min(ls, max_x))
-            ly = _power_of_two_divisor(rows, max(1, ls // lx))
-            grid = self._exact_grids[key] = (cols, rows), (lx, ly)
-        return grid
-
     def count_in_bands(self, kernel: cl.Kernel, args: tuple, n_counters: int, cols: int, rows: int,
                        band_items: int) -> np.ndarray:
         """Run a profiling kernel whose last argument is ``n_counters`` uint32 counters
@@ -445,14 +429,6 @@ class Runtime:
             self.queue.finish()
             total += part
         return total
-
-
-def _power_of_two_divisor(n: int, limit: int) -> int:
-    """The largest power of two that divides ``n`` and is at most ``limit`` (>= 1)."""
-    size = 1
-    while size * 2 <= limit and n % (size * 2) == 0:
-        size *= 2
-    return size
 
 
 #: pyopencl's own fast path for an argument given as bytes (what its generated invokers call)

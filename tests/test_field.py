@@ -252,28 +252,21 @@ def test_lat_lon_given_means_one_sun(tmp_path):
     assert placed.fields is None and placed.traced == placed.suns
 
 
-def test_commands_that_trace_one_sun_per_map_warn_with_the_spread(tmp_path, capsys):
-    """sunshine (without --sun-tolerance) traces one sun for the whole map: on a 15 x 12 km UTM
-    map it warns in one line with how far the cells' own suns are from it; on a 1 km map not."""
-    rng = np.random.default_rng(1)
-    wide = write_tif(tmp_path / "wide.tif", np.cumsum(rng.normal(size=(400, 500)), 1), west=350000.0,
-                     north=5400000.0, cell=30.0)
-    small = write_tif(tmp_path / "small.tif", np.cumsum(rng.normal(size=(30, 30)), 1), west=350000.0,
-                      north=5400000.0, cell=30.0)
-    when = "2024-06-21T08:00+02:00"
-    runs = {"sunshine": ["sunshine", "{dem}", "{out}.npy", "--start", when, "--end", "2024-06-21T09:00+02:00",
-                         "--step", "30min", "-q"]}
-    for command, argv in runs.items():
-        for dem, warns in ((wide, True), (small, False)):
-            out = tmp_path / f"{command.strip('-')}_{dem.stem}"
-            assert main([a.format(dem=dem, out=out) for a in argv]) == 0
-            err = capsys.readouterr().err
-            if warns:
-                assert err.count("\n") == 1 and f"warning: {command} traces one sun for the whole map" in err
-                spread = float(err.split("by up to ")[1].split(" deg")[0])
-                assert 0.05 < spread < 0.2
-            else:
-                assert err == ""
+def test_sunshine_makes_its_suns_over_the_map_with_a_bar(tmp_path, capsys):
+    """Past FIELDS_BAR steps the sun fields are made under a progress bar (quiet with -q); one
+    line per tenth in a log."""
+    from oclshade.solar.cli import FIELDS_BAR
+
+    dem = write_tif(tmp_path / "utm.tif", np.cumsum(np.ones((40, 50)), 1), west=350000.0, north=5400000.0,
+                    cell=30.0)
+    start = datetime.fromisoformat("2024-06-21T00:00+02:00")
+    argv = ["sunshine", str(dem), str(tmp_path / "s.npy"), "--start", start.isoformat(), "--end",
+            (start + timedelta(minutes=10 * (FIELDS_BAR + 1))).isoformat()]
+    assert main(argv) == 0
+    bar = [line for line in capsys.readouterr().err.splitlines() if line.endswith("suns over the map")]
+    assert len(bar) == 11 and bar[-1].endswith(f"{FIELDS_BAR + 1}/{FIELDS_BAR + 1} suns over the map")
+    assert main([*argv, "-q"]) == 0
+    assert capsys.readouterr().err == ""
 
 
 @settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -317,40 +310,31 @@ def test_sunshine_horizon_route_per_block_on_grid_azimuths_is_exact():
 
 
 def test_sunshine_cli_sums_per_block_on_a_projected_map(tmp_path, capsys):
-    """`sunshine --sun-tolerance 0.01` on a 15 x 12 km UTM map: the API's sums over the fields of
-    the steps, bit for bit, and not those of one sun per step (the default, with a warning)."""
+    """`sunshine` on a 15 x 12 km UTM map sums each block with its own sun by default: the API's
+    sums over the fields of the steps, bit for bit, and not those of one sun per step (what
+    `--sun-tolerance 1` gives there: one block)."""
     rng = np.random.default_rng(2)
     heights = np.cumsum(np.cumsum(rng.normal(size=(400, 500)), 0), 1) * 0.5
     dem = write_tif(tmp_path / "utm.tif", heights, west=350000.0, north=5400000.0, cell=30.0)
     argv = ["sunshine", str(dem), "", "--start", "2024-06-21T04:30+02:00", "--end", "2024-06-21T07:30+02:00",
             "--step", "30min", "--output", "hours,fraction"]
-    assert main([*argv[:2], str(tmp_path / "f.npy"), *argv[3:], "--sun-tolerance", "0.01"]) == 0
+    assert main([*argv[:2], str(tmp_path / "f.npy"), *argv[3:]]) == 0
     assert "the sun per block of cells" in capsys.readouterr().err
-    assert main([*argv[:2], str(tmp_path / "one.npy"), *argv[3:], "-q"]) == 0
-    assert "warning: sunshine traces one sun for the whole map" in capsys.readouterr().err
+    assert main([*argv[:2], str(tmp_path / "one.npy"), *argv[3:], "--sun-tolerance", "1", "-q"]) == 0
+    assert capsys.readouterr().err == ""
     raster = read_dem(dem)
     places = map_places(raster)
     times = [datetime.fromisoformat("2024-06-21T04:45+02:00") + k * timedelta(minutes=30) for k in range(6)]
     hm = Heightmap.from_array(raster.heights, (raster.dx, raster.dy))
     fields = [sun_field(places, t) for t in times]
+    assert not any(f.uniform for f in fields[1:])
     want = SunshineCaster(hm).accumulate(fields, 1800, ("hours", "fraction"))
-    per_block, one = np.load(tmp_path / "f.npy"), np.load(tmp_path / "one.npy")
+    one = SunshineCaster(hm).accumulate([f.centre for f in fields], 1800, ("hours", "fraction"))
+    per_block, single = np.load(tmp_path / "f.npy"), np.load(tmp_path / "one.npy")
     np.testing.assert_array_equal(per_block[0], want.hours)
     np.testing.assert_array_equal(per_block[1], want.fraction)
-    assert (per_block[0] != one[0]).sum() > 20
-
-
-def test_block_launches_divide_the_block_exactly():
-    """A block's launch has the block's size, and a local size that divides it (nothing past
-    the block is computed: the sunshine sums would count it twice)."""
-    from oclshade.runtime import _power_of_two_divisor, get_runtime
-
-    assert [_power_of_two_divisor(n, 16) for n in (1, 2, 12, 13, 48, 64, 96, 1024)] == [1, 2, 4, 1, 16, 16, 16, 16]
-    rt = get_runtime()
-    kernel = rt.kernel("sunshine.cl", "sunshine_masks", {"OCLS_OUT_SUN": True})
-    for cols, rows in ((13, 7), (112, 220), (1, 30), (64, 1)):
-        (gx, gy), (lx, ly) = rt.exact_grid_2d(kernel, cols, rows)
-        assert (gx, gy) == (cols, rows) and cols % lx == 0 and rows % ly == 0 and lx * ly <= 64
+    np.testing.assert_array_equal(single[0], one.hours)
+    assert (per_block[0] != single[0]).sum() > 20
 
 
 def test_sunshine_progress_with_fields_reports_once_a_launch():

@@ -122,7 +122,7 @@ def test_cli_sunlit_from_a_datetime_on_a_utm_map(tmp_path, canyon, capsys):
     assert "on the grid of EPSG:32633" in capsys.readouterr().err
     import argparse
     placed = suns_for([datetime.fromisoformat(when)], argparse.Namespace(input=str(dem), lat=None, lon=None),
-                      read_dem(dem), per_block=False)   # the centre's one sun, as --sun-tolerance 1 gives
+                      read_dem(dem))   # no --sun-tolerance: the centre's one sun, as --sun-tolerance 1 gives
     sun = placed.suns[0]
     assert abs(sun.azimuth - placed.true[0].azimuth) > 1.5 and 0.0 < sun.elevation < 10.0
     assert main(["sunlit", str(dem), str(tmp_path / "s.npy"), f"--sun={sun.azimuth!r},{sun.elevation!r}",

@@ -40,8 +40,8 @@ from ..heightmap import Heightmap
 from ..pyramid import ExtremaPyramid, cached_pyramid
 from ..reference.horizons import SVF_DEFINITIONS
 from ..runtime import Runtime, get_runtime
-from ..sun import Sun, SunBlock, SunField, SunLike, as_sun
-from .disc import DEFAULT_COLUMNS, SUN_RADIUS, disc_columns, visible_fraction
+from ..sun import Sun, SunField, SunLike, as_sun, libm, sun_rays
+from .disc import DEFAULT_COLUMNS, SUN_RADIUS, disc_columns, disc_columns_of, visible_fraction
 from .pilot import MIN_CELLS as PILOT_MIN_CELLS, MIN_ROWS as PILOT_MIN_ROWS, Pilot
 from .pilot import bands as pilot_bands, measure as measure_pilot
 
@@ -279,27 +279,32 @@ class HorizonCaster:
                                 sun.elevation, half_chords).astype(np.float32)
 
     def _field_disc(self, field: SunField, radius: float, columns: int, progress: Progress | None) -> np.ndarray:
+        """Strip k of every block's disc in one launch (-D OCLS_SUN_TABLE: each cell's ray and
+        bounds from its block's row of the strip's table), as the one-sun strips."""
         field.check_shape(self.heightmap.shape)
-        discs = [disc_columns(block.sun, radius, columns) for block in field.blocks]   # checks each sun
-        elevation = np.empty(self.heightmap.shape)
-        for block in field.blocks:
-            elevation[block.row0:block.row1, block.col0:block.col1] = block.sun.elevation
+        azimuth, elevation = field.angles
+        azimuths, half_chords = disc_columns_of(azimuth, elevation, radius, columns)   # checks each sun
+        band, owner = field.bands
         rows, cols = self.heightmap.shape
-        enqueue = self._enqueuer({"OCLS_OUT_ANGLE": True, "OCLS_CLAMP": True})
+        cell_elevation = elevation[owner][band[:rows, None] + band[None, rows:]]
+        enqueue = self._enqueuer({"OCLS_OUT_ANGLE": True, "OCLS_CLAMP": True, "OCLS_SUN_TABLE": True})
         buf = self.runtime.empty(4 * rows * cols, "horizon angles")
+        band_buf = self.runtime.to_device(band, "sun table bands")
 
         def strips() -> Iterator[np.ndarray]:
-            for k in range(columns):      # strip k of every block's disc, each over its block's cells
-                for block, (azimuths, half_chords) in zip(field.blocks, discs):
-                    enqueue(float(azimuths[k]), buf, self._dummy, strip_bounds(block.sun.elevation, half_chords[k]),
-                            block)
-                band = np.empty((rows, cols), np.float32)
-                cl.enqueue_copy(self.runtime.queue, band, buf)
+            for k in range(columns):
+                table = np.zeros((len(azimuth), 2, 4), np.float32)
+                table[:, 0] = self._rays(azimuths[:, k])
+                table[:, 1, :2] = np.stack(strip_bounds(elevation, half_chords[k]), axis=-1)
+                strip_table = self.runtime.to_device(np.ascontiguousarray(table[owner]), "strip table")
+                enqueue(0.0, buf, self._dummy, (0.0, 0.0), table=(band_buf, strip_table))
+                out = np.empty((rows, cols), np.float32)
+                cl.enqueue_copy(self.runtime.queue, out, buf)
                 if progress is not None:
                     progress(k + 1, columns)
-                yield band
+                yield out
 
-        return visible_fraction(strips(), elevation, discs[0][1]).astype(np.float32)
+        return visible_fraction(strips(), cell_elevation, half_chords).astype(np.float32)
 
     def _strip_angles(self, elevation: float, azimuths: np.ndarray, half_chords: np.ndarray,
                       progress: Progress | None) -> Iterator[np.ndarray]:
@@ -355,14 +360,8 @@ class HorizonCaster:
             kernel = rt.kernel("horizon.cl", "horizon_sweep", {**defines, "OCLS_SWEEP": lanes})
             return kernel, self._grid(kernel, -(-cols // lanes), rows)
 
-        def launch(kernel: cl.Kernel, grid: tuple, band: tuple[int, int] | None,
-                   block: SunBlock | None = None) -> None:
-            """The whole grid, or only the band (first row, rows) of it, or exactly a block's cells."""
-            if block is not None:
-                size = (block.col1 - block.col0, block.row1 - block.row0)
-                cl.enqueue_nd_range_kernel(rt.queue, kernel, *self._grid(kernel, *size, exact=True),
-                                           global_work_offset=(block.col0, block.row0))
-                return
+        def launch(kernel: cl.Kernel, grid: tuple, band: tuple[int, int] | None) -> None:
+            """The whole grid, or only the band (first row, rows) of it."""
             (gx, gy), local = grid
             first, count = (0, gy) if band is None else band
             cl.enqueue_nd_range_kernel(rt.queue, kernel, (gx, count), local, global_work_offset=(0, first))
@@ -373,14 +372,14 @@ class HorizonCaster:
             launch(kernel, grid, band)
 
         def walk(ray: np.ndarray, angle: cl.Buffer, svf: cl.Buffer, bounds: tuple[float, float] = (),
-                 band: tuple[int, int] | None = None, block: SunBlock | None = None) -> None:
+                 band: tuple[int, int] | None = None, table: tuple = ()) -> None:
             w = walker()
             if seeded:
                 w["seeder"].set_args(*w["fixed"], ray, w["seeds"])
                 cl.enqueue_nd_range_kernel(rt.queue, w["seeder"], *w["seed_grid"])
             w["kernel"].set_args(*w["fixed"], ray, angle, svf, w["seeds"] if seeded else self._dummy, cell,
-                                 *([np.array(bounds, np.float32)] if bounds else []))
-            launch(w["kernel"], w["grid"], band, block)
+                                 *([np.array(bounds, np.float32)] if bounds else []), *table)
+            launch(w["kernel"], w["grid"], band)
 
         def pilot(ray: np.ndarray, angle: cl.Buffer, crossings: float) -> Pilot:
             """Both on bands of rows (pilot.py): into ``angle`` (the launch that follows writes the
@@ -395,11 +394,11 @@ class HorizonCaster:
                                  rt.queue.finish, spans, group_rows, crossings)
 
         def enqueue(azimuth: float, angle: cl.Buffer, svf: cl.Buffer, bounds: tuple[float, float] = (),
-                    block: SunBlock | None = None) -> None:
+                    table: tuple = ()) -> None:
             ray = self._ray(azimuth)
             ux, uy = float(ray[0]), float(ray[1])
-            if block is not None:     # a block's cells (sun fields, with OCLS_CLAMP): the walk
-                walk(ray, angle, svf, bounds, block=block)
+            if table:                 # a sun table's rays and bounds (sun fields, with OCLS_CLAMP): the walk
+                walk(ray, angle, svf, bounds, table=table)
                 return
             route = not clamped and self._route(ux, uy)
             if route is None:
@@ -412,13 +411,10 @@ class HorizonCaster:
 
         return enqueue
 
-    def _grid(self, kernel: cl.Kernel, cols: int, rows: int, exact: bool = False
-              ) -> tuple[tuple[int, int], tuple[int, int]]:
+    def _grid(self, kernel: cl.Kernel, cols: int, rows: int) -> tuple[tuple[int, int], tuple[int, int]]:
         """(global, local) sizes for one work-item per (col, row): work-groups of the knob ``group``
-        work-items, the knob ``width`` of them across (:meth:`Runtime.grid_2d`; ``exact``:
-        :meth:`Runtime.exact_grid_2d`, for a block at a global offset)."""
-        grid = self.runtime.exact_grid_2d if exact else self.runtime.grid_2d
-        return grid(kernel, cols, rows, wanted=self.knobs["group"], max_x=self.knobs["width"])
+        work-items, the knob ``width`` of them across (:meth:`Runtime.grid_2d`)."""
+        return self.runtime.grid_2d(kernel, cols, rows, wanted=self.knobs["group"], max_x=self.knobs["width"])
 
     def _defines(self, outputs: Mapping[str, object]) -> dict[str, object]:
         return {**outputs, "OCLS_CURVATURE": self.curvature is not None,
@@ -428,8 +424,14 @@ class HorizonCaster:
 
     def _ray(self, azimuth: float) -> np.ndarray:
         """kernels/horizon.cl's float4 ray (ux, uy, c, R) at ``azimuth``."""
-        ux, uy, _ = Sun(azimuth, 0.0).ray(self.heightmap.dx, self.heightmap.dy)
-        return np.array([ux, uy, self.coefficient, self.radius or 0.0], np.float32)
+        return self._rays(np.array([azimuth]))[0]
+
+    def _rays(self, azimuths: np.ndarray) -> np.ndarray:
+        """:meth:`_ray` of each azimuth, float32 (n, 4)."""
+        rays = np.empty((len(azimuths), 4), np.float32)
+        rays[:, :2] = sun_rays(azimuths, np.zeros(len(azimuths)), self.heightmap.dx, self.heightmap.dy)[:, :2]
+        rays[:, 2], rays[:, 3] = self.coefficient, self.radius or 0.0
+        return rays
 
     def _batched(self) -> bool:
         """Whether the whole map's walk takes several azimuths per launch (the knob ``batch``;
@@ -491,11 +493,14 @@ class HorizonCaster:
         return None if self._pilot is None else self._pilot.sweeps
 
 
-def strip_bounds(elevation: float, half_chord: float) -> tuple[float, float]:
+def strip_bounds(elevation: float | np.ndarray, half_chord: float | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The (lo, hi) tangents a strip of the sun's disc clamps its horizons to: its elevations
-    [e - c, e + c] widened by :data:`STRIP_MARGIN`."""
-    return (math.tan(math.radians(elevation - (half_chord + STRIP_MARGIN))),
-            math.tan(math.radians(elevation + (half_chord + STRIP_MARGIN))))
+    [e - c, e + c] widened by :data:`STRIP_MARGIN` (float64, of the arguments' shape)."""
+    return (_tan(np.radians(np.subtract(elevation, np.add(half_chord, STRIP_MARGIN)))),
+            _tan(np.radians(np.add(elevation, np.add(half_chord, STRIP_MARGIN)))))
+
+
+_tan = libm(math.tan)
 
 
 def sweeps(ux: float, uy: float, radius: float, sweep_cells: int) -> bool:

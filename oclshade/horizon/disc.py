@@ -25,7 +25,9 @@ import math
 
 import numpy as np
 
-from ..sun import SunLike, as_sun
+from ..sun import SunLike, as_sun, libm
+
+_cos = libm(math.cos)
 
 #: mean apparent angular radius of the sun, degrees (diameter 31.99 arc minutes)
 SUN_RADIUS = 0.2666
@@ -45,13 +47,23 @@ def disc_columns(sun: SunLike, radius: float = SUN_RADIUS, columns: int = DEFAUL
                  ) -> tuple[np.ndarray, np.ndarray]:
     """(azimuths of the strips' middles in [0, 360), their half-chords c_k), degrees, float64."""
     sun = as_sun(sun)
+    azimuths, half_chords = disc_columns_of(np.array([sun.azimuth]), np.array([sun.elevation]), radius, columns)
+    return azimuths[0], half_chords
+
+
+def disc_columns_of(azimuth: np.ndarray, elevation: np.ndarray, radius: float = SUN_RADIUS,
+                    columns: int = DEFAULT_COLUMNS) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`disc_columns` of many suns (degrees, (n,) each): azimuths (n, columns), and the
+    half-chords (columns,), the same for every sun."""
     radius, columns = check_disc(radius, columns)
-    if not abs(sun.elevation) < 90.0 - radius:
+    elevation = np.asarray(elevation, np.float64)
+    if not np.all(np.abs(elevation) < 90.0 - radius):
+        bad = float(elevation[~(np.abs(elevation) < 90.0 - radius)][0])
         raise ValueError(f"elevation must leave the whole disc between the nadir and the zenith "
-                         f"(|elevation| < {90.0 - radius:g} degrees), got {sun.elevation!r}")
+                         f"(|elevation| < {90.0 - radius:g} degrees), got {bad!r}")
     width = 2.0 * radius / columns
     x = -radius + (np.arange(columns) + 0.5) * width
-    azimuths = (sun.azimuth + x / math.cos(math.radians(sun.elevation))) % 360.0
+    azimuths = (np.asarray(azimuth, np.float64)[:, None] + x / _cos(np.radians(elevation))[:, None]) % 360.0
     return azimuths, np.sqrt(radius * radius - x * x)
 
 

@@ -14,7 +14,7 @@ from zoneinfo import ZoneInfo, ZoneInfoNotFoundError
 from ..heightmap import InputWarning
 from .position import DEFAULT_PRESSURE_HPA, DEFAULT_TEMPERATURE_C, sun_position, suns_at
 from ..sun import DEFAULT_SUN_TOLERANCE, SunField
-from .field import map_places, sun_field, sun_spread
+from .field import map_places, sun_field
 from .site import MapSite, map_site
 
 EPILOG = """\
@@ -148,34 +148,28 @@ def run(args: argparse.Namespace) -> int:
 
 # --- suns for `oclshade shadow --datetime` -------------------------------------------------
 
-def add_time_arguments(parser: argparse.ArgumentParser, tolerance: bool = True) -> None:
+def add_time_arguments(parser: argparse.ArgumentParser) -> None:
     """``--datetime``, ``--tz``, ``--lat``, ``--lon`` on a command that takes suns (``shadow``)."""
     parser.add_argument("--datetime", dest="datetimes", action="append", default=[], metavar="ISO",
                         help="the sun at this date and time (NREL SPA, with refraction; ISO 8601 with a "
                              "UTC offset, or see --tz); repeat for several, one band each")
-    add_place_arguments(parser, "--datetime", tolerance)
+    add_place_arguments(parser, "--datetime")
 
 
-def add_place_arguments(parser: argparse.ArgumentParser, what: str, tolerance: bool = True,
-                        per_block: bool = True) -> None:
-    """``--tz``, ``--lat``, ``--lon`` and (``tolerance``: a command that can trace the sun per
-    block) ``--sun-tolerance`` for the datetimes of ``what`` (the options that give them);
-    ``per_block``: per block unless told otherwise (else only when --sun-tolerance is given)."""
+def add_place_arguments(parser: argparse.ArgumentParser, what: str) -> None:
+    """``--tz``, ``--lat``, ``--lon`` and ``--sun-tolerance`` for the datetimes of ``what`` (the
+    options that give them)."""
     parser.add_argument("--tz", metavar="NAME", help=f"IANA time zone of {what} values given without an offset")
     parser.add_argument("--lat", type=_LAT, metavar="DEG",
-                        help=f"latitude for {what} (default: the centre of INPUT, through its CRS)")
+                        help=f"latitude for {what} (default: the centre of INPUT, through its CRS; given, one "
+                             f"sun for the whole map)")
     parser.add_argument("--lon", type=_LON, metavar="DEG",
                         help=f"longitude for {what} (default: the centre of INPUT, through its CRS)")
-    if tolerance:
-        default = (f"default {DEFAULT_SUN_TOLERANCE:g}" if per_block else
-                   "default: one sun per step for the whole map, with a warning when the cells' own "
-                   "suns are more than 0.01 degrees from it; per block costs tens of microseconds a "
-                   "block and step")
-        parser.add_argument("--sun-tolerance", type=_TOLERANCE, default=DEFAULT_SUN_TOLERANCE if per_block else None,
-                            metavar="DEG",
-                            help=f"without --lat/--lon, trace the map in blocks, each with the sun of its "
-                                 f"centre, so that every cell's own sun (its place through INPUT's CRS) is "
-                                 f"within DEG degrees of its block's ({default}; docs/solar.md)")
+    parser.add_argument("--sun-tolerance", type=_TOLERANCE, default=DEFAULT_SUN_TOLERANCE, metavar="DEG",
+                        help=f"without --lat/--lon, trace the map in blocks, each with the sun of its "
+                             f"centre, so that every cell's own sun (its place through INPUT's CRS) is "
+                             f"within DEG degrees of its block's (default {DEFAULT_SUN_TOLERANCE:g}; "
+                             f"docs/solar.md)")
 
 
 def parse_datetimes(args: argparse.Namespace, more: bool = False) -> list[datetime]:
@@ -208,15 +202,6 @@ class PlacedSuns:
     true: list
     site: MapSite
     fields: list[SunField] | None = None   # per time, the sun over the map (None: --lat/--lon, one sun)
-    spread: float = 0.0                    # without fields: how far (deg) the cells' own suns are from it
-
-    def spread_warning(self, command: str) -> str | None:
-        """A warning that one sun serves a map whose cells' own suns differ from it by more
-        than the default tolerance, or None."""
-        if self.spread <= DEFAULT_SUN_TOLERANCE:
-            return None
-        return (f"{command} traces one sun for the whole map: its cells' own suns differ from the centre's "
-                f"by up to {self.spread:.3f} deg (docs/solar.md, \"The sun over a map\")")
 
     @property
     def traced(self) -> list:
@@ -244,16 +229,17 @@ class PlacedSuns:
                 f"elevation {true.elevation:.4f}")
 
 
-def suns_for(times: list[datetime], args: argparse.Namespace, raster, what: str = "--datetime",
-             per_block: bool = True) -> PlacedSuns:
+FIELDS_BAR = 100   # sun fields (about 8 ms each on a 1-degree SRTM tile) made silently
+
+
+def suns_for(times: list[datetime], args: argparse.Namespace, raster, what: str = "--datetime") -> PlacedSuns:
     """The suns at ``times`` at --lat/--lon, else at the raster's centre (a geographic raster's, or
     a projected one's through its CRS), their azimuths turned to the raster's grid
     (:mod:`oclshade.solar.site`).  ``what``: the options the times came from (for the errors).
-    Without --lat/--lon, on a map whose cells' places are known: ``per_block`` and a
-    --sun-tolerance, the sun over the map per time to it (:func:`oclshade.solar.sun_field`);
-    else the spread of the cells' own suns about the one sun (for
-    :meth:`PlacedSuns.spread_warning`)."""
-    from ..cli import PROG, CliError, UsageError
+    Without --lat/--lon, on a map whose cells' places are known and given a --sun-tolerance, the
+    sun over the map per time to it (:func:`oclshade.solar.sun_field`; a bar on stderr while
+    more than :data:`FIELDS_BAR` are made, unless --quiet)."""
+    from ..cli import PROG, CliError, ProgressBar, UsageError
 
     try:
         with warnings.catch_warnings(record=True) as caught:
@@ -269,10 +255,14 @@ def suns_for(times: list[datetime], args: argparse.Namespace, raster, what: str 
     try:
         placed = PlacedSuns(site.grid_suns(true), true, site)
         places = map_places(raster) if args.lat is None else None
-        if places is not None and per_block and getattr(args, "sun_tolerance", None) is not None:
-            placed.fields = [sun_field(places, t, args.sun_tolerance) for t in times]
-        elif places is not None:
-            placed.spread = sun_spread(places, times)
+        if places is not None and getattr(args, "sun_tolerance", None) is not None:
+            bar = ProgressBar(sys.stderr, "suns over the map") \
+                if len(times) > FIELDS_BAR and not getattr(args, "quiet", False) else None
+            placed.fields = []
+            for t in times:
+                placed.fields.append(sun_field(places, t, args.sun_tolerance))
+                if bar is not None:
+                    bar(len(placed.fields), len(times))
     except ValueError as exc:
         raise CliError(f"{what}: INPUT {args.input!r}: {exc}") from None
     return placed
