@@ -15,6 +15,10 @@ kernels) and its peak resident memory (``ru_maxrss``):
   mask per daylight step traced into a device buffer and summed on the device;
 * **masks, first day only**: the same for the first day: its peak memory against the
   month's shows that memory does not grow with the steps;
+* **masks, each cell's own sun**: the suns over the map (``oclshade.solar.sun_field``, each
+  cell's own sun within 0.01 degree of its block's, what ``oclshade sunshine`` sums by
+  default), made in the phase (timed) and summed one launch a step; what the tile centre's
+  one sun leaves out: its hours against these on land cells;
 * **per-sun masks summed on the host**: ``ShadowCaster.iter_many`` with the mask and
   self outputs copied to the host each step and summed there in float64 (what a user
   of the shadow command would do); the agreement of its hours and cast fraction with
@@ -66,11 +70,24 @@ def load(reduced: bool):
 
 
 def suns_and_seconds(start: datetime, days: float, step: timedelta, place: tuple[float, float]):
+    """The steps' suns at ``place``, their seconds and their times."""
     from oclshade.solar import suns_at
     from oclshade.sunshine import time_steps
 
     steps = time_steps(start, start + timedelta(days=days), step)
-    return suns_at(steps.times, *place), steps.seconds
+    return suns_at(steps.times, *place), steps.seconds, steps.times
+
+
+def places(reduced: bool):
+    """Where the tile's (or the crop's) cells lie (oclshade.solar.map_places)."""
+    from oclshade.io import read_dem
+    from oclshade.solar import map_places
+    from sun_field import crop
+
+    raster = read_dem(TILE)
+    if reduced:
+        raster = crop(raster, REDUCED_CROP[0].start, REDUCED_CROP[1].start, REDUCED_CROP[0].stop - REDUCED_CROP[0].start)
+    return map_places(raster)
 
 
 # --- phases (each in a child process) ------------------------------------------------------------
@@ -88,6 +105,15 @@ def _phase(name: str, reduced: bool, suns, seconds, extra: dict) -> dict:
     out: dict = {"phase": name}
     if name == "masks":
         maps = SunshineCaster(hm).accumulate(suns, seconds, OUTPUTS, method=method, azimuths=azimuths)
+        out["arrays"] = {o: getattr(maps, o) for o in OUTPUTS}
+        out["daylight_suns"] = maps.daylight_suns
+    elif name == "fields":
+        from oclshade.solar import sun_field
+        where = places(reduced)
+        fields = [sun_field(where, t) for t in extra["times"]]
+        out["fields_seconds"] = time.perf_counter() - t0
+        out["blocks_mean"] = float(np.mean([len(f.blocks) for f in fields if not f.uniform] or [1]))
+        maps = SunshineCaster(hm).accumulate(fields, seconds, OUTPUTS)
         out["arrays"] = {o: getattr(maps, o) for o in OUTPUTS}
         out["daylight_suns"] = maps.daylight_suns
     elif name == "host":
@@ -137,6 +163,9 @@ def write_markdown(path: Path, r: dict) -> None:
         "| phase | time s | s per daylight step | peak RSS MiB |", "|---|---:|---:|---:|",
     ]
     for label, p in (("masks, summed on the device", masks), ("masks, first day only", r["masks_day"]),
+                     ("masks, each cell's own sun (making the fields: "
+                      f"{r['fields']['fields_seconds']:.1f} s, {r['fields']['blocks_mean']:.0f} blocks a daylight "
+                      "field)", r["fields"]),
                      ("per-sun masks + self copied and summed on the host", host)):
         per = p["seconds"] / max(p.get("daylight_suns", masks["daylight_suns"]), 1)
         lines.append(f"| {label} | {p['seconds']:.1f} | {per:.3f} | {p['peak_rss_mib']:.0f} |")
@@ -145,6 +174,9 @@ def write_markdown(path: Path, r: dict) -> None:
                   f"**{agree['hours']['cells_differing']}** of {agree['hours']['cells']} cells (max "
                   f"{agree['hours']['max']:.3g} h), cast fraction on **{agree['fraction']['cells_differing']}** "
                   f"(max {agree['fraction']['max']:.3g}).", "",
+              "What the tile centre's one sun leaves out against each cell's own (land cells, height > 0): "
+              + ", ".join(f"{o} differ on {e['cells_differing']} of {e['cells']} (mean {e['mean']:.4f}, p99 "
+                          f"{e['p99']:.3f}, max {e['max']:.3f})" for o, e in r["own_sun"].items()) + ".", "",
               "## Horizon route: time and error against the masks route", "",
               "Per valid cell; hours and irradiation in hours, fraction as a share of daylight.", "",
               "| N | time s | hours mean | hours p99 | hours max | fraction mean | fraction max | "
@@ -175,7 +207,7 @@ def main(argv: list[str] | None = None) -> int:
     days = args.days if args.days is not None else (1.0 if args.reduced else 30.0)
     start = datetime.fromisoformat(args.start).replace(tzinfo=ZoneInfo(ZONE))
     hm, place = load(args.reduced)
-    suns, seconds = suns_and_seconds(start, days, parse_step(args.step), place)
+    suns, seconds, times = suns_and_seconds(start, days, parse_step(args.step), place)
     first_day = int(np.searchsorted(np.cumsum(seconds), 86400, side="right"))
     log(f"{hm.shape[1]}x{hm.shape[0]} cells, {len(suns)} steps; compiling kernels")
     warm = [s for s in suns if s.elevation > 5][:1]                      # the kernel caches on disk
@@ -191,11 +223,16 @@ def main(argv: list[str] | None = None) -> int:
     log(f"  {masks['seconds']:.1f} s; first day only")
     result["masks_day"] = {k: v for k, v in run_phase("masks", args.reduced, suns[:max(first_day, 1)],
                                                       seconds[:max(first_day, 1)]).items() if k != "arrays"}
+    log("masks, each cell's own sun")
+    fields = run_phase("fields", args.reduced, suns, seconds, times=times)
+    land = hm.heights > 0.0            # the tile is mostly sea at 0 m, where every route agrees
+    result["own_sun"] = {o: differences(masks["arrays"][o], fields["arrays"][o], land) for o in OUTPUTS}
+    result["fields"] = {k: v for k, v in fields.items() if k != "arrays"}
+    log(f"  {fields['seconds']:.1f} s ({fields['fields_seconds']:.1f} s making the fields)")
     log("per-sun masks summed on the host")
     host = run_phase("host", args.reduced, suns, seconds)
     result["agreement"] = {o: differences(masks["arrays"][o], host["arrays"][o]) for o in ("hours", "fraction")}
     result["horizons"] = {}
-    land = hm.heights > 0.0            # the tile is mostly sea at 0 m, where every route agrees
     for n in AZIMUTH_COUNTS:
         log(f"horizons, N = {n}")
         h = run_phase("masks", args.reduced, suns, seconds, method="horizons", azimuths=n)

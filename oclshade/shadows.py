@@ -254,8 +254,9 @@ class ShadowCaster:
         A sun whose result is cached gets a copy of it; a sun the scene analysis
         proves shadow-free gets its outputs without a kernel; the others trace.
         A :class:`oclshade.sun.SunField` (a sun that varies over the map,
-        :func:`oclshade.solar.sun_field`) traces each of its blocks with its own sun, one
-        launch per block; its result's ``sun`` is the field's centre sun; no result cache.
+        :func:`oclshade.solar.sun_field`) traces each of its blocks with its own sun, in one
+        launch with the field's sun table; its result's ``sun`` is the field's centre sun; no
+        result cache.
         """
         return list(self.iter_many(suns, method, outputs, k_dark, k_bright, progress))
 

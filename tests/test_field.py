@@ -309,6 +309,31 @@ def test_sunshine_horizon_route_per_block_on_grid_azimuths_is_exact():
     assert np.nanmax(got.hours) > 0 and np.nanmin(got.fraction) < np.nanmax(got.fraction)
 
 
+@settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(part=partitions(), method=st.sampled_from(["masks", "horizons"]))
+def test_sunshine_of_a_field_is_each_blocks_own_sun_bit_for_bit(part, method):
+    """A step that is a field (its table, one launch; the horizon route one per interval of grid
+    azimuths holding its block suns, here at any azimuth) sums on each block's cells what that
+    block's sun alone sums there: the same uint seconds and the same float32 beam sums."""
+    rows, cols, cut_r, cut_c, seed = part
+    rng = np.random.default_rng(seed)
+    h = np.cumsum(np.cumsum(rng.normal(size=(rows, cols)), 0), 1) * 3.0
+    hm = Heightmap.from_array(h, 10.0)
+    field = recut(random_field(hm.shape, cut_r, cut_c, seed, low=-10.0), seed)
+    if not any(b.sun.elevation > 0.0 for b in field.blocks):
+        return
+    caster = SunshineCaster(hm)
+    got = caster.accumulate([field], 600, "all", method=method, azimuths=8)
+    for block in field.blocks:
+        window = np.s_[block.row0:block.row1, block.col0:block.col1]
+        if block.sun.elevation <= 0.0:
+            assert np.all(got.hours[window] == 0.0)
+            continue
+        alone = caster.accumulate([block.sun], 600, "all", method=method, azimuths=8)
+        for name in ("hours", "irradiation"):
+            np.testing.assert_array_equal(getattr(got, name)[window], getattr(alone, name)[window])
+
+
 def test_sunshine_cli_sums_per_block_on_a_projected_map(tmp_path, capsys):
     """`sunshine` on a 15 x 12 km UTM map sums each block with its own sun by default: the API's
     sums over the fields of the steps, bit for bit, and not those of one sun per step (what

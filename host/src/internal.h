@@ -263,7 +263,7 @@ oclshade_status ocls_launch_3d(ocls_pass *ps, kernel_entry *k, int cols, int row
                                size_t max_x);
 /* Enqueue k over exactly (cols, rows) work-items from the global offset (col0, row0), each side
  * of the local size the largest power of two dividing that side within ocls_launch's limits
- * (the Python host's Runtime.exact_grid_2d): nothing outside the window runs. */
+ * (a sun field's block, one enqueue each): nothing outside the window runs. */
 oclshade_status ocls_launch_window(ocls_pass *ps, kernel_entry *k, int col0, int row0, int cols, int rows,
                                    size_t wanted, size_t max_x);
 /* Copies out the staged outputs, releases the views; returns st (or the first failure) and

@@ -388,7 +388,7 @@ oclshade_status ocls_launch_window(ocls_pass *ps, kernel_entry *k, int col0, int
 {
     const size_t ls = local_size(ps->lib, k, wanted);
     size_t local[2], offset[2] = {(size_t)col0, (size_t)row0}, global[2] = {(size_t)cols, (size_t)rows};
-    local[0] = power_of_two_divisor((size_t)cols, ls < max_x ? ls : max_x);   /* Runtime.exact_grid_2d */
+    local[0] = power_of_two_divisor((size_t)cols, ls < max_x ? ls : max_x);   /* exact: nothing past the window */
     local[1] = power_of_two_divisor((size_t)rows, ls / local[0] ? ls / local[0] : 1);
     return launch(ps, k, 2, offset, global, local);
 }

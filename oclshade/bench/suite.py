@@ -114,7 +114,7 @@ from ..runtime import Runtime
 from ..screen_shadows import ScreenShadowCaster
 from ..shadows import METHODS as SHADOW_METHODS, ShadowCaster
 from ..ssao import DEFAULT_FEATURES, DEFAULT_M, PAPER_M, PAPER_RECIPE, SSAO, AOFeatures, AOInputs
-from ..sun import Sun
+from ..sun import BlockGrid, Sun, SunField
 from ..sunshine import SunshineCaster
 from ..synthetic import canyon_crater
 from ..terrain import METHODS as TERRAIN_METHODS, DeviceGBuffer, Heightfield, TerrainRenderer
@@ -124,6 +124,7 @@ PIXEL_SHADOW_METHODS = ("exact", "maxmip")
 CELL_M = 30.0
 RELIEF_M = 1500.0
 MASK_SUN = Sun(37.0, 20.0)
+FIELD_BLOCK = 16          # cells per side of the sun field case's blocks (sun_field's on a 1-degree SRTM tile)
 #: the horizons/radius case's search radius in cells (RVT's default)
 HORIZON_RADIUS_CELLS = 10
 LOW_SUN = Sun(37.0, 10.0)
@@ -379,6 +380,34 @@ def _mask(method: str) -> Callable[[Workload], Case]:
     return prepare
 
 
+def bench_field(shape: tuple[int, int], block: int = FIELD_BLOCK) -> SunField:
+    """A sun over the bench map (paper 000's cast shadows per block of cells, as
+    :func:`oclshade.solar.sun_field` makes them): ``block`` x ``block`` cells, each block's sun
+    :data:`MASK_SUN` turned by up to 0.5 degree in azimuth across the map and 0.3 in elevation
+    down it (a 1-degree tile's spread is 0.6-0.7 degree)."""
+    rows, cols = shape
+    row_edges = np.append(np.arange(0, rows, block), rows)
+    col_edges = np.append(np.arange(0, cols, block), cols)
+    mid_r = (row_edges[:-1] + row_edges[1:]) / (2.0 * rows) - 0.5
+    mid_c = (col_edges[:-1] + col_edges[1:]) / (2.0 * cols) - 0.5
+    azimuth = MASK_SUN.azimuth + 0.5 * np.broadcast_to(mid_c, (len(mid_r), len(mid_c)))
+    elevation = MASK_SUN.elevation + 0.3 * np.broadcast_to(mid_r[:, None], (len(mid_r), len(mid_c)))
+    return SunField(shape, BlockGrid(row_edges, col_edges, np.array(azimuth), np.array(elevation)), MASK_SUN)
+
+
+def _mask_field(w: Workload) -> Case:
+    caster, field = w.caster, bench_field(w.heightmap.shape)
+    state: dict = {}
+
+    def run() -> None:
+        state["result"] = caster.cast(field)
+
+    n = w.cells
+    return Case(f"exact mask of a sun field ({len(field.blocks)} blocks of {FIELD_BLOCK}^2 cells, one launch), "
+                f"{_map_label(w.sizes.map_side)}", "cells", n, 7.0 * n, 20.0 * n, terrain_digest(w.sizes.map_side),
+                run, lambda: [state["result"].mask])
+
+
 def _render(method: str) -> Callable[[Workload], Case]:
     def prepare(w: Workload) -> Case:
         renderer, camera, rt = w.renderer, w.camera, w.rt
@@ -547,6 +576,7 @@ def _mesh_shadow_volumes(w: Workload) -> Case:
 SPECS: tuple[CaseSpec, ...] = (
     CaseSpec("pyramid", "pyramid", True, _pyramid),
     *(CaseSpec(f"masks/{m}", "masks", m == "exact", _mask(m)) for m in SHADOW_METHODS),
+    CaseSpec("masks/sun_field", "masks", True, _mask_field),
     *(CaseSpec(f"render/{m}", "render", False, _render(m)) for m in TERRAIN_METHODS),
     *(CaseSpec(f"pixel_shadows/{m}", "pixel_shadows", False, _pixel_shadows(m)) for m in PIXEL_SHADOW_METHODS),
     CaseSpec("ssao/default", "ssao", False, _ssao("default", DEFAULT_FEATURES, DEFAULT_M)),
