@@ -62,11 +62,12 @@ def load(reduced: bool):
     """The tile as a heightmap and its centre (latitude, longitude)."""
     from oclshade.heightmap import Heightmap
     from oclshade.io import read_dem
-    from oclshade.solar.cli import map_centre
+    from oclshade.solar import map_site
 
     raster = read_dem(TILE)
     heights = raster.heights[REDUCED_CROP] if reduced else raster.heights
-    return Heightmap.from_array(heights, (raster.dx, raster.dy)), map_centre(raster)
+    site = map_site(raster)
+    return Heightmap.from_array(heights, (raster.dx, raster.dy)), (site.latitude, site.longitude)
 
 
 def suns_and_seconds(start: datetime, days: float, step: timedelta, place: tuple[float, float]):

@@ -23,6 +23,7 @@ the steps whose block sun was up there.
 """
 from __future__ import annotations
 
+from collections import deque
 from dataclasses import dataclass
 from typing import Callable, Iterable, Iterator, Sequence
 
@@ -39,6 +40,9 @@ OUTPUTS = ("hours", "fraction", "irradiation")
 METHODS = ("masks", "horizons")
 DEFAULT_AZIMUTHS = 64
 MAX_SECONDS = 2**32 - 1     # the per-cell sums are uint32 seconds
+# sun fields' steps enqueued ahead of the device at most: each holds its tables (about 0.4 MB a
+# step on a 1-degree SRTM tile) until it has run; unbounded, a month of them held 1 GB
+TABLES_IN_FLIGHT = 8
 _SUMS = {"hours": ("sun", 4, "OCLS_OUT_SUN"), "fraction": ("cast", 4, "OCLS_OUT_CAST"),
          "irradiation": ("beam", 8, "OCLS_OUT_BEAM")}
 
@@ -137,10 +141,15 @@ class SunshineCaster:
         binders: dict[cl.Kernel, ArgBinder] = {}
         # one pair of objects per step, so that the binder sees them unchanged across its launches
         step_weights = [(np.uint32(int(w)), np.float32(int(w) / 3600.0)) for w in weights]
+        in_flight: deque[cl.Event] = deque()    # launches with sun tables not yet waited for
         for done, launch in enumerate(launches, 1):
             bind = binders.setdefault(launch.kernel, ArgBinder(launch.kernel))
             bind(*launch.head, *step_weights[launch.step], *sums.values(), *launch.table)
-            cl.enqueue_nd_range_kernel(rt.queue, launch.kernel, *rt.grid_2d(launch.kernel, cols, rows))
+            event = cl.enqueue_nd_range_kernel(rt.queue, launch.kernel, *rt.grid_2d(launch.kernel, cols, rows))
+            if launch.table:
+                in_flight.append(event)
+                if len(in_flight) > TABLES_IN_FLIGHT:
+                    in_flight.popleft().wait()
             if progress is not None:
                 rt.queue.finish()
                 progress(done, total)
