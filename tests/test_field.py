@@ -17,6 +17,7 @@ from oclshade import ShadowCaster  # noqa: E402
 from oclshade import reference as ref  # noqa: E402
 from oclshade.cli import main  # noqa: E402
 from oclshade.heightmap import Heightmap  # noqa: E402
+from oclshade.horizon import Curvature  # noqa: E402
 from oclshade.io import read_dem  # noqa: E402
 from oclshade.solar import map_places, map_site, sun_field, suns_at  # noqa: E402
 from oclshade.solar.cli import suns_for  # noqa: E402
@@ -157,18 +158,21 @@ def recut(field, seed):
 
 
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(part=partitions(), knobs=st.sampled_from(KNOBS), certificates=st.booleans(), cut=st.booleans())
-def test_a_field_traces_each_block_as_its_own_sun(part, knobs, certificates, cut):
+@given(part=partitions(), knobs=st.sampled_from(KNOBS), certificates=st.booleans(), cut=st.booleans(),
+       curved=st.booleans())
+def test_a_field_traces_each_block_as_its_own_sun(part, knobs, certificates, cut, curved):
     """Bit for bit the whole-map outputs of each block's sun on that block's cells, whatever the
     kernel variant (packet runs cut to the block columns, one ray per item, images, with and
     without certificates), wherever the blocks are cut (``cut``: not on a grid of bands, some
-    suns down or at the zenith): one launch with the field's sun table."""
+    suns down or at the zenith), with Earth curvature or not (a 20 km radius, so that it
+    matters on these maps): one launch with the field's sun table."""
     rows, cols, cut_r, cut_c, seed = part
     rng = np.random.default_rng(seed)
     h = np.cumsum(np.cumsum(rng.normal(size=(rows, cols)), 0), 1) * 3.0
     h[rng.random((rows, cols)) < 0.03] = np.nan
     hm = Heightmap.from_array(h, 10.0)
-    caster = ShadowCaster(hm, cache=False, knobs=knobs, certificates=certificates)
+    caster = ShadowCaster(hm, cache=False, knobs=knobs, certificates=certificates,
+                          curvature=Curvature(radius=2e4) if curved else None)
     field = random_field(hm.shape, cut_r, cut_c, seed)
     field = recut(field, seed) if cut else field
     outputs = ("mask", "self", "coefficient")
