@@ -37,6 +37,7 @@ DEFAULT_K_BRIGHT = 0.65
 
 _METHOD_CODE = {"exact": 1, "paper": 2, "maxmip": 3, "dda": 4}
 CERTIFIED_METHODS = ("exact", "maxmip")   # methods that use far-field tile certificates
+ANALYSED_BLOCKS = 16                      # a field's block suns proved shadow-free at most (else it traces)
 CERT_TILE = 16                            # cells per side of a certificate tile: the safe value of the knob
 CERT_K = 6                                # thresholds per tile (OCLS_CERT_K)
 PACKET_METHODS = ("exact", "maxmip")      # methods with a ray-packet kernel (shadow_cells_packet)
@@ -284,7 +285,15 @@ class ShadowCaster:
         return items
 
     def _casts_nothing(self, item: Traced) -> bool:
-        suns = (b.sun for b in item.blocks) if isinstance(item, SunField) else iter([item])
+        """Whether the scene analysis proves the sun (every block sun of a field of at most
+        :data:`ANALYSED_BLOCKS` blocks) casts nothing: about 0.16 ms a sun, so a field of
+        thousands of blocks, whose proof would cost more than its one traced launch, traces."""
+        if isinstance(item, SunField):
+            if len(item.blocks) > ANALYSED_BLOCKS:
+                return False
+            suns = (b.sun for b in item.blocks)
+        else:
+            suns = iter([item])
         return self.analyse and all(self.analysis.casts_nothing(sun) for sun in suns)
 
     def _results(self, items: list[Traced], method: str, outs: tuple[str, ...], k_dark: float, k_bright: float,
