@@ -27,7 +27,7 @@ from .analysis import SceneAnalysis, slope_fronts
 from .horizon.caster import Curvature
 from .pyramid import ExtremaPyramid, cached_pyramid
 from .runtime import Runtime, get_runtime
-from .sun import Sun, SunField, SunLike, Traced, as_sun, as_traced, sun_rays, sun_vectors
+from .sun import Sun, SunField, SunLike, Traced, as_sun, as_traced, sun_directions
 
 METHODS = ("exact", "paper", "maxmip", "dda")
 OUTPUTS = ("mask", "self", "coefficient")
@@ -521,9 +521,10 @@ def _sun_rows(azimuth: np.ndarray, elevation: np.ndarray, hm: Heightmap, curvatu
     elevation = np.asarray(elevation, np.float64)
     modes = np.where(elevation <= 0.0, 2, np.where(elevation >= 90.0, 1, 0)).astype(np.int32)
     rows = np.zeros((len(elevation), 2, 4), np.float32)
-    rows[:, 0, :3] = np.where(modes[:, None] == 0, sun_rays(azimuth, elevation, hm.dx, hm.dy), np.float32(0.0))
+    rays, vectors = sun_directions(azimuth, elevation, hm.dx, hm.dy)
+    rows[:, 0, :3] = np.where(modes[:, None] == 0, rays, np.float32(0.0))
     rows[:, 0, 3] = curvature_coefficient(curvature)
-    rows[:, 1, :3] = sun_vectors(azimuth, elevation)
+    rows[:, 1, :3] = vectors
     return rows, modes
 
 

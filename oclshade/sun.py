@@ -49,18 +49,28 @@ def sun_vectors(azimuth: np.ndarray, elevation: np.ndarray) -> np.ndarray:
     """Unit vectors towards suns (degrees) in (east, north, up), float64 (..., 3)."""
     sa, ca = sincos_degrees(azimuth)
     se, ce = sincos_degrees(elevation)
-    return np.stack([sa * ce, ca * ce, se], axis=-1)
+    return _vectors(sa, ca, se, ce)
 
 
 def sun_rays(azimuth: np.ndarray, elevation: np.ndarray, dx: float, dy: float) -> np.ndarray:
     """(ux, uy, w) of suns (degrees) as :meth:`Sun.ray`, float32 (..., 3), subnormals 0."""
+    return sun_directions(azimuth, elevation, dx, dy)[0]
+
+
+def sun_directions(azimuth: np.ndarray, elevation: np.ndarray, dx: float, dy: float
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """(:func:`sun_rays`, :func:`sun_vectors`) of suns, their sines and cosines taken once."""
     sa, ca = sincos_degrees(azimuth)
     el = np.asarray(elevation, np.float64)
     se, ce = sincos_degrees(el)
     with np.errstate(divide="ignore", invalid="ignore"):
         w = np.where(el == 45.0, 1.0, np.where(ce > 0.0, se / np.where(ce > 0.0, ce, 1.0), np.inf))
     rays = np.stack([sa / dx, -ca / dy, w], axis=-1).astype(np.float32)
-    return np.where(np.abs(rays) < np.finfo(np.float32).tiny, np.float32(0.0), rays)
+    return np.where(np.abs(rays) < np.finfo(np.float32).tiny, np.float32(0.0), rays), _vectors(sa, ca, se, ce)
+
+
+def _vectors(sa: np.ndarray, ca: np.ndarray, se: np.ndarray, ce: np.ndarray) -> np.ndarray:
+    return np.stack([sa * ce, ca * ce, se], axis=-1)
 
 
 @dataclass(frozen=True)

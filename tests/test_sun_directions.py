@@ -6,7 +6,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from oclshade.sun import Sun, SunBlock, SunField, sincos_degrees, sun_rays, sun_vectors
+from oclshade.sun import Sun, SunBlock, SunField, sincos_degrees, sun_directions, sun_rays, sun_vectors
 
 ANGLES = st.floats(-1e4, 1e4, allow_nan=False)
 
@@ -45,6 +45,8 @@ def test_arrays_of_suns_are_each_suns_own(azimuths, elevations, cell):
     az = np.array(azimuths + [10.0, 20.0, 30.0, 40.0])
     rays, vectors = sun_rays(az, el, *cell), sun_vectors(az, el)
     assert rays.dtype == np.float32 and vectors.dtype == np.float64
+    both = sun_directions(az, el, *cell)           # what the sun tables take
+    assert both[0].tobytes() == rays.tobytes() and both[1].tobytes() == vectors.tobytes()
     for k in range(len(az)):
         sun = Sun(float(az[k]), float(el[k]))
         assert tuple(rays[k].tolist()) == sun.ray(*cell) and tuple(vectors[k].tolist()) == sun.vector()

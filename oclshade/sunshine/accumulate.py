@@ -188,12 +188,9 @@ class SunshineCaster:
         kernels = {table: self._kernel("sunshine_horizons", outs, table) for table in (False, True)}
         planned: list[tuple[int, int, Traced]] = []           # (interval, step index, step)
         for k, step in enumerate(day):
-            if isinstance(step, SunField):
-                interval, up = _intervals(*step.angles, n)
-                planned += [(int(i), k, step) for i in sorted(set(interval[up].tolist()))]
-            else:
-                planned.append((int(_intervals(np.array([step.azimuth]), np.array([step.elevation]), n)[0][0]), k,
-                                step))
+            azimuth, elevation = step.angles if isinstance(step, SunField) else ([step.azimuth], [step.elevation])
+            _, interval = _positions(azimuth, n)
+            planned += [(int(i), k, step) for i in sorted(set(interval[np.asarray(elevation) > 0.0].tolist()))]
         return len(planned), self._horizon_launches(planned, kernels, n)
 
     def _horizon_launches(self, planned: list[tuple[int, int, Traced]], kernels: dict[bool, cl.Kernel], n: int
@@ -216,14 +213,13 @@ class SunshineCaster:
                         continue
                     if isinstance(step, SunField):
                         azimuth, elevation = step.angles
-                        position = np.mod(azimuth, 360.0) * n / 360.0
-                        intervals, up = _intervals(azimuth, elevation, n)
+                        position, intervals = _positions(azimuth, n)
                         zero = np.zeros_like(elevation)
-                        table = self._table(step, np.where(up, intervals, -1),
+                        table = self._table(step, np.where(elevation > 0.0, intervals, -1),
                                             np.stack([position - intervals, elevation, zero, zero], axis=1))
                         yield _Launch(step_index, kernels[True], (*grid, low, high, *no_sun), (*table, np.int32(i)))
                     else:
-                        frac = np.float32(step.azimuth % 360.0 * n / 360.0 - i)
+                        frac = np.float32(_positions([step.azimuth], n)[0][0] - i)
                         yield _Launch(step_index, kernels[False],
                                       (*grid, low, high, frac, np.float32(step.elevation), _sun_vector(step)))
                 keep = set(pending) | {(j + 1) % n for j in pending}
@@ -287,10 +283,11 @@ class SunshineCaster:
         return maps
 
 
-def _intervals(azimuth: np.ndarray, elevation: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
-    """The interval of ``n`` grid azimuths holding each sun (the band at its lower end) and
-    whether the sun is up."""
-    return np.minimum(np.floor(np.mod(azimuth, 360.0) * n / 360.0).astype(np.int64), n - 1), elevation > 0.0
+def _positions(azimuth: np.ndarray | list[float], n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Each sun's azimuth in units of the ``n`` grid azimuths' spacing (float64), and the
+    interval holding it (the band at its lower end)."""
+    position = np.mod(np.asarray(azimuth, np.float64), 360.0) * n / 360.0
+    return position, np.minimum(np.floor(position).astype(np.int64), n - 1)
 
 
 def _sun_vector(sun: Sun) -> np.ndarray:
