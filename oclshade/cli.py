@@ -675,6 +675,8 @@ def run_shadow(args: argparse.Namespace) -> int:
             print(f"{PROG}: {placed.describe(job.times[0])}", file=sys.stderr)
             if blocks := placed.blocks_line():
                 print(f"{PROG}: {blocks}", file=sys.stderr)
+    else:
+        traced = solar_cli.on_geographic_grid(job.suns, args, raster)
     dx, dy = heightmap.dx, heightmap.dy
     rows, cols = heightmap.shape
     _make_parents(args.output, args.preview)
@@ -1192,6 +1194,8 @@ def run_horizon(args: argparse.Namespace) -> int:
             print(f"{PROG}: {placed.describe(times[0])}", file=sys.stderr)
             if blocks := placed.blocks_line():
                 print(f"{PROG}: {blocks}", file=sys.stderr)
+    elif sunlit:
+        discs = solar_cli.on_geographic_grid(suns, args, raster) or suns
     azimuths = [] if sunlit else azimuth_grid(args.azimuths)
     traced = azimuths                     # the grid azimuths the kernel traces
     turned = ""

@@ -168,7 +168,8 @@ def add_place_arguments(parser: argparse.ArgumentParser, what: str) -> None:
     parser.add_argument("--sun-tolerance", type=_TOLERANCE, default=DEFAULT_SUN_TOLERANCE, metavar="DEG",
                         help=f"without --lat/--lon, trace the map in blocks, each with the sun of its "
                              f"centre, so that every cell's own sun (its place through INPUT's CRS) is "
-                             f"within DEG degrees of its block's (default {DEFAULT_SUN_TOLERANCE:g}; "
+                             f"within DEG degrees of its block's; on a geographic INPUT, any sun also "
+                             f"with the cell width of its rows (default {DEFAULT_SUN_TOLERANCE:g}; "
                              f"docs/solar.md)")
 
 
@@ -229,6 +230,22 @@ class PlacedSuns:
                 f"elevation {true.elevation:.4f}")
 
 
+def on_geographic_grid(suns: list, args: argparse.Namespace, raster) -> list | None:
+    """Suns given by their angles (--sun AZ,ALT), each as a geographic raster's grid traces it
+    over the map (:func:`oclshade.solar.sun_field` of the sun: the grid's scale per block of
+    rows, to --sun-tolerance; :meth:`oclshade.solar.MapPlaces.on_grid`); None on any other
+    raster, whose grid traces them as they are."""
+    from ..cli import CliError
+
+    if not raster.geographic:
+        return None
+    try:
+        places = map_places(raster)
+        return None if places is None else [sun_field(places, sun, args.sun_tolerance) for sun in suns]
+    except ValueError as exc:
+        raise CliError(f"INPUT {args.input!r}: {exc}") from None
+
+
 FIELDS_BAR = 100   # sun fields (about 8 ms each on a 1-degree SRTM tile) made silently
 
 
@@ -254,13 +271,13 @@ def suns_for(times: list[datetime], args: argparse.Namespace, raster, what: str 
     true = suns_at(times, site.latitude, site.longitude)
     try:
         placed = PlacedSuns(site.grid_suns(true), true, site)
-        places = map_places(raster) if args.lat is None else None
+        places = map_places(raster) if args.lat is None or raster.geographic else None
         if places is not None and getattr(args, "sun_tolerance", None) is not None:
             bar = ProgressBar(sys.stderr, "suns over the map") \
                 if len(times) > FIELDS_BAR and not getattr(args, "quiet", False) else None
             placed.fields = []
-            for t in times:
-                placed.fields.append(sun_field(places, t, args.sun_tolerance))
+            for t, sun in zip(times, placed.suns):      # with --lat/--lon: one sun, on a geographic grid's scale
+                placed.fields.append(sun_field(places, t if args.lat is None else sun, args.sun_tolerance))
                 if bar is not None:
                     bar(len(placed.fields), len(times))
     except ValueError as exc:

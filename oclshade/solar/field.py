@@ -34,7 +34,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from ..io import Raster, geotransform
+from ..io import WGS84_A, WGS84_E2, Raster, geotransform
 from ..sun import DEFAULT_SUN_TOLERANCE as DEFAULT_TOLERANCE, BlockGrid, Sun, SunField
 from .position import sun_position
 from .site import grid_azimuths, projected_crs
@@ -75,19 +75,67 @@ class MapPlaces:
             return np.mod(true_azimuths, 360.0)
         return grid_azimuths(self.crs, lon, lat, true_azimuths)
 
-    def suns(self, when: datetime | Sequence[datetime], rows: np.ndarray, cols: np.ndarray
+    @property
+    def centre_latitude(self) -> float:
+        """The latitude of the map's centre: where a geographic raster's cell sizes in metres are
+        taken (:mod:`oclshade.io`), so its grid is drawn at that latitude's scale."""
+        return float(self.lonlat(np.array([self.shape[0] / 2.0]), np.array([self.shape[1] / 2.0]))[1][0])
+
+    def grid_scales(self, lat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(east-west, north-south) metres of a geographic cell at these latitudes over the
+        grid's (the centre latitude's): the true length of one grid metre there."""
+        east, north = _metres_per_degree(np.asarray(lat, np.float64))
+        centre = _metres_per_degree(np.float64(self.centre_latitude))
+        return east / centre[0], north / centre[1]
+
+    def on_grid(self, lat: np.ndarray, azimuth: np.ndarray, elevation: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Directions at these places (grid azimuths, elevations in degrees) as the grid traces
+        them.  A projected grid keeps its metres everywhere: unchanged.  A geographic grid is
+        drawn at its centre latitude's scale, so a cell's metre east is ``sx`` grid metres
+        (:meth:`grid_scales`): the direction that runs over the same ground is turned to azimuth
+        atan2(sin a / sx, cos a / sy) and, the grid distance being 1 / s of the true one (s =
+        1 / |(sin a / sx, cos a / sy)|), raised to elevation atan(s tan e).  A ray at that sun
+        crosses the same cells at the same heights as the true one: the cast shadows are the
+        Earth's, not the centre scale's (docs/methods.md, "Geographic grids")."""
+        azimuth, elevation = np.asarray(azimuth, np.float64), np.asarray(elevation, np.float64)
+        if self.crs is not None:
+            return azimuth, elevation
+        sx, sy = self.grid_scales(lat)
+        a, e = np.radians(azimuth), np.radians(elevation)
+        east, north = np.sin(a) / sx, np.cos(a) / sy
+        s = 1.0 / np.hypot(east, north)
+        se, ce = np.sin(e), np.cos(e)
+        same = (sx == 1.0) & (sy == 1.0)      # the centre's own scale: the sun as given, to the bit
+        return (np.where(same, azimuth, np.mod(np.degrees(np.arctan2(east, north)), 360.0)),
+                np.where(same | (np.abs(elevation) >= 90.0), elevation, np.degrees(np.arctan2(s * se, ce))))
+
+    def suns(self, when: datetime | Sequence[datetime] | Sun, rows: np.ndarray, cols: np.ndarray
              ) -> tuple[np.ndarray, np.ndarray]:
-        """(grid azimuth, elevation) in degrees of the sun at ``when`` at these places: flat
-        arrays over the places for one time, (times, places) for a sequence of times."""
+        """(azimuth, elevation) in degrees, as the grid traces them (:meth:`on_grid`), of the sun
+        at these places: at ``when`` (NREL SPA; flat arrays over the places for one time, (times,
+        places) for a sequence of times), or the same ``Sun`` everywhere (a direction on the grid:
+        on a geographic one, the true azimuth at each place)."""
         lon, lat = self.lonlat(np.asarray(rows, np.float64).ravel(), np.asarray(cols, np.float64).ravel())
+        if isinstance(when, Sun):
+            return self.on_grid(lat, np.full(lat.shape, when.azimuth), np.full(lat.shape, when.elevation))
         many = not isinstance(when, datetime)
         times = np.array(list(when) if many else [when], dtype=object)[:, None]
         position = sun_position(times, lat, lon)
         shape = (len(times), len(lon))
-        grid = self.grid_azimuths(np.broadcast_to(lon, shape).ravel(), np.broadcast_to(lat, shape).ravel(),
+        lat = np.broadcast_to(lat, shape)
+        grid = self.grid_azimuths(np.broadcast_to(lon, shape).ravel(), lat.ravel(),
                                   np.broadcast_to(position.azimuth, shape).ravel()).reshape(shape)
-        elevation = np.broadcast_to(position.elevation, shape)
+        grid, elevation = self.on_grid(lat, grid, np.broadcast_to(position.elevation, shape))
         return (grid, elevation) if many else (grid[0], elevation[0])
+
+
+def _metres_per_degree(lat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`oclshade.io.metres_per_degree` (WGS84) on arrays: a ratio of two of its values is
+    right to a few ulp, and exactly 1 for equal latitudes."""
+    phi = np.radians(lat)
+    w = 1.0 - WGS84_E2 * np.sin(phi) ** 2
+    rad = math.pi / 180.0
+    return rad * WGS84_A * np.cos(phi) / np.sqrt(w), rad * WGS84_A * (1.0 - WGS84_E2) / w ** 1.5
 
 
 def map_places(raster: Raster) -> MapPlaces | None:
@@ -121,9 +169,10 @@ def sun_differences(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.where(both_down, 0.0, angles_between(a, b))
 
 
-def sun_field(places: MapPlaces, when: datetime, tolerance: float = DEFAULT_TOLERANCE) -> SunField:
-    """The sun over the map at ``when`` (timezone-aware), each cell's own within ``tolerance``
-    degrees of its block's (see the module docstring)."""
+def sun_field(places: MapPlaces, when: datetime | Sun, tolerance: float = DEFAULT_TOLERANCE) -> SunField:
+    """The sun over the map at ``when`` (timezone-aware; or a ``Sun``, the same direction on the
+    grid at every cell: on a geographic grid, its scale is then all that varies), each cell's
+    own within ``tolerance`` degrees of its block's (see the module docstring)."""
     if not (isinstance(tolerance, (int, float)) and tolerance > 0.0 and math.isfinite(tolerance)):
         raise ValueError(f"tolerance must be a positive number of degrees, got {tolerance!r}")
     rows, cols = places.shape
