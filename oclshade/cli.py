@@ -1214,7 +1214,8 @@ def run_horizon(args: argparse.Namespace) -> int:
     with RasterWriter(args.output, (len(names), rows, cols), np.float32, like=raster, nodata=math.nan,
                       band_names=names, options=options, cog=cog) as out:
         caster = HorizonCaster(heightmap, device=args.device, curvature=curvature,
-                               max_distance=getattr(args, "max_distance", None), cache=False)
+                               max_distance=getattr(args, "max_distance", None), cache=False,
+                               row_scales=None if sunlit else solar_cli.geographic_row_scales(args, raster))
         t1 = time.perf_counter()
         if svf:
             out.write(caster.sky_view_factor(azimuths, args.definition, progress=bar))

@@ -122,3 +122,64 @@ def test_lat_lon_on_a_geographic_map_keeps_its_scale(tmp_path):
     field = placed.fields[0]
     assert not field.uniform
     assert field == sun_field(places, placed.suns[0], 0.01)
+
+
+def geo_map(tmp_path, rows=160, cols=96, step=1 / 120, north=60.67):
+    """A canyon map of 30" cells from ``north`` down (60.67 to 59.33 N: its scale changes by 4 %)."""
+    path = write_geographic(tmp_path / "map.tif", canyon_crater(rows, cols, seed=3, relief=4000.0), 10.0,
+                            north, step)
+    raster = read_dem(path)
+    return path, raster, map_places(raster), Heightmap.from_array(raster.heights, (raster.dx, raster.dy))
+
+
+@pytest.mark.parametrize("knobs, radius", [({"batch": 1}, None), ({"batch": 8}, None),
+                                           ({"sweep_far": 2}, 20000.0), ({"sweep_far": 0}, 20000.0)])
+def test_geographic_horizons_are_each_bands_own_cells_exactly(tmp_path, knobs, radius):
+    from oclshade.horizon import HorizonCaster
+    from oclshade.horizon.caster import SCALE_TOLERANCE
+
+    _, raster, places, hm = geo_map(tmp_path)
+    scales = places.row_scales()
+    caster = HorizonCaster(hm, row_scales=scales, max_distance=radius, knobs=knobs, cache=False)
+    edges, band_scales = caster.scale_bands
+    assert edges[0] == 0 and edges[-1] == hm.shape[0] and len(band_scales) > 10
+    for k, (r0, r1) in enumerate(zip(edges, edges[1:])):      # every row's cells within the tolerance's share
+        assert np.abs(scales[r0:r1] / band_scales[k] - 1.0).max() <= 2.0 * math.radians(SCALE_TOLERANCE)
+    azimuths = [0.0, 37.5, 90.0, 200.0, 315.0]
+    got = caster.horizons(azimuths)
+    flat = HorizonCaster(hm, max_distance=radius, knobs=knobs, cache=False).horizons(azimuths)
+    expected = np.empty(got.shape)
+    for k, (r0, r1) in enumerate(zip(edges, edges[1:])):      # the float64 twin, each band with its cells
+        own = Heightmap.from_array(raster.heights, (raster.dx * band_scales[k, 0], raster.dy * band_scales[k, 1]))
+        cells = tuple(a.ravel() for a in np.indices((r1 - r0, hm.shape[1])))
+        for a, az in enumerate(azimuths):
+            expected[a, r0:r1] = ref.horizon_angles(own, az, cells=(cells[0] + r0, cells[1]),
+                                                    max_distance=caster.radius or math.inf).reshape(r1 - r0, -1)
+    band = ref.angle_tolerance(hm)
+    assert np.array_equal(got == -90.0, expected == -90.0)
+    assert np.nanmax(np.abs(got - expected)) <= band
+    assert np.nanmax(np.abs(flat - expected)) > 0.3   # the centre's cell sizes alone: off by far more
+    svf = caster.sky_view_factor(azimuths)           # the device's sums of these horizons' terms
+    assert np.nanmax(np.abs(svf - ref.sky_view_factor(expected))) <= math.radians(band) + 1e-6
+
+
+def test_horizon_and_svf_cli_trace_a_geographic_map_per_band(tmp_path):
+    from oclshade.horizon import HorizonCaster
+
+    path, raster, places, hm = geo_map(tmp_path)
+    caster = HorizonCaster(hm, row_scales=places.row_scales(), cache=False)
+    out = tmp_path / "horizons.tif"
+    assert main(["horizon", str(path), str(out), "--azimuths", "8", "-q"]) == 0
+    assert np.array_equal(read_dem(out, band=3).heights, caster.horizons([90.0])[0], equal_nan=True)
+    assert main(["svf", str(path), str(out), "--azimuths", "8", "-q"]) == 0
+    assert np.array_equal(read_dem(out).heights, caster.sky_view_factor(8), equal_nan=True)
+
+
+def test_row_scales_are_checked():
+    from oclshade.horizon import HorizonCaster
+
+    hm = Heightmap.from_array(np.zeros((4, 5)), 30.0)
+    with pytest.raises(ValueError, match=r"row_scales .*\(4, 2\)"):
+        HorizonCaster(hm, row_scales=np.ones((5, 2)))
+    with pytest.raises(ValueError, match="row_scales"):
+        HorizonCaster(hm, row_scales=np.zeros((4, 2)))

@@ -127,16 +127,24 @@ class HorizonCaster:
     process-wide cache (:mod:`oclshade.cache`; None follows :func:`oclshade.cache.enabled`).
     knobs: the ``horizon`` family's tuning values (:data:`TUNING`: ``group``, ``own_builtins``,
     ``lanes``, ``sweep_cells``), any subset; the rest from the device's tuning entry.  Results
-    never depend on them.
+    never depend on them.  row_scales: None (default: every cell dx by dy metres), or float64
+    (rows, 2), for each row the true metres east and north of one of the grid's (a geographic
+    raster's cells are wider towards the equator: :meth:`oclshade.solar.MapPlaces.row_scales`).
+    The horizons and sky-view factor are then traced per band of rows (:attr:`scale_bands`) with
+    the band's own cell sizes, so their azimuths and angles are true ones to
+    :data:`SCALE_TOLERANCE`; the soft shadows stay on the grid (their suns are the grid's:
+    :func:`oclshade.solar.sun_field`).
     """
 
     def __init__(self, heightmap: Heightmap, device: str | int | Runtime | None = None, *,
                  curvature: Curvature | None = None, max_distance: float | None = None,
-                 cache: bool | None = None, knobs: Mapping[str, int] | None = None):
+                 cache: bool | None = None, knobs: Mapping[str, int] | None = None,
+                 row_scales: np.ndarray | None = None):
         if curvature is not None and not isinstance(curvature, Curvature):
             raise TypeError(f"curvature must be None or a Curvature, got {curvature!r}")
         self.radius = check_max_distance(max_distance)
         self.heightmap = heightmap
+        self.scale_bands = scale_bands(heightmap.shape[0], row_scales)
         self.runtime = get_runtime(device)
         self.curvature = curvature
         self.cache = cache
@@ -366,20 +374,23 @@ class HorizonCaster:
             first, count = (0, gy) if band is None else band
             cl.enqueue_nd_range_kernel(rt.queue, kernel, (gx, count), local, global_work_offset=(0, first))
 
-        def sweep(ray: np.ndarray, angle: cl.Buffer, svf: cl.Buffer, band: tuple[int, int] | None = None) -> None:
+        def sweep(ray: np.ndarray, angle: cl.Buffer, svf: cl.Buffer, band: tuple[int, int] | None = None,
+                  azimuth: float | None = None) -> None:
             kernel, grid = sweeper()
-            kernel.set_args(self.heights_buffer, np.int32(rows), np.int32(cols), ray, angle, svf)
-            launch(kernel, grid, band)
+            for scaled, _, rows_of in self._scaled(azimuth, ray, grid, band):
+                kernel.set_args(self.heights_buffer, np.int32(rows), np.int32(cols), scaled, angle, svf)
+                launch(kernel, *rows_of)
 
         def walk(ray: np.ndarray, angle: cl.Buffer, svf: cl.Buffer, bounds: tuple[float, float] = (),
-                 band: tuple[int, int] | None = None, table: tuple = ()) -> None:
+                 band: tuple[int, int] | None = None, table: tuple = (), azimuth: float | None = None) -> None:
             w = walker()
-            if seeded:
+            if seeded:                # the grid's ray: any seed gives each cell a lower bound (horizon.cl)
                 w["seeder"].set_args(*w["fixed"], ray, w["seeds"])
                 cl.enqueue_nd_range_kernel(rt.queue, w["seeder"], *w["seed_grid"])
-            w["kernel"].set_args(*w["fixed"], ray, angle, svf, w["seeds"] if seeded else self._dummy, cell,
-                                 *([np.array(bounds, np.float32)] if bounds else []), *table)
-            launch(w["kernel"], w["grid"], band)
+            for scaled, cell, rows_of in self._scaled(azimuth, ray, w["grid"], band):
+                w["kernel"].set_args(*w["fixed"], scaled, angle, svf, w["seeds"] if seeded else self._dummy, cell,
+                                     *([np.array(bounds, np.float32)] if bounds else []), *table)
+                launch(w["kernel"], *rows_of)
 
         def pilot(ray: np.ndarray, angle: cl.Buffer, crossings: float) -> Pilot:
             """Both on bands of rows (pilot.py): into ``angle`` (the launch that follows writes the
@@ -405,11 +416,33 @@ class HorizonCaster:
                 self._pilot = pilot(ray, angle, float(ray[3]) * (abs(ux) + abs(uy)))
                 route = self._pilot.sweeps
             if route:
-                sweep(ray, angle, svf)
+                sweep(ray, angle, svf, azimuth=azimuth)
             else:
-                walk(ray, angle, svf, bounds)
+                walk(ray, angle, svf, bounds, azimuth=None if clamped else azimuth)
 
         return enqueue
+
+    def _scaled(self, azimuth: float | None, ray: np.ndarray, grid: tuple, band: tuple[int, int] | None
+                ) -> Iterator[tuple[np.ndarray, np.ndarray, tuple]]:
+        """(ray, cell sizes, (grid, rows)) of each launch that traces ``ray`` at ``azimuth`` over the
+        rows of ``band`` (None: the map): one, or with :attr:`scale_bands` (an azimuth given) one
+        per band of rows with its own cell sizes, each launch's work-groups as tall as divides its
+        rows (the last band's rows rounded up to the grid's)."""
+        hm = self.heightmap
+        edges, scales = self.scale_bands
+        if azimuth is None or len(scales) == 1 and np.all(scales == 1.0):
+            yield ray, np.array([hm.dx, hm.dy], np.float32), (grid, band)
+            return
+        (gx, gy), (lx, ly) = grid
+        first, stop = (0, gy) if band is None else (band[0], band[0] + band[1])
+        for k in range(len(scales)):
+            r0, r1 = max(int(edges[k]), first), min(gy if k == len(scales) - 1 else int(edges[k + 1]), stop)
+            if r1 <= r0:
+                continue
+            dx, dy = hm.dx * scales[k, 0], hm.dy * scales[k, 1]
+            scaled = ray.copy()
+            scaled[:2] = sun_rays(np.array([azimuth]), np.zeros(1), dx, dy)[0, :2]
+            yield scaled, np.array([dx, dy], np.float32), (((gx, gy), (lx, math.gcd(ly, r1 - r0))), (r0, r1 - r0))
 
     def _grid(self, kernel: cl.Kernel, cols: int, rows: int) -> tuple[tuple[int, int], tuple[int, int]]:
         """(global, local) sizes for one work-item per (col, row): work-groups of the knob ``group``
@@ -460,16 +493,24 @@ class HorizonCaster:
         (gx, gy), (lx, ly) = self._grid(walker, cols, rows)
         fixed = (pyr.heights, np.int32(rows), np.int32(cols), pyr.buffer, pyr.offsets, np.int32(pyr.levels))
         seeds = rt.empty(seed_bytes * size, "horizon seeds")
-        cell = np.array([hm.dx, hm.dy], np.float32)
         sums = "OCLS_OUT_SVF" in outputs         # a work-item per cell walks the azimuths in order
 
         def launch(azimuths: np.ndarray, angle: cl.Buffer, stride: int, svf: cl.Buffer) -> None:
             n = azimuths.size
-            rays = rt.to_device(np.stack([self._ray(float(a)) for a in azimuths]), "horizon rays")
+            grid_rays = np.stack([self._ray(float(a)) for a in azimuths])
+            rays = rt.to_device(grid_rays, "horizon rays")
             seeder.set_args(*fixed, rays, seeds, np.int32(0))
             cl.enqueue_nd_range_kernel(rt.queue, seeder, (sgx, sgy, n), (slx, sly, 1))
-            walker.set_args(*fixed, rays, angle, svf, seeds, cell, np.int32(stride), np.int32(0), np.int32(n))
-            cl.enqueue_nd_range_kernel(rt.queue, walker, (gx, gy, 1 if sums else n), (lx, ly, 1))
+            for launched in zip(*(self._scaled(float(a), ray, ((gx, gy), (lx, ly)), None)
+                                  for a, ray in zip(azimuths, grid_rays))):
+                _, cell, (((_, _), (_, band_ly)), rows_of) = launched[0]
+                first, count = (0, gy) if rows_of is None else rows_of
+                band_rays = rays if rows_of is None else \
+                    rt.to_device(np.stack([scaled for scaled, _, _ in launched]), "horizon rays")
+                walker.set_args(*fixed, band_rays, angle, svf, seeds, cell, np.int32(stride), np.int32(0),
+                                np.int32(n))
+                cl.enqueue_nd_range_kernel(rt.queue, walker, (gx, count, 1 if sums else n), (lx, band_ly, 1),
+                                           global_work_offset=(0, first, 0))
 
         return launch, size
 
@@ -491,6 +532,46 @@ class HorizonCaster:
         if far == SWEEP_FAR["walk"] or rows < PILOT_MIN_ROWS or rows * cols < PILOT_MIN_CELLS:
             return False
         return None if self._pilot is None else self._pilot.sweeps
+
+
+#: degrees: a geographic grid's horizons are traced per band of rows (:func:`scale_bands`), each
+#: row's cell sizes close enough to its band's that the azimuths and angles move by at most this
+SCALE_TOLERANCE = 0.01
+#: rows: the scale bands' edges are multiples of this
+SCALE_ALIGN = 16
+
+
+def scale_bands(rows: int, row_scales: np.ndarray | None, tolerance: float = SCALE_TOLERANCE
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """(edges, scales): bands of rows [edges[k], edges[k + 1]) and float64 (bands, 2), each band's
+    (east, north) scale, the middle of its rows' (``row_scales``: :class:`HorizonCaster`'s; None:
+    one band of scale 1).  A row's cell sizes differ from its band's by a share d of at most 2
+    tolerance (radians): a direction then turns by at most d / 2 (sin a cos a d) and an angle h
+    by at most d / 2 (sin h cos h d).  Bands are the most rows that hold it, in multiples of
+    :data:`SCALE_ALIGN` where that many do (a fine grid), any number where not (coarse cells
+    near the poles: down to one row)."""
+    if row_scales is None:
+        return np.array([0, rows]), np.ones((1, 2))
+    scales = np.asarray(row_scales, np.float64)
+    if scales.shape != (rows, 2) or not np.all(np.isfinite(scales)) or not np.all(scales > 0.0):
+        raise ValueError(f"row_scales must be positive finite float64 (rows, 2) = ({rows}, 2), "
+                         f"got shape {scales.shape}")
+    share = 4.0 * math.radians(tolerance)
+
+    def holds(r0: int, r1: int) -> bool:
+        lo, hi = scales[r0:r1].min(axis=0), scales[r0:r1].max(axis=0)
+        return bool(np.all(hi - lo <= share * (hi + lo) / 2.0))
+
+    edges = [0]
+    while edges[-1] < rows:
+        r0 = edges[-1]
+        step = SCALE_ALIGN if holds(r0, min(rows, r0 + SCALE_ALIGN)) else 1
+        r1 = min(rows, r0 + step)
+        while r1 < rows and holds(r0, min(rows, r1 + step)):
+            r1 = min(rows, r1 + step)
+        edges.append(r1)
+    middles = [(scales[a:b].min(axis=0) + scales[a:b].max(axis=0)) / 2.0 for a, b in zip(edges, edges[1:])]
+    return np.array(edges), np.array(middles)
 
 
 def strip_bounds(elevation: float | np.ndarray, half_chord: float | np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -11,6 +11,8 @@ from datetime import date, datetime
 from typing import Callable
 from zoneinfo import ZoneInfo, ZoneInfoNotFoundError
 
+import numpy as np
+
 from ..heightmap import InputWarning
 from .position import DEFAULT_PRESSURE_HPA, DEFAULT_TEMPERATURE_C, sun_position, suns_at
 from ..sun import DEFAULT_SUN_TOLERANCE, SunField
@@ -244,6 +246,20 @@ def on_geographic_grid(suns: list, args: argparse.Namespace, raster) -> list | N
         return None if places is None else [sun_field(places, sun, args.sun_tolerance) for sun in suns]
     except ValueError as exc:
         raise CliError(f"INPUT {args.input!r}: {exc}") from None
+
+
+def geographic_row_scales(args: argparse.Namespace, raster) -> np.ndarray | None:
+    """A geographic raster's :meth:`oclshade.solar.MapPlaces.row_scales` (its horizons are
+    traced per band of rows with their own cell sizes); None on any other raster."""
+    from ..cli import CliError
+
+    if not raster.geographic:
+        return None
+    try:
+        places = map_places(raster)
+    except ValueError as exc:
+        raise CliError(f"INPUT {args.input!r}: {exc}") from None
+    return None if places is None else places.row_scales()
 
 
 FIELDS_BAR = 100   # sun fields (about 8 ms each on a 1-degree SRTM tile) made silently

@@ -88,6 +88,15 @@ class MapPlaces:
         centre = _metres_per_degree(np.float64(self.centre_latitude))
         return east / centre[0], north / centre[1]
 
+    def row_scales(self) -> np.ndarray:
+        """float64 (rows, 2): :meth:`grid_scales` at each row's middle (all 1 on a projected grid),
+        what :class:`oclshade.horizon.HorizonCaster` traces a geographic grid's horizons with."""
+        rows, cols = self.shape
+        if self.crs is not None:
+            return np.ones((rows, 2))
+        lat = self.lonlat(np.arange(rows) + 0.5, np.full(rows, cols / 2.0))[1]
+        return np.stack(self.grid_scales(lat), axis=-1)
+
     def on_grid(self, lat: np.ndarray, azimuth: np.ndarray, elevation: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Directions at these places (grid azimuths, elevations in degrees) as the grid traces
         them.  A projected grid keeps its metres everywhere: unchanged.  A geographic grid is
