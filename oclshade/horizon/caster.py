@@ -343,7 +343,6 @@ class HorizonCaster:
         rt, hm = self.runtime, self.heightmap
         rows, cols = hm.shape
         defines = self._defines(outputs)
-        cell = np.array([hm.dx, hm.dy], np.float32)
         clamped = bool(outputs.get("OCLS_CLAMP"))
         seeded = not clamped and self.radius is None
 
