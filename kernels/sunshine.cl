@@ -52,12 +52,18 @@
  *
  * Sun tables (-D OCLS_SUN_TABLE, both kernels): a step whose sun varies over
  * the map (a sun field of blocks, as shadow.cl's "sun tables") is summed in
- * one launch: each cell takes its block's sun from a table and the sunvec,
- * frac and elevation arguments are not read.  Extra arguments after beam:
+ * one launch: each cell takes its block's sun from a table and the cell,
+ * sunvec, frac and elevation arguments are not read.  Extra arguments after beam:
  *     __global const int    *band   H + W ints: cell (i, j) is in block
  *                                   b = band[i] + band[H + j] (shadow.cl)
  *     __global const float4 *suns   2 per block: the sun vector, then
- *                                   (frac, elevation, 0, 0) (horizons only)
+ *                                   (frac, elevation, dx, dy): frac and
+ *                                   elevation read by the horizon route
+ *                                   only, (dx, dy) the block's cell size in
+ *                                   place of the cell argument (a
+ *                                   geographic grid's blocks: their own on
+ *                                   the ground, with the sun vector there;
+ *                                   oclshade/sun.py true_directions)
  *     __global const int    *keys   1 per block
  *     int key                       a cell adds to its sums only when
  *                                   keys[b] == key (the host gives the blocks
@@ -102,14 +108,15 @@ OCLS_INLINE void accumulate(__global const float *h, int H, int W, int i, int j,
     const int block_ = band[i] + band[H + (j)]; \
     if (keys[block_] != key) return; \
     const float4 sunvec = suns[2 * block_], at_ = suns[2 * block_ + 1]; \
-    const float frac = at_.x, elevation = at_.y
+    const float frac = at_.x, elevation = at_.y; \
+    const float2 cell = at_.zw
 #else
 #define OCLS_SUN_PARAMS
 #define OCLS_SUN_ARG(name) name
 #define OCLS_TABLE_SUN(i, j) (void)0
 #endif
 
-__kernel void sunshine_masks(__global const float *h, const int H, const int W, const float2 cell,
+__kernel void sunshine_masks(__global const float *h, const int H, const int W, const float2 OCLS_SUN_ARG(cell),
                              __global const uchar *mask, const float4 OCLS_SUN_ARG(sunvec), const uint weight,
                              const float hours, __global uint *sun, __global uint *cast, __global float2 *beam
                              OCLS_SUN_PARAMS)
@@ -122,7 +129,7 @@ __kernel void sunshine_masks(__global const float *h, const int H, const int W, 
     accumulate(h, H, W, i, j, cell, m == 1, sunvec, weight, hours, sun, cast, beam);
 }
 
-__kernel void sunshine_horizons(__global const float *h, const int H, const int W, const float2 cell,
+__kernel void sunshine_horizons(__global const float *h, const int H, const int W, const float2 OCLS_SUN_ARG(cell),
                                 __global const float *low, __global const float *high,
                                 const float OCLS_SUN_ARG(frac), const float OCLS_SUN_ARG(elevation),
                                 const float4 OCLS_SUN_ARG(sunvec), const uint weight, const float hours,

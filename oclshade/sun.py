@@ -69,6 +69,21 @@ def sun_directions(azimuth: np.ndarray, elevation: np.ndarray, dx: float, dy: fl
     return np.where(np.abs(rays) < np.finfo(np.float32).tiny, np.float32(0.0), rays), _vectors(sa, ca, se, ce)
 
 
+def true_directions(azimuth: np.ndarray, elevation: np.ndarray, scales: np.ndarray, dx: float, dy: float
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """(vectors float64 (n, 3), cells float64 (n, 2)): the unit vectors on the ground of grid
+    suns (degrees) in blocks of these ``scales`` (:attr:`SunField.scales`), and the blocks' true
+    cell sizes (dx, dy times the scales).  A grid metre east is ``sx`` true metres, so the grid
+    sun's vector (east, north, up) is (sx east, sy north, up) on the ground, normalised.  Where
+    the scales are 1: :func:`sun_vectors` and (dx, dy), to the bit."""
+    vectors = sun_vectors(azimuth, elevation)
+    scales = np.asarray(scales, np.float64)
+    scaled = np.concatenate([vectors[:, :2] * scales, vectors[:, 2:]], axis=1)
+    unit = scaled / np.linalg.norm(scaled, axis=1, keepdims=True)
+    same = np.all(scales == 1.0, axis=1, keepdims=True)
+    return np.where(same, vectors, unit), scales * np.array([dx, dy])
+
+
 def _vectors(sa: np.ndarray, ca: np.ndarray, se: np.ndarray, ce: np.ndarray) -> np.ndarray:
     return np.stack([sa * ce, ca * ce, se], axis=-1)
 
@@ -158,9 +173,13 @@ class BlockGrid(Sequence[SunBlock]):
     col_edges: np.ndarray    # int64, from 0 to the map's columns, increasing
     azimuth: np.ndarray      # float64 (row blocks, column blocks), degrees
     elevation: np.ndarray
+    scales: np.ndarray | None = None   # float64 (row blocks, column blocks, 2): SunField.scales; None: 1
 
     def __post_init__(self) -> None:
         shape = (len(self.row_edges) - 1, len(self.col_edges) - 1)
+        if self.scales is not None and np.shape(self.scales) != (*shape, 2):
+            raise ValueError(f"a block grid's scales must be (row blocks, column blocks, 2) = {(*shape, 2)}, "
+                             f"got {np.shape(self.scales)}")
         if (np.shape(self.azimuth) != shape or np.shape(self.elevation) != shape or min(shape) < 1
                 or np.any(np.diff(self.row_edges) < 1) or np.any(np.diff(self.col_edges) < 1)
                 or self.row_edges[0] != 0 or self.col_edges[0] != 0):
@@ -187,12 +206,18 @@ class BlockGrid(Sequence[SunBlock]):
     def __eq__(self, other: object) -> bool:
         if isinstance(other, BlockGrid):
             return all(np.array_equal(getattr(self, f), getattr(other, f))
-                       for f in ("row_edges", "col_edges", "azimuth", "elevation"))
-        return isinstance(other, Sequence) and tuple(self) == tuple(other)
+                       for f in ("row_edges", "col_edges", "azimuth", "elevation")) and \
+                np.array_equal(self.block_scales, other.block_scales)
+        return isinstance(other, Sequence) and tuple(self) == tuple(other) and not np.any(self.block_scales != 1.0)
 
     def __hash__(self) -> int:
         return hash(tuple(np.ascontiguousarray(getattr(self, f)).tobytes()
                           for f in ("row_edges", "col_edges", "azimuth", "elevation")))
+
+    @property
+    def block_scales(self) -> np.ndarray:
+        """float64 (blocks, 2) in raster order: :attr:`SunField.scales`."""
+        return np.ones((len(self), 2)) if self.scales is None else np.reshape(self.scales, (len(self), 2))
 
     def bands(self) -> tuple[np.ndarray, np.ndarray]:
         """:attr:`SunField.bands` of the grid: its own rows and columns of blocks."""
@@ -256,6 +281,18 @@ class SunField:
             return self.blocks.azimuth.ravel(), self.blocks.elevation.ravel()
         return (np.array([b.sun.azimuth for b in self.blocks], np.float64),
                 np.array([b.sun.elevation for b in self.blocks], np.float64))
+
+    @property
+    def scales(self) -> np.ndarray:
+        """float64 (blocks, 2): the true metres east and north of one grid metre in each block:
+        a geographic grid's, drawn at its centre latitude's scale (a :class:`BlockGrid`'s
+        ``scales``, :func:`oclshade.solar.sun_field`); 1 elsewhere.  The blocks' suns are the
+        grid's (:meth:`oclshade.solar.MapPlaces.on_grid`): they cast the true shadows; the scales
+        give the true sun vectors and cell sizes for what needs lengths and angles on the
+        ground (the sunshine's beam, :func:`true_directions`)."""
+        if isinstance(self.blocks, BlockGrid):
+            return self.blocks.block_scales
+        return np.ones((len(self.blocks), 2))
 
     @property
     def bands(self) -> tuple[np.ndarray, np.ndarray]:

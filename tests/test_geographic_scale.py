@@ -183,3 +183,37 @@ def test_row_scales_are_checked():
         HorizonCaster(hm, row_scales=np.ones((5, 2)))
     with pytest.raises(ValueError, match="row_scales"):
         HorizonCaster(hm, row_scales=np.zeros((4, 2)))
+
+
+@pytest.mark.parametrize("method", ["masks", "horizons"])
+def test_sunshine_beam_on_a_geographic_map_is_the_true_suns(tmp_path, method):
+    """The blocks trace the grid's suns (the true shadows) and sum the beam with the true sun on
+    the true slope: on flat ground sin e, on a plane tilted east its incidence, whatever the row;
+    and the float64 twin's sums, hours bit for bit and the beam within its bound."""
+    from oclshade.sunshine import SunshineCaster
+    from test_sunshine import assert_sums_match
+
+    rows, cols, step = 160, 48, 1 / 120
+    slope = 0.3                                  # rise per true metre east
+    raster = read_dem(write_geographic(tmp_path / "flat.tif", np.zeros((rows, cols)), 10.0, 60.67, step))
+    places = map_places(raster)
+    sun = Sun(135.0, 25.0)
+    field = sun_field(places, sun, 0.01)
+    assert len(field.blocks) > 8 and np.ptp(field.scales[:, 0]) > 0.03
+    flat = Heightmap.from_array(raster.heights, (raster.dx, raster.dy))
+    tilted_heights = slope * (np.arange(cols)[None, :] * raster.dx * places.row_scales()[:, :1])
+    tilted = Heightmap.from_array(tilted_heights, (raster.dx, raster.dy))
+    # its gradient on the ground: east, slope; north, the meridians' convergence (z grows with the
+    # parallels' length at a column)
+    east = np.full((rows, cols), slope)
+    north = -slope * np.arange(cols)[None, :] * raster.dx * np.gradient(places.row_scales()[:, 0])[:, None] \
+        / (raster.dy * places.row_scales()[:, 1:])
+    e, a = math.radians(sun.elevation), math.radians(sun.azimuth)
+    incidence = (math.sin(e) - east * math.cos(e) * math.sin(a) - north * math.cos(e) * math.cos(a)) \
+        / np.sqrt(1.0 + east ** 2 + north ** 2)
+    for hm, expected in ((flat, math.sin(e)), (tilted, incidence[1:-1, 1:-1])):
+        got = SunshineCaster(hm).accumulate([field], [3600], ("hours", "fraction", "irradiation"), method=method,
+                                            azimuths=64)
+        inner = got.irradiation[1:-1, 1:-1]           # one-sided gradients at the edges
+        assert np.nanmax(np.abs(inner - expected)) <= (2e-6 if hm is flat else 2e-4)
+        assert_sums_match(got, ref.sunshine_sums(hm, [field], [3600]), np.isnan(hm.heights), 0)

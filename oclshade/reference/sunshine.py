@@ -17,7 +17,7 @@ from typing import Sequence
 import numpy as np
 
 from ..heightmap import Heightmap
-from ..sun import Sun, SunField
+from ..sun import Sun, SunField, true_directions
 from .shadows import FLOAT32_EPS, cast_shadows, surface_gradient, tie_tolerance
 
 
@@ -65,13 +65,22 @@ def facing_tolerance(hm: Heightmap, sun: Sun) -> np.ndarray:
     vector's components (eps / 2 each) and of v's two products and two sums (eps (|s_z| +
     |g_x s_x| + |g_y s_y|) each), times a safety factor of 8."""
     gx, gy, _, _ = surface_gradient(hm)
-    return _facing_tolerance(gx, gy, *gradient_error(hm), sun)
+    return _facing_tolerance(gx, gy, *gradient_error(hm), sun.vector())
 
 
-def _facing_tolerance(gx: np.ndarray, gy: np.ndarray, ex: np.ndarray, ey: np.ndarray, sun: Sun) -> np.ndarray:
-    """:func:`facing_tolerance` from the gradient and its error bounds (of any cells)."""
-    sx, sy, sz = (abs(c) for c in sun.vector())
+def _facing_tolerance(gx: np.ndarray, gy: np.ndarray, ex: np.ndarray, ey: np.ndarray,
+                      vector: Sequence[float]) -> np.ndarray:
+    """:func:`facing_tolerance` from the gradient and its error bounds (of any cells) and the
+    sun's vector."""
+    sx, sy, sz = (abs(c) for c in vector)
     return 8.0 * (ex * sx + ey * sy + 2.0 * FLOAT32_EPS * (sz + np.abs(gx) * sx + np.abs(gy) * sy))
+
+
+def _surface(hm: Heightmap) -> tuple[np.ndarray, ...]:
+    """(gx, gy, |n|, the gradient's error bounds, their effect through |n|) of every cell."""
+    gx, gy, _, _ = surface_gradient(hm)
+    ex, ey = gradient_error(hm)
+    return gx, gy, np.sqrt(1.0 + gx * gx + gy * gy), ex, ey, 8.0 * (np.abs(gx) * ex + np.abs(gy) * ey)
 
 
 def sunshine_sums(hm: Heightmap, suns: Sequence[Sun | SunField], seconds: Sequence[int]) -> ReferenceSunshine:
@@ -90,10 +99,7 @@ def sunshine_sums(hm: Heightmap, suns: Sequence[Sun | SunField], seconds: Sequen
     most the sum over the direct steps of hours x (those terms + 16 eps).
     """
     nodata = np.isnan(hm.heights)
-    gx, gy, _, _ = surface_gradient(hm)
-    norm = np.sqrt(1.0 + gx * gx + gy * gy)
-    ex, ey = gradient_error(hm)
-    through_norm = 8.0 * (np.abs(gx) * ex + np.abs(gy) * ey)
+    gx, gy, norm, ex, ey, through_norm = _surface(hm)
     sun_s, cast_s, beam, bound, day = (np.zeros(hm.shape) for _ in range(5))
     ties = np.zeros(hm.shape, bool)
     rows, cols = hm.shape
@@ -102,22 +108,29 @@ def sunshine_sums(hm: Heightmap, suns: Sequence[Sun | SunField], seconds: Sequen
         if isinstance(item, SunField):
             item.check_shape(hm.shape)
             fields = fields or not item.uniform
-            parts = [(b.sun, np.s_[b.row0:b.row1, b.col0:b.col1]) for b in item.blocks]
+            vectors, cells = true_directions(*item.angles, item.scales, hm.dx, hm.dy)
+            parts = [(b.sun, np.s_[b.row0:b.row1, b.col0:b.col1], vectors[k], cells[k])
+                     for k, b in enumerate(item.blocks)]
         else:
-            parts = [(item, np.s_[0:rows, 0:cols])]
-        for sun, win in parts:
+            parts = [(item, np.s_[0:rows, 0:cols], item.vector(), (hm.dx, hm.dy))]
+        for sun, win, vector, cell in parts:
             if sun.elevation <= 0.0:
                 continue
             ref = cast_shadows(hm, sun, win)
-            sx, sy, sz = sun.vector()
-            v = sz - gx[win] * sx + gy[win] * sy
+            if tuple(cell) == (hm.dx, hm.dy):
+                g = gx[win], gy[win], norm[win], ex[win], ey[win], through_norm[win]
+            else:                                  # a geographic block: its own cells on the ground
+                g = _surface(Heightmap(hm.heights, float(cell[0]), float(cell[1])))
+                g = tuple(a[win] for a in g)
+            sx, sy, sz = vector
+            v = sz - g[0] * sx + g[1] * sy
             cast = ref.mask == 1
             direct = (ref.mask == 0) & (v > 0.0)
             sun_s[win] += np.where(direct, w, 0.0)
             cast_s[win] += np.where(cast, w, 0.0)
-            beam[win] += np.where(direct, (w / 3600.0) * v / norm[win], 0.0)
-            tolerance = _facing_tolerance(gx[win], gy[win], ex[win], ey[win], sun)   # the map's, on the window
-            bound[win] += np.where(direct, (w / 3600.0) * (tolerance + through_norm[win] + 16.0 * FLOAT32_EPS), 0.0)
+            beam[win] += np.where(direct, (w / 3600.0) * v / g[2], 0.0)
+            tolerance = _facing_tolerance(g[0], g[1], g[3], g[4], vector)   # the map's, on the window
+            bound[win] += np.where(direct, (w / 3600.0) * (tolerance + g[5] + 16.0 * FLOAT32_EPS), 0.0)
             ties[win] |= ref.ties(tie_tolerance(hm, sun)) | (np.abs(v) <= tolerance)
             day[win] += w
     total = float(day.max()) if not fields else day

@@ -17,7 +17,13 @@ lattice over the map; blocks are made that many cells tall and wide that half a 
 turn in each direction adds up to at most the tolerance; then the sun at every block corner
 is computed and compared with its block's, and the blocks shrink until all are within the
 tolerance (the turn is smooth and nearly linear over a block, so the largest difference
-inside a rectangle is at a corner; tests/test_field.py checks every cell).  Block sides are
+inside a rectangle is at a corner; tests/test_field.py checks every cell).  Blocks less than
+16 cells on a side are checked at their outermost cells' centres instead (a cell's sun is its
+centre's, so blocks of one cell hold any tolerance: where the sun or the grid's scale turns
+by more across a cell, as on coarse geographic grids near the poles, each cell is its own
+block).  On a geographic grid the suns are the grid's (:meth:`MapPlaces.on_grid`): a block's
+sun also carries its rows' cell width, so that it casts the Earth's shadows rather than the
+centre latitude's (docs/methods.md, "Geographic grids").  Block sides are
 multiples of 16 cells where a 16 x 16 block holds the tolerance (of the sides that do, the
 largest area; widths of 64 from 128 on): the packet kernels' runs then divide the block
 widths and no 16 x 16 certificate tile crosses a block, so a field traces at the speed of one
@@ -203,11 +209,9 @@ def sun_field(places: MapPlaces, when: datetime | Sun, tolerance: float = DEFAUL
         grid, deviation = _block_suns(places, when, *shape)
         if deviation <= tolerance:
             return SunField(places.shape, BlockGrid(*grid), centre, deviation, float(tolerance))
-        if shape == (1, 1):
-            break
         budget *= 0.9 * tolerance / deviation
-    raise ValueError(f"the sun cannot be held within {tolerance:g} degrees of each cell's own here "
-                     f"(one cell's corners differ by more): give a larger tolerance")
+    grid, deviation = _block_suns(places, when, 1, 1)      # each cell its own sun: deviation 0
+    return SunField(places.shape, BlockGrid(*grid), centre, deviation, float(tolerance))
 
 
 def sun_spread(places: MapPlaces, times: Sequence[datetime]) -> float:
@@ -265,10 +269,18 @@ def _long_run(width: int, cols: int) -> int:
     return width if width >= cols or width < 8 * ALIGN else width // (4 * ALIGN) * (4 * ALIGN)
 
 
+def _outermost(edges: np.ndarray) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray]]:
+    """The centres of the first and last cells of the blocks between ``edges`` (sorted, once
+    each), and for each block the index of its first's and its last's among them."""
+    first, last = edges[:-1] + 0.5, edges[1:] - 0.5
+    lines, where = np.unique(np.concatenate([first, last]), return_inverse=True)
+    return lines, (where[:len(first)], where[len(first):])
+
+
 def _block_suns(places: MapPlaces, when: datetime, block_rows: int, block_cols: int
                 ) -> tuple[tuple[np.ndarray, ...], float]:
     """The blocks of this size, as :class:`BlockGrid`'s arrays (row edges, column edges, centre
-    sun azimuths and elevations), and the largest angle between a block's sun and the sun at any
+    sun azimuths and elevations, and on a geographic grid the scales there), and the largest angle between a block's sun and the sun at any
     of its corners."""
     rows, cols = places.shape
     edge_r = np.append(np.arange(0, rows, block_rows), rows)
@@ -276,9 +288,21 @@ def _block_suns(places: MapPlaces, when: datetime, block_rows: int, block_cols: 
     mid_r, mid_c = np.meshgrid((edge_r[:-1] + edge_r[1:]) / 2.0, (edge_c[:-1] + edge_c[1:]) / 2.0, indexing="ij")
     az, el = places.suns(when, mid_r, mid_c)
     centres = unit_vectors(az, el).reshape(len(edge_r) - 1, len(edge_c) - 1, 3)
-    er, ec = np.meshgrid(edge_r, edge_c, indexing="ij")
-    v = unit_vectors(*places.suns(when, er, ec)).reshape(len(edge_r), len(edge_c), 3)
-    deviation = max(float(sun_differences(centres, v[:-1, :-1]).max()), float(sun_differences(centres, v[:-1, 1:]).max()),
-                    float(sun_differences(centres, v[1:, :-1]).max()), float(sun_differences(centres, v[1:, 1:]).max()))
+    if block_rows >= ALIGN and block_cols >= ALIGN:     # the blocks' corners: shared, a bound for their cells
+        top = bottom = np.arange(len(edge_r) - 1)
+        left = right = np.arange(len(edge_c) - 1)
+        lines_r, lines_c = edge_r.astype(np.float64), edge_c.astype(np.float64)
+        bottom, right = bottom + 1, right + 1
+    else:        # small blocks: their outermost cells' centres (a cell's sun is its centre's; 1 x 1 holds)
+        lines_r, (top, bottom) = _outermost(edge_r)
+        lines_c, (left, right) = _outermost(edge_c)
+    er, ec = np.meshgrid(lines_r, lines_c, indexing="ij")
+    v = unit_vectors(*places.suns(when, er, ec)).reshape(len(lines_r), len(lines_c), 3)
+    deviation = max(float(sun_differences(centres, v[np.ix_(rows_at, cols_at)]).max())
+                    for rows_at in (top, bottom) for cols_at in (left, right))
     grid = tuple(np.ascontiguousarray(np.reshape(a, centres.shape[:2]), np.float64) for a in (az, el))
-    return (edge_r, edge_c, *grid), deviation
+    scales = None
+    if places.crs is None:                   # a geographic grid: each block's scale at its centre
+        lat = places.lonlat(mid_r.ravel(), mid_c.ravel())[1]
+        scales = np.stack(places.grid_scales(lat), axis=-1).reshape(*centres.shape[:2], 2)
+    return (edge_r, edge_c, *grid, scales), deviation

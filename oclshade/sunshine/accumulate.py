@@ -34,7 +34,7 @@ from ..heightmap import Heightmap
 from ..horizon import HorizonCaster, azimuth_grid
 from ..runtime import ArgBinder, Runtime
 from ..shadows import ShadowCaster, check_outputs
-from ..sun import Sun, SunField, SunLike, Traced, as_traced, sun_vectors
+from ..sun import Sun, SunField, SunLike, Traced, as_traced, true_directions
 
 OUTPUTS = ("hours", "fraction", "irradiation")
 METHODS = ("masks", "horizons")
@@ -173,7 +173,7 @@ class SunshineCaster:
         for k, (step, mask) in enumerate(self.shadows.masks_on_device(day)):
             if isinstance(step, SunField):
                 up = step.angles[1] > 0.0
-                table = self._table(step, np.where(up, 0, -1), np.zeros((len(up), 4)))
+                table = self._table(step, np.where(up, 0, -1), np.zeros((len(up), 2)))
                 yield _Launch(k, kernels[True], (*grid, mask, no_sun), (*table, np.int32(0)))
             else:
                 yield _Launch(k, kernels[False], (*grid, mask, _sun_vector(step)))
@@ -214,9 +214,8 @@ class SunshineCaster:
                     if isinstance(step, SunField):
                         azimuth, elevation = step.angles
                         position, intervals = _positions(azimuth, n)
-                        zero = np.zeros_like(elevation)
                         table = self._table(step, np.where(elevation > 0.0, intervals, -1),
-                                            np.stack([position - intervals, elevation, zero, zero], axis=1))
+                                            np.stack([position - intervals, elevation], axis=1))
                         yield _Launch(step_index, kernels[True], (*grid, low, high, *no_sun), (*table, np.int32(i)))
                     else:
                         frac = np.float32(_positions([step.azimuth], n)[0][0] - i)
@@ -227,10 +226,14 @@ class SunshineCaster:
 
     def _table(self, field: SunField, block_keys: np.ndarray, block_at: np.ndarray) -> tuple[cl.Buffer, ...]:
         """sunshine.cl's sun table of a field on the device (band, suns, keys): each block's sun
-        vector and ``block_at`` (frac, elevation, 0, 0), and its key."""
+        vector and cell sizes on the ground (:func:`oclshade.sun.true_directions`), ``block_at``
+        (frac, elevation) and its key."""
         band, owner = field.bands
-        vectors = np.concatenate([sun_vectors(*field.angles), np.zeros((len(field.blocks), 1))], axis=1)
-        suns = np.stack([vectors, np.asarray(block_at, np.float64)], axis=1).astype(np.float32)[owner]
+        hm = self.heightmap
+        vectors, cells = true_directions(*field.angles, field.scales, hm.dx, hm.dy)
+        at = np.concatenate([np.asarray(block_at, np.float64)[:, :2], cells], axis=1)
+        vectors = np.concatenate([vectors, np.zeros((len(field.blocks), 1))], axis=1)
+        suns = np.stack([vectors, at], axis=1).astype(np.float32)[owner]
         keys = np.asarray(block_keys, np.int32)[owner]
         rt = self.runtime
         return (rt.to_device(band, "sun table bands"), rt.to_device(np.ascontiguousarray(suns), "sun table"),
