@@ -1170,6 +1170,7 @@ def run_horizon(args: argparse.Namespace) -> int:
     """``oclshade horizon`` (N bands of angles, streamed), ``oclshade svf`` (one band) and
     ``oclshade sunlit`` (one band per sun)."""
     from .horizon import HorizonCaster, azimuth_grid
+    from .horizon.caster import SCALE_TOLERANCE
 
     if _extension(args.output) not in (".tif", ".tiff", ".exr", ".npy"):
         raise UsageError(f"OUTPUT {args.output!r}: expected .tif, .tiff, .exr or .npy (float32 bands)")
@@ -1216,6 +1217,9 @@ def run_horizon(args: argparse.Namespace) -> int:
         caster = HorizonCaster(heightmap, device=args.device, curvature=curvature,
                                max_distance=getattr(args, "max_distance", None), cache=False,
                                row_scales=None if sunlit else solar_cli.geographic_row_scales(args, raster))
+        if not args.quiet and len(caster.scale_bands[1]) > 1:
+            print(f"{PROG}: a geographic grid: {len(caster.scale_bands[1])} bands of rows, each traced with its "
+                  f"own cell width (within {SCALE_TOLERANCE:g} deg)", file=sys.stderr)
         t1 = time.perf_counter()
         if svf:
             out.write(caster.sky_view_factor(azimuths, args.definition, progress=bar))

@@ -239,13 +239,20 @@ def on_geographic_grid(suns: list, args: argparse.Namespace, raster) -> list | N
     raster, whose grid traces them as they are."""
     from ..cli import CliError
 
+    from ..cli import PROG
+
     if not raster.geographic:
         return None
     try:
         places = map_places(raster)
-        return None if places is None else [sun_field(places, sun, args.sun_tolerance) for sun in suns]
+        fields = None if places is None else [sun_field(places, sun, args.sun_tolerance) for sun in suns]
     except ValueError as exc:
         raise CliError(f"INPUT {args.input!r}: {exc}") from None
+    if fields and not getattr(args, "quiet", False):
+        counts = [len(f.blocks) for f in fields]
+        print(f"{PROG}: a geographic grid: each block of rows traced with its own cell width ({min(counts)}-"
+              f"{max(counts)} blocks a sun, within --sun-tolerance {args.sun_tolerance:g} deg)", file=sys.stderr)
+    return fields
 
 
 def geographic_row_scales(args: argparse.Namespace, raster) -> np.ndarray | None:

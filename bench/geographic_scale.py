@@ -1,0 +1,222 @@
+#!/usr/bin/env python
+"""A geographic grid's scale: what tracing at the centre latitude's cell width got wrong, and
+what tracing each block of rows with its own costs (oclshade.solar.MapPlaces.on_grid for the
+masks, HorizonCaster(row_scales=...) for the horizons).
+
+    python bench/geographic_scale.py            # the shared SRTM tiles, and N22W160's heights at 45.5 N
+    python bench/geographic_scale.py --reduced  # a check that the script works (384^2 crops)
+
+Per map, in one process:
+
+* **masks**, four suns given by their angles: the sun as the grid traces it per block of rows
+  (``sun_field(places, Sun(...))``: blocks, build time) against the sun traced as given at the
+  centre's cell width (what every version before did): time of each (best of 3 after a
+  warm-up), their ratio, the cells where the masks differ, the largest angle between the sun
+  as given and as the grid must trace it at the map's edges (the old geometry's error), and the
+  per-block mask against the float64 twin on a seeded sample of 32 x 32 cells in 12 blocks
+  (mismatches outside float32 ties: must be 0);
+* **horizons** at 16 and 64 azimuths: time per band of rows against the centre's cell width
+  alone (one run each), the bands, the largest and the 99th-percentile difference of the
+  angles, and the banded angles against the float64 twin of each band's cells on 400 seeded
+  cells per azimuth (16 azimuths; must be within the float32 band).
+
+Writes bench/results/geographic_scale.{json,md} (``--out`` to change).  Figures depend on the
+machine; the results record where they were taken.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import tifffile
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO / "bench"))
+
+from shadow_masks import log, metadata  # noqa: E402  (same metadata as the other benches)
+from sun_field import best_of, crop, sample_field  # noqa: E402
+
+from oclshade import ShadowCaster  # noqa: E402
+from oclshade import reference as ref  # noqa: E402
+from oclshade.heightmap import Heightmap  # noqa: E402
+from oclshade.horizon import HorizonCaster, azimuth_grid  # noqa: E402
+from oclshade.io import Raster, read_dem  # noqa: E402
+from oclshade.solar import map_places, sun_field  # noqa: E402
+from oclshade.sun import Sun  # noqa: E402
+
+SRTM = REPO.parent / "shared" / "data" / "dem" / "srtm3_srtmpy"
+SUNS = (Sun(90.0, 20.0), Sun(270.0, 10.0), Sun(135.0, 15.0), Sun(315.0, 45.0))
+REDUCED_CROPS = {"N22W160": (817, 400, 384), "S16E166": (400, 817, 384)}
+WGS84 = (1, 1, 0, 3, 1024, 0, 1, 2, 1025, 0, 1, 1, 2048, 0, 1, 4326)
+TWIN_CELLS = 400
+
+
+def moved(raster: Raster, north: float, folder: Path) -> Raster:
+    """The raster's heights on a geographic grid of its cells whose north edge is at ``north``."""
+    sx, sy, _ = raster.georef[33550]
+    _, _, _, west, _, _ = raster.georef[33922]
+    path = folder / f"moved_{north:g}.tif"
+    tifffile.imwrite(path, raster.heights.astype(np.float32), extratags=[
+        (34735, 3, len(WGS84), WGS84, True), (33550, 12, 3, (sx, sy, 0.0), True),
+        (33922, 12, 6, (0, 0, 0, west, north, 0), True)])
+    return read_dem(path)
+
+
+def maps(reduced: bool, folder: Path) -> dict[str, Raster]:
+    out = {}
+    for name in ("N22W160", "S16E166"):
+        path = SRTM / f"{name}v2.3a.hgt.zip"
+        if path.is_file():
+            raster = read_dem(path)
+            if reduced:
+                raster = crop(raster, *REDUCED_CROPS[name])
+            out[f"SRTM {name}"] = raster
+    if "SRTM N22W160" in out:
+        out["N22W160's heights at 45.5 N"] = moved(out["SRTM N22W160"], 46.0, folder)
+    return out
+
+
+def edge_error(places, sun: Sun) -> float:
+    """The largest angle (degrees) between the sun as given and as the grid must trace it, over
+    the rows' middles: how far the centre's cell width alone was off at the map's edges."""
+    rows, cols = places.shape
+    lat = places.lonlat(np.array([0.5, rows - 0.5]), np.array([cols / 2.0] * 2))[1]
+    az, el = places.on_grid(lat, np.full(2, sun.azimuth), np.full(2, sun.elevation))
+    return float(max(np.abs((az - sun.azimuth + 180.0) % 360.0 - 180.0).max(), np.abs(el - sun.elevation).max()))
+
+
+def masks(name: str, raster: Raster, hm: Heightmap, places) -> list[dict]:
+    caster = ShadowCaster(hm, cache=False)
+    out = []
+    for sun in SUNS:
+        t0 = time.perf_counter()
+        field = sun_field(places, sun)
+        build = time.perf_counter() - t0
+        caster.cast_many([field])
+        caster.cast(sun)
+        banded, flat = caster.cast_many([field])[0].mask, caster.cast(sun).mask
+        t_field = best_of(lambda: caster.cast_many([field]))
+        t_one = best_of(lambda: caster.cast(sun))
+        valid = banded != 255
+        sample = sample_field(field, 12, 7)
+        got = caster.cast_many([sample])[0].mask
+        twin = ref.cast_field_shadows(hm, sample)
+        ties = twin.ties(ref.field_tie_tolerance(hm, sample))
+        differ = got != twin.mask
+        kept = [b for b in sample.blocks if b.sun.elevation > 0]
+        row = {"map": name, "sun": [sun.azimuth, sun.elevation], "blocks": len(field.blocks),
+               "deviation_deg": field.deviation, "build_s": build, "per_block_s": t_field, "one_sun_s": t_one,
+               "ratio": t_field / t_one, "edge_error_deg": edge_error(places, sun),
+               "cells_differing": int((banded != flat)[valid].sum()), "valid_cells": int(valid.sum()),
+               "twin_cells": int(sum((b.row1 - b.row0) * (b.col1 - b.col0) for b in kept)),
+               "twin_mismatch": int((differ & ~ties).sum()), "twin_tied": int((differ & ties).sum())}
+        log(f"{name} sun {sun.azimuth:g}/{sun.elevation:g}: {row['blocks']} blocks, {t_field:.3f} s vs "
+            f"{t_one:.3f} s, {row['cells_differing']} cells differ, edge error {row['edge_error_deg']:.3f} deg, "
+            f"twin {row['twin_mismatch']}/{row['twin_tied']}")
+        out.append(row)
+    return out
+
+
+def horizons(name: str, raster: Raster, hm: Heightmap, places) -> list[dict]:
+    scales = places.row_scales()
+    out = []
+    for n in (16, 64):
+        banded_caster = HorizonCaster(hm, row_scales=scales, cache=False)
+        flat_caster = HorizonCaster(hm, cache=False)
+        flat_caster.horizons([0.0])                   # kernels and pyramid made before the clocks
+        banded_caster.horizons([0.0])
+        t0 = time.perf_counter()
+        banded = banded_caster.horizons(n)
+        t_banded = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        flat = flat_caster.horizons(n)
+        t_flat = time.perf_counter() - t0
+        diff = np.abs(banded - flat)[np.isfinite(banded) & (banded > -90.0)]
+        row = {"map": name, "azimuths": n, "bands": len(banded_caster.scale_bands[1]), "banded_s": t_banded,
+               "flat_s": t_flat, "ratio": t_banded / t_flat, "diff_max_deg": float(diff.max()),
+               "diff_p99_deg": float(np.percentile(diff, 99)), "diff_mean_deg": float(diff.mean())}
+        if n == 16:
+            row.update(twin(hm, banded_caster, banded, azimuth_grid(n)))
+        log(f"{name} {n} azimuths: {row['bands']} bands, {t_banded:.2f} s vs {t_flat:.2f} s, max diff "
+            f"{row['diff_max_deg']:.3f} deg" + (f", twin {row['twin_outside']} of {row['twin_cells']} outside"
+                                                if n == 16 else ""))
+        out.append(row)
+    return out
+
+
+def twin(hm: Heightmap, caster: HorizonCaster, angles: np.ndarray, azimuths: np.ndarray) -> dict:
+    """The banded angles against the float64 twin with each band's own cell sizes, on seeded cells."""
+    rng = np.random.default_rng(11)
+    edges, scales = caster.scale_bands
+    valid = np.flatnonzero(~np.isnan(hm.heights).ravel())
+    band = ref.angle_tolerance(hm)
+    checked = outside = 0
+    worst = 0.0
+    for a, az in enumerate(azimuths):
+        cells = np.sort(rng.choice(valid, TWIN_CELLS, replace=False))
+        ii, jj = np.divmod(cells, hm.shape[1])
+        which = np.searchsorted(edges, ii, side="right") - 1
+        for k in np.unique(which):
+            own = Heightmap(hm.heights, hm.dx * scales[k, 0], hm.dy * scales[k, 1])
+            at = which == k
+            expected = ref.horizon_angles(own, float(az), cells=(ii[at], jj[at]))
+            err = np.abs(angles[a, ii[at], jj[at]] - expected)
+            outside += int(np.count_nonzero(err > band))
+            worst = max(worst, float(np.nanmax(err)))
+            checked += int(at.sum())
+    return {"twin_cells": checked, "twin_outside": outside, "twin_max_deg": worst, "twin_band_deg": band}
+
+
+def write_markdown(path: Path, result: dict) -> None:
+    m = result["meta"]
+    lines = ["# A geographic grid's scale: per block of rows against the centre's cell width", "",
+             f"- date: {m['date']}; command: `{m['command']}`",
+             f"- CPU: {m['cpu']}, {m['cores']} cores; device: {m['device']}; {m['pocl_version']}",
+             "- masks: best of 3 after a warm-up; the sun as the grid traces it per block of rows (tolerance "
+             "0.01 deg) against the sun as given at the centre's cell width; horizons: one run each", "",
+             "| map | sun az / el | old geometry's error at the edges, deg | blocks | per block s | centre width s | "
+             "ratio | cells differing | twin: cells, mismatches / ties |",
+             "|---|---|---:|---:|---:|---:|---:|---:|---|"]
+    for r in result["masks"]:
+        lines.append(f"| {r['map']} | {r['sun'][0]:g} / {r['sun'][1]:g} | {r['edge_error_deg']:.3f} | {r['blocks']} | "
+                     f"{r['per_block_s']:.3f} | {r['one_sun_s']:.3f} | {r['ratio']:.2f} | {r['cells_differing']} of "
+                     f"{r['valid_cells']} | {r['twin_cells']}: {r['twin_mismatch']} / {r['twin_tied']} |")
+    lines += ["", "| map | azimuths | bands | per band s | centre width s | ratio | angle difference max / p99 / "
+              "mean, deg | twin (16 azimuths): cells, outside the float32 band, max error deg |",
+              "|---|---:|---:|---:|---:|---:|---|---|"]
+    for r in result["horizons"]:
+        check = (f"{r['twin_cells']}, {r['twin_outside']}, {r['twin_max_deg']:.2g} (band {r['twin_band_deg']:.2g})"
+                 if "twin_cells" in r else "")
+        lines.append(f"| {r['map']} | {r['azimuths']} | {r['bands']} | {r['banded_s']:.2f} | {r['flat_s']:.2f} | "
+                     f"{r['ratio']:.2f} | {r['diff_max_deg']:.3f} / {r['diff_p99_deg']:.3f} / {r['diff_mean_deg']:.4f} "
+                     f"| {check} |")
+    lines.append("")
+    path.write_text("\n".join(lines))
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--reduced", action="store_true", help="384^2 crops (a check)")
+    parser.add_argument("--out", type=Path, default=REPO / "bench" / "results" / "geographic_scale")
+    args = parser.parse_args(argv)
+    result = {"meta": metadata(sys.argv), "masks": [], "horizons": []}
+    with tempfile.TemporaryDirectory() as folder:
+        for name, raster in maps(args.reduced, Path(folder)).items():
+            hm = Heightmap.from_array(raster.heights, (raster.dx, raster.dy))
+            places = map_places(raster)
+            result["masks"] += masks(name, raster, hm, places)
+            result["horizons"] += horizons(name, raster, hm, places)
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.with_suffix(".json").write_text(json.dumps(result, indent=1))
+    write_markdown(args.out.with_suffix(".md"), result)
+    log(f"wrote {args.out.with_suffix('.md')}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
