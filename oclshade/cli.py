@@ -1170,7 +1170,7 @@ def run_horizon(args: argparse.Namespace) -> int:
     """``oclshade horizon`` (N bands of angles, streamed), ``oclshade svf`` (one band) and
     ``oclshade sunlit`` (one band per sun)."""
     from .horizon import HorizonCaster, azimuth_grid
-    from .horizon.caster import SCALE_TOLERANCE
+    from .solar.scale import SCALE_TOLERANCE
 
     if _extension(args.output) not in (".tif", ".tiff", ".exr", ".npy"):
         raise UsageError(f"OUTPUT {args.output!r}: expected .tif, .tiff, .exr or .npy (float32 bands)")

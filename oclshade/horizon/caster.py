@@ -40,6 +40,7 @@ from ..heightmap import Heightmap
 from ..pyramid import ExtremaPyramid, cached_pyramid
 from ..reference.horizons import SVF_DEFINITIONS
 from ..runtime import Runtime, get_runtime
+from ..solar.scale import SCALE_TOLERANCE, scale_bands
 from ..sun import Sun, SunField, SunLike, as_sun, libm, sun_rays
 from .disc import DEFAULT_COLUMNS, SUN_RADIUS, disc_columns, disc_columns_of, visible_fraction
 from .pilot import MIN_CELLS as PILOT_MIN_CELLS, MIN_ROWS as PILOT_MIN_ROWS, Pilot
@@ -144,7 +145,7 @@ class HorizonCaster:
             raise TypeError(f"curvature must be None or a Curvature, got {curvature!r}")
         self.radius = check_max_distance(max_distance)
         self.heightmap = heightmap
-        self.scale_bands = scale_bands(heightmap.shape[0], row_scales)
+        self.scale_bands = scale_bands(heightmap.shape[0], row_scales, SCALE_TOLERANCE)
         self.runtime = get_runtime(device)
         self.curvature = curvature
         self.cache = cache
@@ -531,46 +532,6 @@ class HorizonCaster:
         if far == SWEEP_FAR["walk"] or rows < PILOT_MIN_ROWS or rows * cols < PILOT_MIN_CELLS:
             return False
         return None if self._pilot is None else self._pilot.sweeps
-
-
-#: degrees: a geographic grid's horizons are traced per band of rows (:func:`scale_bands`), each
-#: row's cell sizes close enough to its band's that the azimuths and angles move by at most this
-SCALE_TOLERANCE = 0.01
-#: rows: the scale bands' edges are multiples of this
-SCALE_ALIGN = 16
-
-
-def scale_bands(rows: int, row_scales: np.ndarray | None, tolerance: float = SCALE_TOLERANCE
-                ) -> tuple[np.ndarray, np.ndarray]:
-    """(edges, scales): bands of rows [edges[k], edges[k + 1]) and float64 (bands, 2), each band's
-    (east, north) scale, the middle of its rows' (``row_scales``: :class:`HorizonCaster`'s; None:
-    one band of scale 1).  A row's cell sizes differ from its band's by a share d of at most 2
-    tolerance (radians): a direction then turns by at most d / 2 (sin a cos a d) and an angle h
-    by at most d / 2 (sin h cos h d).  Bands are the most rows that hold it, in multiples of
-    :data:`SCALE_ALIGN` where that many do (a fine grid), any number where not (coarse cells
-    near the poles: down to one row)."""
-    if row_scales is None:
-        return np.array([0, rows]), np.ones((1, 2))
-    scales = np.asarray(row_scales, np.float64)
-    if scales.shape != (rows, 2) or not np.all(np.isfinite(scales)) or not np.all(scales > 0.0):
-        raise ValueError(f"row_scales must be positive finite float64 (rows, 2) = ({rows}, 2), "
-                         f"got shape {scales.shape}")
-    share = 4.0 * math.radians(tolerance)
-
-    def holds(r0: int, r1: int) -> bool:
-        lo, hi = scales[r0:r1].min(axis=0), scales[r0:r1].max(axis=0)
-        return bool(np.all(hi - lo <= share * (hi + lo) / 2.0))
-
-    edges = [0]
-    while edges[-1] < rows:
-        r0 = edges[-1]
-        step = SCALE_ALIGN if holds(r0, min(rows, r0 + SCALE_ALIGN)) else 1
-        r1 = min(rows, r0 + step)
-        while r1 < rows and holds(r0, min(rows, r1 + step)):
-            r1 = min(rows, r1 + step)
-        edges.append(r1)
-    middles = [(scales[a:b].min(axis=0) + scales[a:b].max(axis=0)) / 2.0 for a, b in zip(edges, edges[1:])]
-    return np.array(edges), np.array(middles)
 
 
 def strip_bounds(elevation: float | np.ndarray, half_chord: float | np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -42,6 +42,7 @@ import numpy as np
 
 from ..io import WGS84_A, WGS84_E2, Raster, geotransform
 from ..sun import DEFAULT_SUN_TOLERANCE as DEFAULT_TOLERANCE, BlockGrid, Sun, SunField
+from .scale import scale_bands
 from .position import sun_position
 from .site import grid_azimuths, projected_crs
 
@@ -115,14 +116,7 @@ class MapPlaces:
         azimuth, elevation = np.asarray(azimuth, np.float64), np.asarray(elevation, np.float64)
         if self.crs is not None:
             return azimuth, elevation
-        sx, sy = self.grid_scales(lat)
-        a, e = np.radians(azimuth), np.radians(elevation)
-        east, north = np.sin(a) / sx, np.cos(a) / sy
-        s = 1.0 / np.hypot(east, north)
-        se, ce = np.sin(e), np.cos(e)
-        same = (sx == 1.0) & (sy == 1.0)      # the centre's own scale: the sun as given, to the bit
-        return (np.where(same, azimuth, np.mod(np.degrees(np.arctan2(east, north)), 360.0)),
-                np.where(same | (np.abs(elevation) >= 90.0), elevation, np.degrees(np.arctan2(s * se, ce))))
+        return scaled_suns(*self.grid_scales(lat), azimuth, elevation)
 
     def suns(self, when: datetime | Sequence[datetime] | Sun, rows: np.ndarray, cols: np.ndarray
              ) -> tuple[np.ndarray, np.ndarray]:
@@ -142,6 +136,19 @@ class MapPlaces:
                                   np.broadcast_to(position.azimuth, shape).ravel()).reshape(shape)
         grid, elevation = self.on_grid(lat, grid, np.broadcast_to(position.elevation, shape))
         return (grid, elevation) if many else (grid[0], elevation[0])
+
+
+def scaled_suns(sx: np.ndarray, sy: np.ndarray, azimuth: np.ndarray, elevation: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """:meth:`MapPlaces.on_grid` where a grid metre is (``sx``, ``sy``) true metres (east,
+    north): the grid azimuth and elevation, degrees, of directions on the ground."""
+    a, e = np.radians(azimuth), np.radians(elevation)
+    east, north = np.sin(a) / sx, np.cos(a) / sy
+    s = 1.0 / np.hypot(east, north)
+    se, ce = np.sin(e), np.cos(e)
+    same = (sx == 1.0) & (sy == 1.0)      # the centre's own scale: the sun as given, to the bit
+    return (np.where(same, azimuth, np.mod(np.degrees(np.arctan2(east, north)), 360.0)),
+            np.where(same | (np.abs(elevation) >= 90.0), elevation, np.degrees(np.arctan2(s * se, ce))))
 
 
 def _metres_per_degree(lat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -190,6 +197,8 @@ def sun_field(places: MapPlaces, when: datetime | Sun, tolerance: float = DEFAUL
     own within ``tolerance`` degrees of its block's (see the module docstring)."""
     if not (isinstance(tolerance, (int, float)) and tolerance > 0.0 and math.isfinite(tolerance)):
         raise ValueError(f"tolerance must be a positive number of degrees, got {tolerance!r}")
+    if isinstance(when, Sun) and places.crs is None:
+        return _banded_field(places, when, float(tolerance))
     rows, cols = places.shape
     centre, spread, r, c, v = _lattice(places, when)
     if spread <= tolerance:
@@ -212,6 +221,26 @@ def sun_field(places: MapPlaces, when: datetime | Sun, tolerance: float = DEFAUL
         budget *= 0.9 * tolerance / deviation
     grid, deviation = _block_suns(places, when, 1, 1)      # each cell its own sun: deviation 0
     return SunField(places.shape, BlockGrid(*grid), centre, deviation, float(tolerance))
+
+
+def _banded_field(places: MapPlaces, sun: Sun, tolerance: float) -> SunField:
+    """A sun given by its angles on a geographic grid: blocks the map's width, one per band of
+    rows of :func:`oclshade.solar.scale.scale_bands` (the bands a :class:`HorizonCaster` with
+    these rows' scales traces: a mask and the horizons at its azimuth then see the same lines),
+    each with the sun as the grid traces it at the band's scale."""
+    rows, cols = places.shape
+    row_scales = places.row_scales()
+    edges, scales = scale_bands(rows, row_scales, tolerance)
+    own = unit_vectors(*scaled_suns(row_scales[:, 0], row_scales[:, 1], np.full(rows, sun.azimuth),
+                                    np.full(rows, sun.elevation)))
+    az, el = scaled_suns(scales[:, 0], scales[:, 1], np.full(len(scales), sun.azimuth),
+                         np.full(len(scales), sun.elevation))
+    band = np.repeat(np.arange(len(scales)), np.diff(edges))
+    deviation = float(sun_differences(own, unit_vectors(az, el)[band]).max())
+    if len(scales) == 1:
+        return SunField.single(Sun(float(az[0]), float(el[0])), places.shape, deviation, tolerance)
+    return SunField(places.shape, BlockGrid(edges, np.array([0, cols]), az[:, None], el[:, None], scales[:, None, :]),
+                    sun, deviation, tolerance)
 
 
 def sun_spread(places: MapPlaces, times: Sequence[datetime]) -> float:

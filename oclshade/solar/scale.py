@@ -1,0 +1,52 @@
+"""A geographic grid's scale: its cells are metres at the centre latitude's scale (oclshade.io),
+so a row's true cell width differs from the grid's; what traces each band of rows with its own
+(docs/methods.md, "Geographic grids")."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+#: degrees: a geographic grid's bands of rows (:func:`scale_bands`) keep every row's directions
+#: and angles within this of its band's (the horizons' default; the sun fields take their tolerance)
+SCALE_TOLERANCE = 0.01
+#: rows: the bands' edges are multiples of this where the tolerance allows
+SCALE_ALIGN = 16
+
+
+def scale_bands(rows: int, row_scales: np.ndarray | None, tolerance: float = SCALE_TOLERANCE
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """(edges, scales): bands of rows [edges[k], edges[k + 1]) and float64 (bands, 2), each band's
+    (east, north) scale, the middle of its rows' (``row_scales``: float64 (rows, 2), the true
+    metres east and north of one grid metre at each row, :meth:`oclshade.solar.MapPlaces.row_scales`;
+    None: one band of scale 1).  A row's cell sizes differ from its band's by a share d of at
+    most sqrt(2) tolerance (radians): a direction then turns by at most d / 2 (sin a cos a d)
+    and an elevation angle moves by at most d / 2 (sin e cos e d), together at most the
+    tolerance.  Bands are the most rows that hold it, in multiples of :data:`SCALE_ALIGN` where
+    that many do (a fine grid), any number where not (coarse cells near the poles: down to one
+    row).  One band is scale 1: a map whose rows all hold the tolerance is traced at its
+    centre's cell width, as it is."""
+    if row_scales is None:
+        return np.array([0, rows]), np.ones((1, 2))
+    scales = np.asarray(row_scales, np.float64)
+    if scales.shape != (rows, 2) or not np.all(np.isfinite(scales)) or not np.all(scales > 0.0):
+        raise ValueError(f"row_scales must be positive finite float64 (rows, 2) = ({rows}, 2), "
+                         f"got shape {scales.shape}")
+    share = 2.0 * math.sqrt(2.0) * math.radians(tolerance)
+
+    def holds(r0: int, r1: int) -> bool:
+        lo, hi = scales[r0:r1].min(axis=0), scales[r0:r1].max(axis=0)
+        return bool(np.all(hi - lo <= share * (hi + lo) / 2.0))
+
+    edges = [0]
+    while edges[-1] < rows:
+        r0 = edges[-1]
+        step = SCALE_ALIGN if holds(r0, min(rows, r0 + SCALE_ALIGN)) else 1
+        r1 = min(rows, r0 + step)
+        while r1 < rows and holds(r0, min(rows, r1 + step)):
+            r1 = min(rows, r1 + step)
+        edges.append(r1)
+    if len(edges) == 2 and np.all(np.abs(scales - 1.0) <= share / 2.0):
+        return np.array(edges), np.ones((1, 2))
+    middles = [(scales[a:b].min(axis=0) + scales[a:b].max(axis=0)) / 2.0 for a, b in zip(edges, edges[1:])]
+    return np.array(edges), np.array(middles)
