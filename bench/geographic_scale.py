@@ -14,7 +14,9 @@ Per map, in one process:
   warm-up), their ratio, the cells where the masks differ, the largest angle between the sun
   as given and as the grid must trace it at the map's edges (the old geometry's error), and the
   per-block mask against the float64 twin on a seeded sample of 32 x 32 cells in 12 blocks
-  (mismatches outside float32 ties: must be 0);
+  (mismatches outside float32 ties: must be 0), and against the horizons at its azimuth (per
+  band of rows): the cells where "in cast shadow" and "horizon above the sun" differ, and how
+  far from the sun their horizons are (ties: within float32 rounding);
 * **horizons** at 16 and 64 azimuths: time per band of rows against the centre's cell width
   alone (one run each), the bands, the largest and the 99th-percentile difference of the
   angles, and the banded angles against the float64 twin of each band's cells on 400 seeded
@@ -92,6 +94,7 @@ def edge_error(places, sun: Sun) -> float:
 
 def masks(name: str, raster: Raster, hm: Heightmap, places) -> list[dict]:
     caster = ShadowCaster(hm, cache=False)
+    horizon = HorizonCaster(hm, row_scales=places.row_scales(), cache=False)
     out = []
     for sun in SUNS:
         t0 = time.perf_counter()
@@ -109,15 +112,19 @@ def masks(name: str, raster: Raster, hm: Heightmap, places) -> list[dict]:
         ties = twin.ties(ref.field_tie_tolerance(hm, sample))
         differ = got != twin.mask
         kept = [b for b in sample.blocks if b.sun.elevation > 0]
+        angles = horizon.horizons([sun.azimuth])[0]
+        disagree = valid & ((banded == 1) != (angles > sun.elevation))
         row = {"map": name, "sun": [sun.azimuth, sun.elevation], "blocks": len(field.blocks),
                "deviation_deg": field.deviation, "build_s": build, "per_block_s": t_field, "one_sun_s": t_one,
                "ratio": t_field / t_one, "edge_error_deg": edge_error(places, sun),
                "cells_differing": int((banded != flat)[valid].sum()), "valid_cells": int(valid.sum()),
                "twin_cells": int(sum((b.row1 - b.row0) * (b.col1 - b.col0) for b in kept)),
-               "twin_mismatch": int((differ & ~ties).sum()), "twin_tied": int((differ & ties).sum())}
+               "twin_mismatch": int((differ & ~ties).sum()), "twin_tied": int((differ & ties).sum()),
+               "horizon_disagree": int(disagree.sum()),
+               "horizon_disagree_max_deg": float(np.abs(angles - sun.elevation)[disagree].max()) if disagree.any() else 0.0}
         log(f"{name} sun {sun.azimuth:g}/{sun.elevation:g}: {row['blocks']} blocks, {t_field:.3f} s vs "
             f"{t_one:.3f} s, {row['cells_differing']} cells differ, edge error {row['edge_error_deg']:.3f} deg, "
-            f"twin {row['twin_mismatch']}/{row['twin_tied']}")
+            f"twin {row['twin_mismatch']}/{row['twin_tied']}, horizons disagree on {row['horizon_disagree']}")
         out.append(row)
     return out
 
@@ -180,12 +187,13 @@ def write_markdown(path: Path, result: dict) -> None:
              "- masks: best of 3 after a warm-up; the sun as the grid traces it per block of rows (tolerance "
              "0.01 deg) against the sun as given at the centre's cell width; horizons: one run each", "",
              "| map | sun az / el | old geometry's error at the edges, deg | blocks | per block s | centre width s | "
-             "ratio | cells differing | twin: cells, mismatches / ties |",
-             "|---|---|---:|---:|---:|---:|---:|---:|---|"]
+             "ratio | cells differing | twin: cells, mismatches / ties | mask vs horizon > el: cells, max abs(h - el) |",
+             "|---|---|---:|---:|---:|---:|---:|---:|---|---|"]
     for r in result["masks"]:
         lines.append(f"| {r['map']} | {r['sun'][0]:g} / {r['sun'][1]:g} | {r['edge_error_deg']:.3f} | {r['blocks']} | "
                      f"{r['per_block_s']:.3f} | {r['one_sun_s']:.3f} | {r['ratio']:.2f} | {r['cells_differing']} of "
-                     f"{r['valid_cells']} | {r['twin_cells']}: {r['twin_mismatch']} / {r['twin_tied']} |")
+                     f"{r['valid_cells']} | {r['twin_cells']}: {r['twin_mismatch']} / {r['twin_tied']} | "
+                     f"{r['horizon_disagree']}, {r['horizon_disagree_max_deg']:.1e} |")
     lines += ["", "| map | azimuths | bands | per band s | centre width s | ratio | angle difference max / p99 / "
               "mean, deg | twin (16 azimuths): cells, outside the float32 band, max error deg |",
               "|---|---:|---:|---:|---:|---:|---|---|"]
