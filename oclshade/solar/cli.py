@@ -234,12 +234,10 @@ class PlacedSuns:
 
 def on_geographic_grid(suns: list, args: argparse.Namespace, raster) -> list | None:
     """Suns given by their angles (--sun AZ,ALT), each as a geographic raster's grid traces it
-    over the map (:func:`oclshade.solar.sun_field` of the sun: the grid's scale per block of
-    rows, to --sun-tolerance; :meth:`oclshade.solar.MapPlaces.on_grid`); None on any other
-    raster, whose grid traces them as they are."""
-    from ..cli import CliError
-
-    from ..cli import PROG
+    over the map (:func:`oclshade.solar.sun_field` of the sun: per band of rows of the horizons,
+    at the band's scale, to --sun-tolerance; :meth:`oclshade.solar.MapPlaces.on_grid`); None on
+    any other raster, whose grid traces them as they are."""
+    from ..cli import PROG, CliError
 
     if not raster.geographic:
         return None

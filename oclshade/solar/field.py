@@ -309,8 +309,9 @@ def _outermost(edges: np.ndarray) -> tuple[np.ndarray, tuple[np.ndarray, np.ndar
 def _block_suns(places: MapPlaces, when: datetime, block_rows: int, block_cols: int
                 ) -> tuple[tuple[np.ndarray, ...], float]:
     """The blocks of this size, as :class:`BlockGrid`'s arrays (row edges, column edges, centre
-    sun azimuths and elevations, and on a geographic grid the scales there), and the largest angle between a block's sun and the sun at any
-    of its corners."""
+    sun azimuths and elevations, and on a geographic grid the scales there), and the largest
+    angle between a block's sun and the sun at any of its corners (small blocks: of its
+    outermost cells' centres)."""
     rows, cols = places.shape
     edge_r = np.append(np.arange(0, rows, block_rows), rows)
     edge_c = np.append(np.arange(0, cols, block_cols), cols)
