@@ -788,6 +788,36 @@ oclshade_status oclshade_enqueue_sunshine(oclshade *lib, cl_command_queue queue,
                                           cl_uint num_events_in_wait_list, const cl_event *event_wait_list,
                                           cl_event *event);
 
+/* ----------------------------------------------------------- sun position */
+
+/* The sun's topocentric azimuth and elevation by NREL's Solar Position Algorithm (Reda & Andreas
+ * 2008), as oclshade.solar.sun_position computes them (within 1e-8 degree of it, and within 0.01
+ * degree of pvlib over the years 1950-2100: tests/test_solar.py).  Pure host code, no handle:
+ * OCLSHADE_INVALID_ARGUMENT for an argument out of its range. */
+typedef struct oclshade_sun_options {
+    double altitude;      /* the observer's height above sea level, metres (parallax), finite; 0 */
+    double pressure;      /* hPa, > 0 (refraction only); 1010 */
+    double temperature;   /* degrees Celsius, > -273 (refraction only); 10 */
+    double delta_t;       /* TT - UT1 in seconds, finite; NaN (the default): oclshade_delta_t_estimate */
+    int refraction;       /* 1 (default): the apparent elevation (SPA eq. 42, while the sun's upper limb
+                             is up); 0: the geometric one */
+} oclshade_sun_options;
+
+/* Defaults: sea level, 1010 hPa, 10 C, Delta T estimated, refraction on. */
+void oclshade_sun_options_init(oclshade_sun_options *options);
+
+/* The sun at POSIX time `unix_seconds` (UTC, taken as UT1: at most 0.004 degree) seen from
+ * `latitude` (degrees north, [-90, 90]) and `longitude` (degrees east, [-180, 180]): *azimuth
+ * in degrees clockwise from north, [0, 360), *elevation in degrees above the horizon.
+ * `options` NULL: the defaults.  A geographic grid's suns are true ones; a projected grid's
+ * azimuths turn by the meridian convergence (the Python host's MapSite.grid_suns). */
+oclshade_status oclshade_sun_position(double unix_seconds, double latitude, double longitude,
+                                      const oclshade_sun_options *options, double *azimuth, double *elevation);
+
+/* TT - UT1 in seconds for a decimal year: Espenak & Meeus (2006), the pieces from 1900 to 2150
+ * and their long-term parabola outside (oclshade.solar.delta_t_estimate). */
+double oclshade_delta_t_estimate(double year);
+
 /* ----------------------------------------------------------- horizons and sky-view factor */
 
 /* Sky-view factor definitions (kernels/horizon.cl -D OCLS_OUT_SVF). */
