@@ -2,7 +2,8 @@
 
 Reading gives a :class:`Raster`: float64 heights with NaN for nodata, row 0
 north, and cell sizes in metres (geographic rasters are converted at their
-centre latitude on the WGS84 ellipsoid). Writing is atomic: a temporary file
+centre latitude on the WGS84 ellipsoid: the grid's scale; each row's own is
+traced through oclshade.solar, docs/methods.md "Geographic grids"). Writing is atomic: a temporary file
 in the destination directory is renamed over the target only once complete.
 """
 from __future__ import annotations
