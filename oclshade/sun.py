@@ -173,12 +173,13 @@ class BlockGrid(Sequence[SunBlock]):
     col_edges: np.ndarray    # int64, from 0 to the map's columns, increasing
     azimuth: np.ndarray      # float64 (row blocks, column blocks), degrees
     elevation: np.ndarray
-    scales: np.ndarray | None = None   # float64 (row blocks, column blocks, 2): SunField.scales; None: 1
+    scales: np.ndarray | None = None   # float64 (row blocks, 2): SunField.scales, one per row of blocks
+                                       # (a geographic grid's scale follows the latitude); None: 1
 
     def __post_init__(self) -> None:
         shape = (len(self.row_edges) - 1, len(self.col_edges) - 1)
-        if self.scales is not None and np.shape(self.scales) != (*shape, 2):
-            raise ValueError(f"a block grid's scales must be (row blocks, column blocks, 2) = {(*shape, 2)}, "
+        if self.scales is not None and np.shape(self.scales) != (shape[0], 2):
+            raise ValueError(f"a block grid's scales must be (row blocks, 2) = {(shape[0], 2)}, "
                              f"got {np.shape(self.scales)}")
         if (np.shape(self.azimuth) != shape or np.shape(self.elevation) != shape or min(shape) < 1
                 or np.any(np.diff(self.row_edges) < 1) or np.any(np.diff(self.col_edges) < 1)
@@ -217,7 +218,9 @@ class BlockGrid(Sequence[SunBlock]):
     @property
     def block_scales(self) -> np.ndarray:
         """float64 (blocks, 2) in raster order: :attr:`SunField.scales`."""
-        return np.ones((len(self), 2)) if self.scales is None else np.reshape(self.scales, (len(self), 2))
+        if self.scales is None:
+            return np.ones((len(self), 2))
+        return np.repeat(np.asarray(self.scales, np.float64), self.azimuth.shape[1], axis=0)
 
     def bands(self) -> tuple[np.ndarray, np.ndarray]:
         """:attr:`SunField.bands` of the grid: its own rows and columns of blocks."""

@@ -239,7 +239,7 @@ def _banded_field(places: MapPlaces, sun: Sun, tolerance: float) -> SunField:
     deviation = float(sun_differences(own, unit_vectors(az, el)[band]).max())
     if len(scales) == 1:
         return SunField.single(Sun(float(az[0]), float(el[0])), places.shape, deviation, tolerance)
-    return SunField(places.shape, BlockGrid(edges, np.array([0, cols]), az[:, None], el[:, None], scales[:, None, :]),
+    return SunField(places.shape, BlockGrid(edges, np.array([0, cols]), az[:, None], el[:, None], scales),
                     sun, deviation, tolerance)
 
 
@@ -332,7 +332,7 @@ def _block_suns(places: MapPlaces, when: datetime, block_rows: int, block_cols: 
                     for rows_at in (top, bottom) for cols_at in (left, right))
     grid = tuple(np.ascontiguousarray(np.reshape(a, centres.shape[:2]), np.float64) for a in (az, el))
     scales = None
-    if places.crs is None:                   # a geographic grid: each block's scale at its centre
-        lat = places.lonlat(mid_r.ravel(), mid_c.ravel())[1]
-        scales = np.stack(places.grid_scales(lat), axis=-1).reshape(*centres.shape[:2], 2)
+    if places.crs is None:                   # a geographic grid: each row of blocks' scale at its middle
+        lat = places.lonlat(mid_r[:, 0], mid_c[:, 0])[1]
+        scales = np.stack(places.grid_scales(lat), axis=-1)
     return (edge_r, edge_c, *grid, scales), deviation
