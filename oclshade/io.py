@@ -38,8 +38,8 @@ GEOTIFF_TAGS = {33550: 12, 33922: 12, 34264: 12, 34735: 3, 34736: 12, 34737: 2}
 _TAG_NODATA = 42113
 _TAG_GDAL_METADATA = 42112
 
-WGS84_A = 6378137.0
-WGS84_E2 = (1.0 / 298.257223563) * (2.0 - 1.0 / 298.257223563)
+_WGS84_A = 6378137.0
+_WGS84_E2 = (1.0 / 298.257223563) * (2.0 - 1.0 / 298.257223563)
 
 
 
@@ -105,10 +105,10 @@ class _Source:
 def metres_per_degree(lat_deg: float) -> tuple[float, float]:
     """(east-west metres per degree of longitude, north-south metres per degree of latitude), WGS84."""
     phi = math.radians(lat_deg)
-    w = 1.0 - WGS84_E2 * math.sin(phi) ** 2
+    w = 1.0 - _WGS84_E2 * math.sin(phi) ** 2
     rad = math.pi / 180.0
-    return (rad * WGS84_A * math.cos(phi) / math.sqrt(w),
-            rad * WGS84_A * (1.0 - WGS84_E2) / w ** 1.5)
+    return (rad * _WGS84_A * math.cos(phi) / math.sqrt(w),
+            rad * _WGS84_A * (1.0 - _WGS84_E2) / w ** 1.5)
 
 
 def _degree_cells(cx: float, cy: float, centre_lat: float) -> tuple[float, float]:

@@ -377,9 +377,10 @@ class HorizonCaster:
         def sweep(ray: np.ndarray, angle: cl.Buffer, svf: cl.Buffer, band: tuple[int, int] | None = None,
                   azimuth: float | None = None) -> None:
             kernel, grid = sweeper()
-            for scaled, _, rows_of in self._scaled(azimuth, ray, grid, band):
+            for cell, band_grid, rows_of in self._band_launches(grid, band, azimuth is not None):
+                scaled = ray if azimuth is None else self._ray(azimuth, cell)
                 kernel.set_args(self.heights_buffer, np.int32(rows), np.int32(cols), scaled, angle, svf)
-                launch(kernel, *rows_of)
+                launch(kernel, band_grid, rows_of)
 
         def walk(ray: np.ndarray, angle: cl.Buffer, svf: cl.Buffer, bounds: tuple[float, float] = (),
                  band: tuple[int, int] | None = None, table: tuple = (), azimuth: float | None = None) -> None:
@@ -387,10 +388,12 @@ class HorizonCaster:
             if seeded:                # the grid's ray: any seed gives each cell a lower bound (horizon.cl)
                 w["seeder"].set_args(*w["fixed"], ray, w["seeds"])
                 cl.enqueue_nd_range_kernel(rt.queue, w["seeder"], *w["seed_grid"])
-            for scaled, cell, rows_of in self._scaled(azimuth, ray, w["grid"], band):
-                w["kernel"].set_args(*w["fixed"], scaled, angle, svf, w["seeds"] if seeded else self._dummy, cell,
-                                     *([np.array(bounds, np.float32)] if bounds else []), *table)
-                launch(w["kernel"], *rows_of)
+            for cell, band_grid, rows_of in self._band_launches(w["grid"], band, azimuth is not None):
+                scaled = ray if azimuth is None else self._ray(azimuth, cell)
+                w["kernel"].set_args(*w["fixed"], scaled, angle, svf, w["seeds"] if seeded else self._dummy,
+                                     cell.astype(np.float32), *([np.array(bounds, np.float32)] if bounds else []),
+                                     *table)
+                launch(w["kernel"], band_grid, rows_of)
 
         def pilot(ray: np.ndarray, angle: cl.Buffer, crossings: float) -> Pilot:
             """Both on bands of rows (pilot.py): into ``angle`` (the launch that follows writes the
@@ -422,27 +425,26 @@ class HorizonCaster:
 
         return enqueue
 
-    def _scaled(self, azimuth: float | None, ray: np.ndarray, grid: tuple, band: tuple[int, int] | None
-                ) -> Iterator[tuple[np.ndarray, np.ndarray, tuple]]:
-        """(ray, cell sizes, (grid, rows)) of each launch that traces ``ray`` at ``azimuth`` over the
-        rows of ``band`` (None: the map): one, or with :attr:`scale_bands` (an azimuth given) one
-        per band of rows with its own cell sizes, each launch's work-groups as tall as divides its
-        rows (the last band's rows rounded up to the grid's)."""
+    def _band_launches(self, grid: tuple, band: tuple[int, int] | None, scaled: bool = True
+                       ) -> list[tuple[np.ndarray, tuple, tuple[int, int] | None]]:
+        """(cell sizes float64 (dx, dy), grid, rows) of each launch over the rows of ``band`` (None:
+        the map): one with the map's cell sizes, or with ``scaled`` and :attr:`scale_bands` one per
+        band of rows with its own, each launch's work-groups as tall as divides its rows (the
+        last band's rows rounded up to the grid's)."""
         hm = self.heightmap
         edges, scales = self.scale_bands
-        if azimuth is None or len(scales) == 1 and np.all(scales == 1.0):
-            yield ray, np.array([hm.dx, hm.dy], np.float32), (grid, band)
-            return
+        if not scaled or len(scales) == 1 and np.all(scales == 1.0):
+            return [(np.array([hm.dx, hm.dy]), grid, band)]
         (gx, gy), (lx, ly) = grid
         first, stop = (0, gy) if band is None else (band[0], band[0] + band[1])
+        ends = np.append(edges[1:-1], gy)
+        out = []
         for k in range(len(scales)):
-            r0, r1 = max(int(edges[k]), first), min(gy if k == len(scales) - 1 else int(edges[k + 1]), stop)
-            if r1 <= r0:
-                continue
-            dx, dy = hm.dx * scales[k, 0], hm.dy * scales[k, 1]
-            scaled = ray.copy()
-            scaled[:2] = sun_rays(np.array([azimuth]), np.zeros(1), dx, dy)[0, :2]
-            yield scaled, np.array([dx, dy], np.float32), (((gx, gy), (lx, math.gcd(ly, r1 - r0))), (r0, r1 - r0))
+            r0, r1 = max(int(edges[k]), first), min(int(ends[k]), stop)
+            if r1 > r0:
+                out.append((np.array([hm.dx * scales[k, 0], hm.dy * scales[k, 1]]),
+                            ((gx, gy), (lx, math.gcd(ly, r1 - r0))), (r0, r1 - r0)))
+        return out
 
     def _grid(self, kernel: cl.Kernel, cols: int, rows: int) -> tuple[tuple[int, int], tuple[int, int]]:
         """(global, local) sizes for one work-item per (col, row): work-groups of the knob ``group``
@@ -455,14 +457,16 @@ class HorizonCaster:
                 "OCLS_LEVEL_SCAN": 1 if self.knobs["scan"] else None,
                 "OCLS_OWN_BUILTINS": bool(self.knobs["own_builtins"])}
 
-    def _ray(self, azimuth: float) -> np.ndarray:
-        """kernels/horizon.cl's float4 ray (ux, uy, c, R) at ``azimuth``."""
-        return self._rays(np.array([azimuth]))[0]
+    def _ray(self, azimuth: float, cell: np.ndarray | None = None) -> np.ndarray:
+        """kernels/horizon.cl's float4 ray (ux, uy, c, R) at ``azimuth`` (``cell``: the cell sizes,
+        default the map's)."""
+        return self._rays(np.array([azimuth]), cell)[0]
 
-    def _rays(self, azimuths: np.ndarray) -> np.ndarray:
+    def _rays(self, azimuths: np.ndarray, cell: np.ndarray | None = None) -> np.ndarray:
         """:meth:`_ray` of each azimuth, float32 (n, 4)."""
+        dx, dy = (self.heightmap.dx, self.heightmap.dy) if cell is None else cell
         rays = np.empty((len(azimuths), 4), np.float32)
-        rays[:, :2] = sun_rays(azimuths, np.zeros(len(azimuths)), self.heightmap.dx, self.heightmap.dy)[:, :2]
+        rays[:, :2] = sun_rays(azimuths, np.zeros(len(azimuths)), dx, dy)[:, :2]
         rays[:, 2], rays[:, 3] = self.coefficient, self.radius or 0.0
         return rays
 
@@ -497,18 +501,14 @@ class HorizonCaster:
 
         def launch(azimuths: np.ndarray, angle: cl.Buffer, stride: int, svf: cl.Buffer) -> None:
             n = azimuths.size
-            grid_rays = np.stack([self._ray(float(a)) for a in azimuths])
-            rays = rt.to_device(grid_rays, "horizon rays")
+            rays = rt.to_device(self._rays(azimuths), "horizon rays")   # the grid's: the seeds', and the cells' unbanded
             seeder.set_args(*fixed, rays, seeds, np.int32(0))
             cl.enqueue_nd_range_kernel(rt.queue, seeder, (sgx, sgy, n), (slx, sly, 1))
-            for launched in zip(*(self._scaled(float(a), ray, ((gx, gy), (lx, ly)), None)
-                                  for a, ray in zip(azimuths, grid_rays))):
-                _, cell, (((_, _), (_, band_ly)), rows_of) = launched[0]
+            for cell, (_, (_, band_ly)), rows_of in self._band_launches(((gx, gy), (lx, ly)), None):
                 first, count = (0, gy) if rows_of is None else rows_of
-                band_rays = rays if rows_of is None else \
-                    rt.to_device(np.stack([scaled for scaled, _, _ in launched]), "horizon rays")
-                walker.set_args(*fixed, band_rays, angle, svf, seeds, cell, np.int32(stride), np.int32(0),
-                                np.int32(n))
+                band_rays = rays if rows_of is None else rt.to_device(self._rays(azimuths, cell), "horizon rays")
+                walker.set_args(*fixed, band_rays, angle, svf, seeds, cell.astype(np.float32), np.int32(stride),
+                                np.int32(0), np.int32(n))
                 cl.enqueue_nd_range_kernel(rt.queue, walker, (gx, count, 1 if sums else n), (lx, band_ly, 1),
                                            global_work_offset=(0, first, 0))
 

@@ -16,7 +16,7 @@ import numpy as np
 from ..heightmap import InputWarning
 from .position import DEFAULT_PRESSURE_HPA, DEFAULT_TEMPERATURE_C, sun_position, suns_at
 from ..sun import DEFAULT_SUN_TOLERANCE, SunField
-from .field import map_places, sun_field
+from .field import MapPlaces, map_places, sun_field
 from .site import MapSite, map_site
 
 EPILOG = """\
@@ -232,20 +232,29 @@ class PlacedSuns:
                 f"elevation {true.elevation:.4f}")
 
 
+def _geographic_places(args: argparse.Namespace, raster) -> MapPlaces | None:
+    """A geographic raster's :class:`oclshade.solar.MapPlaces`; None for any other raster."""
+    from ..cli import CliError
+
+    if not raster.geographic:
+        return None
+    try:
+        return map_places(raster)
+    except ValueError as exc:
+        raise CliError(f"INPUT {args.input!r}: {exc}") from None
+
+
 def on_geographic_grid(suns: list, args: argparse.Namespace, raster) -> list | None:
     """Suns given by their angles (--sun AZ,ALT), each as a geographic raster's grid traces it
     over the map (:func:`oclshade.solar.sun_field` of the sun: per band of rows of the horizons,
     at the band's scale, to --sun-tolerance; :meth:`oclshade.solar.MapPlaces.on_grid`); None on
     any other raster, whose grid traces them as they are."""
-    from ..cli import PROG, CliError
+    from ..cli import PROG
 
-    if not raster.geographic:
+    places = _geographic_places(args, raster)
+    if places is None:
         return None
-    try:
-        places = map_places(raster)
-        fields = None if places is None else [sun_field(places, sun, args.sun_tolerance) for sun in suns]
-    except ValueError as exc:
-        raise CliError(f"INPUT {args.input!r}: {exc}") from None
+    fields = [sun_field(places, sun, args.sun_tolerance) for sun in suns]
     if fields and not getattr(args, "quiet", False):
         counts = [len(f.blocks) for f in fields]
         print(f"{PROG}: a geographic grid: each block of rows traced with its own cell width ({min(counts)}-"
@@ -256,14 +265,7 @@ def on_geographic_grid(suns: list, args: argparse.Namespace, raster) -> list | N
 def geographic_row_scales(args: argparse.Namespace, raster) -> np.ndarray | None:
     """A geographic raster's :meth:`oclshade.solar.MapPlaces.row_scales` (its horizons are
     traced per band of rows with their own cell sizes); None on any other raster."""
-    from ..cli import CliError
-
-    if not raster.geographic:
-        return None
-    try:
-        places = map_places(raster)
-    except ValueError as exc:
-        raise CliError(f"INPUT {args.input!r}: {exc}") from None
+    places = _geographic_places(args, raster)
     return None if places is None else places.row_scales()
 
 

@@ -36,11 +36,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from datetime import datetime
+from functools import cached_property
 from typing import Any, Sequence
 
 import numpy as np
 
-from ..io import WGS84_A, WGS84_E2, Raster, geotransform
+from ..io import Raster, geotransform, metres_per_degree
 from ..sun import DEFAULT_SUN_TOLERANCE as DEFAULT_TOLERANCE, BlockGrid, Sun, SunField
 from .scale import scale_bands
 from .position import sun_position
@@ -82,7 +83,7 @@ class MapPlaces:
             return np.mod(true_azimuths, 360.0)
         return grid_azimuths(self.crs, lon, lat, true_azimuths)
 
-    @property
+    @cached_property
     def centre_latitude(self) -> float:
         """The latitude of the map's centre: where a geographic raster's cell sizes in metres are
         taken (:mod:`oclshade.io`), so its grid is drawn at that latitude's scale."""
@@ -90,10 +91,13 @@ class MapPlaces:
 
     def grid_scales(self, lat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(east-west, north-south) metres of a geographic cell at these latitudes over the
-        grid's (the centre latitude's): the true length of one grid metre there."""
-        east, north = _metres_per_degree(np.asarray(lat, np.float64))
-        centre = _metres_per_degree(np.float64(self.centre_latitude))
-        return east / centre[0], north / centre[1]
+        grid's (the centre latitude's): the true length of one grid metre there, by the very
+        formula the cell sizes come from (:func:`oclshade.io.metres_per_degree`, once per
+        distinct latitude: on a north-up grid, one per row of the places)."""
+        distinct, where = np.unique(np.asarray(lat, np.float64), return_inverse=True)
+        east, north = (np.asarray(v, np.float64) for v in _METRES_PER_DEGREE(distinct))
+        centre = metres_per_degree(self.centre_latitude)
+        return (east / centre[0])[where].reshape(np.shape(lat)), (north / centre[1])[where].reshape(np.shape(lat))
 
     def row_scales(self) -> np.ndarray:
         """float64 (rows, 2): :meth:`grid_scales` at each row's middle (all 1 on a projected grid),
@@ -151,13 +155,7 @@ def scaled_suns(sx: np.ndarray, sy: np.ndarray, azimuth: np.ndarray, elevation: 
             np.where(same | (np.abs(elevation) >= 90.0), elevation, np.degrees(np.arctan2(s * se, ce))))
 
 
-def _metres_per_degree(lat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`oclshade.io.metres_per_degree` (WGS84) on arrays: a ratio of two of its values is
-    right to a few ulp, and exactly 1 for equal latitudes."""
-    phi = np.radians(lat)
-    w = 1.0 - WGS84_E2 * np.sin(phi) ** 2
-    rad = math.pi / 180.0
-    return rad * WGS84_A * np.cos(phi) / np.sqrt(w), rad * WGS84_A * (1.0 - WGS84_E2) / w ** 1.5
+_METRES_PER_DEGREE = np.frompyfunc(metres_per_degree, 1, 2)
 
 
 def map_places(raster: Raster) -> MapPlaces | None:
@@ -319,10 +317,9 @@ def _block_suns(places: MapPlaces, when: datetime, block_rows: int, block_cols: 
     az, el = places.suns(when, mid_r, mid_c)
     centres = unit_vectors(az, el).reshape(len(edge_r) - 1, len(edge_c) - 1, 3)
     if block_rows >= ALIGN and block_cols >= ALIGN:     # the blocks' corners: shared, a bound for their cells
-        top = bottom = np.arange(len(edge_r) - 1)
-        left = right = np.arange(len(edge_c) - 1)
+        top, bottom = np.arange(len(edge_r) - 1), np.arange(1, len(edge_r))
+        left, right = np.arange(len(edge_c) - 1), np.arange(1, len(edge_c))
         lines_r, lines_c = edge_r.astype(np.float64), edge_c.astype(np.float64)
-        bottom, right = bottom + 1, right + 1
     else:        # small blocks: their outermost cells' centres (a cell's sun is its centre's; 1 x 1 holds)
         lines_r, (top, bottom) = _outermost(edge_r)
         lines_c, (left, right) = _outermost(edge_c)
