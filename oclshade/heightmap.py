@@ -12,8 +12,12 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from .io import Raster
 
 FLOAT32_MAX = float(np.finfo(np.float32).max)
 # Values data sets use for "no data"; finding one in heights without declared nodata is suspicious.
@@ -127,6 +131,17 @@ def check_float32(heights: np.ndarray, lo: float, hi: float, dx: float, dy: floa
                      f"(--nodata {value:.9g} or nodata={value:.9g})")
 
 
+def check_row_scales(row_scales: object, rows: int) -> np.ndarray:
+    """``row_scales`` as a read-only float64 (rows, 2) array of positive finite numbers, or a
+    ValueError naming it and the expected shape."""
+    scales = np.array(row_scales, np.float64)
+    if scales.shape != (rows, 2) or not np.all(np.isfinite(scales)) or not np.all(scales > 0.0):
+        raise ValueError(f"row_scales must be positive finite float64 (rows, 2) = ({rows}, 2), "
+                         f"got shape {scales.shape}")
+    scales.setflags(write=False)
+    return scales
+
+
 def _relative_float32(heights: np.ndarray, offset: float, block_rows: int = 512) -> np.ndarray:
     """float32(heights - offset), subtracting in float64 block by block (no full-size temporary)."""
     out = np.empty(heights.shape, np.float32)
@@ -144,8 +159,14 @@ class Heightmap:
     dy: float                    # north-south cell size, metres
     offset: float = field(init=False)
     relative32: np.ndarray = field(init=False, repr=False)
+    #: None, or float64 (rows, 2): each row's true metres east and north of one grid metre (a
+    #: geographic raster's, :meth:`from_raster`); the casters then trace a sun given by its angles
+    #: per band of rows at the band's own cell sizes (docs/methods.md, "Geographic grids")
+    row_scales: np.ndarray | None = field(default=None, repr=False, compare=False, kw_only=True)
 
     def __post_init__(self) -> None:
+        if self.row_scales is not None:
+            object.__setattr__(self, "row_scales", check_row_scales(self.row_scales, self.heights.shape[0]))
         lo, hi = extrema(self.heights)
         if not math.isnan(lo):
             check_float32(self.heights, lo, hi, self.dx, self.dy)
@@ -157,7 +178,8 @@ class Heightmap:
 
     @classmethod
     def from_array(cls, heights: object, cellsize: float | tuple[float, float] = 1.0,
-                   z_factor: float = 1.0, nodata: float | None = None) -> "Heightmap":
+                   z_factor: float = 1.0, nodata: float | None = None,
+                   row_scales: np.ndarray | None = None) -> "Heightmap":
         """Validate ``heights`` and build a heightmap.
 
         heights: 2-D numbers, NaN (or ``nodata``, or masked cells of a
@@ -166,7 +188,8 @@ class Heightmap:
         cellsize: one number (dx = dy) or (dx, dy), metres.  z_factor scales
         heights to the cell-size unit (as gdaldem's -z).  Warns
         (:class:`InputWarning`) when heights hold a common nodata value
-        (:data:`NODATA_SENTINELS`).
+        (:data:`NODATA_SENTINELS`).  row_scales: see :attr:`row_scales` (:meth:`from_raster`
+        sets it from a raster's georeferencing).
         """
         z = float(z_factor)
         if not math.isfinite(z) or z == 0.0:
@@ -189,7 +212,21 @@ class Heightmap:
                                  f"exceeds the float64 range")
             h = h * z
             h.setflags(write=False)
-        return cls(h, dx, dy)
+        return cls(h, dx, dy, row_scales=row_scales)
+
+    @classmethod
+    def from_raster(cls, raster: "Raster", z_factor: float = 1.0) -> "Heightmap":
+        """The heightmap of a DEM read with :func:`oclshade.io.read_dem`: its heights (nodata as
+        NaN) and cell sizes, and on a geographic grid (degrees) each row's own scale
+        (:meth:`oclshade.solar.MapPlaces.row_scales`): its cells are metres at the centre
+        latitude's scale, so the casters trace a sun given by its angles, and the horizons, per
+        band of rows with the band's true cell widths, as the CLI does.  A projected grid has
+        no :attr:`row_scales`."""
+        from .solar.field import map_places
+
+        places = map_places(raster) if raster.geographic else None
+        row_scales = None if places is None else places.row_scales()
+        return cls.from_array(raster.heights, (raster.dx, raster.dy), z_factor, row_scales=row_scales)
 
     @property
     def shape(self) -> tuple[int, int]:

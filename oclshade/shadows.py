@@ -27,6 +27,7 @@ from .analysis import SceneAnalysis, slope_fronts
 from .horizon.caster import Curvature
 from .pyramid import ExtremaPyramid, cached_pyramid
 from .runtime import Runtime, get_runtime
+from .solar.field import on_heightmap
 from .sun import Sun, SunField, SunLike, Traced, as_sun, as_traced, sun_directions
 
 METHODS = ("exact", "paper", "maxmip", "dda")
@@ -188,6 +189,10 @@ class ShadowCaster:
     (:mod:`oclshade.tiles`), (0, 0) for a whole map: the kernels form the cells' coordinates in
     the larger map, so every float32 value a cell's ray computes is the larger map's and a window
     holding the terrain that can shade a cell decides it bit for bit as the whole map does.
+    A heightmap with :attr:`~oclshade.heightmap.Heightmap.row_scales` (a geographic raster's,
+    :meth:`~oclshade.heightmap.Heightmap.from_raster`) traces a sun given by its angles per band
+    of rows with the band's own cell widths (:func:`oclshade.solar.field.on_heightmap`): the
+    Earth's shadows, not the centre latitude's.
     """
 
     def __init__(self, heightmap: Heightmap, device: str | int | Runtime | None = None, *,
@@ -275,8 +280,9 @@ class ShadowCaster:
         return self._results(items, method, outs, k_dark, k_bright, progress)
 
     def _traced(self, suns: Iterable[SunLike | SunField]) -> list[Traced]:
-        """The suns checked, a uniform sun field as its one sun, a field checked against the map."""
-        items = as_traced(suns)
+        """The suns checked, a uniform sun field as its one sun, a field checked against the map; on
+        a geographic heightmap a sun given by its angles as its bands' (:func:`on_heightmap`)."""
+        items = [on_heightmap(self.heightmap, item) for item in as_traced(suns)]
         for k, item in enumerate(items):
             if isinstance(item, SunField):
                 item.check_shape(self.heightmap.shape)

@@ -14,7 +14,7 @@ pyproj = pytest.importorskip("pyproj")
 from oclshade import reference as ref  # noqa: E402
 from oclshade.cli import main  # noqa: E402
 from oclshade.heightmap import Heightmap  # noqa: E402
-from oclshade.io import read_dem  # noqa: E402
+from oclshade.io import Raster, read_dem  # noqa: E402
 from oclshade.solar import map_places, sun_field  # noqa: E402
 from oclshade.sun import BlockGrid, Sun, SunField  # noqa: E402
 from oclshade.synthetic import canyon_crater  # noqa: E402
@@ -148,13 +148,9 @@ def test_geographic_horizons_are_each_bands_own_cells_exactly(tmp_path, knobs, r
     azimuths = [0.0, 37.5, 90.0, 200.0, 315.0]
     got = caster.horizons(azimuths)
     flat = HorizonCaster(hm, max_distance=radius, knobs=knobs, cache=False).horizons(azimuths)
-    expected = np.empty(got.shape)
-    for k, (r0, r1) in enumerate(zip(edges, edges[1:])):      # the float64 twin, each band with its cells
-        own = Heightmap.from_array(raster.heights, (raster.dx * band_scales[k, 0], raster.dy * band_scales[k, 1]))
-        cells = tuple(a.ravel() for a in np.indices((r1 - r0, hm.shape[1])))
-        for a, az in enumerate(azimuths):
-            expected[a, r0:r1] = ref.horizon_angles(own, az, cells=(cells[0] + r0, cells[1]),
-                                                    max_distance=caster.radius or math.inf).reshape(r1 - r0, -1)
+    banded = Heightmap.from_raster(raster)                   # the float64 twin: each band with its cells
+    expected = np.stack([ref.banded_horizon_angles(banded, az, max_distance=caster.radius or math.inf)
+                         for az in azimuths])
     band = ref.angle_tolerance(hm)
     assert np.array_equal(got == -90.0, expected == -90.0)
     assert np.nanmax(np.abs(got - expected)) <= band
@@ -239,3 +235,73 @@ def test_masks_and_horizons_agree_on_a_geographic_map(tmp_path):
         assert not np.any(differ & (np.abs(horizon - elevation) > band)), int(differ.sum())
         shadowed += int(np.count_nonzero(mask == 1))
     assert shadowed > 1000
+
+
+def test_from_raster_carries_a_geographic_grids_row_scales(tmp_path):
+    path, raster, places, hm = geo_map(tmp_path)
+    banded = Heightmap.from_raster(raster)
+    assert np.array_equal(banded.heights, hm.heights, equal_nan=True) and (banded.dx, banded.dy) == (hm.dx, hm.dy)
+    assert np.array_equal(banded.row_scales, places.row_scales()) and hm.row_scales is None
+    assert not banded.row_scales.flags.writeable
+    assert np.array_equal(Heightmap.from_raster(raster, z_factor=2.0).heights, 2.0 * hm.heights, equal_nan=True)
+    projected = Raster(raster.heights, 30.0, 30.0, georef=raster.georef)     # geographic=False: metres
+    assert Heightmap.from_raster(projected).row_scales is None
+    with pytest.raises(ValueError, match=r"row_scales .*\(160, 2\).*\(160, 1\)"):
+        Heightmap.from_array(raster.heights, 30.0, row_scales=np.ones((160, 1)))
+    with pytest.raises(ValueError, match=r"row_scales"):
+        Heightmap.from_array(raster.heights, 30.0, row_scales=np.zeros((160, 2)))
+
+
+@pytest.mark.parametrize("sun", [Sun(90.0, 20.0), Sun(215.0, 12.0)])
+def test_a_sun_by_its_angles_on_a_geographic_heightmap_is_traced_per_band(tmp_path, sun):
+    """The API as the CLI: ShadowCaster(Heightmap.from_raster(...)).cast(Sun) traces the bands'
+    grid suns (sun_field(map_places(...), Sun)), bit for bit the CLI's mask, exact against the
+    float64 twin of those suns; the same sun at the centre's scale differs."""
+    from oclshade import ShadowCaster
+    from oclshade.solar.field import on_heightmap
+
+    path, raster, places, hm = geo_map(tmp_path)
+    banded = Heightmap.from_raster(raster)
+    got = ShadowCaster(banded, cache=False).cast(sun, outputs=("mask", "self"))
+    assert got.sun == sun
+    field = sun_field(places, sun)
+    assert not field.uniform and on_heightmap(banded, sun) == field
+    expected = ShadowCaster(hm, cache=False).cast(field, outputs=("mask", "self"))
+    assert np.array_equal(got.mask, expected.mask) and np.array_equal(got.self_shadow, expected.self_shadow)
+    out = tmp_path / "mask.tif"
+    assert main(["shadow", str(path), str(out), "-az", str(sun.azimuth), "-alt", str(sun.elevation), "-q"]) == 0
+    assert np.array_equal(read_dem(out).heights, np.where(got.mask == 255, np.nan, got.mask), equal_nan=True)
+    twin = ref.cast_field_shadows(hm, field)
+    clear = ~twin.ties(ref.field_tie_tolerance(hm, field))
+    assert np.array_equal(got.mask[clear], twin.mask[clear]) and np.array_equal(got.self_shadow, twin.self_shadow)
+    centre = ShadowCaster(hm, cache=False).cast(sun).mask
+    assert np.count_nonzero(centre[clear] != got.mask[clear]) > 10
+
+
+def test_horizons_soft_shadows_and_sunshine_on_a_geographic_heightmap_follow_its_rows(tmp_path):
+    """HorizonCaster and SunshineCaster of Heightmap.from_raster: the horizons per band (as
+    row_scales=), the soft shadows and the sunshine sums of a sun given by its angles as of its
+    bands' field, bit for bit; each differs from the centre's scale."""
+    from oclshade.horizon import HorizonCaster
+    from oclshade.sunshine import SunshineCaster
+
+    _, raster, places, hm = geo_map(tmp_path)
+    banded = Heightmap.from_raster(raster)
+    scaled = HorizonCaster(banded, cache=False)
+    assert np.array_equal(scaled.horizons([30.0, 250.0]),
+                          HorizonCaster(hm, row_scales=places.row_scales(), cache=False).horizons([30.0, 250.0]))
+    sun = Sun(100.0, 8.0)
+    field = sun_field(places, sun)
+    disc = scaled.sun_disc(sun, columns=8)
+    plain = HorizonCaster(hm, cache=False)
+    assert np.array_equal(disc, plain.sun_disc(field, columns=8), equal_nan=True)
+    assert not np.array_equal(disc, plain.sun_disc(sun, columns=8), equal_nan=True)
+    suns, seconds = [sun, Sun(200.0, 15.0)], [600, 1200]
+    fields = [sun_field(places, s) for s in suns]
+    for method in ("masks", "horizons"):
+        got = SunshineCaster(banded).accumulate(suns, seconds, "all", method=method, azimuths=32)
+        want = SunshineCaster(hm).accumulate(fields, seconds, "all", method=method, azimuths=32)
+        centre = SunshineCaster(hm).accumulate(suns, seconds, "all", method=method, azimuths=32)
+        for name in ("hours", "fraction", "irradiation"):
+            assert np.array_equal(getattr(got, name), getattr(want, name), equal_nan=True), (method, name)
+        assert not np.array_equal(got.irradiation, centre.irradiation, equal_nan=True)

@@ -40,6 +40,7 @@ from ..heightmap import Heightmap
 from ..pyramid import ExtremaPyramid, cached_pyramid
 from ..reference.horizons import SVF_DEFINITIONS
 from ..runtime import Runtime, get_runtime
+from ..solar.field import on_heightmap
 from ..solar.scale import SCALE_TOLERANCE, scale_bands
 from ..sun import Sun, SunField, SunLike, as_sun, libm, sun_rays
 from .disc import DEFAULT_COLUMNS, SUN_RADIUS, disc_columns, disc_columns_of, visible_fraction
@@ -128,13 +129,15 @@ class HorizonCaster:
     process-wide cache (:mod:`oclshade.cache`; None follows :func:`oclshade.cache.enabled`).
     knobs: the ``horizon`` family's tuning values (:data:`TUNING`: ``group``, ``own_builtins``,
     ``lanes``, ``sweep_cells``), any subset; the rest from the device's tuning entry.  Results
-    never depend on them.  row_scales: None (default: every cell dx by dy metres), or float64
-    (rows, 2), for each row the true metres east and north of one of the grid's (a geographic
-    raster's cells are wider towards the equator: :meth:`oclshade.solar.MapPlaces.row_scales`).
-    The horizons and sky-view factor are then traced per band of rows (:attr:`scale_bands`) with
-    the band's own cell sizes, so their azimuths and angles are true ones to
-    :data:`SCALE_TOLERANCE`; the soft shadows stay on the grid (their suns are the grid's:
-    :func:`oclshade.solar.sun_field`).
+    never depend on them.  row_scales: None (default: the heightmap's
+    :attr:`~oclshade.heightmap.Heightmap.row_scales`; without them every cell is dx by dy metres),
+    or float64 (rows, 2), for each row the true metres east and north of one of the grid's (a
+    geographic raster's cells are wider towards the equator:
+    :meth:`oclshade.solar.MapPlaces.row_scales`).  The horizons and sky-view factor are then
+    traced per band of rows (:attr:`scale_bands`) with the band's own cell sizes, so their
+    azimuths and angles are true ones to :data:`SCALE_TOLERANCE`; the soft shadows stay on the
+    grid (their suns are the grid's: :func:`oclshade.solar.sun_field`, and a sun given by its
+    angles on a heightmap with row scales is its bands', :func:`oclshade.solar.field.on_heightmap`).
     """
 
     def __init__(self, heightmap: Heightmap, device: str | int | Runtime | None = None, *,
@@ -145,7 +148,8 @@ class HorizonCaster:
             raise TypeError(f"curvature must be None or a Curvature, got {curvature!r}")
         self.radius = check_max_distance(max_distance)
         self.heightmap = heightmap
-        self.scale_bands = scale_bands(heightmap.shape[0], row_scales, SCALE_TOLERANCE)
+        self.scale_bands = scale_bands(heightmap.shape[0], heightmap.row_scales if row_scales is None else row_scales,
+                                       SCALE_TOLERANCE)
         self.runtime = get_runtime(device)
         self.curvature = curvature
         self.cache = cache
@@ -279,7 +283,10 @@ class HorizonCaster:
         angular ``radius`` in degrees; :mod:`oclshade.horizon.disc`).  A
         :class:`oclshade.sun.SunField`: each block's cells with the disc of its own sun (the
         strips of every block traced over its cells only), bit for bit each block sun's
-        whole-map fractions on its cells."""
+        whole-map fractions on its cells.  On a heightmap with
+        :attr:`~oclshade.heightmap.Heightmap.row_scales`, a sun given by its angles is its bands'
+        field (:func:`oclshade.solar.field.on_heightmap`)."""
+        sun = sun if isinstance(sun, SunField) else on_heightmap(self.heightmap, as_sun(sun))
         if isinstance(sun, SunField) and not sun.uniform:
             return self._field_disc(sun, radius, columns, progress)
         sun = sun.blocks[0].sun if isinstance(sun, SunField) else as_sun(sun)

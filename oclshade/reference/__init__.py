@@ -10,7 +10,7 @@ from .compose import compose
 from .envmap import (CONE_SAMPLES, FACE_NAMES, cone_directions, cube_to_latlong, face_direction, face_st,
                      latlong_directions, latlong_to_cube, reflect, reflect_frame, sample_cube, sample_face,
                      sample_latlong, schlick, seam_jump, texel_directions)
-from .horizons import (SVF_DEFINITIONS, angle_tolerance, horizon_angles, horizon_tangents, horizon_tolerance,
+from .horizons import (SVF_DEFINITIONS, angle_tolerance, banded_horizon_angles, horizon_angles, horizon_tangents, horizon_tolerance,
                        sky_view_factor)
 from .pyramid import extrema_pyramid, mip_pyramid
 from .quadrics import (ReferenceQuadrics, cast_quadrics, intersect, quadric_occludes, quadric_segment_occludes,
@@ -24,7 +24,7 @@ from .terrain import ReferenceTerrain, cast_terrain, dilated_max_levels
 __all__ = [
     "CORNER_SNAP", "CORNER_TIE", "ReferenceAO", "ReferencePixelShadows", "ReferenceShadows", "ReferenceSunshine",
     "ReferenceTerrain", "facing_tolerance", "gradient_error", "sunshine_sums", "surface_gradient",
-    "SVF_DEFINITIONS", "TopDownView", "angle_tolerance", "bilinear", "box_blur", "cast_field_shadows", "cast_shadows", "cast_terrain", "compose", "cosine_directions", "field_tie_tolerance",
+    "SVF_DEFINITIONS", "TopDownView", "angle_tolerance", "banded_horizon_angles", "bilinear", "box_blur", "cast_field_shadows", "cast_shadows", "cast_terrain", "compose", "cosine_directions", "field_tie_tolerance",
     "dilated_max_levels", "edge_blur", "extrema_pyramid", "horizon_angles", "horizon_tangents",
     "horizon_tolerance", "minimal_lod", "mip_pyramid", "pixel_shadows", "raytraced_ao",
     "rotation_vectors", "shadow_coefficient", "sky_view_factor", "ssao", "ssao_lines", "ssao_rays", "surface_height", "tie_tolerance", "topdown_gbuffer",

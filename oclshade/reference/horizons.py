@@ -41,6 +41,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..heightmap import Heightmap
+from ..solar.scale import SCALE_TOLERANCE, scale_bands
 from ..sun import Sun
 from .shadows import CORNER_SNAP, FLOAT32_EPS, _patch_valid, _sample, _segment_margin, start_patches
 
@@ -103,6 +104,27 @@ def horizon_angles(hm: Heightmap, azimuth: float, curvature: float = 0.0,
                    max_distance: float = np.inf) -> np.ndarray:
     """Horizon angles in degrees (float64) as :func:`horizon_tangents`: -90 where nothing is seen."""
     return np.degrees(np.arctan(horizon_tangents(hm, azimuth, curvature, cells, max_distance)))
+
+
+def banded_horizon_angles(hm: Heightmap, azimuth: float, curvature: float = 0.0,
+                          cells: tuple[np.ndarray, np.ndarray] | None = None,
+                          max_distance: float = np.inf) -> np.ndarray:
+    """:func:`horizon_angles` of a heightmap with :attr:`~oclshade.heightmap.Heightmap.row_scales`
+    (a geographic raster's) as :class:`oclshade.horizon.HorizonCaster` traces it: each cell with
+    the cell sizes of its band of rows (:func:`oclshade.solar.scale.scale_bands`: dx, dy times
+    the band's scale), rays over the whole map.  Without row scales: :func:`horizon_angles`.
+    (Every other reference takes the grid as drawn, dx by dy, and the suns as the grid traces
+    them.)"""
+    ii, jj = (a.ravel() for a in np.indices(hm.shape)) if cells is None else \
+        (np.asarray(a, np.int64).ravel() for a in cells)
+    edges, scales = scale_bands(hm.shape[0], hm.row_scales, SCALE_TOLERANCE)
+    which = np.searchsorted(edges, ii, side="right") - 1
+    out = np.empty(ii.shape)
+    for k in np.unique(which):
+        own = Heightmap(hm.heights, hm.dx * float(scales[k, 0]), hm.dy * float(scales[k, 1]))
+        at = which == k
+        out[at] = horizon_angles(own, azimuth, curvature, (ii[at], jj[at]), max_distance)
+    return out.reshape(hm.shape if cells is None else np.shape(cells[0]))
 
 
 def _walk(hm: Heightmap, azimuth: float, c: float, ii: np.ndarray, jj: np.ndarray,

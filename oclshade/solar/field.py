@@ -42,7 +42,8 @@ from typing import Any, Sequence
 import numpy as np
 
 from ..io import Raster, geotransform, metres_per_degree
-from ..sun import DEFAULT_SUN_TOLERANCE as DEFAULT_TOLERANCE, BlockGrid, Sun, SunField
+from ..heightmap import Heightmap
+from ..sun import DEFAULT_SUN_TOLERANCE as DEFAULT_TOLERANCE, BlockGrid, Sun, SunField, Traced
 from .scale import scale_bands
 from .position import sun_position
 from .site import grid_azimuths, projected_crs
@@ -196,7 +197,7 @@ def sun_field(places: MapPlaces, when: datetime | Sun, tolerance: float = DEFAUL
     if not (isinstance(tolerance, (int, float)) and tolerance > 0.0 and math.isfinite(tolerance)):
         raise ValueError(f"tolerance must be a positive number of degrees, got {tolerance!r}")
     if isinstance(when, Sun) and places.crs is None:
-        return _banded_field(places, when, float(tolerance))
+        return banded_field(places.row_scales(), places.shape[1], when, float(tolerance))
     rows, cols = places.shape
     centre, spread, r, c, v = _lattice(places, when)
     if spread <= tolerance:
@@ -221,13 +222,14 @@ def sun_field(places: MapPlaces, when: datetime | Sun, tolerance: float = DEFAUL
     return SunField(places.shape, BlockGrid(*grid), centre, deviation, float(tolerance))
 
 
-def _banded_field(places: MapPlaces, sun: Sun, tolerance: float) -> SunField:
-    """A sun given by its angles on a geographic grid: blocks the map's width, one per band of
+def banded_field(row_scales: np.ndarray, cols: int, sun: Sun, tolerance: float = DEFAULT_TOLERANCE
+                 ) -> SunField:
+    """A sun given by its angles on a geographic grid whose rows have these scales (float64
+    (rows, 2), :meth:`MapPlaces.row_scales`): blocks the map's width (``cols``), one per band of
     rows of :func:`oclshade.solar.scale.scale_bands` (the bands a :class:`HorizonCaster` with
     these rows' scales traces: a mask and the horizons at its azimuth then see the same lines),
     each with the sun as the grid traces it at the band's scale."""
-    rows, cols = places.shape
-    row_scales = places.row_scales()
+    rows = len(row_scales)
     edges, scales = scale_bands(rows, row_scales, tolerance)
     own = unit_vectors(*scaled_suns(row_scales[:, 0], row_scales[:, 1], np.full(rows, sun.azimuth),
                                     np.full(rows, sun.elevation)))
@@ -236,9 +238,18 @@ def _banded_field(places: MapPlaces, sun: Sun, tolerance: float) -> SunField:
     band = np.repeat(np.arange(len(scales)), np.diff(edges))
     deviation = float(sun_differences(own, unit_vectors(az, el)[band]).max())
     if len(scales) == 1:
-        return SunField.single(Sun(float(az[0]), float(el[0])), places.shape, deviation, tolerance)
-    return SunField(places.shape, BlockGrid(edges, np.array([0, cols]), az[:, None], el[:, None], scales),
+        return SunField.single(Sun(float(az[0]), float(el[0])), (rows, cols), deviation, tolerance)
+    return SunField((rows, cols), BlockGrid(edges, np.array([0, cols]), az[:, None], el[:, None], scales),
                     sun, deviation, tolerance)
+
+
+def on_heightmap(heightmap: Heightmap, sun: Traced) -> Traced:
+    """What a caster traces for ``sun`` on ``heightmap``: a sun given by its angles on a heightmap
+    with :attr:`~oclshade.heightmap.Heightmap.row_scales` (a geographic raster's) as its
+    :func:`banded_field`; a field, or a sun on a heightmap without them, as it is."""
+    if heightmap.row_scales is None or isinstance(sun, SunField):
+        return sun
+    return banded_field(heightmap.row_scales, heightmap.shape[1], sun)
 
 
 def sun_spread(places: MapPlaces, times: Sequence[datetime]) -> float:

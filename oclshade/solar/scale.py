@@ -7,6 +7,8 @@ import math
 
 import numpy as np
 
+from ..heightmap import check_row_scales
+
 #: degrees: a geographic grid's bands of rows (:func:`scale_bands`) keep every row's directions
 #: and angles within this of its band's (the horizons' default; the sun fields take their tolerance)
 SCALE_TOLERANCE = 0.01
@@ -28,10 +30,7 @@ def scale_bands(rows: int, row_scales: np.ndarray | None, tolerance: float = SCA
     centre's cell width, as it is."""
     if row_scales is None:
         return np.array([0, rows]), np.ones((1, 2))
-    scales = np.asarray(row_scales, np.float64)
-    if scales.shape != (rows, 2) or not np.all(np.isfinite(scales)) or not np.all(scales > 0.0):
-        raise ValueError(f"row_scales must be positive finite float64 (rows, 2) = ({rows}, 2), "
-                         f"got shape {scales.shape}")
+    scales = check_row_scales(row_scales, rows)
     share = 2.0 * math.sqrt(2.0) * math.radians(tolerance)
 
     def holds(r0: int, r1: int) -> bool:

@@ -34,6 +34,7 @@ from ..heightmap import Heightmap
 from ..horizon import HorizonCaster, azimuth_grid
 from ..runtime import ArgBinder, Runtime
 from ..shadows import ShadowCaster, check_outputs
+from ..solar.field import on_heightmap
 from ..sun import Sun, SunField, SunLike, Traced, as_traced, true_directions
 
 OUTPUTS = ("hours", "fraction", "irradiation")
@@ -119,7 +120,9 @@ class SunshineCaster:
         'all').  ``method``: ``masks`` (an exact cast-shadow mask per sun) or ``horizons``
         (horizon angles at ``azimuths`` equally spaced azimuths, computed once, interpolated
         linearly at each sun's azimuth: approximate, docs/solar.md).  A sun may be a
-        :class:`oclshade.sun.SunField` (see the module docstring).  ``progress(done, total)``
+        :class:`oclshade.sun.SunField` (see the module docstring); on a heightmap with
+        :attr:`~oclshade.heightmap.Heightmap.row_scales` a sun given by its angles is traced per
+        band of rows (:func:`oclshade.solar.field.on_heightmap`).  ``progress(done, total)``
         after each launch is complete on the device: one per daylight step (the horizon route:
         per step and interval of grid azimuths holding its sun)."""
         outs = check_outputs(outputs, OUTPUTS)
@@ -128,6 +131,7 @@ class SunshineCaster:
         if method == "horizons":
             azimuth_grid(azimuths)   # checks the count
         day, weights = daylight(suns, seconds)
+        day = [on_heightmap(self.heightmap, step) for step in day]
         for k, step in enumerate(day):
             if isinstance(step, SunField):
                 step.check_shape(self.heightmap.shape)
@@ -197,7 +201,8 @@ class SunshineCaster:
                           ) -> Iterator[_Launch]:
         """The planned launches as the bands they read are made; a field's sun table is made and
         sent at its launch (not at planning: the device holds one step's table at a time)."""
-        horizons = HorizonCaster(self.heightmap, self.runtime)
+        horizons = HorizonCaster(self.heightmap, self.runtime,        # at the grid's cells: the suns are the grid's
+                                 row_scales=np.ones((self.heightmap.shape[0], 2)))
         grid = self._grid_args(horizons.pyramid.heights)
         no_sun = (np.float32(0.0), np.float32(0.0), np.zeros(4, np.float32))
         pending = sorted({p[0] for p in planned})                  # intervals with suns, in azimuth order
