@@ -133,3 +133,44 @@ def test_c_horizons_and_svf_equal_python(host: dict, tmp_path: Path, definition:
     want = caster.sky_view_factor(n, "cosine" if definition == 1 else "solid-angle")
     assert svf.tobytes() == want.tobytes()
     assert np.nanmin(want) < 1.0   # some horizon above 0: the sums are not all zero
+
+
+def row_scales_of(rows: int, north: float, south: float) -> np.ndarray:
+    """A geographic grid's row scales from north to south (oclshade.solar.MapPlaces.row_scales, by
+    its formula: io.metres_per_degree over the centre's)."""
+    from oclshade.io import metres_per_degree
+
+    lat = north + (south - north) * (np.arange(rows) + 0.5) / rows
+    east, north_m = np.array([metres_per_degree(v) for v in lat]).T
+    centre = metres_per_degree((north + south) / 2.0)
+    return np.stack([east / centre[0], north_m / centre[1]], axis=-1)
+
+
+@pytest.mark.parametrize("definition,radius_cells,span", [(1, 0, 0.1), (2, 0, 0.5), (2, 11.5, 0.5),
+                                                         (1, 120.0, 0.5)])
+def test_c_horizons_of_a_geographic_grid_equal_python(host: dict, tmp_path: Path, definition: int,
+                                                      radius_cells: float, span: float) -> None:
+    """row_scales: each band of rows walked (or swept) with its own ray and cell sizes, the
+    Python host's HorizonCaster(row_scales=...) bit for bit (host_passes checks itself that the
+    azimuths in one call, at batch 1, 8 and 64, and the sweep knobs give the same bits).  Bands
+    of 16 rows (0.1 degree of latitude) and of 5 (0.5 degree)."""
+    hm = varied_map()
+    rows, cols = hm.shape
+    scales = row_scales_of(rows, 61.0, 61.0 - span)
+    n = 8
+    max_distance = radius_cells * hm.dx or None
+    caster = HorizonCaster(hm, max_distance=max_distance, cache=False, row_scales=scales)
+    assert len(caster.scale_bands[1]) > 3            # several bands, of several sizes
+    scales_file = tmp_path / "row_scales.f64"
+    np.ascontiguousarray(scales, np.float64).tofile(scales_file)
+    run_program(host, "host_passes", "horizon", tmp_path, heights_file(tmp_path, hm), rows, cols, repr(hm.dx),
+                repr(hm.dy), "0.0", definition, n, repr(max_distance or 0.0), scales_file)
+    angles = caster.horizons(n)
+    flat = HorizonCaster(hm, max_distance=max_distance, cache=False).horizons(n)
+    assert not np.array_equal(angles, flat, equal_nan=True)      # the bands' scales change the angles
+    for k in range(n):
+        assert np.fromfile(tmp_path / f"angle_{k}.f32", np.float32).tobytes() == angles[k].tobytes(), k
+    sums = np.fromfile(tmp_path / "svf.f32", np.float32).reshape(rows, cols, 2).astype(np.float64)
+    svf = (1.0 - (sums[..., 0] - sums[..., 1]) / n).astype(np.float32)
+    svf[np.isnan(hm.heights)] = np.nan
+    assert svf.tobytes() == caster.sky_view_factor(n, "cosine" if definition == 1 else "solid-angle").tobytes()

@@ -853,10 +853,19 @@ typedef struct oclshade_horizon_params {
                                    - 1 of the field (n_azimuths * rows rows), and svf adds all of them
                                    in order.  The same bits as one call per azimuth. */
     int n_azimuths;             /* 0 (default): the one `azimuth` */
+    const double *row_scales;   /* NULL (default): every cell dx by dy metres.  Else rows x 2 doubles
+                                   (row-major), positive and finite: row r's true metres east and north
+                                   of one grid metre (a geographic raster's, the Python host's
+                                   MapPlaces.row_scales()).  The rows are cut into bands as the Python
+                                   host's scale_bands (0.01 degree; multiples of 16 rows where they
+                                   hold it) and each band's cells are walked (or swept) with its own
+                                   ray and cell sizes (dx, dy times the band's scale; the seeds keep
+                                   the grid's ray): true azimuths and angles, the Python host's
+                                   HorizonCaster(row_scales=...) bit for bit. */
 } oclshade_horizon_params;
 
 /* Defaults: no buffers, 0 x 0, dx = dy = 1, azimuth 0, flat Earth, no search radius, the cosine
- * definition. */
+ * definition, no row scales. */
 void oclshade_horizon_params_init(oclshade_horizon_params *params);
 oclshade_status oclshade_horizon_scratch_size(oclshade *lib, const oclshade_horizon_params *params,
                                               size_t *bytes);
@@ -875,7 +884,10 @@ oclshade_status oclshade_horizon_scratch_size(oclshade *lib, const oclshade_hori
  * (cols, rows, count), or (cols, rows, 1) with svf: each cell walks the count azimuths in
  * order), the rays in scratch.  Knobs: horizon group, width (the work-group's width in cells),
  * own_builtins, lanes, sweep_cells, sweep_far, batch, scan (-D OCLS_LEVEL_SCAN: how the walk finds the
- * tile it may skip; the same bits). */
+ * tile it may skip; the same bits).  With row_scales (and not one band of scale 1) the cells' launch
+ * (horizon_cells, horizon_sweep, horizon_cells_batch) is one per band of rows, global offset its
+ * first row, with the band's ray(s) (a batch's: uploaded to scratch per band) and cell sizes; the
+ * seeds keep the grid's ray (the route, walk or sweep, is the grid ray's, as the Python host's). */
 oclshade_status oclshade_enqueue_horizon(oclshade *lib, cl_command_queue queue,
                                          const oclshade_horizon_params *params,
                                          cl_uint num_events_in_wait_list, const cl_event *event_wait_list,

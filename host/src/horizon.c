@@ -1,5 +1,5 @@
 /* horizon.c — horizon angles and sky-view factor sums (kernels/horizon.cl horizon_cells;
- * oclshade/horizon/caster.py HorizonCaster). */
+ * oclshade/horizon/caster.py HorizonCaster), a geographic grid's per band of rows. */
 #include "internal.h"
 
 #include <limits.h>
@@ -20,14 +20,110 @@ void oclshade_horizon_params_init(oclshade_horizon_params *p)
     p->svf_definition = OCLSHADE_SVF_COSINE;
 }
 
+/* A geographic grid's bands of rows (oclshade/solar/scale.py scale_bands: SCALE_TOLERANCE degrees,
+ * SCALE_ALIGN rows) */
+#define SCALE_TOLERANCE 0.01
+#define SCALE_ALIGN 16
+
+typedef struct scale_band {
+    int row0, rows;
+    double sx, sy;             /* the band's scale: the middle of its rows' (east, north) */
+} scale_band;
+
 typedef struct horizon_job {
     const oclshade_horizon_params *p;
     oclshade_pyramid_layout lay;
     cl_float4 ray;
     cl_float4 *rays;           /* n_azimuths > 0: each azimuth's ray (malloc'd; horizon_job_free) */
+    scale_band *bands;         /* row_scales not one band of scale 1: its bands (malloc'd), else NULL */
+    int nbands;
 } horizon_job;
 
-static void horizon_job_free(horizon_job *j) { free(j->rays); j->rays = NULL; }
+static void horizon_job_free(horizon_job *j)
+{
+    free(j->rays);
+    free(j->bands);
+    j->rays = NULL;
+    j->bands = NULL;
+}
+
+/* Whether rows of these (east, north) extremes hold the tolerance's share (scale_bands' holds) */
+static int scales_hold(const double lo[2], const double hi[2], double share)
+{
+    return hi[0] - lo[0] <= share * (hi[0] + lo[0]) / 2.0 && hi[1] - lo[1] <= share * (hi[1] + lo[1]) / 2.0;
+}
+
+/* lo, hi widened by rows r0 .. r1 - 1 of the (rows x 2) scales */
+static void widen(double lo[2], double hi[2], const double *scales, int r0, int r1)
+{
+    for (int r = r0; r < r1; ++r)
+        for (int c = 0; c < 2; ++c) {
+            const double v = scales[2 * r + c];
+            if (v < lo[c]) lo[c] = v;
+            if (v > hi[c]) hi[c] = v;
+        }
+}
+
+/* scale_bands of the checked row_scales: the most rows from each band's first that hold the
+ * tolerance, in steps of SCALE_ALIGN where a first step of that many holds, else of 1 (the same
+ * comparisons on the same doubles as the Python host, on running extremes); j->bands stays NULL
+ * where the map is one band within the tolerance of scale 1 (traced as it is). */
+static oclshade_status scale_bands(oclshade *lib, const oclshade_horizon_params *p, horizon_job *j)
+{
+    const double *s = p->row_scales, share = 2.0 * sqrt(2.0) * (SCALE_TOLERANCE * (3.141592653589793 / 180.0));
+    const int rows = p->rows;
+    j->bands = (scale_band *)malloc(sizeof *j->bands * (size_t)rows);
+    if (j->bands == NULL) return ocls_fail(lib, OCLSHADE_OUT_OF_MEMORY, 0, "no host memory for %d bands of rows", rows);
+    int near_one = 1;
+    for (int k = 0; k < 2 * rows; ++k) near_one = near_one && fabs(s[k] - 1.0) <= share / 2.0;
+    for (int r0 = 0; r0 < rows;) {
+        double lo[2] = {s[2 * r0], s[2 * r0 + 1]}, hi[2] = {lo[0], lo[1]};
+        const int end = r0 + SCALE_ALIGN < rows ? r0 + SCALE_ALIGN : rows;
+        double alo[2] = {lo[0], lo[1]}, ahi[2] = {hi[0], hi[1]};
+        widen(alo, ahi, s, r0 + 1, end);
+        const int step = scales_hold(alo, ahi, share) ? SCALE_ALIGN : 1;
+        int r1 = r0 + 1;
+        if (step == SCALE_ALIGN) {
+            memcpy(lo, alo, sizeof lo);
+            memcpy(hi, ahi, sizeof hi);
+            r1 = end;
+        }
+        while (r1 < rows) {
+            const int next = r1 + step < rows ? r1 + step : rows;
+            double tlo[2] = {lo[0], lo[1]}, thi[2] = {hi[0], hi[1]};
+            widen(tlo, thi, s, r1, next);
+            if (!scales_hold(tlo, thi, share)) break;
+            memcpy(lo, tlo, sizeof lo);
+            memcpy(hi, thi, sizeof hi);
+            r1 = next;
+        }
+        j->bands[j->nbands++] = (scale_band){r0, r1 - r0, (lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0};
+        r0 = r1;
+    }
+    if (j->nbands == 1 && near_one) {
+        free(j->bands);
+        j->bands = NULL;
+        j->nbands = 0;
+    }
+    return OCLSHADE_OK;
+}
+
+/* The ray of `azimuth` with a band's cell sizes (HorizonCaster._ray(azimuth, cell)) */
+static cl_float4 band_ray(const horizon_job *j, const scale_band *b, double azimuth)
+{
+    cl_float u[2];
+    cl_float4 ray = j->ray;
+    ocls_horizontal_ray(azimuth, j->p->dx * b->sx, j->p->dy * b->sy, u);
+    ray.s[0] = u[0];
+    ray.s[1] = u[1];
+    return ray;
+}
+
+static cl_float2 band_cell(const horizon_job *j, const scale_band *b)
+{
+    const cl_float2 cell = {{(cl_float)(j->p->dx * b->sx), (cl_float)(j->p->dy * b->sy)}};
+    return cell;
+}
 
 /* HorizonCaster's sweeps(): with a search radius, a ray crossing at most the knob sweep_cells patch
  * columns and rows within it (the same float64 product of the float32 ray) takes horizon_sweep
@@ -84,6 +180,13 @@ static oclshade_status horizon_job_for(oclshade *lib, const oclshade_horizon_par
     if (p->svf != NULL && p->svf_definition != OCLSHADE_SVF_COSINE && p->svf_definition != OCLSHADE_SVF_SOLID_ANGLE)
         return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "svf_definition must be OCLSHADE_SVF_COSINE (1) or "
                          "OCLSHADE_SVF_SOLID_ANGLE (2), got %d", (int)p->svf_definition);
+    if (p->row_scales != NULL) {
+        for (int k = 0; k < 2 * p->rows; ++k)
+            if (!(isfinite(p->row_scales[k]) && p->row_scales[k] > 0.0))
+                return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "row_scales[%d] (row %d, %s) must be a positive "
+                                 "finite scale, got %g", k, k / 2, k % 2 ? "north" : "east", p->row_scales[k]);
+        if ((st = scale_bands(lib, p, j)) != OCLSHADE_OK) return st;
+    }
     oclshade_pyramid_layout_for(p->rows, p->cols, &j->lay);
     cl_float u[2];
     ocls_horizontal_ray(p->azimuth, p->dx, p->dy, u);
@@ -105,6 +208,30 @@ static oclshade_status horizon_job_for(oclshade *lib, const oclshade_horizon_par
     return OCLSHADE_OK;
 }
 
+/* horizon_cells_batch (arguments `a`, the rays and cell sizes replaced) over each band of rows, its
+ * rays for azimuths first .. first + count - 1 uploaded to band_rays at those places first. */
+static oclshade_status batch_bands(ocls_pass *ps, const horizon_job *j, kernel_entry *walker, ocls_arg *a,
+                                   cl_mem band_rays, cl_int first, cl_int count, size_t group, size_t width)
+{
+    const oclshade_horizon_params *p = j->p;
+    cl_float4 *rays = (cl_float4 *)malloc(sizeof *rays * (size_t)count);
+    oclshade_status st = OCLSHADE_OK;
+    if (rays == NULL) return ocls_fail(ps->lib, OCLSHADE_OUT_OF_MEMORY, 0, "no host memory for %d rays", count);
+    for (int b = 0; b < j->nbands && st == OCLSHADE_OK; ++b) {
+        const scale_band *band = &j->bands[b];
+        const cl_float2 cell = band_cell(j, band);
+        for (int k = 0; k < count; ++k) rays[k] = band_ray(j, band, p->azimuths[first + k]);
+        a[6] = (ocls_arg)OCLS_ARG(band_rays);
+        a[10] = (ocls_arg)OCLS_ARG(cell);
+        if ((st = ocls_upload(ps, band_rays, sizeof *rays * (size_t)first, rays, sizeof *rays * (size_t)count,
+                              "a band's horizon rays")) == OCLSHADE_OK &&
+            (st = ocls_set_args(ps, walker, a, 14)) == OCLSHADE_OK)
+            st = ocls_launch_rows(ps, walker, p->cols, band->row0, band->rows, p->svf ? 1 : count, group, width);
+    }
+    free(rays);
+    return st;
+}
+
 /* Several azimuths (n_azimuths > 0; HorizonCaster._batch_launcher): per knob `batch` of them,
  * horizon_seeds_batch into scratch, then horizon_cells_batch into their angle bands (one
  * work-item per cell and azimuth), or with svf one work-item per cell over them in order. */
@@ -114,11 +241,13 @@ static oclshade_status horizon_batch_body(ocls_pass *ps, const horizon_job *j, c
     oclshade *lib = ps->lib;
     const int n = p->n_azimuths, batch = ocls_knob(lib, K_HORIZON_BATCH) < n ? ocls_knob(lib, K_HORIZON_BATCH) : n;
     const size_t W = (size_t)p->cols, seed_cells = (size_t)seed_extent(p->rows) * (size_t)seed_extent(p->cols);
-    cl_mem angle, seeds, rays;
+    cl_mem angle, seeds, rays, band_rays = NULL;
     oclshade_status st;
     if ((st = ocls_bind_out(ps, &p->angle, n * p->rows, 4 * W, "angle", &angle)) != OCLSHADE_OK ||
         (st = ocls_scratch(ps, 8 * seed_cells * (size_t)batch, "horizon seeds", &seeds)) != OCLSHADE_OK ||
-        (st = ocls_scratch(ps, sizeof *j->rays * (size_t)n, "horizon rays", &rays)) != OCLSHADE_OK || !ps->run)
+        (st = ocls_scratch(ps, sizeof *j->rays * (size_t)n, "horizon rays", &rays)) != OCLSHADE_OK ||
+        (j->bands && (st = ocls_scratch(ps, sizeof *j->rays * (size_t)n, "a band's horizon rays", &band_rays))
+                     != OCLSHADE_OK) || !ps->run)
         return st;
     if ((st = ocls_upload(ps, rays, 0, j->rays, sizeof *j->rays * (size_t)n, "horizon rays")) != OCLSHADE_OK) return st;
     kernel_entry *seeder, *walker;
@@ -138,10 +267,17 @@ static oclshade_status horizon_batch_body(ocls_pass *ps, const horizon_job *j, c
                           OCLS_ARG(cell), OCLS_ARG(stride), OCLS_ARG(first), OCLS_ARG(count)};
         if ((st = ocls_set_args(ps, seeder, sa, 9)) != OCLSHADE_OK ||
             (st = ocls_launch_3d(ps, seeder, seed_extent(p->cols), seed_extent(p->rows),
-                                 count, group, width)) != OCLSHADE_OK ||
-            (st = ocls_set_args(ps, walker, a, 14)) != OCLSHADE_OK ||
-            (st = ocls_launch_3d(ps, walker, Wi, H, p->svf ? 1 : count, group, width)) != OCLSHADE_OK)
+                                 count, group, width)) != OCLSHADE_OK)
             return st;
+        if (j->bands == NULL) {
+            if ((st = ocls_set_args(ps, walker, a, 14)) != OCLSHADE_OK ||
+                (st = ocls_launch_3d(ps, walker, Wi, H, p->svf ? 1 : count, group, width)) != OCLSHADE_OK)
+                return st;
+            continue;
+        }
+        /* each band's cells with its rays, at the batch's places in a buffer of their own (the seeds
+         * keep the grid's rays: kernels/horizon.cl, "Seeds") */
+        if ((st = batch_bands(ps, j, walker, a, band_rays, first, count, group, width)) != OCLSHADE_OK) return st;
     }
     return OCLSHADE_OK;
 }
@@ -182,8 +318,17 @@ static oclshade_status horizon_body(ocls_pass *ps, const void *params)
         ocls_def_int(&d, "OCLS_SWEEP", lanes);
         if ((st = ocls_kernel(ps, "horizon.cl", &d, "horizon_sweep", &sweeper)) != OCLSHADE_OK) return st;
         ocls_arg a[6] = {OCLS_ARG(h), OCLS_ARG(H), OCLS_ARG(Wi), OCLS_ARG(j->ray), OCLS_ARG(angle_arg), OCLS_ARG(svf)};
-        if ((st = ocls_set_args(ps, sweeper, a, 6)) != OCLSHADE_OK) return st;
-        return ocls_launch(ps, sweeper, (p->cols + lanes - 1) / lanes, H, group, width);
+        if (j->bands == NULL)
+            return (st = ocls_set_args(ps, sweeper, a, 6)) != OCLSHADE_OK ? st :
+                   ocls_launch(ps, sweeper, (p->cols + lanes - 1) / lanes, H, group, width);
+        for (int b = 0; b < j->nbands && st == OCLSHADE_OK; ++b) {   /* each band with its ray */
+            const cl_float4 ray = band_ray(j, &j->bands[b], p->azimuth);
+            a[3] = (ocls_arg)OCLS_ARG(ray);
+            if ((st = ocls_set_args(ps, sweeper, a, 6)) == OCLSHADE_OK)
+                st = ocls_launch_rows(ps, sweeper, (p->cols + lanes - 1) / lanes, j->bands[b].row0, j->bands[b].rows,
+                                      0, group, width);
+        }
+        return st;
     }
     kernel_entry *k, *seeder = NULL;
     if ((st = ocls_kernel(ps, "horizon.cl", &d, "horizon_cells", &k)) != OCLSHADE_OK ||
@@ -199,8 +344,17 @@ static oclshade_status horizon_body(ocls_pass *ps, const void *params)
     ocls_arg a[11] = {OCLS_ARG(h), OCLS_ARG(H), OCLS_ARG(Wi), OCLS_ARG(p->pyramid), OCLS_ARG(p->offsets),
                       OCLS_ARG(nlev), OCLS_ARG(j->ray), OCLS_ARG(angle_arg), OCLS_ARG(svf), OCLS_ARG(seeds_arg),
                       OCLS_ARG(cell)};
-    if ((st = ocls_set_args(ps, k, a, 11)) != OCLSHADE_OK) return st;
-    return ocls_launch(ps, k, Wi, H, group, width);
+    if (j->bands == NULL)
+        return (st = ocls_set_args(ps, k, a, 11)) != OCLSHADE_OK ? st : ocls_launch(ps, k, Wi, H, group, width);
+    for (int b = 0; b < j->nbands && st == OCLSHADE_OK; ++b) {   /* each band with its ray and cells */
+        const cl_float4 ray = band_ray(j, &j->bands[b], p->azimuth);
+        const cl_float2 band_cells = band_cell(j, &j->bands[b]);
+        a[6] = (ocls_arg)OCLS_ARG(ray);
+        a[10] = (ocls_arg)OCLS_ARG(band_cells);
+        if ((st = ocls_set_args(ps, k, a, 11)) == OCLSHADE_OK)
+            st = ocls_launch_rows(ps, k, Wi, j->bands[b].row0, j->bands[b].rows, 0, group, width);
+    }
+    return st;
 }
 
 oclshade_status oclshade_horizon_scratch_size(oclshade *lib, const oclshade_horizon_params *params, size_t *bytes)

@@ -624,6 +624,20 @@ int main(int argc, char **argv)
         hq = hp; hq.angle = fh;
         st = oclshade_enqueue_horizon(lib, queue, &hq, 0, NULL, NULL);
         expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "heights and angle overlap", "horizon: angle aliases the heights");
+        /* a geographic grid's row scales: each named where it is not a positive finite scale */
+        double *scales = (double *)calloc(2 * (size_t)rows, sizeof *scales);
+        for (int k = 0; k < 2 * rows; ++k) scales[k] = 1.0 + 0.01 * k;
+        hq = hp; hq.row_scales = scales;
+        st = oclshade_enqueue_horizon(lib, queue, &hq, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_OK, "", "horizon: row scales");
+        scales[3] = 0.0;
+        st = oclshade_enqueue_horizon(lib, queue, &hq, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "row_scales[3] (row 1, north) must be a positive finite "
+                      "scale, got 0", "horizon: a row scale 0");
+        scales[3] = NAN;
+        st = oclshade_enqueue_horizon(lib, queue, &hq, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "row_scales[3] (row 1, north)", "horizon: a row scale NaN");
+        free(scales);
         /* several azimuths in one call */
         double two[2] = {10.0, 200.0}, bad[2] = {10.0, NAN};
         hq = hp; hq.n_azimuths = -1;

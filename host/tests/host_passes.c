@@ -36,10 +36,11 @@
  *       image.u8 (image.f32 with LINEAR 1); checks itself that pitched fields give the same
  *       image.  LIGHT X,Y,Z,DISTANCE: a point light at world (X, Y, Z), falloff reference
  *       distance DISTANCE (0: none) instead of the sun; INDIR then holds translation.f64 (3).
- *   horizon OUTDIR HEIGHTS.f64 ROWS COLS DX DY CURVATURE DEFINITION N [MAX_DISTANCE]
+ *   horizon OUTDIR HEIGHTS.f64 ROWS COLS DX DY CURVATURE DEFINITION N [MAX_DISTANCE [ROW_SCALES.f64]]
  *       horizon angles at the N azimuths 360 k / N (angle_<k>.f32) and the sky-view factor
  *       sums over them (svf.f32: float2 per cell, zeroed by oclshade_enqueue_zero), within
- *       the search radius MAX_DISTANCE (default 0: the whole map); checks itself that a
+ *       the search radius MAX_DISTANCE (default 0: the whole map), each band of rows at its
+ *       own cell sizes with ROW_SCALES (rows x 2 doubles: row_scales); checks itself that a
  *       pitched angle field and another group (at azimuth 360 / N) and, with a radius, at every
  *       azimuth sweep_cells 0 and 256 (walked, swept) and sweep_far 2 (swept past the reach)
  *       give the same bits; over the whole map, that all N azimuths in one call (n_azimuths)
@@ -653,6 +654,7 @@ static void run_compose(int argc, char **argv)
 /* ------------------------------------------------------------------ sunshine and horizons */
 
 static double horizon_max_distance = 0.0;   /* run_horizon's MAX_DISTANCE */
+static const double *horizon_row_scales;     /* run_horizon's ROW_SCALES (NULL: none) */
 
 /* One oclshade_enqueue_horizon call into `angle` and/or `svf`: the azimuth azimuths[0] (n 0), or the
  * n azimuths in one call (n_azimuths: kernels/horizon.cl "Batches"; `angle` then n bands of rows). */
@@ -668,6 +670,7 @@ static void horizon_call(const map *m, double dx, double dy, double curvature, c
     if (n > 0) { p.azimuths = azimuths; p.n_azimuths = n; }
     p.curvature = curvature;
     p.max_distance = horizon_max_distance;
+    p.row_scales = horizon_row_scales;
     if (angle) p.angle = *angle;
     p.svf = svf;
     p.svf_definition = (oclshade_svf_definition)definition;
@@ -736,11 +739,14 @@ static void check_horizon_batches(const map *m, double dx, double dy, double cur
 
 static void run_horizon(int argc, char **argv)
 {
-    if (argc != 8 && argc != 9)
-        fail("usage: host_passes horizon OUTDIR HEIGHTS.f64 ROWS COLS DX DY CURVATURE DEFINITION N [MAX_DISTANCE]");
-    if (argc == 9) horizon_max_distance = atof(argv[8]);
+    if (argc < 8 || argc > 10)
+        fail("usage: host_passes horizon OUTDIR HEIGHTS.f64 ROWS COLS DX DY CURVATURE DEFINITION N [MAX_DISTANCE "
+             "[ROW_SCALES.f64]]");
+    if (argc >= 9) horizon_max_distance = atof(argv[8]);
     map m;
     load_map(&m, argv[0], atoi(argv[1]), atoi(argv[2]));
+    double *row_scales = argc == 10 ? (double *)read_file(NULL, argv[9], 16 * (size_t)m.rows, 0) : NULL;
+    horizon_row_scales = row_scales;
     const double dx = atof(argv[3]), dy = atof(argv[4]), curvature = atof(argv[5]);
     const int definition = atoi(argv[6]), n = atoi(argv[7]);
     const size_t row = 4 * (size_t)m.cols;
@@ -799,6 +805,8 @@ static void run_horizon(int argc, char **argv)
     if (horizon_max_distance == 0.0 && n > 0) check_horizon_batches(&m, dx, dy, curvature, n, definition, bands, svf);
     free(svf);
     free(bands);
+    free(row_scales);
+    horizon_row_scales = NULL;
     release(d_angle); release(d_svf);
     free_map(&m);
 }
