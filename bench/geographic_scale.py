@@ -1,9 +1,11 @@
 #!/usr/bin/env python
-"""A geographic grid's scale: what tracing at the centre latitude's cell width got wrong, and
-what tracing each block of rows with its own costs (oclshade.solar.MapPlaces.on_grid for the
-masks, HorizonCaster(row_scales=...) for the horizons).
+"""A grid's scale: what tracing a geographic grid at the centre latitude's cell width, or a
+projected one in its CRS's metres, got wrong, and what tracing each band of rows with its own
+scale costs (oclshade.solar.MapPlaces.on_grid for the masks, HorizonCaster(row_scales=...) for
+the horizons).
 
-    python bench/geographic_scale.py            # the shared SRTM tiles, and N22W160's heights at 45.5 N
+    python bench/geographic_scale.py            # the shared SRTM tiles, N22W160's heights at 45.5 N and
+                                                # on six projected grids (bench's PROJECTED)
     python bench/geographic_scale.py --reduced  # a check that the script works (384^2 crops)
 
 Per map, in one process:
@@ -69,6 +71,32 @@ def moved(raster: Raster, north: float, folder: Path) -> Raster:
     return read_dem(path)
 
 
+#: N22W160's heights on projected grids of its cells' north-south size, centred on these places:
+#: UTM on its central meridian (k = 0.9996) and near a zone's edge, Web Mercator at 45 N, ArcticDEM's
+#: polar stereographic at 62 N, and two equal-area projections far from their centres (not
+#: conformal: one scale per band of rows leaves their stretch by direction, scale_residual)
+PROJECTED = (("UTM 4N, central meridian", 32604, -159.0, 22.5), ("UTM 33N, 2.9 deg east of its meridian", 32633, 17.9, 47.0),
+             ("Web Mercator, 45 N", 3857, 10.0, 45.0), ("EPSG:3413 polar stereographic, 62 N", 3413, -45.0, 62.0),
+             ("EPSG:5070 CONUS Albers, 47 N", 5070, -120.0, 47.0), ("EPSG:3035 LAEA Europe, 60 N 25 E", 3035, 25.0, 60.0))
+
+
+def projected(raster: Raster, name: str, epsg: int, lon: float, lat: float, folder: Path) -> Raster:
+    """The raster's heights on a grid of square cells (its north-south size) in ``epsg``, centred on
+    (``lon``, ``lat``)."""
+    import pyproj
+
+    crs = pyproj.CRS.from_epsg(epsg)
+    x, y = pyproj.Transformer.from_crs(crs.geodetic_crs, crs, always_xy=True).transform(lon, lat)
+    rows, cols = raster.heights.shape
+    cell = raster.dy
+    keys = (1, 1, 0, 3, 1024, 0, 1, 1, 1025, 0, 1, 1, 3072, 0, 1, epsg)
+    path = folder / f"projected_{epsg}_{lon:g}_{lat:g}.tif"
+    tifffile.imwrite(path, raster.heights.astype(np.float32), extratags=[
+        (34735, 3, len(keys), keys, True), (33550, 12, 3, (cell, cell, 0.0), True),
+        (33922, 12, 6, (0, 0, 0, x - cols / 2 * cell, y + rows / 2 * cell, 0), True)])
+    return read_dem(path)
+
+
 def maps(reduced: bool, folder: Path) -> dict[str, Raster]:
     out = {}
     for name in ("N22W160", "S16E166"):
@@ -80,15 +108,26 @@ def maps(reduced: bool, folder: Path) -> dict[str, Raster]:
             out[f"SRTM {name}"] = raster
     if "SRTM N22W160" in out:
         out["N22W160's heights at 45.5 N"] = moved(out["SRTM N22W160"], 46.0, folder)
+        for name, epsg, lon, lat in PROJECTED:
+            out[name] = projected(out["SRTM N22W160"], name, epsg, lon, lat, folder)
     return out
+
+
+def scale_row(name: str, places) -> dict:
+    """The map's grid metre on the ground (the row scales' range), its bands, and what one
+    scale per band of rows leaves (MapPlaces.scale_residual)."""
+    scales = places.row_scales()
+    return {"map": name, "crs": "EPSG:4326" if places.crs is None else places.crs.to_string(),
+            "scale_min": float(scales.min()), "scale_max": float(scales.max()),
+            "residual_deg": places.scale_residual}
 
 
 def edge_error(places, sun: Sun) -> float:
     """The largest angle (degrees) between the sun as given and as the grid must trace it, over
     the rows' middles: how far the centre's cell width alone was off at the map's edges."""
     rows, cols = places.shape
-    lat = places.lonlat(np.array([0.5, rows - 0.5]), np.array([cols / 2.0] * 2))[1]
-    az, el = places.on_grid(lat, np.full(2, sun.azimuth), np.full(2, sun.elevation))
+    az, el = places.on_grid(np.array([0.5, rows - 0.5]), np.array([cols / 2.0] * 2), np.full(2, sun.azimuth),
+                            np.full(2, sun.elevation))
     return float(max(np.abs((az - sun.azimuth + 180.0) % 360.0 - 180.0).max(), np.abs(el - sun.elevation).max()))
 
 
@@ -176,12 +215,20 @@ def twin(hm: Heightmap, row_scales: np.ndarray, angles: np.ndarray, azimuths: np
 
 def write_markdown(path: Path, result: dict) -> None:
     m = result["meta"]
-    lines = ["# A geographic grid's scale: per block of rows against the centre's cell width", "",
+    lines = ["# A grid's scale: per band of rows against the grid's metres as the ground's", "",
              f"- date: {m['date']}; command: `{m['command']}`",
              f"- CPU: {m['cpu']}, {m['cores']} cores; device: {m['device']}; {m['pocl_version']}",
-             "- masks: best of 3 after a warm-up; the sun as the grid traces it per block of rows (tolerance "
-             "0.01 deg) against the sun as given at the centre's cell width; horizons: one run each", "",
-             "| map | sun az / el | old geometry's error at the edges, deg | blocks | per block s | centre width s | "
+             "- masks: best of 3 after a warm-up; the sun as the grid traces it per band of rows (tolerance "
+             "0.01 deg) against the sun as given on the grid as drawn (a geographic grid at its centre's cell "
+             "width, a projected one in its CRS's metres); horizons: one run each; projected maps: N22W160's "
+             "heights on square cells of its north-south size in each CRS", "",
+             "| map | CRS | ground metres per grid metre (rows) | left by one scale per band, deg |",
+             "|---|---|---|---:|"]
+    for r in result["scales"]:
+        lines.append(f"| {r['map']} | {r['crs']} | {r['scale_min']:.6f}-{r['scale_max']:.6f} | "
+                     f"{r['residual_deg']:.4f} |")
+    lines += ["",
+             "| map | sun az / el | old geometry's error at the edges, deg | blocks | per block s | grid as drawn s | "
              "ratio | cells differing | twin: cells, mismatches / ties | mask vs horizon > el: cells, max abs(h - el) |",
              "|---|---|---:|---:|---:|---:|---:|---:|---|---|"]
     for r in result["masks"]:
@@ -189,7 +236,7 @@ def write_markdown(path: Path, result: dict) -> None:
                      f"{r['per_block_s']:.3f} | {r['one_sun_s']:.3f} | {r['ratio']:.2f} | {r['cells_differing']} of "
                      f"{r['valid_cells']} | {r['twin_cells']}: {r['twin_mismatch']} / {r['twin_tied']} | "
                      f"{r['horizon_disagree']}, {r['horizon_disagree_max_deg']:.1e} |")
-    lines += ["", "| map | azimuths | bands | per band s | centre width s | ratio | angle difference max / p99 / "
+    lines += ["", "| map | azimuths | bands | per band s | grid as drawn s | ratio | angle difference max / p99 / "
               "mean, deg | twin (16 azimuths): cells, outside the float32 band, max error deg |",
               "|---|---:|---:|---:|---:|---:|---|---|"]
     for r in result["horizons"]:
@@ -207,11 +254,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--reduced", action="store_true", help="384^2 crops (a check)")
     parser.add_argument("--out", type=Path, default=REPO / "bench" / "results" / "geographic_scale")
     args = parser.parse_args(argv)
-    result = {"meta": metadata(sys.argv), "masks": [], "horizons": []}
+    result = {"meta": metadata(sys.argv), "scales": [], "masks": [], "horizons": []}
     with tempfile.TemporaryDirectory() as folder:
         for name, raster in maps(args.reduced, Path(folder)).items():
             hm = Heightmap.from_array(raster.heights, (raster.dx, raster.dy))
             places = map_places(raster)
+            result["scales"].append(scale_row(name, places))
             result["masks"] += masks(name, raster, hm, places)
             result["horizons"] += horizons(name, raster, hm, places)
     args.out.parent.mkdir(parents=True, exist_ok=True)

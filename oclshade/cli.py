@@ -676,7 +676,7 @@ def run_shadow(args: argparse.Namespace) -> int:
             if blocks := placed.blocks_line():
                 print(f"{PROG}: {blocks}", file=sys.stderr)
     else:
-        traced = solar_cli.on_geographic_grid(job.suns, args, raster)
+        traced = solar_cli.on_map_grid(job.suns, args, raster)
     dx, dy = heightmap.dx, heightmap.dy
     rows, cols = heightmap.shape
     _make_parents(args.output, args.preview)
@@ -1196,7 +1196,7 @@ def run_horizon(args: argparse.Namespace) -> int:
             if blocks := placed.blocks_line():
                 print(f"{PROG}: {blocks}", file=sys.stderr)
     elif sunlit:
-        discs = solar_cli.on_geographic_grid(suns, args, raster) or suns
+        discs = solar_cli.on_map_grid(suns, args, raster) or suns
     azimuths = [] if sunlit else azimuth_grid(args.azimuths)
     traced = azimuths                     # the grid azimuths the kernel traces
     turned = ""
@@ -1216,10 +1216,11 @@ def run_horizon(args: argparse.Namespace) -> int:
                       band_names=names, options=options, cog=cog) as out:
         caster = HorizonCaster(heightmap, device=args.device, curvature=curvature,
                                max_distance=getattr(args, "max_distance", None), cache=False,
-                               row_scales=None if sunlit else solar_cli.geographic_row_scales(args, raster))
-        if not args.quiet and len(caster.scale_bands[1]) > 1:
-            print(f"{PROG}: a geographic grid: {len(caster.scale_bands[1])} bands of rows, each traced with its "
-                  f"own cell width (within {SCALE_TOLERANCE:g} deg)", file=sys.stderr)
+                               row_scales=None if sunlit else solar_cli.map_row_scales(args, raster))
+        edges, band_scales = caster.scale_bands
+        if not args.quiet and (len(band_scales) > 1 or np.any(band_scales != 1.0)):
+            print(f"{PROG}: the grid's scale: {len(band_scales)} band(s) of rows, each traced with its own cell "
+                  f"sizes (within {SCALE_TOLERANCE:g} deg)", file=sys.stderr)
         t1 = time.perf_counter()
         if svf:
             out.write(caster.sky_view_factor(azimuths, args.definition, progress=bar))

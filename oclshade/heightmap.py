@@ -217,15 +217,24 @@ class Heightmap:
     @classmethod
     def from_raster(cls, raster: "Raster", z_factor: float = 1.0) -> "Heightmap":
         """The heightmap of a DEM read with :func:`oclshade.io.read_dem`: its heights (nodata as
-        NaN) and cell sizes, and on a geographic grid (degrees) each row's own scale
-        (:meth:`oclshade.solar.MapPlaces.row_scales`): its cells are metres at the centre
-        latitude's scale, so the casters trace a sun given by its angles, and the horizons, per
-        band of rows with the band's true cell widths, as the CLI does.  A projected grid has
-        no :attr:`row_scales`."""
+        NaN) and cell sizes, and where its place is known each row's own scale
+        (:meth:`oclshade.solar.MapPlaces.row_scales`): a geographic grid's cells are metres at
+        the centre latitude's scale, a projected grid's metres are its CRS's (UTM's 0.9996 to
+        1.001 of the ground's, Web Mercator's sec(latitude)), so the casters trace a sun given by
+        its angles, and the horizons, per band of rows with the band's true cell sizes, as the
+        CLI does.  A raster without a CRS, or a projected one whose CRS pyproj cannot identify
+        (an :class:`InputWarning`), has no :attr:`row_scales`."""
         from .solar.field import map_places
 
-        places = map_places(raster) if raster.geographic else None
-        row_scales = None if places is None else places.row_scales()
+        try:
+            places = map_places(raster)
+            row_scales = None if places is None else places.row_scales()
+        except ValueError as exc:
+            if raster.geographic:
+                raise
+            warnings.warn(f"{raster.path}: {exc}: its grid metres are taken as the ground's", InputWarning,
+                          stacklevel=2)
+            row_scales = None
         return cls.from_array(raster.heights, (raster.dx, raster.dy), z_factor, row_scales=row_scales)
 
     @property

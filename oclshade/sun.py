@@ -338,9 +338,14 @@ class SunField:
 
     @classmethod
     def single(cls, sun: Sun, shape: tuple[int, int], deviation: float = 0.0,
-               tolerance: float = DEFAULT_SUN_TOLERANCE) -> "SunField":
-        """One sun for the whole map (``deviation``: how far the cells' own suns are from it)."""
-        return cls(shape, (SunBlock(0, shape[0], 0, shape[1], sun),), sun, deviation, tolerance)
+               tolerance: float = DEFAULT_SUN_TOLERANCE, scale: tuple[float, float] = (1.0, 1.0)) -> "SunField":
+        """One sun for the whole map (``deviation``: how far the cells' own suns are from it;
+        ``scale``: its :attr:`scales`, the true metres of a grid metre east and north)."""
+        if tuple(scale) == (1.0, 1.0):
+            return cls(shape, (SunBlock(0, shape[0], 0, shape[1], sun),), sun, deviation, tolerance)
+        grid = BlockGrid(np.array([0, shape[0]]), np.array([0, shape[1]]), np.array([[sun.azimuth]]),
+                         np.array([[sun.elevation]]), np.array([scale], np.float64))
+        return cls(shape, grid, sun, deviation, tolerance)
 
 
 Traced = Union[Sun, SunField]

@@ -82,18 +82,26 @@ def test_every_cells_own_sun_is_within_the_tolerance_of_its_blocks(tmp_path, kin
                                                                                         b.sun.elevation)).max())
                     for b in field.blocks)
         assert worst <= tolerance
-    # the centre's sun is the one the site gives (NREL SPA there, turned through the CRS)
+    # the centre's sun is the one the site gives (NREL SPA there, turned through the CRS), at the
+    # grid's scale there (a UTM grid's metre is not the ground's: test_projected_scale.py)
     site = map_site(raster)
-    assert field.centre == site.grid_suns(suns_at([t], site.latitude, site.longitude))[0]
+    given = site.grid_suns(suns_at([t], site.latitude, site.longitude))[0]
+    centre = places.on_grid(np.array([rows / 2]), np.array([cols / 2]), np.array([given.azimuth]),
+                            np.array([given.elevation]))
+    assert field.centre == Sun(float(centre[0][0]), float(centre[1][0]))
     # one block's sun at its centre, as the site code gives it for that place
     b = field.blocks[len(field.blocks) // 3]
     lon, lat = places.lonlat(np.array([(b.row0 + b.row1) / 2]), np.array([(b.col0 + b.col1) / 2]))
     here = map_site(raster, float(lat[0]), float(lon[0]))
     expected = here.grid_suns(suns_at([t], here.latitude, here.longitude))[0]
-    if kind == "geo":      # and on a geographic grid, that sun at the block's scale (test_geographic_scale.py)
-        az, el = places.on_grid(lat, np.array([expected.azimuth]), np.array([expected.elevation]))
+    # and that sun at the block's scale (test_geographic_scale.py, test_projected_scale.py)
+    az, el = places.on_grid(np.array([(b.row0 + b.row1) / 2]), np.array([(b.col0 + b.col1) / 2]),
+                            np.array([expected.azimuth]), np.array([expected.elevation]))
+    if kind == "geo":
         assert abs(az[0] - expected.azimuth) > 1e-3     # its rows are off the centre latitude: another scale
-        expected = Sun(float(az[0]), float(el[0]))
+    else:
+        assert az[0] == expected.azimuth                # one scale both ways: the grid azimuth as it is
+    expected = Sun(float(az[0]), float(el[0]))
     assert b.sun.azimuth == pytest.approx(expected.azimuth, abs=1e-9)
     assert b.sun.elevation == pytest.approx(expected.elevation, abs=1e-9)
     # the map is wide: one sun would be off by far more than the tolerance at its corners
@@ -257,7 +265,9 @@ def test_lat_lon_given_means_one_sun(tmp_path):
     dem = write_tif(tmp_path / "utm.tif", np.zeros((400, 500)), west=350000.0, north=5400000.0)
     args = argparse.Namespace(input=str(dem), lat=48.7, lon=13.0, sun_tolerance=0.01)
     placed = suns_for([datetime.fromisoformat("2024-06-21T06:00+02:00")], args, read_dem(dem))
-    assert placed.fields is None and placed.traced == placed.suns
+    # one sun over the map, at the grid's scale (here, 150 km west of the central meridian, a grid
+    # metre is within 0.00025 of the ground's: the sun as it is; test_projected_scale.py)
+    assert [f.uniform for f in placed.fields] == [True] and [f.blocks[0].sun for f in placed.fields] == placed.suns
 
 
 def test_sunshine_makes_its_suns_over_the_map_with_a_bar(tmp_path, capsys):

@@ -27,10 +27,9 @@ GEOD = pyproj.Geod(ellps="WGS84")
 def ground_sun(raster, places, row, col, azimuth, elevation, metres=50.0):
     """The true (azimuth, elevation) of the line a grid sun traces from cell (row, col): a step of
     ``metres`` grid metres along it, to longitude and latitude, then pyproj's geodesic there."""
-    a, e = places.on_grid(np.array([places.lonlat(np.array([row + 0.5]), np.array([col + 0.5]))[1][0]]),
-                          np.array([azimuth]), np.array([elevation]))
-    a, e = math.radians(a[0]), math.radians(e[0])
     lon0, lat0 = places.lonlat(np.array([row + 0.5]), np.array([col + 0.5]))
+    a, e = places.on_grid(np.array([row + 0.5]), np.array([col + 0.5]), np.array([azimuth]), np.array([elevation]))
+    a, e = math.radians(a[0]), math.radians(e[0])
     dcol, drow = math.sin(a) * metres / raster.dx, -math.cos(a) * metres / raster.dy
     lon1, lat1 = places.lonlat(np.array([row + 0.5 + drow]), np.array([col + 0.5 + dcol]))
     forward, _, distance = GEOD.inv(lon0[0], lat0[0], lon1[0], lat1[0])
@@ -58,14 +57,13 @@ def test_the_centre_scale_alone_is_off_at_the_edges(tmp_path):
     at the edge of a 1-degree tile at 45 N (docs/methods.md, "Geographic grids")."""
     raster = read_dem(write_geographic(tmp_path / "map.tif", np.zeros((1200, 4)), 10.0, 46.0, 1 / 1200))
     places = map_places(raster)
-    lat = places.lonlat(np.array([0.5]), np.array([2.5]))[1]
-    assert places.on_grid(lat, np.array([90.0]), np.array([45.0]))[1][0] != 45.0
+    assert places.on_grid(np.array([0.5]), np.array([2.5]), np.array([90.0]), np.array([45.0]))[1][0] != 45.0
 
     class CentreScale:                       # the grid without the mend: suns traced as given
         def __getattr__(self, name):
             return getattr(places, name)
 
-        def on_grid(self, lat, azimuth, elevation):
+        def on_grid(self, rows, cols, azimuth, elevation):
             return azimuth, elevation
 
     true_az, true_el = ground_sun(raster, CentreScale(), 0, 2, 90.0, 45.0)
@@ -75,8 +73,8 @@ def test_the_centre_scale_alone_is_off_at_the_edges(tmp_path):
 def row_field(places, sun, shape):
     """Every row with its own grid sun: the reference the blocks approximate."""
     rows, cols = shape
-    lat = places.lonlat(np.arange(rows) + 0.5, np.full(rows, cols / 2))[1]
-    az, el = places.on_grid(lat, np.full(rows, sun.azimuth), np.full(rows, sun.elevation))
+    az, el = places.on_grid(np.arange(rows) + 0.5, np.full(rows, cols / 2), np.full(rows, sun.azimuth),
+                            np.full(rows, sun.elevation))
     return SunField(shape, BlockGrid(np.arange(rows + 1), np.array([0, cols]), az[:, None], el[:, None]), sun)
 
 

@@ -855,8 +855,8 @@ typedef struct oclshade_horizon_params {
     int n_azimuths;             /* 0 (default): the one `azimuth` */
     const double *row_scales;   /* NULL (default): every cell dx by dy metres.  Else rows x 2 doubles
                                    (row-major), positive and finite: row r's true metres east and north
-                                   of one grid metre (a geographic raster's, the Python host's
-                                   MapPlaces.row_scales()).  The rows are cut into bands as the Python
+                                   of one grid metre (a geographic raster's, or a projected one's 1 / k
+                                   both ways: the Python host's MapPlaces.row_scales()).  The rows are cut into bands as the Python
                                    host's scale_bands (0.01 degree; multiples of 16 rows where they
                                    hold it) and each band's cells are walked (or swept) with its own
                                    ray and cell sizes (dx, dy times the band's scale; the seeds keep

@@ -232,40 +232,73 @@ class PlacedSuns:
                 f"elevation {true.elevation:.4f}")
 
 
-def _geographic_places(args: argparse.Namespace, raster) -> MapPlaces | None:
-    """A geographic raster's :class:`oclshade.solar.MapPlaces`; None for any other raster."""
-    from ..cli import CliError
+def _scaled_places(args: argparse.Namespace, raster) -> MapPlaces | None:
+    """The :class:`oclshade.solar.MapPlaces` of a raster whose grid metres are not the ground's:
+    a geographic one, or a projected one in a CRS pyproj identifies (its scale factor); None for
+    any other (traced as it is: a warning on stderr where the CRS is projected but unknown).
+    Warns where the grid's distortion is more than bands of rows at their scale can follow
+    (:attr:`oclshade.solar.MapPlaces.scale_residual`)."""
+    from ..cli import PROG, CliError
 
-    if not raster.geographic:
-        return None
     try:
-        return map_places(raster)
+        places = map_places(raster)
+        residual = 0.0 if places is None else places.scale_residual     # (a projected grid: its scales)
     except ValueError as exc:
-        raise CliError(f"INPUT {args.input!r}: {exc}") from None
+        if raster.geographic:
+            raise CliError(f"INPUT {args.input!r}: {exc}") from None
+        print(f"{PROG}: warning: INPUT {args.input!r}: {exc}: its grid metres are taken as the ground's",
+              file=sys.stderr)
+        return None
+    if residual > DEFAULT_SUN_TOLERANCE:
+        print(f"{PROG}: warning: INPUT {args.input!r}: its projection stretches lengths by direction or along "
+              f"its rows by more than one scale per band of rows follows: angles within "
+              f"{residual:.3f} deg (docs/methods.md, \"Projected grids\")", file=sys.stderr)
+    return places
 
 
-def on_geographic_grid(suns: list, args: argparse.Namespace, raster) -> list | None:
-    """Suns given by their angles (--sun AZ,ALT), each as a geographic raster's grid traces it
-    over the map (:func:`oclshade.solar.sun_field` of the sun: per band of rows of the horizons,
-    at the band's scale, to --sun-tolerance; :meth:`oclshade.solar.MapPlaces.on_grid`); None on
-    any other raster, whose grid traces them as they are."""
+def on_map_grid(suns: list, args: argparse.Namespace, raster) -> list | None:
+    """Suns given by their angles (--sun AZ,ALT), each as the raster's grid traces it over the map
+    (:func:`oclshade.solar.sun_field` of the sun: per band of rows of the horizons, at the band's
+    scale, to --sun-tolerance; :meth:`oclshade.solar.MapPlaces.on_grid`); None on a raster
+    without a known place, whose grid traces them as they are."""
     from ..cli import PROG
 
-    places = _geographic_places(args, raster)
+    places = _scaled_places(args, raster)
     if places is None:
         return None
     fields = [sun_field(places, sun, args.sun_tolerance) for sun in suns]
-    if fields and not getattr(args, "quiet", False):
+    if not all(f.uniform for f in fields) and not getattr(args, "quiet", False):   # one band: as the map is
         counts = [len(f.blocks) for f in fields]
-        print(f"{PROG}: a geographic grid: each block of rows traced with its own cell width ({min(counts)}-"
-              f"{max(counts)} blocks a sun, within --sun-tolerance {args.sun_tolerance:g} deg)", file=sys.stderr)
+        print(f"{PROG}: {scale_line(places, args.sun_tolerance)}: each sun in {min(counts)}-{max(counts)} "
+              f"band(s) of rows, within --sun-tolerance {args.sun_tolerance:g} deg", file=sys.stderr)
     return fields
 
 
-def geographic_row_scales(args: argparse.Namespace, raster) -> np.ndarray | None:
-    """A geographic raster's :meth:`oclshade.solar.MapPlaces.row_scales` (its horizons are
-    traced per band of rows with their own cell sizes); None on any other raster."""
-    places = _geographic_places(args, raster)
+def scale_line(places: MapPlaces, tolerance: float = DEFAULT_SUN_TOLERANCE) -> str:
+    """What the grid's scale is, in a few words: a geographic grid's cell width per band of rows,
+    or a projected one's ground metres per grid metre."""
+    if places.crs is None:
+        return "a geographic grid, each band of rows traced with its own cell width"
+    scales = places.row_scales()[:, 0]
+    return (f"a projected grid ({places.crs.name}) whose metre is {scales.min():.6f}-{scales.max():.6f} m on the "
+            f"ground, traced at that scale")
+
+
+def _known_places(raster, required: bool) -> MapPlaces | None:
+    """``map_places(raster)``; None where its CRS is unknown and the place is not ``required``
+    (--lat/--lon gave it, and :func:`map_site` warned)."""
+    try:
+        return map_places(raster)
+    except ValueError:
+        if required:
+            raise
+        return None
+
+
+def map_row_scales(args: argparse.Namespace, raster) -> np.ndarray | None:
+    """The raster's :meth:`oclshade.solar.MapPlaces.row_scales` (its horizons are traced per
+    band of rows with their own cell sizes); None on a raster without a known place."""
+    places = _scaled_places(args, raster)
     return None if places is None else places.row_scales()
 
 
@@ -294,12 +327,12 @@ def suns_for(times: list[datetime], args: argparse.Namespace, raster, what: str 
     true = suns_at(times, site.latitude, site.longitude)
     try:
         placed = PlacedSuns(site.grid_suns(true), true, site)
-        places = map_places(raster) if args.lat is None or raster.geographic else None
+        places = _known_places(raster, args.lat is None or raster.geographic)
         if places is not None and getattr(args, "sun_tolerance", None) is not None:
             bar = ProgressBar(sys.stderr, "suns over the map") \
                 if len(times) > FIELDS_BAR and not getattr(args, "quiet", False) else None
             placed.fields = []
-            for t, sun in zip(times, placed.suns):      # with --lat/--lon: one sun, on a geographic grid's scale
+            for t, sun in zip(times, placed.suns):      # with --lat/--lon: one sun, at the grid's scale
                 placed.fields.append(sun_field(places, t if args.lat is None else sun, args.sun_tolerance))
                 if bar is not None:
                     bar(len(placed.fields), len(times))

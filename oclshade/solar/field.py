@@ -44,11 +44,12 @@ import numpy as np
 from ..io import Raster, geotransform, metres_per_degree
 from ..heightmap import Heightmap
 from ..sun import DEFAULT_SUN_TOLERANCE as DEFAULT_TOLERANCE, BlockGrid, Sun, SunField, Traced
-from .scale import scale_bands
+from .scale import scale_bands, scale_share
 from .position import sun_position
-from .site import grid_azimuths, projected_crs
+from .site import STEP_METRES, grid_azimuths, projected_crs
 
 LATTICE = 9                # points per side where the turn per cell is measured
+SCALE_LATTICE = 33         # points per side where a projected grid's scale is measured
 ALIGN = 16                 # block sides are multiples of this where the tolerance allows (widths: 4x from 8x on)
 MAX_SHRINK = 12            # tries to shrink the blocks into the tolerance
 
@@ -69,10 +70,7 @@ class MapPlaces:
         y = y0 + yc * cols + yr * rows
         if self.crs is None:
             return np.mod(x + 180.0, 360.0) - 180.0, y
-        from pyproj import Transformer
-
-        lon, lat = Transformer.from_crs(self.crs, self.crs.geodetic_crs, always_xy=True).transform(x, y)
-        lon, lat = np.asarray(lon, np.float64), np.asarray(lat, np.float64)
+        lon, lat = (np.asarray(v, np.float64) for v in self._transformers[1].transform(x, y))
         if not (np.all(np.isfinite(lon)) and np.all(np.isfinite(lat))):
             raise ValueError("part of the map lies outside where its CRS is defined")
         return lon, lat
@@ -90,38 +88,122 @@ class MapPlaces:
         taken (:mod:`oclshade.io`), so its grid is drawn at that latitude's scale."""
         return float(self.lonlat(np.array([self.shape[0] / 2.0]), np.array([self.shape[1] / 2.0]))[1][0])
 
-    def grid_scales(self, lat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(east-west, north-south) metres of a geographic cell at these latitudes over the
-        grid's (the centre latitude's): the true length of one grid metre there, by the very
-        formula the cell sizes come from (:func:`oclshade.io.metres_per_degree`, once per
-        distinct latitude: on a north-up grid, one per row of the places)."""
-        distinct, where = np.unique(np.asarray(lat, np.float64), return_inverse=True)
+    def grid_scales(self, rows: np.ndarray, cols: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(east, north): the true metres of one grid metre along the grid's columns and rows at
+        these places (cell coordinates, as :meth:`lonlat`).  A geographic cell's metres over the
+        grid's (the centre latitude's), by the very formula the cell sizes come from
+        (:func:`oclshade.io.metres_per_degree`, once per distinct latitude: on a north-up grid,
+        one per row of the places).  On a projected grid the CRS's own distortion
+        (:meth:`projected_scales`): the mean of its scale over the directions, the same both
+        ways (exact on a conformal projection: UTM, Lambert conformal, polar stereographic),
+        bilinear between its values on a :data:`SCALE_LATTICE`-square lattice over the map (a
+        smooth field: within 2e-7 of it on a 1-degree Web Mercator tile), and 1 where that is
+        within half of :func:`scale_share` of 1 (as :func:`scale_bands` takes a map: the angles
+        move by at most 0.01 / sqrt(2) degree)."""
+        rows, cols = np.asarray(rows, np.float64), np.asarray(cols, np.float64)
+        if self.crs is not None:
+            r, c, lattice = self._scale_lattice
+            i = np.clip(np.searchsorted(r, rows, side="right") - 1, 0, len(r) - 2)
+            j = np.clip(np.searchsorted(c, cols, side="right") - 1, 0, len(c) - 2)
+            fr, fc = (rows - r[i]) / (r[i + 1] - r[i]), (cols - c[j]) / (c[j + 1] - c[j])
+            scale = ((lattice[i, j] * (1.0 - fc) + lattice[i, j + 1] * fc) * (1.0 - fr)
+                     + (lattice[i + 1, j] * (1.0 - fc) + lattice[i + 1, j + 1] * fc) * fr)
+            scale = np.where(np.abs(scale - 1.0) <= scale_share() / 2.0, 1.0, scale)
+            return scale, scale.copy()
+        lat = self.lonlat(rows.ravel(), cols.ravel())[1].reshape(rows.shape)
+        distinct, where = np.unique(lat, return_inverse=True)
         east, north = (np.asarray(v, np.float64) for v in _METRES_PER_DEGREE(distinct))
         centre = metres_per_degree(self.centre_latitude)
         return (east / centre[0])[where].reshape(np.shape(lat)), (north / centre[1])[where].reshape(np.shape(lat))
 
-    def row_scales(self) -> np.ndarray:
-        """float64 (rows, 2): :meth:`grid_scales` at each row's middle (all 1 on a projected grid),
-        what :class:`oclshade.horizon.HorizonCaster` traces a geographic grid's horizons with."""
+    @cached_property
+    def _scale_lattice(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(row lines, column lines, scales): :meth:`projected_scales` on the lattice."""
         rows, cols = self.shape
-        if self.crs is not None:
-            return np.ones((rows, 2))
-        lat = self.lonlat(np.arange(rows) + 0.5, np.full(rows, cols / 2.0))[1]
-        return np.stack(self.grid_scales(lat), axis=-1)
+        r, c = np.linspace(0.0, rows, SCALE_LATTICE), np.linspace(0.0, cols, SCALE_LATTICE)
+        rr, cc = np.meshgrid(r, c, indexing="ij")
+        return r, c, self.projected_scales(*self.lonlat(rr.ravel(), cc.ravel()))[0].reshape(rr.shape)
 
-    def on_grid(self, lat: np.ndarray, azimuth: np.ndarray, elevation: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Directions at these places (grid azimuths, elevations in degrees) as the grid traces
-        them.  A projected grid keeps its metres everywhere: unchanged.  A geographic grid is
-        drawn at its centre latitude's scale, so a cell's metre east is ``sx`` grid metres
-        (:meth:`grid_scales`): the direction that runs over the same ground is turned to azimuth
-        atan2(sin a / sx, cos a / sy) and, the grid distance being 1 / s of the true one (s =
-        1 / |(sin a / sx, cos a / sy)|), raised to elevation atan(s tan e).  A ray at that sun
-        crosses the same cells at the same heights as the true one: the cast shadows are the
-        Earth's, not the centre scale's (docs/methods.md, "Geographic grids")."""
+    def projected_scales(self, lon: np.ndarray, lat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(scale, anisotropy) of a projected grid at these places: ``scale`` the true metres
+        (on the ellipsoid) of one grid metre, the square root of the area a grid square metre
+        covers on the ground; ``anisotropy`` how far the length of a grid metre in any direction
+        strays from it, a share (0 on a conformal projection).  From central differences of
+        :data:`STEP_METRES` along the grid's columns and rows through the CRS and the
+        ellipsoid's geodesics (pyproj)."""
+        lon, lat = np.asarray(lon, np.float64), np.asarray(lat, np.float64)
+        to_grid, to_place = self._transformers
+        step = STEP_METRES / self.crs.axis_info[0].unit_conversion_factor     # grid units
+        geod = self.crs.get_geod()
+        ground = []
+        x, y = (np.asarray(v, np.float64) for v in to_grid.transform(lon, lat))
+        ends = [(to_place.transform(x - dx, y - dy), to_place.transform(x + dx, y + dy))
+                for dx, dy in ((step, 0.0), (0.0, step))]
+        for (lon0, lat0), (lon1, lat1) in ends:
+            forward, back, metres = (np.radians(np.asarray(v, np.float64)) for v in geod.inv(lon0, lat0, lon1, lat1))
+            # the azimuth at the middle: the mean of the forward ones at both ends (back + 180 at the far end)
+            middle = np.arctan2(np.sin(forward) - np.sin(back), np.cos(forward) - np.cos(back))
+            ground.append((middle, np.degrees(metres) / (2 * STEP_METRES)))
+        (a_e, s_e), (a_n, s_n) = ground
+        if not (np.all(np.isfinite(s_e)) and np.all(np.isfinite(s_n))):
+            raise ValueError("part of the map lies outside where its CRS is defined")
+        cross = s_e * s_n * np.abs(np.sin(a_n - a_e))                    # the ground area of a grid square metre
+        m_ee, m_nn, m_en = s_e * s_e, s_n * s_n, s_e * s_n * np.cos(a_n - a_e)   # the metric of a grid metre
+        half = np.sqrt((m_ee - m_nn) ** 2 / 4.0 + m_en * m_en)
+        scale = np.sqrt(cross)
+        longest, shortest = np.sqrt((m_ee + m_nn) / 2.0 + half), np.sqrt(np.maximum((m_ee + m_nn) / 2.0 - half, 0.0))
+        return scale, np.maximum(longest / scale - 1.0, 1.0 - shortest / scale)
+
+    @cached_property
+    def _transformers(self) -> tuple[Any, Any]:
+        """(to the grid, to the ground) of a projected grid; ValueError where PROJ cannot make them."""
+        from pyproj import Transformer
+        from pyproj.exceptions import ProjError
+
+        try:
+            return (Transformer.from_crs(self.crs.geodetic_crs, self.crs, always_xy=True),
+                    Transformer.from_crs(self.crs, self.crs.geodetic_crs, always_xy=True))
+        except ProjError as exc:
+            raise ValueError(f"its CRS ({self.crs.name}) cannot carry places to the ground "
+                             f"({' '.join(str(exc).split())})") from None
+
+    def row_scales(self) -> np.ndarray:
+        """float64 (rows, 2): :meth:`grid_scales` at each row's middle, what
+        :class:`oclshade.horizon.HorizonCaster` traces the horizons with and a sun given by its
+        angles is banded by (:func:`banded_field`)."""
+        rows, cols = self.shape
+        return np.stack(self.grid_scales(np.arange(rows) + 0.5, np.full(rows, cols / 2.0)), axis=-1)
+
+    @cached_property
+    def scale_residual(self) -> float:
+        """Degrees: what tracing each band of rows at its scale (:meth:`row_scales`, one number
+        both ways on a projected grid) leaves of the grid's own distortion, at most, over a 9 x 9
+        lattice: a length d off its band's in a share moves an angle by at most d / 2 radians
+        (its anisotropy on a projected projection that is not conformal, Albers or Lambert
+        azimuthal equal-area; the scale's change along a row).  0 on a geographic grid."""
+        if self.crs is None:
+            return 0.0
+        rows, cols = self.shape
+        r, c = np.meshgrid(np.linspace(0.5, rows - 0.5, LATTICE), np.linspace(0.5, cols - 0.5, LATTICE), indexing="ij")
+        lon, lat = self.lonlat(r.ravel(), c.ravel())
+        scale, anisotropy = self.projected_scales(lon, lat)
+        edges, bands = scale_bands(rows, self.row_scales(), DEFAULT_TOLERANCE)
+        band = bands[np.searchsorted(edges, np.floor(r.ravel()).astype(int), side="right") - 1, 0]
+        off = np.abs(scale / band - 1.0)
+        return float(np.degrees(np.max((1.0 + off) * (1.0 + anisotropy) - 1.0) / 2.0))
+
+    def on_grid(self, rows: np.ndarray, cols: np.ndarray, azimuth: np.ndarray, elevation: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray]:
+        """Directions at these places (cell coordinates; grid azimuths, elevations in degrees)
+        as the grid traces them.  A grid metre east is ``sx`` true metres and north ``sy`` (:meth:`grid_scales`):
+        the direction that runs over the same ground is turned to azimuth atan2(sin a / sx,
+        cos a / sy) (on a projected grid, sx = sy: unturned) and, the grid distance being 1 / s
+        of the true one (s = 1 / |(sin a / sx, cos a / sy)|), raised to elevation atan(s tan e).
+        A ray at that sun crosses the same cells at the same heights as the true one: the cast
+        shadows are the Earth's, not the grid's (docs/methods.md, "Geographic grids" and
+        "Projected grids")."""
         azimuth, elevation = np.asarray(azimuth, np.float64), np.asarray(elevation, np.float64)
-        if self.crs is not None:
-            return azimuth, elevation
-        return scaled_suns(*self.grid_scales(lat), azimuth, elevation)
+        return scaled_suns(*self.grid_scales(rows, cols), azimuth, elevation)
 
     def suns(self, when: datetime | Sequence[datetime] | Sun, rows: np.ndarray, cols: np.ndarray
              ) -> tuple[np.ndarray, np.ndarray]:
@@ -129,9 +211,10 @@ class MapPlaces:
         at these places: at ``when`` (NREL SPA; flat arrays over the places for one time, (times,
         places) for a sequence of times), or the same ``Sun`` everywhere (a direction on the grid:
         on a geographic one, the true azimuth at each place)."""
-        lon, lat = self.lonlat(np.asarray(rows, np.float64).ravel(), np.asarray(cols, np.float64).ravel())
+        rows, cols = np.asarray(rows, np.float64).ravel(), np.asarray(cols, np.float64).ravel()
         if isinstance(when, Sun):
-            return self.on_grid(lat, np.full(lat.shape, when.azimuth), np.full(lat.shape, when.elevation))
+            return self.on_grid(rows, cols, np.full(rows.shape, when.azimuth), np.full(rows.shape, when.elevation))
+        lon, lat = self.lonlat(rows, cols)
         many = not isinstance(when, datetime)
         times = np.array(list(when) if many else [when], dtype=object)[:, None]
         position = sun_position(times, lat, lon)
@@ -139,7 +222,8 @@ class MapPlaces:
         lat = np.broadcast_to(lat, shape)
         grid = self.grid_azimuths(np.broadcast_to(lon, shape).ravel(), lat.ravel(),
                                   np.broadcast_to(position.azimuth, shape).ravel()).reshape(shape)
-        grid, elevation = self.on_grid(lat, grid, np.broadcast_to(position.elevation, shape))
+        grid, elevation = self.on_grid(np.broadcast_to(rows, shape), np.broadcast_to(cols, shape), grid,
+                                       np.broadcast_to(position.elevation, shape))
         return (grid, elevation) if many else (grid[0], elevation[0])
 
 
@@ -152,7 +236,7 @@ def scaled_suns(sx: np.ndarray, sy: np.ndarray, azimuth: np.ndarray, elevation: 
     s = 1.0 / np.hypot(east, north)
     se, ce = np.sin(e), np.cos(e)
     same = (sx == 1.0) & (sy == 1.0)      # the centre's own scale: the sun as given, to the bit
-    return (np.where(same, azimuth, np.mod(np.degrees(np.arctan2(east, north)), 360.0)),
+    return (np.where(sx == sy, azimuth, np.mod(np.degrees(np.arctan2(east, north)), 360.0)),
             np.where(same | (np.abs(elevation) >= 90.0), elevation, np.degrees(np.arctan2(s * se, ce))))
 
 
@@ -196,12 +280,13 @@ def sun_field(places: MapPlaces, when: datetime | Sun, tolerance: float = DEFAUL
     own within ``tolerance`` degrees of its block's (see the module docstring)."""
     if not (isinstance(tolerance, (int, float)) and tolerance > 0.0 and math.isfinite(tolerance)):
         raise ValueError(f"tolerance must be a positive number of degrees, got {tolerance!r}")
-    if isinstance(when, Sun) and places.crs is None:
+    if isinstance(when, Sun):
         return banded_field(places.row_scales(), places.shape[1], when, float(tolerance))
     rows, cols = places.shape
     centre, spread, r, c, v = _lattice(places, when)
     if spread <= tolerance:
-        return SunField.single(centre, places.shape, spread, float(tolerance))
+        return SunField.single(centre, places.shape, spread, float(tolerance),
+                               tuple(float(scale[0]) for scale in places.grid_scales([rows / 2.0], [cols / 2.0])))
     per_row = sun_differences(v[1:], v[:-1]).max() / (r[1] - r[0])
     per_col = sun_differences(v[:, 1:], v[:, :-1]).max() / (c[1] - c[0])
     budget, smallest = float(tolerance), (min(ALIGN, rows), min(ALIGN, cols))
@@ -238,7 +323,8 @@ def banded_field(row_scales: np.ndarray, cols: int, sun: Sun, tolerance: float =
     band = np.repeat(np.arange(len(scales)), np.diff(edges))
     deviation = float(sun_differences(own, unit_vectors(az, el)[band]).max())
     if len(scales) == 1:
-        return SunField.single(Sun(float(az[0]), float(el[0])), (rows, cols), deviation, tolerance)
+        return SunField.single(Sun(float(az[0]), float(el[0])), (rows, cols), deviation, tolerance,
+                               (float(scales[0, 0]), float(scales[0, 1])))
     return SunField((rows, cols), BlockGrid(edges, np.array([0, cols]), az[:, None], el[:, None], scales),
                     sun, deviation, tolerance)
 
@@ -339,8 +425,7 @@ def _block_suns(places: MapPlaces, when: datetime, block_rows: int, block_cols: 
     deviation = max(float(sun_differences(centres, v[np.ix_(rows_at, cols_at)]).max())
                     for rows_at in (top, bottom) for cols_at in (left, right))
     grid = tuple(np.ascontiguousarray(np.reshape(a, centres.shape[:2]), np.float64) for a in (az, el))
-    scales = None
-    if places.crs is None:                   # a geographic grid: each row of blocks' scale at its middle
-        lat = places.lonlat(mid_r[:, 0], mid_c[:, 0])[1]
-        scales = np.stack(places.grid_scales(lat), axis=-1)
+    # each row of blocks' scale at its middle row, on the map's middle column (the sunshine's beam
+    # reads it: kernels/sunshine.cl, "sun tables")
+    scales = np.stack(places.grid_scales(mid_r[:, 0], np.full(len(mid_r), cols / 2.0)), axis=-1)
     return (edge_r, edge_c, *grid, scales), deviation

@@ -16,6 +16,12 @@ SCALE_TOLERANCE = 0.01
 SCALE_ALIGN = 16
 
 
+def scale_share(tolerance: float = SCALE_TOLERANCE) -> float:
+    """The share by which cell sizes may differ from their band's (2 sqrt(2) tolerance in
+    radians, :func:`scale_bands`); a scale within half of it of 1 is traced as 1."""
+    return 2.0 * math.sqrt(2.0) * math.radians(tolerance)
+
+
 def scale_bands(rows: int, row_scales: np.ndarray | None, tolerance: float = SCALE_TOLERANCE
                 ) -> tuple[np.ndarray, np.ndarray]:
     """(edges, scales): bands of rows [edges[k], edges[k + 1]) and float64 (bands, 2), each band's
@@ -31,7 +37,7 @@ def scale_bands(rows: int, row_scales: np.ndarray | None, tolerance: float = SCA
     if row_scales is None:
         return np.array([0, rows]), np.ones((1, 2))
     scales = check_row_scales(row_scales, rows)
-    share = 2.0 * math.sqrt(2.0) * math.radians(tolerance)
+    share = scale_share(tolerance)
 
     def holds(r0: int, r1: int) -> bool:
         lo, hi = scales[r0:r1].min(axis=0), scales[r0:r1].max(axis=0)

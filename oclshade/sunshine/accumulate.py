@@ -135,7 +135,7 @@ class SunshineCaster:
         for k, step in enumerate(day):
             if isinstance(step, SunField):
                 step.check_shape(self.heightmap.shape)
-                if step.uniform:
+                if step.uniform and np.all(step.scales == 1.0):     # the beam needs a scaled grid's scale
                     day[k] = step.blocks[0].sun
         sums = self._sums(outs)
         total, launches = (0, iter(())) if not day else \
@@ -174,8 +174,8 @@ class SunshineCaster:
         kernels = {table: self._kernel("sunshine_masks", outs, table) for table in (False, True)}
         grid = self._grid_args(self.shadows.pyramid.heights)
         no_sun = np.zeros(4, np.float32)
-        for k, (step, mask) in enumerate(self.shadows.masks_on_device(day)):
-            if isinstance(step, SunField):
+        for k, (step, (_, mask)) in enumerate(zip(day, self.shadows.masks_on_device(day))):
+            if isinstance(step, SunField):     # (one block too: a scaled grid's beam reads its table)
                 up = step.angles[1] > 0.0
                 table = self._table(step, np.where(up, 0, -1), np.zeros((len(up), 2)))
                 yield _Launch(k, kernels[True], (*grid, mask, no_sun), (*table, np.int32(0)))

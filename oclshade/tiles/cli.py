@@ -99,7 +99,7 @@ def run(args: argparse.Namespace, job) -> int:
             if not args.quiet and (blocks := placed.blocks_line()):
                 sys.stderr.write(f"{cli.PROG}: {blocks}\n")
         else:
-            traced = solar_cli.on_geographic_grid(job.suns, args, raster)
+            traced = solar_cli.on_map_grid(job.suns, args, raster)
         dx, dy = raster.dx * args.scale, raster.dy * args.scale
         rows, cols = windows.shape
         cli._make_parents(args.output)

@@ -1,0 +1,145 @@
+"""A projected grid's scale (oclshade.solar.MapPlaces.grid_scales): a grid metre is 1 / k metres on
+the ground (UTM: k = 0.9996 on the central meridian; Web Mercator: sec(latitude), 1.41 at 45 N;
+polar stereographic: 1.03 at 62 N), so its suns and horizons are traced at that scale.  Checked
+against PROJ's own scale factors, and on the ground: a tower's shadow is H / tan(e) metres long
+and its horizon atan(H / D), however the grid draws them."""
+import math
+
+import numpy as np
+import pytest
+
+pyproj = pytest.importorskip("pyproj")
+
+from oclshade import ShadowCaster, Sun  # noqa: E402
+from oclshade.cli import main  # noqa: E402
+from oclshade.heightmap import Heightmap  # noqa: E402
+from oclshade.io import read_dem  # noqa: E402
+from oclshade.solar import map_places, sun_field  # noqa: E402
+
+from test_site import write_tif  # noqa: E402
+
+
+def keys(epsg: int) -> tuple:
+    """GeoTIFF keys of a projected CRS by its EPSG code."""
+    return (1, 1, 0, 3, 1024, 0, 1, 1, 1025, 0, 1, 1, 3072, 0, 1, epsg)
+
+
+def grid_xy(epsg: int, lon: float, lat: float) -> tuple[float, float]:
+    crs = pyproj.CRS.from_epsg(epsg)
+    return pyproj.Transformer.from_crs(crs.geodetic_crs, crs, always_xy=True).transform(lon, lat)
+
+
+@pytest.mark.parametrize("epsg, lon, lat", [(32633, 15.0, 60.0), (32633, 11.2, 47.0), (3413, -45.0, 62.0),
+                                            (3413, 30.0, 78.0), (2154, 3.0, 46.5), (3031, 0.0, -75.0)])
+def test_a_conformal_grids_metre_is_one_over_projs_scale_factor(tmp_path, epsg, lon, lat):
+    """UTM, polar stereographic (ArcticDEM's 3413, REMA's 3031) and Lambert-93: conformal, so one
+    scale both ways, PROJ's k (its analytic factors, not our central differences)."""
+    x, y = grid_xy(epsg, lon, lat)
+    raster = read_dem(write_tif(tmp_path / "map.tif", np.zeros((20, 20)), keys(epsg), x - 300.0, y + 300.0))
+    places = map_places(raster)
+    here_lon, here_lat = places.lonlat(np.array([10.0]), np.array([10.0]))
+    k = pyproj.Proj(places.crs).get_factors(here_lon[0], here_lat[0]).parallel_scale
+    scale, anisotropy = places.projected_scales(here_lon, here_lat)
+    assert scale[0] == pytest.approx(1.0 / k, rel=1e-8) and anisotropy[0] < 1e-6
+    sx, sy = places.grid_scales(np.array([10.0]), np.array([10.0]))      # between its lattice's points
+    assert sx[0] == sy[0] and sx[0] == (1.0 if abs(scale[0] - 1.0) <= 2.4e-4 else pytest.approx(scale[0], rel=1e-9))
+
+
+def tower_map(tmp_path, epsg: int, lon: float, lat: float, rows: int = 40, cols: int = 120, cell: float = 30.0,
+              height: float = 300.0):
+    """Flat ground with a 3 x 3-cell tower ``height`` m tall at column 100, centred on (lon, lat)."""
+    heights = np.zeros((rows, cols))
+    heights[rows // 2 - 1:rows // 2 + 2, 99:102] = height
+    x, y = grid_xy(epsg, lon, lat)
+    path = write_tif(tmp_path / f"tower{epsg}.tif", heights, keys(epsg), x - cols / 2 * cell, y + rows / 2 * cell,
+                     cell)
+    return path, read_dem(path)
+
+
+def shadow_cells(mask: np.ndarray) -> int:
+    """Shadowed cells west of the tower along its middle row, up to the first lit one."""
+    row = mask[mask.shape[0] // 2, :99][::-1]
+    return int(np.argmax(row == 0)) if (row == 0).any() else row.size
+
+
+@pytest.mark.parametrize("epsg, lon, lat, k", [(3857, 10.0, 45.0, math.sqrt(2.0)), (3413, -45.0, 62.0, None),
+                                               (32633, 15.0, 60.0, 0.9996)])
+def test_a_towers_shadow_is_as_long_on_the_ground_as_its_sun_makes_it(tmp_path, epsg, lon, lat, k):
+    """H / tan(e) metres on the ground, k H / tan(e) grid metres: on Web Mercator at 45 N the grid
+    draws it 1.41 times longer, and a grid taken as metres cast it 30 % short."""
+    path, raster = tower_map(tmp_path, epsg, lon, lat)
+    places = map_places(raster)
+    if k is None:
+        k = pyproj.Proj(places.crs).get_factors(lon, lat).parallel_scale
+    elevation, height = 20.0, 300.0
+    expected = k * height / math.tan(math.radians(elevation)) / raster.dx     # grid cells past the tower's edge
+    out = tmp_path / "mask.tif"
+    assert main(["shadow", str(path), str(out), "-az", "90", "-alt", str(elevation), "-q"]) == 0
+    got = shadow_cells(read_dem(out).heights)
+    assert abs(got - expected) <= 1.5, (got, expected)          # the tower's bilinear edge: within a cell
+    api = ShadowCaster(Heightmap.from_raster(raster), cache=False).cast(Sun(90.0, elevation)).mask
+    assert np.array_equal(api, np.where(np.isnan(read_dem(out).heights), 255, read_dem(out).heights))
+    as_metres = ShadowCaster(Heightmap.from_array(raster.heights, (raster.dx, raster.dy)), cache=False)
+    wrong = shadow_cells(as_metres.cast(Sun(90.0, elevation)).mask)
+    if abs(k - 1.0) > 0.1:
+        assert abs(wrong - expected) > 3.0                      # the grid's metres as the ground's
+    horizons = tmp_path / "horizons.tif"                        # the tower seen from 40 cells west of it
+    assert main(["horizon", str(path), str(horizons), "--azimuths", "4", "-q"]) == 0
+    east = read_dem(horizons, band=2).heights[raster.heights.shape[0] // 2, 99 - 40]
+    assert east == pytest.approx(math.degrees(math.atan(height * k / (40 * raster.dx))), abs=0.05)
+
+
+def test_the_beam_on_flat_web_mercator_ground_is_sin_e(tmp_path):
+    """The sunshine's beam needs the true sun: flat ground gets sin(e) per hour, not the grid
+    sun's sin(e') (e' = atan(tan(e) / 1.41) on Web Mercator at 45 N)."""
+    from oclshade.sunshine import SunshineCaster
+
+    _, raster = tower_map(tmp_path, 3857, 10.0, 45.0)
+    flat = Heightmap.from_raster(type(raster)(np.zeros(raster.heights.shape), raster.dx, raster.dy,
+                                              georef=raster.georef))
+    sun = Sun(135.0, 25.0)
+    got = SunshineCaster(flat).accumulate([sun], [3600], "irradiation").irradiation
+    assert np.nanmax(np.abs(got[1:-1, 1:-1] - math.sin(math.radians(25.0)))) <= 2e-6
+
+
+@pytest.mark.parametrize("epsg, lon, lat, rows, bands", [(32633, 15.0, 60.0, 200, 1), (3857, 10.0, 45.0, 600, 4)])
+def test_masks_and_horizons_agree_on_a_projected_map(tmp_path, epsg, lon, lat, rows, bands):
+    """A cell is in cast shadow at (az, e) exactly when its horizon at az is above e, ties apart:
+    on a scaled grid too (UTM on its central meridian, k = 0.9996; Web Mercator at 45 N, whose
+    scale changes by 0.2 % over the map: bands of rows), both traced in the same bands."""
+    from oclshade.synthetic import canyon_crater
+
+    x, y = grid_xy(epsg, lon, lat)
+    path = write_tif(tmp_path / "map.tif", canyon_crater(rows, 160, seed=4, relief=2500.0), keys(epsg),
+                     x - 80 * 30.0, y + rows / 2 * 30.0)
+    field = sun_field(map_places(read_dem(path)), Sun(45.0, 12.0))
+    assert field.blocks[0].sun.elevation != 12.0 and len(field.blocks) >= bands     # traced at the grid's scale
+    horizons = tmp_path / "horizons.tif"
+    assert main(["horizon", str(path), str(horizons), "--azimuths", "8", "-q"]) == 0
+    shadowed = 0
+    for k, elevation in ((1, 12.0), (2, 20.0), (5, 8.0), (7, 30.0)):
+        mask_path = tmp_path / f"mask{k}.tif"
+        assert main(["shadow", str(path), str(mask_path), "-az", str(45.0 * k), "-alt", str(elevation), "-q"]) == 0
+        mask, horizon = read_dem(mask_path).heights, read_dem(horizons, band=k + 1).heights
+        differ = (mask != 255) & ((mask == 1) != (horizon > elevation))
+        assert not np.any(differ & (np.abs(horizon - elevation) > 1e-3)), int(differ.sum())
+        shadowed += int(np.count_nonzero(mask == 1))
+    assert shadowed > 1000
+
+
+def test_a_projection_that_stretches_by_direction_is_named(tmp_path, capsys):
+    """Albers and Lambert azimuthal equal-area keep areas, not angles: one scale per band of rows
+    cannot follow them, and the run says by how much (what PROJ's factors give: half the share
+    by which the longest grid metre, the Tissot indicatrix's major axis, exceeds their mean, in
+    radians)."""
+    x, y = grid_xy(3035, 25.0, 60.0)                       # LAEA Europe, far from its centre
+    path = write_tif(tmp_path / "laea.tif", np.zeros((30, 30)), keys(3035), x, y)
+    places = map_places(read_dem(path))
+    f = pyproj.Proj(places.crs).get_factors(25.0, 60.0)      # its Tissot indicatrix's axes
+    expected = math.degrees((f.tissot_semimajor / math.sqrt(f.tissot_semimajor * f.tissot_semiminor) - 1.0) / 2.0)
+    assert places.scale_residual == pytest.approx(expected, rel=0.05) and expected > 0.1
+    assert main(["shadow", str(path), str(tmp_path / "m.tif"), "-az", "90", "-alt", "20"]) == 0
+    assert f"angles within {places.scale_residual:.3f} deg" in capsys.readouterr().err
+    x, y = grid_xy(32633, 15.0, 60.0)                      # a conformal grid: nothing to say
+    path = write_tif(tmp_path / "utm.tif", np.zeros((30, 30)), keys(32633), x, y)
+    assert map_places(read_dem(path)).scale_residual < 1e-4
