@@ -160,8 +160,8 @@ class Heightmap:
     offset: float = field(init=False)
     relative32: np.ndarray = field(init=False, repr=False)
     #: None, or float64 (rows, 2): each row's true metres east and north of one grid metre (a
-    #: geographic raster's, :meth:`from_raster`); the casters then trace a sun given by its angles
-    #: per band of rows at the band's own cell sizes (docs/methods.md, "Geographic grids")
+    #: georeferenced raster's, :meth:`from_raster`); the casters then trace a sun given by its
+    #: angles per band of rows at the band's own cell sizes (docs/methods.md, "Geographic grids")
     row_scales: np.ndarray | None = field(default=None, repr=False, compare=False, kw_only=True)
 
     def __post_init__(self) -> None:

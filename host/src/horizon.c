@@ -37,6 +37,8 @@ typedef struct horizon_job {
     cl_float4 *rays;           /* n_azimuths > 0: each azimuth's ray (malloc'd; horizon_job_free) */
     scale_band *bands;         /* row_scales not one band of scale 1: its bands (malloc'd), else NULL */
     int nbands;
+    cl_float4 seed_ray;        /* the seeds' ray: the grid's, or with bands the middle row's band's
+                                  (HorizonCaster._seed_cell: the same bits, fewer steps) */
 } horizon_job;
 
 static void horizon_job_free(horizon_job *j)
@@ -195,11 +197,16 @@ static oclshade_status horizon_job_for(oclshade *lib, const oclshade_horizon_par
     j->ray.s[2] = (cl_float)p->curvature;
     j->ray.s[3] = (cl_float)p->max_distance;
     j->p = p;
-    if (p->n_azimuths > 0) {
+    const scale_band *seed_band = NULL;   /* the band holding the middle row */
+    for (int b = 0; b < j->nbands; ++b)
+        if (j->bands[b].row0 <= p->rows / 2 && p->rows / 2 < j->bands[b].row0 + j->bands[b].rows) seed_band = &j->bands[b];
+    j->seed_ray = seed_band ? band_ray(j, seed_band, p->azimuth) : j->ray;
+    if (p->n_azimuths > 0) {   /* the seeds' rays (and the cells' without bands) */
         j->rays = (cl_float4 *)malloc(sizeof *j->rays * (size_t)p->n_azimuths);
         if (j->rays == NULL) return ocls_fail(lib, OCLSHADE_OUT_OF_MEMORY, 0, "no host memory for %d rays", p->n_azimuths);
         for (int k = 0; k < p->n_azimuths; ++k) {
-            ocls_horizontal_ray(p->azimuths[k], p->dx, p->dy, u);
+            ocls_horizontal_ray(p->azimuths[k], p->dx * (seed_band ? seed_band->sx : 1.0),
+                                p->dy * (seed_band ? seed_band->sy : 1.0), u);
             j->rays[k] = j->ray;
             j->rays[k].s[0] = u[0];
             j->rays[k].s[1] = u[1];
@@ -337,7 +344,7 @@ static oclshade_status horizon_body(ocls_pass *ps, const void *params)
     const cl_int nlev = j->lay.levels;
     const cl_float2 cell = {{(cl_float)p->dx, (cl_float)p->dy}};
     ocls_arg sa[8] = {OCLS_ARG(h), OCLS_ARG(H), OCLS_ARG(Wi), OCLS_ARG(p->pyramid), OCLS_ARG(p->offsets),
-                      OCLS_ARG(nlev), OCLS_ARG(j->ray), OCLS_ARG(seeds)};
+                      OCLS_ARG(nlev), OCLS_ARG(j->seed_ray), OCLS_ARG(seeds)};
     if (seeded && ((st = ocls_set_args(ps, seeder, sa, 8)) != OCLSHADE_OK ||
                    (st = ocls_launch(ps, seeder, seed_cols, seed_rows, group, width)) != OCLSHADE_OK))
         return st;

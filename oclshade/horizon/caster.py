@@ -392,8 +392,9 @@ class HorizonCaster:
         def walk(ray: np.ndarray, angle: cl.Buffer, svf: cl.Buffer, bounds: tuple[float, float] = (),
                  band: tuple[int, int] | None = None, table: tuple = (), azimuth: float | None = None) -> None:
             w = walker()
-            if seeded:                # the grid's ray: any seed gives each cell a lower bound (horizon.cl)
-                w["seeder"].set_args(*w["fixed"], ray, w["seeds"])
+            if seeded:                # any seed gives each cell a lower bound (horizon.cl): the middle band's ray
+                w["seeder"].set_args(*w["fixed"], ray if azimuth is None else self._ray(azimuth, self._seed_cell),
+                                     w["seeds"])
                 cl.enqueue_nd_range_kernel(rt.queue, w["seeder"], *w["seed_grid"])
             for cell, band_grid, rows_of in self._band_launches(w["grid"], band, azimuth is not None):
                 scaled = ray if azimuth is None else self._ray(azimuth, cell)
@@ -453,6 +454,19 @@ class HorizonCaster:
                             ((gx, gy), (lx, math.gcd(ly, r1 - r0))), (r0, r1 - r0)))
         return out
 
+    @functools.cached_property
+    def _seed_cell(self) -> np.ndarray | None:
+        """The cell sizes of the seeds' rays: those of the band holding the middle row, so that a
+        seed's horizon point lies near every band's cells' own rays (a seed gives any cell a
+        lower bound, kernels/horizon.cl "Seeds"; a poor one, traced at another scale, only
+        prunes less: at the grid's metres, Web Mercator's horizons had cost 1.8-2x); None (the
+        map's) where the map is one band of scale 1."""
+        edges, scales = self.scale_bands
+        if len(scales) == 1 and np.all(scales == 1.0):
+            return None
+        k = int(np.searchsorted(edges, self.heightmap.shape[0] // 2, side="right")) - 1
+        return np.array([self.heightmap.dx * scales[k, 0], self.heightmap.dy * scales[k, 1]])
+
     def _grid(self, kernel: cl.Kernel, cols: int, rows: int) -> tuple[tuple[int, int], tuple[int, int]]:
         """(global, local) sizes for one work-item per (col, row): work-groups of the knob ``group``
         work-items, the knob ``width`` of them across (:meth:`Runtime.grid_2d`)."""
@@ -508,7 +522,7 @@ class HorizonCaster:
 
         def launch(azimuths: np.ndarray, angle: cl.Buffer, stride: int, svf: cl.Buffer) -> None:
             n = azimuths.size
-            rays = rt.to_device(self._rays(azimuths), "horizon rays")   # the grid's: the seeds', and the cells' unbanded
+            rays = rt.to_device(self._rays(azimuths, self._seed_cell), "horizon rays")   # the seeds', the cells' unbanded
             seeder.set_args(*fixed, rays, seeds, np.int32(0))
             cl.enqueue_nd_range_kernel(rt.queue, seeder, (sgx, sgy, n), (slx, sly, 1))
             for cell, (_, (_, band_ly)), rows_of in self._band_launches(((gx, gy), (lx, ly)), None):

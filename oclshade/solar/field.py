@@ -21,9 +21,10 @@ inside a rectangle is at a corner; tests/test_field.py checks every cell).  Bloc
 16 cells on a side are checked at their outermost cells' centres instead (a cell's sun is its
 centre's, so blocks of one cell hold any tolerance: where the sun or the grid's scale turns
 by more across a cell, as on coarse geographic grids near the poles, each cell is its own
-block).  On a geographic grid the suns are the grid's (:meth:`MapPlaces.on_grid`): a block's
-sun also carries its rows' cell width, so that it casts the Earth's shadows rather than the
-centre latitude's (docs/methods.md, "Geographic grids").  Block sides are
+block).  The suns are the grid's (:meth:`MapPlaces.on_grid`): a block's sun also carries its
+rows' cell size on the ground (a geographic grid's width, a projected grid's scale factor), so
+that it casts the Earth's shadows rather than the grid's (docs/methods.md, "Geographic grids",
+"Projected grids").  Block sides are
 multiples of 16 cells where a 16 x 16 block holds the tolerance (of the sides that do, the
 largest area; widths of 64 from 128 on): the packet kernels' runs then divide the block
 widths and no 16 x 16 certificate tile crosses a block, so a field traces at the speed of one
@@ -102,19 +103,22 @@ class MapPlaces:
         move by at most 0.01 / sqrt(2) degree)."""
         rows, cols = np.asarray(rows, np.float64), np.asarray(cols, np.float64)
         if self.crs is not None:
-            r, c, lattice = self._scale_lattice
-            i = np.clip(np.searchsorted(r, rows, side="right") - 1, 0, len(r) - 2)
-            j = np.clip(np.searchsorted(c, cols, side="right") - 1, 0, len(c) - 2)
-            fr, fc = (rows - r[i]) / (r[i + 1] - r[i]), (cols - c[j]) / (c[j + 1] - c[j])
-            scale = ((lattice[i, j] * (1.0 - fc) + lattice[i, j + 1] * fc) * (1.0 - fr)
-                     + (lattice[i + 1, j] * (1.0 - fc) + lattice[i + 1, j + 1] * fc) * fr)
-            scale = np.where(np.abs(scale - 1.0) <= scale_share() / 2.0, 1.0, scale)
+            scale = _unit_near_one(self._lattice_scale(rows, cols))
             return scale, scale.copy()
         lat = self.lonlat(rows.ravel(), cols.ravel())[1].reshape(rows.shape)
         distinct, where = np.unique(lat, return_inverse=True)
         east, north = (np.asarray(v, np.float64) for v in _METRES_PER_DEGREE(distinct))
         centre = metres_per_degree(self.centre_latitude)
         return (east / centre[0])[where].reshape(np.shape(lat)), (north / centre[1])[where].reshape(np.shape(lat))
+
+    def _lattice_scale(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+        """A projected grid's scale at these places, bilinear on :attr:`_scale_lattice`."""
+        r, c, lattice = self._scale_lattice
+        i = np.clip(np.searchsorted(r, rows, side="right") - 1, 0, len(r) - 2)
+        j = np.clip(np.searchsorted(c, cols, side="right") - 1, 0, len(c) - 2)
+        fr, fc = (rows - r[i]) / (r[i + 1] - r[i]), (cols - c[j]) / (c[j + 1] - c[j])
+        return ((lattice[i, j] * (1.0 - fc) + lattice[i, j + 1] * fc) * (1.0 - fr)
+                + (lattice[i + 1, j] * (1.0 - fc) + lattice[i + 1, j + 1] * fc) * fr)
 
     @cached_property
     def _scale_lattice(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -140,10 +144,11 @@ class MapPlaces:
         ends = [(to_place.transform(x - dx, y - dy), to_place.transform(x + dx, y + dy))
                 for dx, dy in ((step, 0.0), (0.0, step))]
         for (lon0, lat0), (lon1, lat1) in ends:
-            forward, back, metres = (np.radians(np.asarray(v, np.float64)) for v in geod.inv(lon0, lat0, lon1, lat1))
+            forward, back, metres = (np.asarray(v, np.float64) for v in geod.inv(lon0, lat0, lon1, lat1))
+            forward, back = np.radians(forward), np.radians(back)
             # the azimuth at the middle: the mean of the forward ones at both ends (back + 180 at the far end)
             middle = np.arctan2(np.sin(forward) - np.sin(back), np.cos(forward) - np.cos(back))
-            ground.append((middle, np.degrees(metres) / (2 * STEP_METRES)))
+            ground.append((middle, metres / (2 * STEP_METRES)))
         (a_e, s_e), (a_n, s_n) = ground
         if not (np.all(np.isfinite(s_e)) and np.all(np.isfinite(s_n))):
             raise ValueError("part of the map lies outside where its CRS is defined")
@@ -168,18 +173,26 @@ class MapPlaces:
                              f"({' '.join(str(exc).split())})") from None
 
     def row_scales(self) -> np.ndarray:
-        """float64 (rows, 2): :meth:`grid_scales` at each row's middle, what
-        :class:`oclshade.horizon.HorizonCaster` traces the horizons with and a sun given by its
-        angles is banded by (:func:`banded_field`)."""
+        """float64 (rows, 2): each row's scale, what :class:`oclshade.horizon.HorizonCaster`
+        traces the horizons with and a sun given by its angles is banded by
+        (:func:`banded_field`): a geographic grid's :meth:`grid_scales` at the row's middle; a
+        projected grid's the middle of its extremes along the row (bilinear on the lattice:
+        at its columns), 1 near 1 as there (UTM, far from its meridian, changes along the rows)."""
         rows, cols = self.shape
-        return np.stack(self.grid_scales(np.arange(rows) + 0.5, np.full(rows, cols / 2.0)), axis=-1)
+        middle = np.arange(rows) + 0.5
+        if self.crs is None:
+            return np.stack(self.grid_scales(middle, np.full(rows, cols / 2.0)), axis=-1)
+        along = self._lattice_scale(np.repeat(middle, SCALE_LATTICE), np.tile(self._scale_lattice[1], rows))
+        along = along.reshape(rows, SCALE_LATTICE)
+        scale = _unit_near_one((along.min(axis=1) + along.max(axis=1)) / 2.0)
+        return np.stack([scale, scale], axis=-1)
 
     @cached_property
     def scale_residual(self) -> float:
         """Degrees: what tracing each band of rows at its scale (:meth:`row_scales`, one number
         both ways on a projected grid) leaves of the grid's own distortion, at most, over a 9 x 9
         lattice: a length d off its band's in a share moves an angle by at most d / 2 radians
-        (its anisotropy on a projected projection that is not conformal, Albers or Lambert
+        (the stretch by direction of a projection that is not conformal, Albers or Lambert
         azimuthal equal-area; the scale's change along a row).  0 on a geographic grid."""
         if self.crs is None:
             return 0.0
@@ -225,6 +238,11 @@ class MapPlaces:
         grid, elevation = self.on_grid(np.broadcast_to(rows, shape), np.broadcast_to(cols, shape), grid,
                                        np.broadcast_to(position.elevation, shape))
         return (grid, elevation) if many else (grid[0], elevation[0])
+
+
+def _unit_near_one(scale: np.ndarray) -> np.ndarray:
+    """1 where a scale is within half of :func:`scale_share` of it (:func:`scale_bands`'s rule)."""
+    return np.where(np.abs(scale - 1.0) <= scale_share() / 2.0, 1.0, scale)
 
 
 def scaled_suns(sx: np.ndarray, sy: np.ndarray, azimuth: np.ndarray, elevation: np.ndarray
@@ -309,8 +327,8 @@ def sun_field(places: MapPlaces, when: datetime | Sun, tolerance: float = DEFAUL
 
 def banded_field(row_scales: np.ndarray, cols: int, sun: Sun, tolerance: float = DEFAULT_TOLERANCE
                  ) -> SunField:
-    """A sun given by its angles on a geographic grid whose rows have these scales (float64
-    (rows, 2), :meth:`MapPlaces.row_scales`): blocks the map's width (``cols``), one per band of
+    """A sun given by its angles on a grid whose rows have these scales (float64 (rows, 2),
+    :meth:`MapPlaces.row_scales`: geographic or projected): blocks the map's width (``cols``), one per band of
     rows of :func:`oclshade.solar.scale.scale_bands` (the bands a :class:`HorizonCaster` with
     these rows' scales traces: a mask and the horizons at its azimuth then see the same lines),
     each with the sun as the grid traces it at the band's scale."""
@@ -331,7 +349,7 @@ def banded_field(row_scales: np.ndarray, cols: int, sun: Sun, tolerance: float =
 
 def on_heightmap(heightmap: Heightmap, sun: Traced) -> Traced:
     """What a caster traces for ``sun`` on ``heightmap``: a sun given by its angles on a heightmap
-    with :attr:`~oclshade.heightmap.Heightmap.row_scales` (a geographic raster's) as its
+    with :attr:`~oclshade.heightmap.Heightmap.row_scales` (a georeferenced raster's) as its
     :func:`banded_field`; a field, or a sun on a heightmap without them, as it is."""
     if heightmap.row_scales is None or isinstance(sun, SunField):
         return sun
