@@ -143,3 +143,19 @@ def test_a_projection_that_stretches_by_direction_is_named(tmp_path, capsys):
     x, y = grid_xy(32633, 15.0, 60.0)                      # a conformal grid: nothing to say
     path = write_tif(tmp_path / "utm.tif", np.zeros((30, 30)), keys(32633), x, y)
     assert map_places(read_dem(path)).scale_residual < 1e-4
+
+
+def test_a_utm_map_far_from_its_meridian_is_traced_at_its_rows_middle_scale(tmp_path, capsys):
+    """Across 110 km of UTM 33N around 17.9 E, 47 N, k runs from about 1.0000 to 1.0005 along the
+    rows: each row is traced at the middle of its range (not at 1, as its middle alone is near
+    enough to 1), which leaves every cell within the tolerance, and the run says nothing."""
+    x, y = grid_xy(32633, 17.9, 47.0)
+    path = write_tif(tmp_path / "wide.tif", np.zeros((8, 1200)), keys(32633), x - 600 * 92.0, y + 4 * 92.0, 92.0)
+    places = map_places(read_dem(path))
+    ks = [pyproj.Proj(places.crs).get_factors(*places.lonlat(np.array([4.0]), np.array([c]))).parallel_scale[0]
+          for c in (0.0, 1200.0)]
+    assert max(ks) - min(ks) > 4e-4 and abs(1.0 / np.mean(ks) - 1.0) < 2.45e-4      # PROJ's k along the rows
+    assert places.row_scales()[4, 0] == pytest.approx((1.0 / min(ks) + 1.0 / max(ks)) / 2.0, rel=1e-6)
+    assert places.scale_residual <= 0.01
+    assert main(["shadow", str(path), str(tmp_path / "m.tif"), "-az", "90", "-alt", "20"]) == 0
+    assert "warning" not in capsys.readouterr().err

@@ -69,15 +69,13 @@ static void widen(double lo[2], double hi[2], const double *scales, int r0, int 
 /* scale_bands of the checked row_scales: the most rows from each band's first that hold the
  * tolerance, in steps of SCALE_ALIGN where a first step of that many holds, else of 1 (the same
  * comparisons on the same doubles as the Python host, on running extremes); j->bands stays NULL
- * where the map is one band within the tolerance of scale 1 (traced as it is). */
+ * where the map is one band of scale 1 (traced as it is). */
 static oclshade_status scale_bands(oclshade *lib, const oclshade_horizon_params *p, horizon_job *j)
 {
     const double *s = p->row_scales, share = 2.0 * sqrt(2.0) * (SCALE_TOLERANCE * (3.141592653589793 / 180.0));
     const int rows = p->rows;
     j->bands = (scale_band *)malloc(sizeof *j->bands * (size_t)rows);
     if (j->bands == NULL) return ocls_fail(lib, OCLSHADE_OUT_OF_MEMORY, 0, "no host memory for %d bands of rows", rows);
-    int near_one = 1;
-    for (int k = 0; k < 2 * rows; ++k) near_one = near_one && fabs(s[k] - 1.0) <= share / 2.0;
     for (int r0 = 0; r0 < rows;) {
         double lo[2] = {s[2 * r0], s[2 * r0 + 1]}, hi[2] = {lo[0], lo[1]};
         const int end = r0 + SCALE_ALIGN < rows ? r0 + SCALE_ALIGN : rows;
@@ -102,7 +100,7 @@ static oclshade_status scale_bands(oclshade *lib, const oclshade_horizon_params 
         j->bands[j->nbands++] = (scale_band){r0, r1 - r0, (lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0};
         r0 = r1;
     }
-    if (j->nbands == 1 && near_one) {
+    if (j->nbands == 1 && j->bands[0].sx == 1.0 && j->bands[0].sy == 1.0) {   /* as it is */
         free(j->bands);
         j->bands = NULL;
         j->nbands = 0;

@@ -175,16 +175,21 @@ class MapPlaces:
     def row_scales(self) -> np.ndarray:
         """float64 (rows, 2): each row's scale, what :class:`oclshade.horizon.HorizonCaster`
         traces the horizons with and a sun given by its angles is banded by
-        (:func:`banded_field`): a geographic grid's :meth:`grid_scales` at the row's middle; a
+        (:func:`banded_field`): a geographic grid's :meth:`grid_scales` at the row's middle (all
+        1 where all are within half of :func:`scale_share` of it: traced as it is); a
         projected grid's the middle of its extremes along the row (bilinear on the lattice:
-        at its columns), 1 near 1 as there (UTM, far from its meridian, changes along the rows)."""
+        at its columns; UTM, far from its meridian, changes along the rows), 1 where all of the
+        row is near 1 as there."""
         rows, cols = self.shape
         middle = np.arange(rows) + 0.5
-        if self.crs is None:
-            return np.stack(self.grid_scales(middle, np.full(rows, cols / 2.0)), axis=-1)
+        if self.crs is None:     # all within half the share of 1: traced at the centre's width, as it is
+            scales = np.stack(self.grid_scales(middle, np.full(rows, cols / 2.0)), axis=-1)
+            return np.ones((rows, 2)) if np.all(np.abs(scales - 1.0) <= scale_share() / 2.0) else scales
         along = self._lattice_scale(np.repeat(middle, SCALE_LATTICE), np.tile(self._scale_lattice[1], rows))
         along = along.reshape(rows, SCALE_LATTICE)
-        scale = _unit_near_one((along.min(axis=1) + along.max(axis=1)) / 2.0)
+        low, high = along.min(axis=1), along.max(axis=1)
+        near = np.maximum(np.abs(low - 1.0), np.abs(high - 1.0)) <= scale_share() / 2.0   # the whole row
+        scale = np.where(near, 1.0, (low + high) / 2.0)
         return np.stack([scale, scale], axis=-1)
 
     @cached_property

@@ -18,7 +18,8 @@ SCALE_ALIGN = 16
 
 def scale_share(tolerance: float = SCALE_TOLERANCE) -> float:
     """The share by which cell sizes may differ from their band's (2 sqrt(2) tolerance in
-    radians, :func:`scale_bands`); a scale within half of it of 1 is traced as 1."""
+    radians, :func:`scale_bands`); a map whose scales are all within half of it of 1 is traced
+    as it is (:meth:`oclshade.solar.MapPlaces.row_scales`)."""
     return 2.0 * math.sqrt(2.0) * math.radians(tolerance)
 
 
@@ -32,8 +33,8 @@ def scale_bands(rows: int, row_scales: np.ndarray | None, tolerance: float = SCA
     and an elevation angle moves by at most d / 2 (sin e cos e d), together at most the
     tolerance.  Bands are the most rows that hold it, in multiples of :data:`SCALE_ALIGN` where
     that many do (a fine grid), any number where not (coarse cells near the poles: down to one
-    row).  One band is scale 1: a map whose rows all hold the tolerance is traced at its
-    centre's cell width, as it is."""
+    row).  (Rows near enough to 1 to be traced as they are come as 1:
+    :meth:`oclshade.solar.MapPlaces.row_scales`.)"""
     if row_scales is None:
         return np.array([0, rows]), np.ones((1, 2))
     scales = check_row_scales(row_scales, rows)
@@ -51,7 +52,5 @@ def scale_bands(rows: int, row_scales: np.ndarray | None, tolerance: float = SCA
         while r1 < rows and holds(r0, min(rows, r1 + step)):
             r1 = min(rows, r1 + step)
         edges.append(r1)
-    if len(edges) == 2 and np.all(np.abs(scales - 1.0) <= share / 2.0):
-        return np.array(edges), np.ones((1, 2))
     middles = [(scales[a:b].min(axis=0) + scales[a:b].max(axis=0)) / 2.0 for a, b in zip(edges, edges[1:])]
     return np.array(edges), np.array(middles)
