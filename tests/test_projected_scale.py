@@ -159,3 +159,63 @@ def test_a_utm_map_far_from_its_meridian_is_traced_at_its_rows_middle_scale(tmp_
     assert places.scale_residual <= 0.01
     assert main(["shadow", str(path), str(tmp_path / "m.tif"), "-az", "90", "-alt", "20"]) == 0
     assert "warning" not in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("offset", [0.5, -0.3])
+def test_a_walls_penumbra_on_web_mercator_is_the_skys(tmp_path, offset):
+    """Soft shadows on a scaled grid: a cell sees a long wall's top at h = atan(H / D) on the
+    ground (D in ground metres), and the sun's disc (radius r) centred at h - offset r, so the
+    share above the wall is the circular segment above offset r, in closed form. The grid draws
+    the disc 0.75 times as tall (sin^2 + 0.5 cos^2 of its 14 degrees, over 0.71): traced with
+    the sky's chords it read that share at 0.75 offset instead."""
+    from oclshade.horizon import SUN_RADIUS, HorizonCaster
+
+    from test_sun_disc import segment_share
+
+    x, y = grid_xy(3857, 10.0, 45.0)
+    heights = np.zeros((9, 120))
+    heights[:, 100:103] = 400.0                       # a wall along the columns, its top edge at column 100
+    raster = read_dem(write_tif(tmp_path / "wall.tif", heights, keys(3857), x - 60 * 30.0, y + 4.5 * 30.0, 30.0))
+    banded = Heightmap.from_raster(raster)
+    scale = banded.row_scales[4, 0]                   # ground metres per grid metre (0.71)
+    assert scale == pytest.approx(1.0 / math.sqrt(2.0), rel=2e-3)
+    distance = 40 * 30.0 * scale                      # the cell 40 columns west of the wall's top
+    top = math.degrees(math.atan(400.0 / distance))
+    sun = Sun(90.0, top - offset * SUN_RADIUS)
+    got = HorizonCaster(banded, cache=False).sun_disc(sun, columns=64)[4, 60]
+    assert got == pytest.approx(segment_share(offset), abs=2e-3)
+    field = sun_field(map_places(raster), sun)
+    flat = Heightmap.from_array(heights, (raster.dx, raster.dy))
+    twin = ref_disc(flat, field.blocks[0].sun, 64, scale)[4, 60]
+    assert got == pytest.approx(twin, abs=1e-3)
+    sky = HorizonCaster(flat, cache=False).sun_disc(field.blocks[0].sun, columns=64)[4, 60]   # the sky's chords
+    assert abs(sky - segment_share(offset)) > 0.03          # 0.04-0.07: 20-35 times the bound above
+
+
+def ref_disc(hm, sun, columns, scale):
+    from oclshade.horizon import SUN_RADIUS
+    from oclshade.reference.sun_disc import sun_disc_fraction
+
+    return sun_disc_fraction(hm, sun, SUN_RADIUS, columns=columns, scale=scale)
+
+
+def test_soft_shadows_on_a_scaled_grid_equal_their_float64_twin(tmp_path):
+    """Every cell of a canyon on Web Mercator against the twin on the sky (true horizons and the
+    true disc, 64 strips): within the float32 bound of the strips plus the disc's first-order
+    stretch (0.02 of the disc is ample: it is 1e-3 of the radius squared)."""
+    from oclshade.horizon import HorizonCaster
+    from oclshade.reference import angle_tolerance
+    from oclshade.synthetic import canyon_crater
+
+    x, y = grid_xy(3857, 10.0, 45.0)
+    raster = read_dem(write_tif(tmp_path / "canyon.tif", canyon_crater(40, 48, seed=5, relief=600.0), keys(3857),
+                                x - 24 * 30.0, y + 20 * 30.0, 30.0))
+    banded = Heightmap.from_raster(raster)
+    flat = Heightmap.from_array(raster.heights, (raster.dx, raster.dy))
+    for sun in (Sun(300.0, 4.0), Sun(135.0, 10.0)):
+        field = sun_field(map_places(raster), sun)
+        assert field.uniform and field.scales[0, 0] < 0.72
+        got = HorizonCaster(banded, cache=False).sun_disc(sun, columns=64)
+        want = ref_disc(flat, field.blocks[0].sun, 64, float(field.scales[0, 0]))
+        assert np.nanmax(np.abs(got - want)) <= 64 * angle_tolerance(flat) / 0.5 + 0.02
+        assert 0.0 < ((want > 0) & (want < 1)).mean() < 0.6

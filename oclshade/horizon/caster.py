@@ -43,7 +43,7 @@ from ..runtime import Runtime, get_runtime
 from ..solar.field import on_heightmap
 from ..solar.scale import SCALE_TOLERANCE, scale_bands
 from ..sun import Sun, SunField, SunLike, as_sun, libm, sun_rays
-from .disc import DEFAULT_COLUMNS, SUN_RADIUS, disc_columns, disc_columns_of, visible_fraction
+from .disc import DEFAULT_COLUMNS, SUN_RADIUS, disc_columns, disc_columns_of, disc_stretch, visible_fraction
 from .pilot import MIN_CELLS as PILOT_MIN_CELLS, MIN_ROWS as PILOT_MIN_ROWS, Pilot
 from .pilot import bands as pilot_bands, measure as measure_pilot
 
@@ -283,12 +283,13 @@ class HorizonCaster:
         angular ``radius`` in degrees; :mod:`oclshade.horizon.disc`).  A
         :class:`oclshade.sun.SunField`: each block's cells with the disc of its own sun (the
         strips of every block traced over its cells only), bit for bit each block sun's
-        whole-map fractions on its cells.  On a heightmap with
+        whole-map fractions on its cells, where its scales are 1 (else the disc as the grid draws
+        it: :func:`oclshade.horizon.disc.disc_stretch`).  On a heightmap with
         :attr:`~oclshade.heightmap.Heightmap.row_scales`, a sun given by its angles is its bands'
         field (:func:`oclshade.solar.field.on_heightmap`)."""
         sun = sun if isinstance(sun, SunField) else on_heightmap(self.heightmap, as_sun(sun))
-        if isinstance(sun, SunField) and not sun.uniform:
-            return self._field_disc(sun, radius, columns, progress)
+        if isinstance(sun, SunField) and not (sun.uniform and np.all(sun.scales == 1.0)):
+            return self._field_disc(sun, radius, columns, progress)     # (a scaled grid's disc: per block)
         sun = sun.blocks[0].sun if isinstance(sun, SunField) else as_sun(sun)
         azimuths, half_chords = disc_columns(sun, radius, columns)
         return visible_fraction(self._strip_angles(sun.elevation, azimuths, half_chords, progress),
@@ -299,10 +300,12 @@ class HorizonCaster:
         bounds from its block's row of the strip's table), as the one-sun strips."""
         field.check_shape(self.heightmap.shape)
         azimuth, elevation = field.angles
-        azimuths, half_chords = disc_columns_of(azimuth, elevation, radius, columns)   # checks each sun
+        stretch, sky = disc_stretch(field.scales, azimuth, elevation)   # the disc's height on the grid
+        azimuths, half_chords = disc_columns_of(azimuth, sky, radius, columns)   # checks each sun
         band, owner = field.bands
         rows, cols = self.heightmap.shape
-        cell_elevation = elevation[owner][band[:rows, None] + band[None, rows:]]
+        cell_block = owner[band[:rows, None] + band[None, rows:]]
+        cell_elevation, cell_stretch = elevation[cell_block], stretch[cell_block]
         enqueue = self._enqueuer({"OCLS_OUT_ANGLE": True, "OCLS_CLAMP": True, "OCLS_SUN_TABLE": True})
         buf = self.runtime.empty(4 * rows * cols, "horizon angles")
         band_buf = self.runtime.to_device(band, "sun table bands")
@@ -311,7 +314,7 @@ class HorizonCaster:
             for k in range(columns):
                 table = np.zeros((len(azimuth), 2, 4), np.float32)
                 table[:, 0] = self._rays(azimuths[:, k])
-                table[:, 1, :2] = np.stack(strip_bounds(elevation, half_chords[k]), axis=-1)
+                table[:, 1, :2] = np.stack(strip_bounds(elevation, half_chords[k] * stretch), axis=-1)
                 strip_table = self.runtime.to_device(np.ascontiguousarray(table[owner]), "strip table")
                 enqueue(0.0, buf, self._dummy, (0.0, 0.0), table=(band_buf, strip_table))
                 out = np.empty((rows, cols), np.float32)
@@ -320,7 +323,7 @@ class HorizonCaster:
                     progress(k + 1, columns)
                 yield out
 
-        return visible_fraction(strips(), cell_elevation, half_chords).astype(np.float32)
+        return visible_fraction(strips(), cell_elevation, [c * cell_stretch for c in half_chords]).astype(np.float32)
 
     def _strip_angles(self, elevation: float, azimuths: np.ndarray, half_chords: np.ndarray,
                       progress: Progress | None) -> Iterator[np.ndarray]:

@@ -9,14 +9,24 @@ import numpy as np
 
 from ..heightmap import Heightmap
 from ..horizon.disc import disc_columns, visible_fraction
-from ..sun import SunLike, as_sun
+from ..sun import Sun, SunLike, as_sun
 from .horizons import horizon_angles
 
 
 def sun_disc_fraction(hm: Heightmap, sun: SunLike, radius: float, curvature: float = 0.0,
-                      columns: int = 256) -> np.ndarray:
-    """Visible share of the disc per cell, float64 (rows, cols), NaN at nodata."""
+                      columns: int = 256, scale: float = 1.0) -> np.ndarray:
+    """Visible share of the disc per cell, float64 (rows, cols), NaN at nodata.  ``scale``: the
+    true metres of a grid metre (the same both ways) where ``sun`` is the grid's sun of a
+    scaled grid (:meth:`oclshade.solar.MapPlaces.on_grid`): each strip then compares the true
+    horizon, atan(tan(h) / scale), with the true disc around the true sun, atan(tan(e) / scale)
+    (what :func:`oclshade.horizon.disc.disc_stretch` takes to first order)."""
     sun = as_sun(sun)
-    azimuths, half_chords = disc_columns(sun, radius, columns)
-    bands = (horizon_angles(hm, float(az), curvature) for az in azimuths)
-    return visible_fraction(bands, sun.elevation, half_chords)
+    if scale == 1.0:
+        azimuths, half_chords = disc_columns(sun, radius, columns)
+        return visible_fraction((horizon_angles(hm, float(az), curvature) for az in azimuths), sun.elevation,
+                                half_chords)
+    sky = float(np.degrees(np.arctan(np.tan(np.radians(sun.elevation)) / scale)))
+    azimuths, half_chords = disc_columns(Sun(sun.azimuth, sky), radius, columns)
+    true = (np.degrees(np.arctan(np.tan(np.radians(horizon_angles(hm, float(az), curvature))) / scale))
+            for az in azimuths)
+    return visible_fraction(true, sky, half_chords)
