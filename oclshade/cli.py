@@ -1217,8 +1217,8 @@ def run_horizon(args: argparse.Namespace) -> int:
         caster = HorizonCaster(heightmap, device=args.device, curvature=curvature,
                                max_distance=getattr(args, "max_distance", None), cache=False,
                                row_scales=None if sunlit else solar_cli.map_row_scales(args, raster))
-        edges, band_scales = caster.scale_bands
-        if not args.quiet and (len(band_scales) > 1 or np.any(band_scales != 1.0)):
+        band_scales = caster.scale_bands[1]
+        if not args.quiet and len(band_scales) > 1:
             print(f"{PROG}: the grid's scale: {len(band_scales)} band(s) of rows, each traced with its own cell "
                   f"sizes (within {SCALE_TOLERANCE:g} deg)", file=sys.stderr)
         t1 = time.perf_counter()
