@@ -81,7 +81,7 @@ class MapPlaces:
         :meth:`oclshade.solar.site.MapSite.grid_azimuths`, place by place)."""
         if self.crs is None:
             return np.mod(true_azimuths, 360.0)
-        return grid_azimuths(self.crs, lon, lat, true_azimuths)
+        return grid_azimuths(self.crs, lon, lat, true_azimuths, self._transformers[0])
 
     @cached_property
     def centre_latitude(self) -> float:

@@ -56,13 +56,16 @@ class MapSite:
         return [Sun(float(az), sun.elevation) for az, sun in zip(grid, suns)]
 
 
-def grid_azimuths(crs: Any, lon: np.ndarray, lat: np.ndarray, true_azimuths: np.ndarray) -> np.ndarray:
+def grid_azimuths(crs: Any, lon: np.ndarray, lat: np.ndarray, true_azimuths: np.ndarray,
+                  to_grid: Any = None) -> np.ndarray:
     """Place by place, the grid azimuth in a projected ``crs`` (pyproj) of the direction at
     ``true_azimuths`` (degrees) from (``lon``, ``lat``): that of a 10 m geodesic step along it,
-    in [0, 360); NaN where the place lies outside the CRS's domain."""
+    in [0, 360); NaN where the place lies outside the CRS's domain.  ``to_grid``: the CRS's
+    transformer from its geodetic CRS, if the caller keeps one (None: made here)."""
     from pyproj import Transformer
 
-    to_grid = Transformer.from_crs(crs.geodetic_crs, crs, always_xy=True)
+    if to_grid is None:
+        to_grid = Transformer.from_crs(crs.geodetic_crs, crs, always_xy=True)
     lon2, lat2, _ = crs.get_geod().fwd(lon, lat, true_azimuths, np.full(np.shape(lon), STEP_METRES))
     x0, y0 = to_grid.transform(lon, lat)
     x1, y1 = to_grid.transform(lon2, lat2)
