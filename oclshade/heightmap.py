@@ -222,20 +222,16 @@ class Heightmap:
         the centre latitude's scale, a projected grid's metres are its CRS's (UTM's 0.9996 to
         1.001 of the ground's, Web Mercator's sec(latitude)), so the casters trace a sun given by
         its angles, and the horizons, per band of rows with the band's true cell sizes, as the
-        CLI does.  A raster without a CRS, or a projected one whose CRS pyproj cannot identify
-        (an :class:`InputWarning`), has no :attr:`row_scales`."""
-        from .solar.field import map_places
+        CLI does.  A raster without a CRS, or a projected one whose CRS pyproj cannot identify,
+        has no :attr:`row_scales`; that, and a projection one scale per band cannot follow, come
+        as an :class:`InputWarning` (:func:`oclshade.solar.field.checked_places`)."""
+        from .solar.field import checked_places
 
-        try:
-            places = map_places(raster)
-            row_scales = None if places is None else places.row_scales()
-        except ValueError as exc:
-            if raster.geographic:
-                raise
-            warnings.warn(f"{raster.path}: {exc}: its grid metres are taken as the ground's", InputWarning,
-                          stacklevel=2)
-            row_scales = None
-        return cls.from_array(raster.heights, (raster.dx, raster.dy), z_factor, row_scales=row_scales)
+        places, notes = checked_places(raster)
+        for note in notes:
+            warnings.warn(f"{raster.path}: {note}" if raster.path else note, InputWarning, stacklevel=2)
+        return cls.from_array(raster.heights, (raster.dx, raster.dy), z_factor,
+                              row_scales=None if places is None else places.row_scales())
 
     @property
     def shape(self) -> tuple[int, int]:

@@ -270,6 +270,13 @@ class SunField:
         """One sun for the whole map."""
         return len(self.blocks) == 1
 
+    @property
+    def plain(self) -> "Sun | None":
+        """The field's one sun where it is :attr:`uniform` at scale 1, what every caster may trace
+        in its place; None where it is not (blocks, or one block of a scaled grid, whose scale the
+        sunshine's beam and the soft shadows' disc need)."""
+        return self.blocks[0].sun if self.uniform and np.all(self.scales == 1.0) else None
+
     @cached_property
     def column_step(self) -> int:
         """The largest number dividing every block's first column (0 when all start at column 0)."""

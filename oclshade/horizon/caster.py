@@ -287,10 +287,11 @@ class HorizonCaster:
         it: :func:`oclshade.horizon.disc.disc_stretch`).  On a heightmap with
         :attr:`~oclshade.heightmap.Heightmap.row_scales`, a sun given by its angles is its bands'
         field (:func:`oclshade.solar.field.on_heightmap`)."""
-        sun = sun if isinstance(sun, SunField) else on_heightmap(self.heightmap, as_sun(sun))
-        if isinstance(sun, SunField) and not (sun.uniform and np.all(sun.scales == 1.0)):
-            return self._field_disc(sun, radius, columns, progress)     # (a scaled grid's disc: per block)
-        sun = sun.blocks[0].sun if isinstance(sun, SunField) else as_sun(sun)
+        sun = on_heightmap(self.heightmap, sun if isinstance(sun, SunField) else as_sun(sun))
+        if isinstance(sun, SunField):
+            if sun.plain is None:
+                return self._field_disc(sun, radius, columns, progress)     # (a scaled grid's disc: per block)
+            sun = sun.plain
         azimuths, half_chords = disc_columns(sun, radius, columns)
         return visible_fraction(self._strip_angles(sun.elevation, azimuths, half_chords, progress),
                                 sun.elevation, half_chords).astype(np.float32)
@@ -444,7 +445,7 @@ class HorizonCaster:
         last band's rows rounded up to the grid's)."""
         hm = self.heightmap
         edges, scales = self.scale_bands
-        if not scaled or len(scales) == 1 and np.all(scales == 1.0):
+        if not scaled or self._as_drawn:
             return [(np.array([hm.dx, hm.dy]), grid, band)]
         (gx, gy), (lx, ly) = grid
         first, stop = (0, gy) if band is None else (band[0], band[0] + band[1])
@@ -458,15 +459,20 @@ class HorizonCaster:
         return out
 
     @functools.cached_property
+    def _as_drawn(self) -> bool:
+        """Whether the map is one band of scale 1: traced with its own cell sizes."""
+        return len(self.scale_bands[1]) == 1 and bool(np.all(self.scale_bands[1] == 1.0))
+
+    @functools.cached_property
     def _seed_cell(self) -> np.ndarray | None:
         """The cell sizes of the seeds' rays: those of the band holding the middle row, so that a
         seed's horizon point lies near every band's cells' own rays (a seed gives any cell a
         lower bound, kernels/horizon.cl "Seeds"; a poor one, traced at another scale, only
         prunes less: at the grid's metres, Web Mercator's horizons had cost 1.8-2x); None (the
-        map's) where the map is one band of scale 1."""
-        edges, scales = self.scale_bands
-        if len(scales) == 1 and np.all(scales == 1.0):
+        map's) where the map is traced as it is."""
+        if self._as_drawn:
             return None
+        edges, scales = self.scale_bands
         k = int(np.searchsorted(edges, self.heightmap.shape[0] // 2, side="right")) - 1
         return np.array([self.heightmap.dx * scales[k, 0], self.heightmap.dy * scales[k, 1]])
 

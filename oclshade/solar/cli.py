@@ -16,7 +16,7 @@ import numpy as np
 from ..heightmap import InputWarning
 from .position import DEFAULT_PRESSURE_HPA, DEFAULT_TEMPERATURE_C, sun_position, suns_at
 from ..sun import DEFAULT_SUN_TOLERANCE, SunField
-from .field import MapPlaces, map_places, sun_field
+from .field import MapPlaces, checked_places, sun_field
 from .site import MapSite, map_site
 
 EPILOG = """\
@@ -233,26 +233,16 @@ class PlacedSuns:
 
 
 def _scaled_places(args: argparse.Namespace, raster) -> MapPlaces | None:
-    """The :class:`oclshade.solar.MapPlaces` of a raster whose grid metres are not the ground's:
-    a geographic one, or a projected one in a CRS pyproj identifies (its scale factor); None for
-    any other (traced as it is: a warning on stderr where the CRS is projected but unknown).
-    Warns where the grid's distortion is more than bands of rows at their scale can follow
-    (:attr:`oclshade.solar.MapPlaces.scale_residual`)."""
+    """The raster's :class:`oclshade.solar.MapPlaces` as :func:`oclshade.solar.field.checked_places`
+    gives them, its warnings on stderr; a geographic raster's problem is the run's error."""
     from ..cli import PROG, CliError
 
     try:
-        places = map_places(raster)
-        residual = 0.0 if places is None else places.scale_residual     # (a projected grid: its scales)
+        places, notes = checked_places(raster)
     except ValueError as exc:
-        if raster.geographic:
-            raise CliError(f"INPUT {args.input!r}: {exc}") from None
-        print(f"{PROG}: warning: INPUT {args.input!r}: {exc}: its grid metres are taken as the ground's",
-              file=sys.stderr)
-        return None
-    if residual > DEFAULT_SUN_TOLERANCE:
-        print(f"{PROG}: warning: INPUT {args.input!r}: its projection stretches lengths by direction or along "
-              f"its rows by more than one scale per band of rows follows: angles within "
-              f"{residual:.3f} deg (docs/methods.md, \"Projected grids\")", file=sys.stderr)
+        raise CliError(f"INPUT {args.input!r}: {exc}") from None
+    for note in notes:
+        print(f"{PROG}: warning: INPUT {args.input!r}: {note}", file=sys.stderr)
     return places
 
 
@@ -282,17 +272,6 @@ def scale_line(places: MapPlaces, tolerance: float = DEFAULT_SUN_TOLERANCE) -> s
     scales = places.row_scales()[:, 0]
     return (f"a projected grid ({places.crs.name}) whose metre is {scales.min():.6f}-{scales.max():.6f} m on the "
             f"ground, traced at that scale")
-
-
-def _known_places(raster, required: bool) -> MapPlaces | None:
-    """``map_places(raster)``; None where its CRS is unknown and the place is not ``required``
-    (--lat/--lon gave it, and :func:`map_site` warned)."""
-    try:
-        return map_places(raster)
-    except ValueError:
-        if required:
-            raise
-        return None
 
 
 def map_row_scales(args: argparse.Namespace, raster) -> np.ndarray | None:
@@ -327,7 +306,7 @@ def suns_for(times: list[datetime], args: argparse.Namespace, raster, what: str 
     true = suns_at(times, site.latitude, site.longitude)
     try:
         placed = PlacedSuns(site.grid_suns(true), true, site)
-        places = _known_places(raster, args.lat is None or raster.geographic)
+        places = _scaled_places(args, raster)      # (with --lat/--lon its CRS need not be known: map_site warned)
         if places is not None and getattr(args, "sun_tolerance", None) is not None:
             bar = ProgressBar(sys.stderr, "suns over the map") \
                 if len(times) > FIELDS_BAR and not getattr(args, "quiet", False) else None

@@ -103,7 +103,8 @@ class MapPlaces:
         move by at most 0.01 / sqrt(2) degree)."""
         rows, cols = np.asarray(rows, np.float64), np.asarray(cols, np.float64)
         if self.crs is not None:
-            scale = _unit_near_one(self._lattice_scale(rows, cols))
+            scale = self._lattice_scale(rows, cols)
+            scale = np.where(_near_one(scale), 1.0, scale)
             return scale, scale.copy()
         lat = self.lonlat(rows.ravel(), cols.ravel())[1].reshape(rows.shape)
         distinct, where = np.unique(lat, return_inverse=True)
@@ -173,6 +174,11 @@ class MapPlaces:
                              f"({' '.join(str(exc).split())})") from None
 
     def row_scales(self) -> np.ndarray:
+        """:attr:`_row_scales` (made once per map; read-only)."""
+        return self._row_scales
+
+    @cached_property
+    def _row_scales(self) -> np.ndarray:
         """float64 (rows, 2): each row's scale, what :class:`oclshade.horizon.HorizonCaster`
         traces the horizons with and a sun given by its angles is banded by
         (:func:`banded_field`): a geographic grid's :meth:`grid_scales` at the row's middle (all
@@ -184,13 +190,16 @@ class MapPlaces:
         middle = np.arange(rows) + 0.5
         if self.crs is None:     # all within half the share of 1: traced at the centre's width, as it is
             scales = np.stack(self.grid_scales(middle, np.full(rows, cols / 2.0)), axis=-1)
-            return np.ones((rows, 2)) if np.all(np.abs(scales - 1.0) <= scale_share() / 2.0) else scales
+            scales = np.ones((rows, 2)) if np.all(_near_one(scales)) else scales
+            scales.setflags(write=False)
+            return scales
         along = self._lattice_scale(np.repeat(middle, SCALE_LATTICE), np.tile(self._scale_lattice[1], rows))
         along = along.reshape(rows, SCALE_LATTICE)
         low, high = along.min(axis=1), along.max(axis=1)
-        near = np.maximum(np.abs(low - 1.0), np.abs(high - 1.0)) <= scale_share() / 2.0   # the whole row
-        scale = np.where(near, 1.0, (low + high) / 2.0)
-        return np.stack([scale, scale], axis=-1)
+        scale = np.where(_near_one(low) & _near_one(high), 1.0, (low + high) / 2.0)    # the whole row near 1
+        scales = np.stack([scale, scale], axis=-1)
+        scales.setflags(write=False)
+        return scales
 
     @cached_property
     def scale_residual(self) -> float:
@@ -245,9 +254,10 @@ class MapPlaces:
         return (grid, elevation) if many else (grid[0], elevation[0])
 
 
-def _unit_near_one(scale: np.ndarray) -> np.ndarray:
-    """1 where a scale is within half of :func:`scale_share` of it (:func:`scale_bands`'s rule)."""
-    return np.where(np.abs(scale - 1.0) <= scale_share() / 2.0, 1.0, scale)
+def _near_one(scale: np.ndarray) -> np.ndarray:
+    """Where a scale is within half of :func:`scale_share` of 1: traced as 1, the grid as it is
+    (the angles move by at most 0.01 / sqrt(2) degree)."""
+    return np.abs(scale - 1.0) <= scale_share() / 2.0
 
 
 def scaled_suns(sx: np.ndarray, sy: np.ndarray, azimuth: np.ndarray, elevation: np.ndarray
@@ -276,6 +286,26 @@ def map_places(raster: Raster) -> MapPlaces | None:
     if found is None and not raster.geographic:
         return None
     return MapPlaces(tuple(float(v) for v in transform), raster.heights.shape, found[0] if found else None)
+
+
+def checked_places(raster: Raster) -> tuple[MapPlaces | None, list[str]]:
+    """(:func:`map_places` with its row scales made, what to warn of): a projected raster whose
+    CRS pyproj cannot identify or carry to the ground has none (its grid metres are the
+    ground's), and a projection that one scale per band of rows cannot follow is named
+    (:attr:`MapPlaces.scale_residual` past the tolerance).  A geographic raster's problem raises
+    ValueError.  What the CLI and :meth:`oclshade.heightmap.Heightmap.from_raster` take."""
+    try:
+        places = map_places(raster)
+        residual = 0.0 if places is None else places.scale_residual      # (a projected grid's: through its CRS)
+    except ValueError as exc:
+        if raster.geographic:
+            raise
+        return None, [f"{exc}: its grid metres are taken as the ground's"]
+    if residual <= DEFAULT_TOLERANCE:
+        return places, []
+    return places, [f"its projection stretches lengths by direction or along its rows by more than one scale "
+                    f"per band of rows follows: angles within {residual:.3f} deg (docs/methods.md, "
+                    f"\"Projected grids\")"]
 
 
 def unit_vectors(azimuth: np.ndarray, elevation: np.ndarray) -> np.ndarray:

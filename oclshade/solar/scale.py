@@ -40,17 +40,24 @@ def scale_bands(rows: int, row_scales: np.ndarray | None, tolerance: float = SCA
     scales = check_row_scales(row_scales, rows)
     share = scale_share(tolerance)
 
-    def holds(r0: int, r1: int) -> bool:
-        lo, hi = scales[r0:r1].min(axis=0), scales[r0:r1].max(axis=0)
+    def holds(lo: np.ndarray, hi: np.ndarray) -> bool:
         return bool(np.all(hi - lo <= share * (hi + lo) / 2.0))
 
-    edges = [0]
-    while edges[-1] < rows:
-        r0 = edges[-1]
-        step = SCALE_ALIGN if holds(r0, min(rows, r0 + SCALE_ALIGN)) else 1
-        r1 = min(rows, r0 + step)
-        while r1 < rows and holds(r0, min(rows, r1 + step)):
-            r1 = min(rows, r1 + step)
+    # each band from its first row, its rows' extremes kept as it grows (host/src/horizon.c: the same)
+    edges, middles, r0 = [0], [], 0
+    while r0 < rows:
+        end = min(rows, r0 + SCALE_ALIGN)
+        lo, hi = scales[r0:end].min(axis=0), scales[r0:end].max(axis=0)
+        step, r1 = (SCALE_ALIGN, end) if holds(lo, hi) else (1, r0 + 1)
+        if step == 1:
+            lo = hi = scales[r0]
+        while r1 < rows:
+            stop = min(rows, r1 + step)
+            wider_lo, wider_hi = np.minimum(lo, scales[r1:stop].min(axis=0)), np.maximum(hi, scales[r1:stop].max(axis=0))
+            if not holds(wider_lo, wider_hi):
+                break
+            lo, hi, r1 = wider_lo, wider_hi, stop
         edges.append(r1)
-    middles = [(scales[a:b].min(axis=0) + scales[a:b].max(axis=0)) / 2.0 for a, b in zip(edges, edges[1:])]
+        middles.append((lo + hi) / 2.0)
+        r0 = r1
     return np.array(edges), np.array(middles)

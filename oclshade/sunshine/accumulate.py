@@ -135,8 +135,8 @@ class SunshineCaster:
         for k, step in enumerate(day):
             if isinstance(step, SunField):
                 step.check_shape(self.heightmap.shape)
-                if step.uniform and np.all(step.scales == 1.0):     # the beam needs a scaled grid's scale
-                    day[k] = step.blocks[0].sun
+                if step.plain is not None:     # (one block of a scaled grid stays a field: its beam's scale)
+                    day[k] = step.plain
         sums = self._sums(outs)
         total, launches = (0, iter(())) if not day else \
             self._by_masks(day, outs) if method == "masks" else self._by_horizons(day, outs, azimuths)
