@@ -22,7 +22,11 @@ Per map, in one process:
 * **horizons** at 16 and 64 azimuths: time per band of rows against the centre's cell width
   alone (one run each), the bands, the largest and the 99th-percentile difference of the
   angles, and the banded angles against the float64 twin of each band's cells on 400 seeded
-  cells per azimuth (16 azimuths; must be within the float32 band).
+  cells per azimuth (16 azimuths; must be within the float32 band); on the projected maps, the
+  ground check: 16 azimuths' angles on 64 seeded cells near the map's centre against the float64
+  twin on the grid at that direction's true metres there (the geodesic between grid points
+  500 m either side, measured here, not by the package), and what one scale for every
+  direction (the square root of the area, as before 2026-12-05) leaves against the same.
 
 Writes bench/results/geographic_scale.{json,md} (``--out`` to change).  Figures depend on the
 machine; the results record where they were taken.
@@ -74,7 +78,7 @@ def moved(raster: Raster, north: float, folder: Path) -> Raster:
 #: N22W160's heights on projected grids of its cells' north-south size, centred on these places:
 #: UTM on its central meridian (k = 0.9996) and near a zone's edge, Web Mercator at 45 N, ArcticDEM's
 #: polar stereographic at 62 N, and two equal-area projections far from their centres (not
-#: conformal: one scale per band of rows leaves their stretch by direction, scale_residual)
+#: conformal: they stretch by direction, which the row scales' (p, q) follow since 2026-12-05)
 PROJECTED = (("UTM 4N, central meridian", 32604, -159.0, 22.5), ("UTM 33N, 2.9 deg east of its meridian", 32633, 17.9, 47.0),
              ("Web Mercator, 45 N", 3857, 10.0, 45.0), ("EPSG:3413 polar stereographic, 62 N", 3413, -45.0, 62.0),
              ("EPSG:5070 CONUS Albers, 47 N", 5070, -120.0, 47.0), ("EPSG:3035 LAEA Europe, 60 N 25 E", 3035, 25.0, 60.0))
@@ -188,6 +192,8 @@ def horizons(name: str, raster: Raster, hm: Heightmap, places) -> list[dict]:
                "diff_p99_deg": float(np.percentile(diff, 99)), "diff_mean_deg": float(diff.mean())}
         if n == 16:
             row.update(twin(hm, scales, banded, azimuth_grid(n)))
+            if places.crs is not None:
+                row.update(ground(hm, places, banded, azimuth_grid(n)))
         log(f"{name} {n} azimuths: {row['bands']} bands, {t_banded:.2f} s vs {t_flat:.2f} s, max diff "
             f"{row['diff_max_deg']:.3f} deg" + (f", twin {row['twin_outside']} of {row['twin_cells']} outside"
                                                 if n == 16 else ""))
@@ -213,6 +219,40 @@ def twin(hm: Heightmap, row_scales: np.ndarray, angles: np.ndarray, azimuths: np
     return {"twin_cells": checked, "twin_outside": outside, "twin_max_deg": worst, "twin_band_deg": band}
 
 
+def ground_scale(places, row: float, col: float, azimuth: float, step: float = 500.0) -> float:
+    """True metres per grid metre at cell (row, col) along grid azimuth ``azimuth``: the
+    geodesic between the grid points ``step`` grid metres either side (pyproj directly)."""
+    import pyproj
+
+    crs = places.crs
+    to_place = pyproj.Transformer.from_crs(crs, crs.geodetic_crs, always_xy=True)
+    x0, xc, _, y0, _, yr = places.transform
+    x, y = x0 + xc * col, y0 + yr * row
+    dx, dy = step * np.sin(np.radians(azimuth)), step * np.cos(np.radians(azimuth))
+    (lon0, lat0), (lon1, lat1) = to_place.transform(x - dx, y - dy), to_place.transform(x + dx, y + dy)
+    return float(crs.get_geod().inv(lon0, lat0, lon1, lat1)[2] / (2.0 * step))
+
+
+def ground(hm: Heightmap, places, angles: np.ndarray, azimuths: np.ndarray) -> dict:
+    """The banded angles, and the float64 twin at one scale every way (the row's s), against the
+    twin at each direction's true metres at the map's centre, on seeded cells within 16 cells of
+    it (where the scale is the centre's to 2e-5 or better)."""
+    rng = np.random.default_rng(13)
+    rows, cols = hm.shape
+    ii, jj = rng.integers(rows // 2 - 16, rows // 2 + 17, 64), rng.integers(cols // 2 - 16, cols // 2 + 17, 64)
+    one_scale = float(places.row_scales()[rows // 2, 0])
+    one = Heightmap(hm.heights, hm.dx * one_scale, hm.dy * one_scale)
+    worst = worst_one = 0.0
+    for a, az in enumerate(azimuths):
+        g = ground_scale(places, rows / 2.0, cols / 2.0, float(az))
+        truth = ref.horizon_angles(Heightmap(hm.heights, hm.dx * g, hm.dy * g), float(az), cells=(ii, jj))
+        seen = truth > -90.0
+        worst = max(worst, float(np.nanmax(np.abs(angles[a, ii, jj] - truth)[seen])))
+        old = ref.horizon_angles(one, float(az), cells=(ii, jj))
+        worst_one = max(worst_one, float(np.nanmax(np.abs(old - truth)[seen])))
+    return {"ground_cells": int(ii.size * len(azimuths)), "ground_max_deg": worst, "one_scale_max_deg": worst_one}
+
+
 def write_markdown(path: Path, result: dict) -> None:
     m = result["meta"]
     lines = ["# A grid's scale: per band of rows against the grid's metres as the ground's", "",
@@ -222,7 +262,7 @@ def write_markdown(path: Path, result: dict) -> None:
              "0.01 deg) against the sun as given on the grid as drawn (a geographic grid at its centre's cell "
              "width, a projected one in its CRS's metres); horizons: one run each; projected maps: N22W160's "
              "heights on square cells of its north-south size in each CRS", "",
-             "| map | CRS | ground metres per grid metre (rows) | left by one scale per band, deg |",
+             "| map | CRS | ground metres per grid metre (rows) | left by the row scales, deg |",
              "|---|---|---|---:|"]
     for r in result["scales"]:
         lines.append(f"| {r['map']} | {r['crs']} | {r['scale_min']:.6f}-{r['scale_max']:.6f} | "
@@ -245,6 +285,14 @@ def write_markdown(path: Path, result: dict) -> None:
         lines.append(f"| {r['map']} | {r['azimuths']} | {r['bands']} | {r['banded_s']:.2f} | {r['flat_s']:.2f} | "
                      f"{r['ratio']:.2f} | {r['diff_max_deg']:.3f} / {r['diff_p99_deg']:.3f} / {r['diff_mean_deg']:.4f} "
                      f"| {check} |")
+    lines += ["", "Projected maps, against the ground (16 azimuths, 64 cells near the centre; the twin at each "
+              "direction's geodesic metres):", "",
+              "| map | cells | traced by direction: max error, deg | one scale every way (before): max error, deg |",
+              "|---|---:|---:|---:|"]
+    for r in result["horizons"]:
+        if "ground_cells" in r:
+            lines.append(f"| {r['map']} | {r['ground_cells']} | {r['ground_max_deg']:.4f} | "
+                         f"{r['one_scale_max_deg']:.4f} |")
     lines.append("")
     path.write_text("\n".join(lines))
 

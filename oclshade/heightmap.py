@@ -132,12 +132,20 @@ def check_float32(heights: np.ndarray, lo: float, hi: float, dx: float, dy: floa
 
 
 def check_row_scales(row_scales: object, rows: int) -> np.ndarray:
-    """``row_scales`` as a read-only float64 (rows, 2) array of positive finite numbers, or a
-    ValueError naming it and the expected shape."""
+    """``row_scales`` as a read-only float64 (rows, 2) or (rows, 4) array, or a ValueError naming
+    it and what is expected: columns 0 and 1 (east, north) positive and finite; columns 2 and 3,
+    where given, a projected grid's stretch by direction (p, q) (:mod:`oclshade.solar.scale`):
+    finite, p^2 + q^2 < 1, and only on rows whose two scales are equal."""
     scales = np.array(row_scales, np.float64)
-    if scales.shape != (rows, 2) or not np.all(np.isfinite(scales)) or not np.all(scales > 0.0):
-        raise ValueError(f"row_scales must be positive finite float64 (rows, 2) = ({rows}, 2), "
-                         f"got shape {scales.shape}")
+    if (scales.ndim != 2 or scales.shape[0] != rows or scales.shape[1] not in (2, 4)
+            or not np.all(np.isfinite(scales)) or not np.all(scales[:, :2] > 0.0)):
+        raise ValueError(f"row_scales must be positive finite float64 ({rows}, 2) or ({rows}, 4) (rows, then "
+                         f"east, north[, p, q]), got shape {scales.shape}")
+    if scales.shape[1] == 4:
+        stretched = (scales[:, 2] != 0.0) | (scales[:, 3] != 0.0)
+        if not np.all(np.hypot(scales[:, 2], scales[:, 3]) < 1.0) or np.any(stretched & (scales[:, 0] != scales[:, 1])):
+            raise ValueError("row_scales' columns 2 and 3 (p, q: a stretch by direction) must have p^2 + q^2 < 1, "
+                             "and be 0 on rows whose east and north scales differ")
     scales.setflags(write=False)
     return scales
 

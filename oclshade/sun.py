@@ -73,15 +73,28 @@ def true_directions(azimuth: np.ndarray, elevation: np.ndarray, scales: np.ndarr
                     ) -> tuple[np.ndarray, np.ndarray]:
     """(vectors float64 (n, 3), cells float64 (n, 2)): the unit vectors on the ground of grid
     suns (degrees) in blocks of these ``scales`` (:attr:`SunField.scales`), and the blocks' true
-    cell sizes (dx, dy times the scales).  A grid metre east is ``sx`` true metres, so the grid
-    sun's vector (east, north, up) is (sx east, sy north, up) on the ground, normalised.  Where
-    the scales are 1: :func:`sun_vectors` and (dx, dy), to the bit."""
+    cell sizes (dx, dy times the east and north scales).  A grid metre east is ``sx`` true
+    metres, so the grid sun's vector (east, north, up) is (sx east, sy north, up) on the ground,
+    its horizontal part times a projected grid's stretch that way
+    (:func:`oclshade.solar.scale.direction_factor`), normalised.  (The cell sizes take no
+    stretch: a slope's normal is the grid's at the mean scale, docs/methods.md "Projected
+    grids".)  Where the scales are 1: :func:`sun_vectors` and (dx, dy), to the bit."""
+    from .solar.scale import direction_factor
+
     vectors = sun_vectors(azimuth, elevation)
     scales = np.asarray(scales, np.float64)
-    scaled = np.concatenate([vectors[:, :2] * scales, vectors[:, 2:]], axis=1)
+    stretch = direction_factor(scales, azimuth)[:, None]
+    scaled = np.concatenate([vectors[:, :2] * scales[:, :2] * stretch, vectors[:, 2:]], axis=1)
     unit = scaled / np.linalg.norm(scaled, axis=1, keepdims=True)
-    same = np.all(scales == 1.0, axis=1, keepdims=True)
-    return np.where(same, vectors, unit), scales * np.array([dx, dy])
+    same = np.all(scales[:, :2] == 1.0, axis=1, keepdims=True) & (stretch == 1.0)
+    return np.where(same, vectors, unit), scales[:, :2] * np.array([dx, dy])
+
+
+def unscaled(scales: np.ndarray) -> np.ndarray:
+    """Per row of ``scales`` (..., 2 or 4: :attr:`SunField.scales`), whether it is the grid's
+    own: east and north 1, no stretch by direction."""
+    scales = np.asarray(scales, np.float64)
+    return np.all(scales[..., :2] == 1.0, axis=-1) & np.all(scales[..., 2:] == 0.0, axis=-1)
 
 
 def _vectors(sa: np.ndarray, ca: np.ndarray, se: np.ndarray, ce: np.ndarray) -> np.ndarray:
@@ -173,13 +186,13 @@ class BlockGrid(Sequence[SunBlock]):
     col_edges: np.ndarray    # int64, from 0 to the map's columns, increasing
     azimuth: np.ndarray      # float64 (row blocks, column blocks), degrees
     elevation: np.ndarray
-    scales: np.ndarray | None = None   # float64 (row blocks, 2): SunField.scales, one per row of blocks
-                                       # (a geographic grid's scale follows the latitude); None: 1
+    scales: np.ndarray | None = None   # float64 (row blocks, 2 or 4): SunField.scales, one per row of
+                                       # blocks (a geographic grid's scale follows the latitude); None: 1
 
     def __post_init__(self) -> None:
         shape = (len(self.row_edges) - 1, len(self.col_edges) - 1)
-        if self.scales is not None and np.shape(self.scales) != (shape[0], 2):
-            raise ValueError(f"a block grid's scales must be (row blocks, 2) = {(shape[0], 2)}, "
+        if self.scales is not None and np.shape(self.scales) not in ((shape[0], 2), (shape[0], 4)):
+            raise ValueError(f"a block grid's scales must be (row blocks, 2 or 4) with {shape[0]} row blocks, "
                              f"got {np.shape(self.scales)}")
         if (np.shape(self.azimuth) != shape or np.shape(self.elevation) != shape or min(shape) < 1
                 or np.any(np.diff(self.row_edges) < 1) or np.any(np.diff(self.col_edges) < 1)
@@ -209,7 +222,7 @@ class BlockGrid(Sequence[SunBlock]):
             return all(np.array_equal(getattr(self, f), getattr(other, f))
                        for f in ("row_edges", "col_edges", "azimuth", "elevation")) and \
                 np.array_equal(self.block_scales, other.block_scales)
-        return isinstance(other, Sequence) and tuple(self) == tuple(other) and not np.any(self.block_scales != 1.0)
+        return isinstance(other, Sequence) and tuple(self) == tuple(other) and bool(np.all(unscaled(self.block_scales)))
 
     def __hash__(self) -> int:
         return hash(tuple(np.ascontiguousarray(getattr(self, f)).tobytes()
@@ -217,7 +230,7 @@ class BlockGrid(Sequence[SunBlock]):
 
     @property
     def block_scales(self) -> np.ndarray:
-        """float64 (blocks, 2) in raster order: :attr:`SunField.scales`."""
+        """float64 (blocks, 2 or 4) in raster order: :attr:`SunField.scales`."""
         if self.scales is None:
             return np.ones((len(self), 2))
         return np.repeat(np.asarray(self.scales, np.float64), self.azimuth.shape[1], axis=0)
@@ -275,7 +288,7 @@ class SunField:
         """The field's one sun where it is :attr:`uniform` at scale 1, what every caster may trace
         in its place; None where it is not (blocks, or one block of a scaled grid, whose scale the
         sunshine's beam and the soft shadows' disc need)."""
-        return self.blocks[0].sun if self.uniform and np.all(self.scales == 1.0) else None
+        return self.blocks[0].sun if self.uniform and bool(np.all(unscaled(self.scales))) else None
 
     @cached_property
     def column_step(self) -> int:
@@ -294,8 +307,9 @@ class SunField:
 
     @property
     def scales(self) -> np.ndarray:
-        """float64 (blocks, 2): the true metres east and north of one grid metre in each block:
-        a geographic grid's, drawn at its centre latitude's scale (a :class:`BlockGrid`'s
+        """float64 (blocks, 2 or 4): the true metres east and north of one grid metre in each
+        block, and a projected grid's stretch by direction (:mod:`oclshade.solar.scale`): a
+        scaled grid's, drawn at its centre latitude's or its grid's scale (a :class:`BlockGrid`'s
         ``scales``, :func:`oclshade.solar.sun_field`); 1 elsewhere.  The blocks' suns are the
         grid's (:meth:`oclshade.solar.MapPlaces.on_grid`): they cast the true shadows; the scales
         give the true sun vectors and cell sizes for what needs lengths and angles on the
@@ -345,10 +359,11 @@ class SunField:
 
     @classmethod
     def single(cls, sun: Sun, shape: tuple[int, int], deviation: float = 0.0,
-               tolerance: float = DEFAULT_SUN_TOLERANCE, scale: tuple[float, float] = (1.0, 1.0)) -> "SunField":
+               tolerance: float = DEFAULT_SUN_TOLERANCE, scale: tuple[float, ...] = (1.0, 1.0)) -> "SunField":
         """One sun for the whole map (``deviation``: how far the cells' own suns are from it;
-        ``scale``: its :attr:`scales`, the true metres of a grid metre east and north)."""
-        if tuple(scale) == (1.0, 1.0):
+        ``scale``: its :attr:`scales`, the true metres of a grid metre east and north, and a
+        projected grid's stretch by direction (p, q) where given)."""
+        if tuple(scale) in ((1.0, 1.0), (1.0, 1.0, 0.0, 0.0)):
             return cls(shape, (SunBlock(0, shape[0], 0, shape[1], sun),), sun, deviation, tolerance)
         grid = BlockGrid(np.array([0, shape[0]]), np.array([0, shape[1]]), np.array([[sun.azimuth]]),
                          np.array([[sun.elevation]]), np.array([scale], np.float64))

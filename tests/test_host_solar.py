@@ -174,3 +174,33 @@ def test_c_horizons_of_a_geographic_grid_equal_python(host: dict, tmp_path: Path
     svf = (1.0 - (sums[..., 0] - sums[..., 1]) / n).astype(np.float32)
     svf[np.isnan(hm.heights)] = np.nan
     assert svf.tobytes() == caster.sky_view_factor(n, "cosine" if definition == 1 else "solid-angle").tobytes()
+
+
+@pytest.mark.parametrize("radius_cells", [0, 120.0])
+def test_c_horizons_of_an_equal_area_grid_equal_python(host: dict, tmp_path: Path, radius_cells: float) -> None:
+    """row_scale_columns 4: a projected grid's stretch by direction (LAEA Europe's rows at 25 E,
+    60 N, oclshade.solar.MapPlaces.row_scales: east = north = s, and p, q), each band's rays
+    stretched per azimuth, the Python host's HorizonCaster bit for bit (walked, swept, and all
+    azimuths in one call at batch 1, 8 and 64: host_passes checks those itself)."""
+    hm = varied_map()
+    rows, cols = hm.shape
+    lat = 60.0 - 2.0 * (np.arange(rows) + 0.5) / rows       # made like a map's: s, p and q change down the rows
+    s = 0.9 + 0.05 * (lat - 59.0)
+    scales = np.stack([s, s, -0.004 + 0.002 * (lat - 59.0), 0.0025 + 0.001 * (lat - 59.0)], axis=-1)
+    n = 8
+    max_distance = radius_cells * hm.dx or None
+    caster = HorizonCaster(hm, max_distance=max_distance, cache=False, row_scales=scales)
+    assert len(caster.scale_bands[1]) > 3 and caster.scale_bands[1].shape[1] == 4
+    scales_file = tmp_path / "row_scales.f64"
+    np.ascontiguousarray(scales, np.float64).tofile(scales_file)
+    run_program(host, "host_passes", "horizon", tmp_path, heights_file(tmp_path, hm), rows, cols, repr(hm.dx),
+                repr(hm.dy), "0.0", 1, n, repr(max_distance or 0.0), scales_file, 4)
+    angles = caster.horizons(n)
+    unstretched = HorizonCaster(hm, max_distance=max_distance, cache=False, row_scales=scales[:, :2]).horizons(n)
+    assert not np.array_equal(angles, unstretched, equal_nan=True)     # the stretch changes the angles
+    for k in range(n):
+        assert np.fromfile(tmp_path / f"angle_{k}.f32", np.float32).tobytes() == angles[k].tobytes(), k
+    sums = np.fromfile(tmp_path / "svf.f32", np.float32).reshape(rows, cols, 2).astype(np.float64)
+    svf = (1.0 - (sums[..., 0] - sums[..., 1]) / n).astype(np.float32)
+    svf[np.isnan(hm.heights)] = np.nan
+    assert svf.tobytes() == caster.sky_view_factor(n, "cosine").tobytes()

@@ -19,6 +19,7 @@ from oclshade.cli import main  # noqa: E402
 from oclshade.heightmap import Heightmap, InputWarning  # noqa: E402
 from oclshade.io import read_dem  # noqa: E402
 from oclshade.solar import map_places, sun_field  # noqa: E402
+from oclshade.solar.scale import direction_factor  # noqa: E402
 
 from test_site import write_tif  # noqa: E402
 
@@ -43,10 +44,23 @@ def test_a_conformal_grids_metre_is_one_over_projs_scale_factor(tmp_path, epsg, 
     places = map_places(raster)
     here_lon, here_lat = places.lonlat(np.array([10.0]), np.array([10.0]))
     k = pyproj.Proj(places.crs).get_factors(here_lon[0], here_lat[0]).parallel_scale
-    scale, anisotropy = places.projected_scales(here_lon, here_lat)
-    assert scale[0] == pytest.approx(1.0 / k, rel=1e-8) and anisotropy[0] < 1e-6
-    sx, sy = places.grid_scales(np.array([10.0]), np.array([10.0]))      # between its lattice's points
+    scale, p, q = places.projected_scales(here_lon, here_lat)
+    assert scale[0] == pytest.approx(1.0 / k, rel=1e-8) and p[0] == 0.0 and q[0] == 0.0
+    sx, sy, p, q = places.grid_scales(np.array([10.0]), np.array([10.0]))      # between its lattice's points
     assert sx[0] == sy[0] and sx[0] == (1.0 if abs(scale[0] - 1.0) <= 2.4e-4 else pytest.approx(scale[0], rel=1e-9))
+    assert p[0] == 0.0 and q[0] == 0.0
+
+
+def ground_scale(places, row: float, col: float, azimuth: float, step: float = 500.0) -> float:
+    """True metres per grid metre at cell (row, col) along grid azimuth ``azimuth``, measured
+    without the package: the geodesic between the grid points ``step`` grid metres either side."""
+    crs = places.crs
+    to_place = pyproj.Transformer.from_crs(crs, crs.geodetic_crs, always_xy=True)
+    x0, xc, _, y0, _, yr = places.transform
+    x, y = x0 + xc * col, y0 + yr * row
+    dx, dy = step * math.sin(math.radians(azimuth)), step * math.cos(math.radians(azimuth))
+    (lon0, lat0), (lon1, lat1) = to_place.transform(x - dx, y - dy), to_place.transform(x + dx, y + dy)
+    return crs.get_geod().inv(lon0, lat0, lon1, lat1)[2] / (2.0 * step)
 
 
 def tower_map(tmp_path, epsg: int, lon: float, lat: float, rows: int = 40, cols: int = 120, cell: float = 30.0,
@@ -131,22 +145,43 @@ def test_masks_and_horizons_agree_on_a_projected_map(tmp_path, epsg, lon, lat, r
     assert shadowed > 1000
 
 
-def test_a_projection_that_stretches_by_direction_is_named(tmp_path, capsys):
-    """Albers and Lambert azimuthal equal-area keep areas, not angles: one scale per band of rows
-    cannot follow them, and the run says by how much (what PROJ's factors give: half the share
-    by which the longest grid metre, the Tissot indicatrix's major axis, exceeds their mean, in
-    radians)."""
-    x, y = grid_xy(3035, 25.0, 60.0)                       # LAEA Europe, far from its centre
-    path = write_tif(tmp_path / "laea.tif", np.zeros((30, 30)), keys(3035), x, y)
+@pytest.mark.parametrize("epsg, lon, lat", [(3035, 25.0, 60.0), (5070, -120.0, 47.0), (3857, 10.0, 45.0)])
+def test_a_projection_that_stretches_by_direction_is_followed(tmp_path, capsys, epsg, lon, lat):
+    """Albers and Lambert azimuthal equal-area keep areas, not angles (and Web Mercator is not
+    conformal on the ellipsoid): a grid metre's length depends on its direction, by a share that
+    would move angles by up to 0.15 degree.  Its length along any grid
+    azimuth is what the geodesic between grid points says, and the run, which follows it, has
+    nothing to warn of."""
+    x, y = grid_xy(epsg, lon, lat)
+    path = write_tif(tmp_path / "map.tif", np.zeros((30, 30)), keys(epsg), x - 15 * 30.0, y + 15 * 30.0)
     places = map_places(read_dem(path))
-    f = pyproj.Proj(places.crs).get_factors(25.0, 60.0)      # its Tissot indicatrix's axes
-    expected = math.degrees((f.tissot_semimajor / math.sqrt(f.tissot_semimajor * f.tissot_semiminor) - 1.0) / 2.0)
-    assert places.scale_residual == pytest.approx(expected, rel=0.05) and expected > 0.1
+    azimuths = np.arange(0.0, 180.0, 15.0)
+    lengths = np.array([ground_scale(places, 15.0, 15.0, a) for a in azimuths])
+    assert math.degrees((lengths.max() / lengths.min() - 1.0) / 4.0) > 0.04     # what one scale per band left
+    scale, p, q = places.projected_scales(*places.lonlat(np.array([15.0]), np.array([15.0])))
+    model = scale[0] * direction_factor(np.array([1.0, 1.0, p[0], q[0]]), azimuths)
+    assert np.allclose(model, lengths, rtol=1e-7, atol=0.0)
+    assert places.scale_residual <= 0.01          # the bands' own tolerance (it was 0.05-0.2)
+    assert main(["shadow", str(path), str(tmp_path / "m.tif"), "-az", "90", "-alt", "20"]) == 0
+    assert "warning" not in capsys.readouterr().err
+
+
+def test_a_map_too_wide_for_one_scale_per_row_is_named(tmp_path, capsys):
+    """Polar stereographic 1500 km wide at 70 N: k changes along each row by more than one
+    scale per band of rows follows (0.06 degree); the run says so in one line, and the API warns."""
+    x, y = grid_xy(3413, -45.0, 70.0)
+    path = write_tif(tmp_path / "wide.tif", np.zeros((8, 100)), keys(3413), x - 50 * 15000.0, y + 4 * 15000.0,
+                     15000.0)
+    places = map_places(read_dem(path))
+    ks = [pyproj.Proj(places.crs).get_factors(*places.lonlat(np.array([4.0]), np.array([c]))).parallel_scale[0]
+          for c in (0.0, 50.0)]                          # the edge against the middle
+    expected = math.degrees(abs(ks[1] / ks[0] - 1.0) / 2.0 / 2.0)  # half the range off the middle, halved
+    assert expected <= places.scale_residual <= expected + 0.015 and expected > 0.05   # (+ the bands' own share)
     assert main(["shadow", str(path), str(tmp_path / "m.tif"), "-az", "90", "-alt", "20"]) == 0
     assert f"angles within {places.scale_residual:.3f} deg" in capsys.readouterr().err
     with pytest.warns(InputWarning, match=f"angles within {places.scale_residual:.3f} deg"):   # the API's too
         Heightmap.from_raster(read_dem(path))
-    x, y = grid_xy(32633, 15.0, 60.0)                      # a conformal grid: nothing to say
+    x, y = grid_xy(32633, 15.0, 60.0)                      # a conformal grid of a usual width: nothing to say
     path = write_tif(tmp_path / "utm.tif", np.zeros((30, 30)), keys(32633), x, y)
     assert map_places(read_dem(path)).scale_residual < 1e-4
 
@@ -183,7 +218,7 @@ def test_a_walls_penumbra_on_web_mercator_is_the_skys(tmp_path, offset):
     heights[:, 100:103] = 400.0                       # a wall along the columns, its top edge at column 100
     raster = read_dem(write_tif(tmp_path / "wall.tif", heights, keys(3857), x - 60 * 30.0, y + 4.5 * 30.0, 30.0))
     banded = Heightmap.from_raster(raster)
-    scale = banded.row_scales[4, 0]                   # ground metres per grid metre (0.71)
+    scale = ground_scale(map_places(raster), 4.5, 60.0, 90.0)      # ground metres per grid metre east (0.71)
     assert scale == pytest.approx(1.0 / math.sqrt(2.0), rel=2e-3)
     distance = 40 * 30.0 * scale                      # the cell 40 columns west of the wall's top
     top = math.degrees(math.atan(400.0 / distance))
@@ -225,3 +260,66 @@ def test_soft_shadows_on_a_scaled_grid_equal_their_float64_twin(tmp_path):
         want = ref_disc(flat, field.blocks[0].sun, 64, float(field.scales[0, 0]))
         assert np.nanmax(np.abs(got - want)) <= 64 * angle_tolerance(flat) / 0.5 + 0.02
         assert 0.0 < ((want > 0) & (want < 1)).mean() < 0.6
+
+
+@pytest.mark.parametrize("knobs, radius", [({"batch": 1}, None), ({"batch": 8}, None), ({"sweep_far": 2}, 1500.0)])
+def test_horizons_on_an_equal_area_grid_are_the_grounds(tmp_path, knobs, radius):
+    """LAEA Europe at 25 E 60 N (a grid metre 0.5 % longer one way than the other): each
+    azimuth's horizons equal the float64 twin's on the grid at that direction's true metres
+    (measured by the geodesic, not by the package), within the float32 band plus the bands'
+    0.01-degree tolerance; one scale for every direction (what the runs did before) is off by
+    several times that.  The device's per-band rays equal the twin of the same bands
+    (reference.banded_horizon_angles) within the float32 band, walk, batch or sweep."""
+    from oclshade import reference as ref
+    from oclshade.horizon import HorizonCaster
+    from oclshade.synthetic import canyon_crater
+
+    x, y = grid_xy(3035, 25.0, 60.0)
+    path = write_tif(tmp_path / "laea.tif", canyon_crater(96, 128, seed=5, relief=1500.0), keys(3035),
+                     x - 64 * 30.0, y + 48 * 30.0)
+    raster = read_dem(path)
+    places = map_places(raster)
+    banded = Heightmap.from_raster(raster)
+    assert np.hypot(banded.row_scales[:, 2], banded.row_scales[:, 3]).min() > 5e-3     # stretched by direction
+    caster = HorizonCaster(banded, max_distance=radius, knobs=knobs, cache=False)
+    azimuths = [0.0, 30.0, 45.0, 90.0, 135.0, 200.0, 300.0]
+    got = caster.horizons(azimuths)
+    band = ref.angle_tolerance(banded)
+    limit = radius or math.inf
+    rng = np.random.default_rng(3)
+    cells = rng.integers(0, 96, 300), rng.integers(0, 128, 300)
+    worst = 0.0
+    for k, azimuth in enumerate(azimuths):
+        twin = ref.banded_horizon_angles(banded, azimuth, cells=cells, max_distance=limit)
+        assert np.array_equal(got[k][cells] == -90.0, twin == -90.0)
+        assert np.nanmax(np.abs(got[k][cells] - twin)) <= band
+        true = ground_scale(places, 48.0, 64.0, azimuth)            # the ground's metres that way
+        ground = Heightmap(banded.heights, raster.dx * true, raster.dy * true)
+        exact = ref.horizon_angles(ground, azimuth, cells=cells, max_distance=limit)
+        seen = exact > -90.0
+        assert np.nanmax(np.abs(got[k][cells][seen] - exact[seen])) <= band + 0.01
+        one = Heightmap(banded.heights, raster.dx * banded.row_scales[48, 0], raster.dy * banded.row_scales[48, 0])
+        old = ref.horizon_angles(one, azimuth, cells=cells, max_distance=limit)
+        worst = max(worst, float(np.nanmax(np.abs(old[seen] - exact[seen]))))
+    assert worst > 0.04, worst            # one scale for every direction: four times the bound above
+
+
+def test_masks_and_horizons_agree_on_an_equal_area_map(tmp_path):
+    """A cell is in cast shadow at (az, e) exactly when its horizon at az is above e, ties apart,
+    on LAEA Europe too: the sun's band of rows and the horizons' stretch that way alike."""
+    from oclshade.synthetic import canyon_crater
+
+    x, y = grid_xy(3035, 25.0, 60.0)
+    path = write_tif(tmp_path / "map.tif", canyon_crater(200, 160, seed=4, relief=2500.0), keys(3035),
+                     x - 80 * 30.0, y + 100 * 30.0)
+    horizons = tmp_path / "horizons.tif"
+    assert main(["horizon", str(path), str(horizons), "--azimuths", "8", "-q"]) == 0
+    shadowed = 0
+    for k, elevation in ((0, 15.0), (1, 12.0), (2, 20.0), (5, 8.0), (7, 30.0)):
+        mask_path = tmp_path / f"mask{k}.tif"
+        assert main(["shadow", str(path), str(mask_path), "-az", str(45.0 * k), "-alt", str(elevation), "-q"]) == 0
+        mask, horizon = read_dem(mask_path).heights, read_dem(horizons, band=k + 1).heights
+        differ = (mask != 255) & ((mask == 1) != (horizon > elevation))
+        assert not np.any(differ & (np.abs(horizon - elevation) > 1e-3)), int(differ.sum())
+        shadowed += int(np.count_nonzero(mask == 1))
+    assert shadowed > 1000

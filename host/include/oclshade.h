@@ -853,15 +853,21 @@ typedef struct oclshade_horizon_params {
                                    - 1 of the field (n_azimuths * rows rows), and svf adds all of them
                                    in order.  The same bits as one call per azimuth. */
     int n_azimuths;             /* 0 (default): the one `azimuth` */
-    const double *row_scales;   /* NULL (default): every cell dx by dy metres.  Else rows x 2 doubles
-                                   (row-major), positive and finite: row r's true metres east and north
-                                   of one grid metre (a geographic raster's, or a projected one's 1 / k
-                                   both ways: the Python host's MapPlaces.row_scales()).  The rows are cut into bands as the Python
-                                   host's scale_bands (0.01 degree; multiples of 16 rows where they
-                                   hold it) and each band's cells are walked (or swept) with its own
-                                   ray and cell sizes (dx, dy times the band's scale; the seeds keep
-                                   the grid's ray): true azimuths and angles, the Python host's
+    const double *row_scales;   /* NULL (default): every cell dx by dy metres.  Else rows x
+                                   row_scale_columns doubles (row-major): row r's true metres east and
+                                   north of one grid metre, positive and finite (a geographic raster's,
+                                   or a projected one's 1 / k both ways: the Python host's
+                                   MapPlaces.row_scales()), and with 4 columns a projected grid's
+                                   stretch by direction (p, q): a grid metre along grid azimuth a is
+                                   s sqrt(1 + p cos 2a + q sin 2a) true metres (p^2 + q^2 < 1; only
+                                   where east = north = s; oclshade/solar/scale.py).  The rows are cut
+                                   into bands as the Python host's scale_bands (0.01 degree; multiples
+                                   of 16 rows where they hold it) and each band's cells are walked (or
+                                   swept) with its own ray and cell sizes (dx, dy times the band's
+                                   scale, the ray's times its stretch at the azimuth; the seeds keep
+                                   the middle band's ray): true angles, the Python host's
                                    HorizonCaster(row_scales=...) bit for bit. */
+    int row_scale_columns;      /* 2 (default; 0 reads as 2): (east, north); 4: (east, north, p, q) */
 } oclshade_horizon_params;
 
 /* Defaults: no buffers, 0 x 0, dx = dy = 1, azimuth 0, flat Earth, no search radius, the cosine

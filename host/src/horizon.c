@@ -28,6 +28,7 @@ void oclshade_horizon_params_init(oclshade_horizon_params *p)
 typedef struct scale_band {
     int row0, rows;
     double sx, sy;             /* the band's scale: the middle of its rows' (east, north) */
+    double p, q;               /* and of their stretch by direction (0 without one) */
 } scale_band;
 
 typedef struct horizon_job {
@@ -49,18 +50,21 @@ static void horizon_job_free(horizon_job *j)
     j->bands = NULL;
 }
 
-/* Whether rows of these (east, north) extremes hold the tolerance's share (scale_bands' holds) */
-static int scales_hold(const double lo[2], const double hi[2], double share)
+/* Whether rows of these (east, north[, p, q]) extremes hold the tolerance's share (scale_bands' holds):
+ * the scales' share plus half the stretch's (a quarter of the hypot of its ranges) */
+static int scales_hold(const double lo[4], const double hi[4], int columns, double share)
 {
-    return hi[0] - lo[0] <= share * (hi[0] + lo[0]) / 2.0 && hi[1] - lo[1] <= share * (hi[1] + lo[1]) / 2.0;
+    const double stretch = columns == 4 ? hypot(hi[2] - lo[2], hi[3] - lo[3]) / 4.0 : 0.0;
+    return hi[0] - lo[0] + stretch * (hi[0] + lo[0]) <= share * (hi[0] + lo[0]) / 2.0 &&
+           hi[1] - lo[1] + stretch * (hi[1] + lo[1]) <= share * (hi[1] + lo[1]) / 2.0;
 }
 
-/* lo, hi widened by rows r0 .. r1 - 1 of the (rows x 2) scales */
-static void widen(double lo[2], double hi[2], const double *scales, int r0, int r1)
+/* lo, hi widened by rows r0 .. r1 - 1 of the (rows x columns) scales */
+static void widen(double lo[4], double hi[4], const double *scales, int columns, int r0, int r1)
 {
     for (int r = r0; r < r1; ++r)
-        for (int c = 0; c < 2; ++c) {
-            const double v = scales[2 * r + c];
+        for (int c = 0; c < columns; ++c) {
+            const double v = scales[columns * r + c];
             if (v < lo[c]) lo[c] = v;
             if (v > hi[c]) hi[c] = v;
         }
@@ -70,18 +74,22 @@ static void widen(double lo[2], double hi[2], const double *scales, int r0, int 
  * tolerance, in steps of SCALE_ALIGN where a first step of that many holds, else of 1 (the same
  * comparisons on the same doubles as the Python host, on running extremes); j->bands stays NULL
  * where the map is one band of scale 1 (traced as it is). */
-static oclshade_status scale_bands(oclshade *lib, const oclshade_horizon_params *p, horizon_job *j)
+static oclshade_status scale_bands(oclshade *lib, const oclshade_horizon_params *p, int columns, horizon_job *j)
 {
     const double *s = p->row_scales, share = 2.0 * sqrt(2.0) * (SCALE_TOLERANCE * (3.141592653589793 / 180.0));
     const int rows = p->rows;
+    const size_t row_bytes = sizeof(double) * (size_t)columns;
     j->bands = (scale_band *)malloc(sizeof *j->bands * (size_t)rows);
     if (j->bands == NULL) return ocls_fail(lib, OCLSHADE_OUT_OF_MEMORY, 0, "no host memory for %d bands of rows", rows);
     for (int r0 = 0; r0 < rows;) {
-        double lo[2] = {s[2 * r0], s[2 * r0 + 1]}, hi[2] = {lo[0], lo[1]};
+        double lo[4] = {0.0}, hi[4] = {0.0}, alo[4], ahi[4];
+        memcpy(lo, s + columns * r0, row_bytes);
+        memcpy(hi, lo, sizeof hi);
         const int end = r0 + SCALE_ALIGN < rows ? r0 + SCALE_ALIGN : rows;
-        double alo[2] = {lo[0], lo[1]}, ahi[2] = {hi[0], hi[1]};
-        widen(alo, ahi, s, r0 + 1, end);
-        const int step = scales_hold(alo, ahi, share) ? SCALE_ALIGN : 1;
+        memcpy(alo, lo, sizeof alo);
+        memcpy(ahi, hi, sizeof ahi);
+        widen(alo, ahi, s, columns, r0 + 1, end);
+        const int step = scales_hold(alo, ahi, columns, share) ? SCALE_ALIGN : 1;
         int r1 = r0 + 1;
         if (step == SCALE_ALIGN) {
             memcpy(lo, alo, sizeof lo);
@@ -90,17 +98,21 @@ static oclshade_status scale_bands(oclshade *lib, const oclshade_horizon_params 
         }
         while (r1 < rows) {
             const int next = r1 + step < rows ? r1 + step : rows;
-            double tlo[2] = {lo[0], lo[1]}, thi[2] = {hi[0], hi[1]};
-            widen(tlo, thi, s, r1, next);
-            if (!scales_hold(tlo, thi, share)) break;
+            double tlo[4], thi[4];
+            memcpy(tlo, lo, sizeof tlo);
+            memcpy(thi, hi, sizeof thi);
+            widen(tlo, thi, s, columns, r1, next);
+            if (!scales_hold(tlo, thi, columns, share)) break;
             memcpy(lo, tlo, sizeof lo);
             memcpy(hi, thi, sizeof hi);
             r1 = next;
         }
-        j->bands[j->nbands++] = (scale_band){r0, r1 - r0, (lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0};
+        j->bands[j->nbands++] = (scale_band){r0, r1 - r0, (lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0,
+                                             (lo[2] + hi[2]) / 2.0, (lo[3] + hi[3]) / 2.0};
         r0 = r1;
     }
-    if (j->nbands == 1 && j->bands[0].sx == 1.0 && j->bands[0].sy == 1.0) {   /* as it is */
+    const scale_band *one = &j->bands[0];
+    if (j->nbands == 1 && one->sx == 1.0 && one->sy == 1.0 && one->p == 0.0 && one->q == 0.0) {   /* as it is */
         free(j->bands);
         j->bands = NULL;
         j->nbands = 0;
@@ -108,12 +120,14 @@ static oclshade_status scale_bands(oclshade *lib, const oclshade_horizon_params 
     return OCLSHADE_OK;
 }
 
-/* The ray of `azimuth` with a band's cell sizes (HorizonCaster._ray(azimuth, cell)) */
+/* The ray of `azimuth` with a band's cell sizes, times its stretch that way
+ * (HorizonCaster._ray(azimuth, scales)) */
 static cl_float4 band_ray(const horizon_job *j, const scale_band *b, double azimuth)
 {
     cl_float u[2];
     cl_float4 ray = j->ray;
-    ocls_horizontal_ray(azimuth, j->p->dx * b->sx, j->p->dy * b->sy, u);
+    const double stretch = ocls_direction_factor(b->p, b->q, azimuth);
+    ocls_horizontal_ray(azimuth, j->p->dx * b->sx * stretch, j->p->dy * b->sy * stretch, u);
     ray.s[0] = u[0];
     ray.s[1] = u[1];
     return ray;
@@ -181,11 +195,22 @@ static oclshade_status horizon_job_for(oclshade *lib, const oclshade_horizon_par
         return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "svf_definition must be OCLSHADE_SVF_COSINE (1) or "
                          "OCLSHADE_SVF_SOLID_ANGLE (2), got %d", (int)p->svf_definition);
     if (p->row_scales != NULL) {
-        for (int k = 0; k < 2 * p->rows; ++k)
-            if (!(isfinite(p->row_scales[k]) && p->row_scales[k] > 0.0))
-                return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "row_scales[%d] (row %d, %s) must be a positive "
-                                 "finite scale, got %g", k, k / 2, k % 2 ? "north" : "east", p->row_scales[k]);
-        if ((st = scale_bands(lib, p, j)) != OCLSHADE_OK) return st;
+        const int columns = p->row_scale_columns == 0 ? 2 : p->row_scale_columns;
+        if (columns != 2 && columns != 4)
+            return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "row_scale_columns must be 2 (east, north) or 4 "
+                             "(east, north, p, q), got %d", p->row_scale_columns);
+        for (int r = 0; r < p->rows; ++r) {
+            const double *row = p->row_scales + columns * r;
+            for (int c = 0; c < 2; ++c)
+                if (!(isfinite(row[c]) && row[c] > 0.0))
+                    return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "row_scales[%d] (row %d, %s) must be a positive "
+                                     "finite scale, got %g", columns * r + c, r, c ? "north" : "east", row[c]);
+            if (columns == 4 && !(isfinite(row[2]) && isfinite(row[3]) && hypot(row[2], row[3]) < 1.0 &&
+                                  ((row[2] == 0.0 && row[3] == 0.0) || row[0] == row[1])))
+                return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "row_scales row %d's stretch (p, q) = (%g, %g) must "
+                                 "have p^2 + q^2 < 1, and be 0 where its east and north scales differ", r, row[2], row[3]);
+        }
+        if ((st = scale_bands(lib, p, columns, j)) != OCLSHADE_OK) return st;
     }
     oclshade_pyramid_layout_for(p->rows, p->cols, &j->lay);
     cl_float u[2];
@@ -203,8 +228,11 @@ static oclshade_status horizon_job_for(oclshade *lib, const oclshade_horizon_par
         j->rays = (cl_float4 *)malloc(sizeof *j->rays * (size_t)p->n_azimuths);
         if (j->rays == NULL) return ocls_fail(lib, OCLSHADE_OUT_OF_MEMORY, 0, "no host memory for %d rays", p->n_azimuths);
         for (int k = 0; k < p->n_azimuths; ++k) {
-            ocls_horizontal_ray(p->azimuths[k], p->dx * (seed_band ? seed_band->sx : 1.0),
-                                p->dy * (seed_band ? seed_band->sy : 1.0), u);
+            if (seed_band) {
+                j->rays[k] = band_ray(j, seed_band, p->azimuths[k]);
+                continue;
+            }
+            ocls_horizontal_ray(p->azimuths[k], p->dx * 1.0, p->dy * 1.0, u);
             j->rays[k] = j->ray;
             j->rays[k].s[0] = u[0];
             j->rays[k].s[1] = u[1];

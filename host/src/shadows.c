@@ -63,6 +63,14 @@ oclshade_status oclshade_sun_vector(double azimuth, double elevation, double out
     return OCLSHADE_OK;
 }
 
+double ocls_direction_factor(double p, double q, double azimuth)
+{
+    double s, c;
+    if (p == 0.0 && q == 0.0) return 1.0;
+    sincos_degrees(2.0 * azimuth, &s, &c);
+    return sqrt(1.0 + p * c + q * s);
+}
+
 void ocls_horizontal_ray(double azimuth, double dx, double dy, cl_float out[2])
 {
     double sa, ca;

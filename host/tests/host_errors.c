@@ -625,7 +625,7 @@ int main(int argc, char **argv)
         st = oclshade_enqueue_horizon(lib, queue, &hq, 0, NULL, NULL);
         expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "heights and angle overlap", "horizon: angle aliases the heights");
         /* a geographic grid's row scales: each named where it is not a positive finite scale */
-        double *scales = (double *)calloc(2 * (size_t)rows, sizeof *scales);
+        double *scales = (double *)calloc(4 * (size_t)rows, sizeof *scales);   /* room for 4 columns */
         for (int k = 0; k < 2 * rows; ++k) scales[k] = 1.0 + 0.01 * k;
         hq = hp; hq.row_scales = scales;
         st = oclshade_enqueue_horizon(lib, queue, &hq, 0, NULL, NULL);
@@ -637,6 +637,26 @@ int main(int argc, char **argv)
         scales[3] = NAN;
         st = oclshade_enqueue_horizon(lib, queue, &hq, 0, NULL, NULL);
         expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "row_scales[3] (row 1, north)", "horizon: a row scale NaN");
+        scales[3] = 1.03;
+        hq.row_scale_columns = 3;
+        st = oclshade_enqueue_horizon(lib, queue, &hq, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "row_scale_columns must be 2 (east, north) or 4 (east, "
+                      "north, p, q), got 3", "horizon: 3 row scale columns");
+        hq.row_scale_columns = 4;      /* (the rows' first half read as rows of 4: east != north, p, q not 0) */
+        st = oclshade_enqueue_horizon(lib, queue, &hq, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "row_scales row 0's stretch (p, q) = (1.02, 1.03) must "
+                      "have p^2 + q^2 < 1", "horizon: a row's stretch of 1.4");
+        for (int r = 0; r < rows; ++r) {           /* east = north, a small stretch: fine */
+            scales[4 * r] = scales[4 * r + 1] = 1.0 + 0.001 * r;
+            scales[4 * r + 2] = 0.003;
+            scales[4 * r + 3] = -0.002;
+        }
+        st = oclshade_enqueue_horizon(lib, queue, &hq, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_OK, "", "horizon: row scales with a stretch by direction");
+        scales[4] = 1.5;                            /* row 1: east != north with a stretch */
+        st = oclshade_enqueue_horizon(lib, queue, &hq, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "row_scales row 1's stretch (p, q) = (0.003, -0.002) must "
+                      "have p^2 + q^2 < 1, and be 0 where its east and north scales differ", "horizon: a stretch off");
         free(scales);
         /* several azimuths in one call */
         double two[2] = {10.0, 200.0}, bad[2] = {10.0, NAN};

@@ -41,8 +41,8 @@ from ..pyramid import ExtremaPyramid, cached_pyramid
 from ..reference.horizons import SVF_DEFINITIONS
 from ..runtime import Runtime, get_runtime
 from ..solar.field import on_heightmap
-from ..solar.scale import SCALE_TOLERANCE, scale_bands
-from ..sun import Sun, SunField, SunLike, as_sun, libm, sun_rays
+from ..solar.scale import SCALE_TOLERANCE, direction_factor, scale_bands
+from ..sun import Sun, SunField, SunLike, as_sun, libm, sun_rays, unscaled
 from .disc import DEFAULT_COLUMNS, SUN_RADIUS, disc_columns, disc_columns_of, disc_stretch, visible_fraction
 from .pilot import MIN_CELLS as PILOT_MIN_CELLS, MIN_ROWS as PILOT_MIN_ROWS, Pilot
 from .pilot import bands as pilot_bands, measure as measure_pilot
@@ -388,8 +388,8 @@ class HorizonCaster:
         def sweep(ray: np.ndarray, angle: cl.Buffer, svf: cl.Buffer, band: tuple[int, int] | None = None,
                   azimuth: float | None = None) -> None:
             kernel, grid = sweeper()
-            for cell, band_grid, rows_of in self._band_launches(grid, band, azimuth is not None):
-                scaled = ray if azimuth is None else self._ray(azimuth, cell)
+            for scales, band_grid, rows_of in self._band_launches(grid, band, azimuth is not None):
+                scaled = ray if azimuth is None else self._ray(azimuth, scales)
                 kernel.set_args(self.heights_buffer, np.int32(rows), np.int32(cols), scaled, angle, svf)
                 launch(kernel, band_grid, rows_of)
 
@@ -397,13 +397,13 @@ class HorizonCaster:
                  band: tuple[int, int] | None = None, table: tuple = (), azimuth: float | None = None) -> None:
             w = walker()
             if seeded:                # any seed gives each cell a lower bound (horizon.cl): the middle band's ray
-                w["seeder"].set_args(*w["fixed"], ray if azimuth is None else self._ray(azimuth, self._seed_cell),
+                w["seeder"].set_args(*w["fixed"], ray if azimuth is None else self._ray(azimuth, self._seed_scales),
                                      w["seeds"])
                 cl.enqueue_nd_range_kernel(rt.queue, w["seeder"], *w["seed_grid"])
-            for cell, band_grid, rows_of in self._band_launches(w["grid"], band, azimuth is not None):
-                scaled = ray if azimuth is None else self._ray(azimuth, cell)
+            for scales, band_grid, rows_of in self._band_launches(w["grid"], band, azimuth is not None):
+                scaled = ray if azimuth is None else self._ray(azimuth, scales)
                 w["kernel"].set_args(*w["fixed"], scaled, angle, svf, w["seeds"] if seeded else self._dummy,
-                                     cell.astype(np.float32), *([np.array(bounds, np.float32)] if bounds else []),
+                                     self._cell(scales).astype(np.float32), *([np.array(bounds, np.float32)] if bounds else []),
                                      *table)
                 launch(w["kernel"], band_grid, rows_of)
 
@@ -438,15 +438,15 @@ class HorizonCaster:
         return enqueue
 
     def _band_launches(self, grid: tuple, band: tuple[int, int] | None, scaled: bool = True
-                       ) -> list[tuple[np.ndarray, tuple, tuple[int, int] | None]]:
-        """(cell sizes float64 (dx, dy), grid, rows) of each launch over the rows of ``band`` (None:
-        the map): one with the map's cell sizes, or with ``scaled`` and :attr:`scale_bands` one per
-        band of rows with its own, each launch's work-groups as tall as divides its rows (the
-        last band's rows rounded up to the grid's)."""
-        hm = self.heightmap
+                       ) -> list[tuple[np.ndarray | None, tuple, tuple[int, int] | None]]:
+        """(scales, grid, rows) of each launch over the rows of ``band`` (None: the map): one with
+        the map's cell sizes (scales None), or with ``scaled`` and :attr:`scale_bands` one per
+        band of rows with its own scales (float64 (2 or 4,), :mod:`oclshade.solar.scale`), each
+        launch's work-groups as tall as divides its rows (the last band's rows rounded up to the
+        grid's)."""
         edges, scales = self.scale_bands
         if not scaled or self._as_drawn:
-            return [(np.array([hm.dx, hm.dy]), grid, band)]
+            return [(None, grid, band)]
         (gx, gy), (lx, ly) = grid
         first, stop = (0, gy) if band is None else (band[0], band[0] + band[1])
         ends = np.append(edges[1:-1], gy)
@@ -454,18 +454,17 @@ class HorizonCaster:
         for k in range(len(scales)):
             r0, r1 = max(int(edges[k]), first), min(int(ends[k]), stop)
             if r1 > r0:
-                out.append((np.array([hm.dx * scales[k, 0], hm.dy * scales[k, 1]]),
-                            ((gx, gy), (lx, math.gcd(ly, r1 - r0))), (r0, r1 - r0)))
+                out.append((scales[k], ((gx, gy), (lx, math.gcd(ly, r1 - r0))), (r0, r1 - r0)))
         return out
 
     @functools.cached_property
     def _as_drawn(self) -> bool:
         """Whether the map is one band of scale 1: traced with its own cell sizes."""
-        return len(self.scale_bands[1]) == 1 and bool(np.all(self.scale_bands[1] == 1.0))
+        return len(self.scale_bands[1]) == 1 and bool(np.all(unscaled(self.scale_bands[1])))
 
     @functools.cached_property
-    def _seed_cell(self) -> np.ndarray | None:
-        """The cell sizes of the seeds' rays: those of the band holding the middle row, so that a
+    def _seed_scales(self) -> np.ndarray | None:
+        """The scales of the seeds' rays: those of the band holding the middle row, so that a
         seed's horizon point lies near every band's cells' own rays (a seed gives any cell a
         lower bound, kernels/horizon.cl "Seeds"; a poor one, traced at another scale, only
         prunes less: at the grid's metres, Web Mercator's horizons had cost 1.8-2x); None (the
@@ -473,8 +472,14 @@ class HorizonCaster:
         if self._as_drawn:
             return None
         edges, scales = self.scale_bands
-        k = int(np.searchsorted(edges, self.heightmap.shape[0] // 2, side="right")) - 1
-        return np.array([self.heightmap.dx * scales[k, 0], self.heightmap.dy * scales[k, 1]])
+        return scales[int(np.searchsorted(edges, self.heightmap.shape[0] // 2, side="right")) - 1]
+
+    def _cell(self, scales: np.ndarray | None) -> np.ndarray:
+        """float64 (dx, dy): the cell sizes in true metres of a band of these scales (None: the
+        map's), east and north; the kernels' seeds read them (without the stretch by direction:
+        any cell size gives a lower bound, and a batch's azimuths share one)."""
+        dx, dy = self.heightmap.dx, self.heightmap.dy
+        return np.array([dx, dy]) if scales is None else np.array([dx * scales[0], dy * scales[1]])
 
     def _grid(self, kernel: cl.Kernel, cols: int, rows: int) -> tuple[tuple[int, int], tuple[int, int]]:
         """(global, local) sizes for one work-item per (col, row): work-groups of the knob ``group``
@@ -487,16 +492,18 @@ class HorizonCaster:
                 "OCLS_LEVEL_SCAN": 1 if self.knobs["scan"] else None,
                 "OCLS_OWN_BUILTINS": bool(self.knobs["own_builtins"])}
 
-    def _ray(self, azimuth: float, cell: np.ndarray | None = None) -> np.ndarray:
-        """kernels/horizon.cl's float4 ray (ux, uy, c, R) at ``azimuth`` (``cell``: the cell sizes,
-        default the map's)."""
-        return self._rays(np.array([azimuth]), cell)[0]
+    def _ray(self, azimuth: float, scales: np.ndarray | None = None) -> np.ndarray:
+        """kernels/horizon.cl's float4 ray (ux, uy, c, R) at ``azimuth`` (``scales``: a band's,
+        :meth:`_band_launches`; default the map's cell sizes)."""
+        return self._rays(np.array([azimuth]), scales)[0]
 
-    def _rays(self, azimuths: np.ndarray, cell: np.ndarray | None = None) -> np.ndarray:
-        """:meth:`_ray` of each azimuth, float32 (n, 4)."""
-        dx, dy = (self.heightmap.dx, self.heightmap.dy) if cell is None else cell
+    def _rays(self, azimuths: np.ndarray, scales: np.ndarray | None = None) -> np.ndarray:
+        """:meth:`_ray` of each azimuth, float32 (n, 4): the cell sizes of :meth:`_cell`, times a
+        projected band's stretch that way (:func:`oclshade.solar.scale.direction_factor`)."""
+        dx, dy = self._cell(scales)
+        stretch = np.ones(len(azimuths)) if scales is None else direction_factor(scales, azimuths)
         rays = np.empty((len(azimuths), 4), np.float32)
-        rays[:, :2] = sun_rays(azimuths, np.zeros(len(azimuths)), dx, dy)[:, :2]
+        rays[:, :2] = sun_rays(azimuths, np.zeros(len(azimuths)), dx * stretch, dy * stretch)[:, :2]
         rays[:, 2], rays[:, 3] = self.coefficient, self.radius or 0.0
         return rays
 
@@ -531,13 +538,13 @@ class HorizonCaster:
 
         def launch(azimuths: np.ndarray, angle: cl.Buffer, stride: int, svf: cl.Buffer) -> None:
             n = azimuths.size
-            rays = rt.to_device(self._rays(azimuths, self._seed_cell), "horizon rays")   # the seeds', the cells' unbanded
+            rays = rt.to_device(self._rays(azimuths, self._seed_scales), "horizon rays")   # the seeds', the cells' unbanded
             seeder.set_args(*fixed, rays, seeds, np.int32(0))
             cl.enqueue_nd_range_kernel(rt.queue, seeder, (sgx, sgy, n), (slx, sly, 1))
-            for cell, (_, (_, band_ly)), rows_of in self._band_launches(((gx, gy), (lx, ly)), None):
+            for scales, (_, (_, band_ly)), rows_of in self._band_launches(((gx, gy), (lx, ly)), None):
                 first, count = (0, gy) if rows_of is None else rows_of
-                band_rays = rays if rows_of is None else rt.to_device(self._rays(azimuths, cell), "horizon rays")
-                walker.set_args(*fixed, band_rays, angle, svf, seeds, cell.astype(np.float32), np.int32(stride),
+                band_rays = rays if rows_of is None else rt.to_device(self._rays(azimuths, scales), "horizon rays")
+                walker.set_args(*fixed, band_rays, angle, svf, seeds, self._cell(scales).astype(np.float32), np.int32(stride),
                                 np.int32(0), np.int32(n))
                 cl.enqueue_nd_range_kernel(rt.queue, walker, (gx, count, 1 if sums else n), (lx, band_ly, 1),
                                            global_work_offset=(0, first, 0))

@@ -25,7 +25,8 @@ import math
 
 import numpy as np
 
-from ..sun import SunLike, as_sun, libm
+from ..solar.scale import direction_factor
+from ..sun import SunLike, as_sun, libm, unscaled
 
 _cos = libm(math.cos)
 
@@ -70,18 +71,17 @@ def disc_columns_of(azimuth: np.ndarray, elevation: np.ndarray, radius: float = 
 def disc_stretch(scales: np.ndarray, azimuth: np.ndarray, elevation: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(stretch, sky) per grid sun (degrees, (n,) each): how much taller the disc is on a
     scaled grid than on the sky, and the sun's elevation on the sky.  Where a grid metre along
-    the sun's grid direction is s true metres (``scales``: (n, 2) east and north,
-    :attr:`oclshade.sun.SunField.scales`), the grid traces elevation e as e' = atan(s tan e)
+    the sun's grid direction is s true metres (``scales``: (n, 2 or 4) east and north and a
+    projected grid's stretch by direction, :attr:`oclshade.sun.SunField.scales`), the grid traces elevation e as e' = atan(s tan e)
     (:meth:`oclshade.solar.MapPlaces.on_grid`), so a chord of the disc c high is de'/de c =
     (s^2 cos^2 e' + sin^2 e') / s c on the grid (to first order in the radius), and the strips'
-    azimuths are spread by the sky's e = atan(tan e' / s) (a projected grid's scale is the same
-    both ways, so they are the grid's; a geographic one's turns them by at most 1 % of the
-    disc).  (1, e') where the scales are 1: the disc as on the sky, to the bit."""
+    azimuths are spread by the sky's e = atan(tan e' / s) (a projected grid's azimuths are the
+    grid's, s its length that way; a geographic one's turns them by at most 1 % of the disc).  (1, e') where the scales are 1: the disc as on the sky, to the bit."""
     scales = np.asarray(scales, np.float64)
     elevation = np.asarray(elevation, np.float64)
     a, e = np.radians(azimuth), np.radians(elevation)
-    s = np.hypot(scales[:, 0] * np.sin(a), scales[:, 1] * np.cos(a))
-    same = np.all(scales == 1.0, axis=1)
+    s = np.hypot(scales[:, 0] * np.sin(a), scales[:, 1] * np.cos(a)) * direction_factor(scales, azimuth)
+    same = unscaled(scales)
     stretch = np.where(same, 1.0, (s * s * np.cos(e) ** 2 + np.sin(e) ** 2) / s)
     return stretch, np.where(same, elevation, np.degrees(np.arctan(np.tan(e) / s)))
 

@@ -41,7 +41,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..heightmap import Heightmap
-from ..solar.scale import SCALE_TOLERANCE, scale_bands
+from ..solar.scale import SCALE_TOLERANCE, direction_factor, scale_bands
 from ..sun import Sun
 from .shadows import CORNER_SNAP, FLOAT32_EPS, _patch_valid, _sample, _segment_margin, start_patches
 
@@ -112,7 +112,8 @@ def banded_horizon_angles(hm: Heightmap, azimuth: float, curvature: float = 0.0,
     """:func:`horizon_angles` of a heightmap with :attr:`~oclshade.heightmap.Heightmap.row_scales`
     (a geographic raster's) as :class:`oclshade.horizon.HorizonCaster` traces it: each cell with
     the cell sizes of its band of rows (:func:`oclshade.solar.scale.scale_bands`: dx, dy times
-    the band's scale), rays over the whole map.  Without row scales: :func:`horizon_angles`.
+    the band's scale, and a projected band's stretch at ``azimuth``,
+    :func:`oclshade.solar.scale.direction_factor`), rays over the whole map.  Without row scales: :func:`horizon_angles`.
     (Every other reference takes the grid as drawn, dx by dy, and the suns as the grid traces
     them.)"""
     ii, jj = (a.ravel() for a in np.indices(hm.shape)) if cells is None else \
@@ -121,7 +122,8 @@ def banded_horizon_angles(hm: Heightmap, azimuth: float, curvature: float = 0.0,
     which = np.searchsorted(edges, ii, side="right") - 1
     out = np.empty(ii.shape)
     for k in np.unique(which):
-        own = Heightmap(hm.heights, hm.dx * float(scales[k, 0]), hm.dy * float(scales[k, 1]))
+        stretch = float(direction_factor(scales[k], azimuth))       # a projected band's, that way (1: none)
+        own = Heightmap(hm.heights, hm.dx * float(scales[k, 0]) * stretch, hm.dy * float(scales[k, 1]) * stretch)
         at = which == k
         out[at] = horizon_angles(own, azimuth, curvature, (ii[at], jj[at]), max_distance)
     return out.reshape(hm.shape if cells is None else np.shape(cells[0]))

@@ -16,7 +16,7 @@ from .horizons import horizon_angles
 def sun_disc_fraction(hm: Heightmap, sun: SunLike, radius: float, curvature: float = 0.0,
                       columns: int = 256, scale: float = 1.0) -> np.ndarray:
     """Visible share of the disc per cell, float64 (rows, cols), NaN at nodata.  ``scale``: the
-    true metres of a grid metre (the same both ways) where ``sun`` is the grid's sun of a
+    true metres of a grid metre along the sun's grid azimuth where ``sun`` is the grid's sun of a
     scaled grid (:meth:`oclshade.solar.MapPlaces.on_grid`): each strip then compares the true
     horizon, atan(tan(h) / scale), with the true disc around the true sun, atan(tan(e) / scale)
     (what :func:`oclshade.horizon.disc.disc_stretch` takes to first order)."""

@@ -45,12 +45,14 @@ import numpy as np
 from ..io import Raster, geotransform, metres_per_degree
 from ..heightmap import Heightmap
 from ..sun import DEFAULT_SUN_TOLERANCE as DEFAULT_TOLERANCE, BlockGrid, Sun, SunField, Traced
-from .scale import scale_bands, scale_share
+from .scale import direction_factor, scale_bands, scale_share
 from .position import sun_position
 from .site import STEP_METRES, grid_azimuths, projected_crs
 
 LATTICE = 9                # points per side where the turn per cell is measured
 SCALE_LATTICE = 33         # points per side where a projected grid's scale is measured
+STRETCH_NOISE = 1e-7       # a projected grid's stretch by direction below this is its central differences' noise (0)
+RESIDUAL_AZIMUTHS = 180    # grid azimuths over which scale_residual compares a grid metre's lengths
 ALIGN = 16                 # block sides are multiples of this where the tolerance allows (widths: 4x from 8x on)
 MAX_SHRINK = 12            # tries to shrink the blocks into the tolerance
 
@@ -89,23 +91,24 @@ class MapPlaces:
         taken (:mod:`oclshade.io`), so its grid is drawn at that latitude's scale."""
         return float(self.lonlat(np.array([self.shape[0] / 2.0]), np.array([self.shape[1] / 2.0]))[1][0])
 
-    def grid_scales(self, rows: np.ndarray, cols: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(east, north): the true metres of one grid metre along the grid's columns and rows at
-        these places (cell coordinates, as :meth:`lonlat`).  A geographic cell's metres over the
-        grid's (the centre latitude's), by the very formula the cell sizes come from
-        (:func:`oclshade.io.metres_per_degree`, once per distinct latitude: on a north-up grid,
-        one per row of the places).  On a projected grid the CRS's own distortion
-        (:meth:`projected_scales`): the mean of its scale over the directions, the same both
-        ways (exact on a conformal projection: UTM, Lambert conformal, polar stereographic),
-        bilinear between its values on a :data:`SCALE_LATTICE`-square lattice over the map (a
-        smooth field: within 2e-7 of it on a 1-degree Web Mercator tile), and 1 where that is
-        within half of :func:`scale_share` of 1 (as :func:`scale_bands` takes a map: the angles
-        move by at most 0.01 / sqrt(2) degree)."""
+    def grid_scales(self, rows: np.ndarray, cols: np.ndarray) -> tuple[np.ndarray, ...]:
+        """(east, north), and on a projected grid (east, north, p, q): the true metres of one grid
+        metre along the grid's columns and rows at these places (cell coordinates, as
+        :meth:`lonlat`), and its stretch by direction (:mod:`oclshade.solar.scale`).  A
+        geographic cell's metres over the grid's (the centre latitude's), by the very formula
+        the cell sizes come from (:func:`oclshade.io.metres_per_degree`, once per distinct
+        latitude: on a north-up grid, one per row of the places).  On a projected grid the CRS's own distortion
+        (:meth:`projected_scales`): east = north = s, the root mean square of a grid metre's
+        length over the directions, and p, q (0 on a conformal projection: UTM, Lambert
+        conformal, polar stereographic), bilinear between their values on a
+        :data:`SCALE_LATTICE`-square lattice over the map (a smooth field: within 2e-7 of it on a
+        1-degree Web Mercator tile); (1, 1, 0, 0) where every direction's length is within half
+        of :func:`scale_share` of 1 (as :func:`scale_bands` takes a map: the angles move by at
+        most 0.01 / sqrt(2) degree)."""
         rows, cols = np.asarray(rows, np.float64), np.asarray(cols, np.float64)
         if self.crs is not None:
-            scale = self._lattice_scale(rows, cols)
-            scale = np.where(_near_one(scale), 1.0, scale)
-            return scale, scale.copy()
+            scale, p, q = np.moveaxis(_as_one(self._lattice_scale(rows, cols)), -1, 0)
+            return scale, scale.copy(), p, q
         lat = self.lonlat(rows.ravel(), cols.ravel())[1].reshape(rows.shape)
         distinct, where = np.unique(lat, return_inverse=True)
         east, north = (np.asarray(v, np.float64) for v in _METRES_PER_DEGREE(distinct))
@@ -113,29 +116,30 @@ class MapPlaces:
         return (east / centre[0])[where].reshape(np.shape(lat)), (north / centre[1])[where].reshape(np.shape(lat))
 
     def _lattice_scale(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
-        """A projected grid's scale at these places, bilinear on :attr:`_scale_lattice`."""
+        """A projected grid's (s, p, q) at these places, (..., 3), bilinear on :attr:`_scale_lattice`."""
         r, c, lattice = self._scale_lattice
         i = np.clip(np.searchsorted(r, rows, side="right") - 1, 0, len(r) - 2)
         j = np.clip(np.searchsorted(c, cols, side="right") - 1, 0, len(c) - 2)
-        fr, fc = (rows - r[i]) / (r[i + 1] - r[i]), (cols - c[j]) / (c[j + 1] - c[j])
+        fr, fc = ((rows - r[i]) / (r[i + 1] - r[i]))[..., None], ((cols - c[j]) / (c[j + 1] - c[j]))[..., None]
         return ((lattice[i, j] * (1.0 - fc) + lattice[i, j + 1] * fc) * (1.0 - fr)
                 + (lattice[i + 1, j] * (1.0 - fc) + lattice[i + 1, j + 1] * fc) * fr)
 
     @cached_property
     def _scale_lattice(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(row lines, column lines, scales): :meth:`projected_scales` on the lattice."""
+        """(row lines, column lines, (lines, lines, 3) (s, p, q)): :meth:`projected_scales` on the lattice."""
         rows, cols = self.shape
         r, c = np.linspace(0.0, rows, SCALE_LATTICE), np.linspace(0.0, cols, SCALE_LATTICE)
         rr, cc = np.meshgrid(r, c, indexing="ij")
-        return r, c, self.projected_scales(*self.lonlat(rr.ravel(), cc.ravel()))[0].reshape(rr.shape)
+        found = self.projected_scales(*self.lonlat(rr.ravel(), cc.ravel()))
+        return r, c, np.stack(found, axis=-1).reshape(*rr.shape, 3)
 
-    def projected_scales(self, lon: np.ndarray, lat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(scale, anisotropy) of a projected grid at these places: ``scale`` the true metres
-        (on the ellipsoid) of one grid metre, the square root of the area a grid square metre
-        covers on the ground; ``anisotropy`` how far the length of a grid metre in any direction
-        strays from it, a share (0 on a conformal projection).  From central differences of
-        :data:`STEP_METRES` along the grid's columns and rows through the CRS and the
-        ellipsoid's geodesics (pyproj)."""
+    def projected_scales(self, lon: np.ndarray, lat: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(s, p, q) of a projected grid at these places: a grid metre along grid azimuth a is
+        s sqrt(1 + p cos 2a + q sin 2a) true metres (on the ellipsoid; :mod:`oclshade.solar.scale`),
+        s the root mean square over the directions; p = q = 0 where that is within
+        :data:`STRETCH_NOISE` of all directions' (a conformal projection).  From the metric of a
+        grid metre, by central differences of :data:`STEP_METRES` along the grid's columns and
+        rows through the CRS and the ellipsoid's geodesics (pyproj)."""
         lon, lat = np.asarray(lon, np.float64), np.asarray(lat, np.float64)
         to_grid, to_place = self._transformers
         step = STEP_METRES / self.crs.axis_info[0].unit_conversion_factor     # grid units
@@ -153,12 +157,11 @@ class MapPlaces:
         (a_e, s_e), (a_n, s_n) = ground
         if not (np.all(np.isfinite(s_e)) and np.all(np.isfinite(s_n))):
             raise ValueError("part of the map lies outside where its CRS is defined")
-        cross = s_e * s_n * np.abs(np.sin(a_n - a_e))                    # the ground area of a grid square metre
         m_ee, m_nn, m_en = s_e * s_e, s_n * s_n, s_e * s_n * np.cos(a_n - a_e)   # the metric of a grid metre
-        half = np.sqrt((m_ee - m_nn) ** 2 / 4.0 + m_en * m_en)
-        scale = np.sqrt(cross)
-        longest, shortest = np.sqrt((m_ee + m_nn) / 2.0 + half), np.sqrt(np.maximum((m_ee + m_nn) / 2.0 - half, 0.0))
-        return scale, np.maximum(longest / scale - 1.0, 1.0 - shortest / scale)
+        mean = (m_ee + m_nn) / 2.0          # s(a)^2 = mean (1 + p cos 2a + q sin 2a)
+        p, q = (m_nn - m_ee) / (2.0 * mean), m_en / mean
+        still = np.hypot(p, q) <= STRETCH_NOISE
+        return np.sqrt(mean), np.where(still, 0.0, p), np.where(still, 0.0, q)
 
     @cached_property
     def _transformers(self) -> tuple[Any, Any]:
@@ -179,13 +182,14 @@ class MapPlaces:
 
     @cached_property
     def _row_scales(self) -> np.ndarray:
-        """float64 (rows, 2): each row's scale, what :class:`oclshade.horizon.HorizonCaster`
-        traces the horizons with and a sun given by its angles is banded by
-        (:func:`banded_field`): a geographic grid's :meth:`grid_scales` at the row's middle (all
-        1 where all are within half of :func:`scale_share` of it: traced as it is); a
-        projected grid's the middle of its extremes along the row (bilinear on the lattice:
-        at its columns; UTM, far from its meridian, changes along the rows), 1 where all of the
-        row is near 1 as there."""
+        """float64 (rows, 2) (east, north) on a geographic grid, (rows, 4) (east, north, p, q) on a
+        projected one (:mod:`oclshade.solar.scale`): each row's scales, what
+        :class:`oclshade.horizon.HorizonCaster` traces the horizons with and a sun given by its
+        angles is banded by (:func:`banded_field`): a geographic grid's :meth:`grid_scales` at
+        the row's middle (all 1 where all are within half of :func:`scale_share` of 1: traced as
+        it is); a projected grid's the middle of their
+        extremes along the row (bilinear on the lattice: at its columns; UTM, far from its
+        meridian, changes along the rows), (1, 1, 0, 0) where all of the row is near 1 as there."""
         rows, cols = self.shape
         middle = np.arange(rows) + 0.5
         if self.crs is None:     # all within half the share of 1: traced at the centre's width, as it is
@@ -194,43 +198,48 @@ class MapPlaces:
             scales.setflags(write=False)
             return scales
         along = self._lattice_scale(np.repeat(middle, SCALE_LATTICE), np.tile(self._scale_lattice[1], rows))
-        along = along.reshape(rows, SCALE_LATTICE)
-        low, high = along.min(axis=1), along.max(axis=1)
-        scale = np.where(_near_one(low) & _near_one(high), 1.0, (low + high) / 2.0)    # the whole row near 1
-        scales = np.stack([scale, scale], axis=-1)
+        along = along.reshape(rows, SCALE_LATTICE, 3)
+        scale, p, q = np.moveaxis((along.min(axis=1) + along.max(axis=1)) / 2.0, -1, 0)
+        ones = np.all(_identity(along), axis=1)                          # the whole row near 1
+        scales = np.stack([np.where(ones, 1.0, scale), np.where(ones, 1.0, scale),
+                           np.where(ones, 0.0, p), np.where(ones, 0.0, q)], axis=-1)
         scales.setflags(write=False)
         return scales
 
     @cached_property
     def scale_residual(self) -> float:
-        """Degrees: what tracing each band of rows at its scale (:meth:`row_scales`, one number
-        both ways on a projected grid) leaves of the grid's own distortion, at most, over a 9 x 9
-        lattice: a length d off its band's in a share moves an angle by at most d / 2 radians
-        (the stretch by direction of a projection that is not conformal, Albers or Lambert
-        azimuthal equal-area; the scale's change along a row).  0 on a geographic grid."""
+        """Degrees: what tracing each band of rows at its scales (:meth:`row_scales`) leaves of
+        the grid's own distortion, at most, over a 9 x 9 lattice: a grid metre's length in a
+        direction a share d off its band's moves an angle by at most d / 2 radians (the
+        scales' change along a row, and any stretch by direction they do not follow: the
+        largest d over :data:`RESIDUAL_AZIMUTHS` grid azimuths).  0 on a geographic grid."""
         if self.crs is None:
             return 0.0
         rows, cols = self.shape
         r, c = np.meshgrid(np.linspace(0.5, rows - 0.5, LATTICE), np.linspace(0.5, cols - 0.5, LATTICE), indexing="ij")
         lon, lat = self.lonlat(r.ravel(), c.ravel())
-        scale, anisotropy = self.projected_scales(lon, lat)
+        scale, p, q = self.projected_scales(lon, lat)
+        here = np.stack([scale, scale, p, q], axis=-1)
         edges, bands = scale_bands(rows, self.row_scales(), DEFAULT_TOLERANCE)
-        band = bands[np.searchsorted(edges, np.floor(r.ravel()).astype(int), side="right") - 1, 0]
-        off = np.abs(scale / band - 1.0)
-        return float(np.degrees(np.max((1.0 + off) * (1.0 + anisotropy) - 1.0) / 2.0))
+        band = bands[np.searchsorted(edges, np.floor(r.ravel()).astype(int), side="right") - 1]
+        azimuths = np.arange(RESIDUAL_AZIMUTHS) * (180.0 / RESIDUAL_AZIMUTHS)
+        true = scale[:, None] * direction_factor(here[:, None, :], azimuths[None, :])
+        traced = band[:, None, 0] * direction_factor(band[:, None, :], azimuths[None, :])
+        return float(np.degrees(np.max(np.abs(true / traced - 1.0)) / 2.0))
 
     def on_grid(self, rows: np.ndarray, cols: np.ndarray, azimuth: np.ndarray, elevation: np.ndarray
                 ) -> tuple[np.ndarray, np.ndarray]:
         """Directions at these places (cell coordinates; grid azimuths, elevations in degrees)
-        as the grid traces them.  A grid metre east is ``sx`` true metres and north ``sy`` (:meth:`grid_scales`):
-        the direction that runs over the same ground is turned to azimuth atan2(sin a / sx,
-        cos a / sy) (on a projected grid, sx = sy: unturned) and, the grid distance being 1 / s
-        of the true one (s = 1 / |(sin a / sx, cos a / sy)|), raised to elevation atan(s tan e).
+        as the grid traces them (:func:`scaled_suns` at :meth:`grid_scales`).  A grid metre east
+        is ``sx`` true metres and north ``sy``: the direction that runs over the same ground is
+        turned to azimuth atan2(sin a / sx, cos a / sy) (on a projected grid, sx = sy: unturned)
+        and, the grid distance being 1 / s of the true one (s = 1 / |(sin a / sx, cos a / sy)|,
+        on a projected grid s(a) with its stretch by direction), raised to elevation atan(s tan e).
         A ray at that sun crosses the same cells at the same heights as the true one: the cast
         shadows are the Earth's, not the grid's (docs/methods.md, "Geographic grids" and
         "Projected grids")."""
         azimuth, elevation = np.asarray(azimuth, np.float64), np.asarray(elevation, np.float64)
-        return scaled_suns(*self.grid_scales(rows, cols), azimuth, elevation)
+        return scaled_suns(np.stack(self.grid_scales(rows, cols), axis=-1), azimuth, elevation)
 
     def suns(self, when: datetime | Sequence[datetime] | Sun, rows: np.ndarray, cols: np.ndarray
              ) -> tuple[np.ndarray, np.ndarray]:
@@ -260,15 +269,30 @@ def _near_one(scale: np.ndarray) -> np.ndarray:
     return np.abs(scale - 1.0) <= scale_share() / 2.0
 
 
-def scaled_suns(sx: np.ndarray, sy: np.ndarray, azimuth: np.ndarray, elevation: np.ndarray
-                ) -> tuple[np.ndarray, np.ndarray]:
-    """:meth:`MapPlaces.on_grid` where a grid metre is (``sx``, ``sy``) true metres (east,
-    north): the grid azimuth and elevation, degrees, of directions on the ground."""
+def _identity(scales: np.ndarray) -> np.ndarray:
+    """Where a projected grid's (s, p, q) (..., 3) has every direction's length within half of
+    :func:`scale_share` of 1 (|s - 1| plus half |(p, q)|): traced as the grid is."""
+    return np.abs(scales[..., 0] - 1.0) + np.hypot(scales[..., 1], scales[..., 2]) / 2.0 <= scale_share() / 2.0
+
+
+def _as_one(scales: np.ndarray) -> np.ndarray:
+    """(s, p, q) (..., 3), (1, 0, 0) where :func:`_identity`."""
+    return np.where(_identity(scales)[..., None], np.array([1.0, 0.0, 0.0]), scales)
+
+
+def scaled_suns(scales: np.ndarray, azimuth: np.ndarray, elevation: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:meth:`MapPlaces.on_grid` where a grid metre has these ``scales`` (..., 2 or 4:
+    (east, north) true metres, and a projected grid's stretch by direction (p, q),
+    :mod:`oclshade.solar.scale`): the grid azimuth and elevation, degrees, of directions on the
+    ground (a projected grid's azimuths are grid azimuths already)."""
+    scales = np.asarray(scales, np.float64)
+    sx, sy = scales[..., 0], scales[..., 1]
     a, e = np.radians(azimuth), np.radians(elevation)
     east, north = np.sin(a) / sx, np.cos(a) / sy
-    s = 1.0 / np.hypot(east, north)
+    stretch = direction_factor(scales, azimuth)
+    s = stretch / np.hypot(east, north)
     se, ce = np.sin(e), np.cos(e)
-    same = (sx == 1.0) & (sy == 1.0)      # the centre's own scale: the sun as given, to the bit
+    same = (sx == 1.0) & (sy == 1.0) & (stretch == 1.0)      # the centre's own scale: the sun as given, to the bit
     return (np.where(sx == sy, azimuth, np.mod(np.degrees(np.arctan2(east, north)), 360.0)),
             np.where(same | (np.abs(elevation) >= 90.0), elevation, np.degrees(np.arctan2(s * se, ce))))
 
@@ -362,22 +386,20 @@ def sun_field(places: MapPlaces, when: datetime | Sun, tolerance: float = DEFAUL
 
 def banded_field(row_scales: np.ndarray, cols: int, sun: Sun, tolerance: float = DEFAULT_TOLERANCE
                  ) -> SunField:
-    """A sun given by its angles on a grid whose rows have these scales (float64 (rows, 2),
+    """A sun given by its angles on a grid whose rows have these scales (float64 (rows, 2 or 4),
     :meth:`MapPlaces.row_scales`: geographic or projected): blocks the map's width (``cols``), one per band of
     rows of :func:`oclshade.solar.scale.scale_bands` (the bands a :class:`HorizonCaster` with
     these rows' scales traces: a mask and the horizons at its azimuth then see the same lines),
     each with the sun as the grid traces it at the band's scale."""
     rows = len(row_scales)
     edges, scales = scale_bands(rows, row_scales, tolerance)
-    own = unit_vectors(*scaled_suns(row_scales[:, 0], row_scales[:, 1], np.full(rows, sun.azimuth),
-                                    np.full(rows, sun.elevation)))
-    az, el = scaled_suns(scales[:, 0], scales[:, 1], np.full(len(scales), sun.azimuth),
-                         np.full(len(scales), sun.elevation))
+    own = unit_vectors(*scaled_suns(row_scales, np.full(rows, sun.azimuth), np.full(rows, sun.elevation)))
+    az, el = scaled_suns(scales, np.full(len(scales), sun.azimuth), np.full(len(scales), sun.elevation))
     band = np.repeat(np.arange(len(scales)), np.diff(edges))
     deviation = float(sun_differences(own, unit_vectors(az, el)[band]).max())
     if len(scales) == 1:
         return SunField.single(Sun(float(az[0]), float(el[0])), (rows, cols), deviation, tolerance,
-                               (float(scales[0, 0]), float(scales[0, 1])))
+                               tuple(float(v) for v in scales[0]))
     return SunField((rows, cols), BlockGrid(edges, np.array([0, cols]), az[:, None], el[:, None], scales),
                     sun, deviation, tolerance)
 

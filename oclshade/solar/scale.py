@@ -1,6 +1,17 @@
-"""A geographic grid's scale: its cells are metres at the centre latitude's scale (oclshade.io),
-so a row's true cell width differs from the grid's; what traces each band of rows with its own
-(docs/methods.md, "Geographic grids")."""
+"""A grid's scale: a geographic grid's cells are metres at the centre latitude's scale
+(oclshade.io), so a row's true cell width differs from the grid's, and a projected grid's metre
+is 1 / k of the ground's; what traces each band of rows with its own (docs/methods.md,
+"Geographic grids", "Projected grids").
+
+A row's scales (:meth:`oclshade.solar.MapPlaces.row_scales`) are float64 (east, north) or
+(east, north, p, q): the true metres of one grid metre along the grid's columns and rows, and,
+on a projected grid that is not conformal (Albers, Lambert azimuthal equal-area, Web Mercator
+on the ellipsoid), its stretch by direction: a grid metre along grid azimuth a is
+
+    s(a) = s sqrt(1 + p cos 2a + q sin 2a)
+
+true metres, s (east = north) the root mean square over the directions (p = q = 0: the same
+every way, a conformal projection's k; p, q only with east = north)."""
 from __future__ import annotations
 
 import math
@@ -8,6 +19,7 @@ import math
 import numpy as np
 
 from ..heightmap import check_row_scales
+from ..sun import sincos_degrees
 
 #: degrees: a geographic grid's bands of rows (:func:`scale_bands`) keep every row's directions
 #: and angles within this of its band's (the horizons' default; the sun fields take their tolerance)
@@ -23,15 +35,27 @@ def scale_share(tolerance: float = SCALE_TOLERANCE) -> float:
     return 2.0 * math.sqrt(2.0) * math.radians(tolerance)
 
 
+def direction_factor(scales: np.ndarray, azimuth: np.ndarray) -> np.ndarray:
+    """sqrt(1 + p cos 2a + q sin 2a) of scales (..., 2 or 4) at grid azimuths ``azimuth``
+    (degrees, broadcast against ``scales[..., 0]``): how much longer a grid metre is that way
+    than ``s``; exactly 1 where p = q = 0 (or there are no such columns)."""
+    scales = np.asarray(scales, np.float64)
+    if scales.shape[-1] == 2:
+        return np.ones(np.broadcast_shapes(scales.shape[:-1], np.shape(azimuth)))
+    sin, cos = sincos_degrees(2.0 * np.asarray(azimuth, np.float64))     # the C library's (host/src/horizon.c)
+    return np.sqrt(1.0 + scales[..., 2] * cos + scales[..., 3] * sin)
+
+
 def scale_bands(rows: int, row_scales: np.ndarray | None, tolerance: float = SCALE_TOLERANCE
                 ) -> tuple[np.ndarray, np.ndarray]:
-    """(edges, scales): bands of rows [edges[k], edges[k + 1]) and float64 (bands, 2), each band's
-    (east, north) scale, the middle of its rows' (``row_scales``: float64 (rows, 2), the true
-    metres east and north of one grid metre at each row, :meth:`oclshade.solar.MapPlaces.row_scales`;
-    None: one band of scale 1).  A row's cell sizes differ from its band's by a share d of at
+    """(edges, scales): bands of rows [edges[k], edges[k + 1]) and float64 (bands, 2 or 4, as
+    ``row_scales``), each band's scales, the middle of its rows' (``row_scales``: float64 (rows,
+    2 or 4), the module docstring's, :meth:`oclshade.solar.MapPlaces.row_scales`; None: one band
+    of scale 1).  A row's cell sizes in any direction differ from its band's by a share d of at
     most sqrt(2) tolerance (radians): a direction then turns by at most d / 2 (sin a cos a d)
     and an elevation angle moves by at most d / 2 (sin e cos e d), together at most the
-    tolerance.  Bands are the most rows that hold it, in multiples of :data:`SCALE_ALIGN` where
+    tolerance.  (With p, q: d is at most the east and north scales' share plus half of
+    |(dp, dq)|, each the half of its range in the band.)  Bands are the most rows that hold it, in multiples of :data:`SCALE_ALIGN` where
     that many do (a fine grid), any number where not (coarse cells near the poles: down to one
     row).  (Rows near enough to 1 to be traced as they are come as 1:
     :meth:`oclshade.solar.MapPlaces.row_scales`.)"""
@@ -41,7 +65,9 @@ def scale_bands(rows: int, row_scales: np.ndarray | None, tolerance: float = SCA
     share = scale_share(tolerance)
 
     def holds(lo: np.ndarray, hi: np.ndarray) -> bool:
-        return bool(np.all(hi - lo <= share * (hi + lo) / 2.0))
+        # (hi - lo) / (hi + lo), the scales' share, plus the stretch's, at most half the share
+        stretch = np.hypot(hi[2] - lo[2], hi[3] - lo[3]) / 4.0 if len(lo) == 4 else 0.0
+        return bool(np.all(hi[:2] - lo[:2] + stretch * (hi[:2] + lo[:2]) <= share * (hi[:2] + lo[:2]) / 2.0))
 
     # each band from its first row, its rows' extremes kept as it grows (host/src/horizon.c: the same)
     edges, middles, r0 = [0], [], 0
