@@ -167,9 +167,11 @@ class Heightmap:
     dy: float                    # north-south cell size, metres
     offset: float = field(init=False)
     relative32: np.ndarray = field(init=False, repr=False)
-    #: None, or float64 (rows, 2): each row's true metres east and north of one grid metre (a
+    #: None, or float64 (rows, 2) or (rows, 4): each row's true metres east and north of one grid
+    #: metre, and a projected grid's stretch by direction (p, q) (:mod:`oclshade.solar.scale`; a
     #: georeferenced raster's, :meth:`from_raster`); the casters then trace a sun given by its
-    #: angles per band of rows at the band's own cell sizes (docs/methods.md, "Geographic grids")
+    #: angles per band of rows at the band's own cell sizes (docs/methods.md, "Geographic grids",
+    #: "Projected grids")
     row_scales: np.ndarray | None = field(default=None, repr=False, compare=False, kw_only=True)
 
     def __post_init__(self) -> None:

@@ -204,3 +204,27 @@ def test_c_horizons_of_an_equal_area_grid_equal_python(host: dict, tmp_path: Pat
     svf = (1.0 - (sums[..., 0] - sums[..., 1]) / n).astype(np.float32)
     svf[np.isnan(hm.heights)] = np.nan
     assert svf.tobytes() == caster.sky_view_factor(n, "cosine").tobytes()
+
+
+@pytest.mark.parametrize("azimuth, elevation, radius, columns, curved, radius_cells",
+                         [(135.0, 12.0, 0.0, 0, False, 0.0), (300.5, 4.0, 0.2666, 64, False, 0.0),
+                          (10.0, 25.0, 1.5, 7, True, 0.0), (225.0, 6.0, 0.0, 16, False, 150.0)])
+def test_c_soft_shadows_equal_python(host: dict, tmp_path: Path, azimuth: float, elevation: float, radius: float,
+                                     columns: int, curved: bool, radius_cells: float) -> None:
+    """oclshade_sun_disc: the visible share of the sun's disc, the Python host's
+    HorizonCaster.sun_disc bit for bit (defaults 0 = the mean sun's radius and 16 strips; a
+    search radius; Earth curvature); host_passes checks itself that the strips' parts
+    (oclshade_sun_disc_strips, clamped oclshade_enqueue_horizon) sum to the same bits."""
+    from oclshade.horizon import DEFAULT_COLUMNS, SUN_RADIUS
+
+    hm = varied_map()
+    rows, cols = hm.shape
+    max_distance = radius_cells * hm.dx or None
+    caster = HorizonCaster(hm, curvature=Curvature() if curved else None, max_distance=max_distance, cache=False)
+    run_program(host, "host_passes", "sun_disc", tmp_path, heights_file(tmp_path, hm), rows, cols, repr(hm.dx),
+                repr(hm.dy), repr(azimuth), repr(elevation), repr(radius), columns, repr(caster.coefficient),
+                repr(max_distance or 0.0))
+    want = caster.sun_disc(Sun(azimuth, elevation), radius or SUN_RADIUS, columns or DEFAULT_COLUMNS)
+    got = np.fromfile(tmp_path / "fraction.f32", np.float32).reshape(rows, cols)
+    assert got.tobytes() == want.tobytes()
+    assert 0.0 < np.nanmean(want) < 1.0 and np.any((want > 0.0) & (want < 1.0))   # lit, shaded and penumbra

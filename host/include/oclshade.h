@@ -868,6 +868,14 @@ typedef struct oclshade_horizon_params {
                                    the middle band's ray): true angles, the Python host's
                                    HorizonCaster(row_scales=...) bit for bit. */
     int row_scale_columns;      /* 2 (default; 0 reads as 2): (east, north); 4: (east, north, p, q) */
+    int clamped;                /* 0 (default); 1: -D OCLS_CLAMP, only angles whose tangent lies in
+                                   clamp_bounds are wanted (a strip of the sun's disc:
+                                   oclshade_sun_disc_strips): the walk starts at lo and stops once past
+                                   hi, so the angle is exact where its tangent is in [lo, hi], atan(lo)
+                                   below (and where nothing is seen) and some angle >= atan(hi) above.
+                                   One azimuth's angle alone: svf NULL, n_azimuths 0, row_scales NULL;
+                                   no seeds, never the sweep (HorizonCaster._strip_angles). */
+    double clamp_bounds[2];     /* (lo, hi) tangents, finite, lo < hi (rounded to float32) */
 } oclshade_horizon_params;
 
 /* Defaults: no buffers, 0 x 0, dx = dy = 1, azimuth 0, flat Earth, no search radius, the cosine
@@ -898,6 +906,40 @@ oclshade_status oclshade_enqueue_horizon(oclshade *lib, cl_command_queue queue,
                                          const oclshade_horizon_params *params,
                                          cl_uint num_events_in_wait_list, const cl_event *event_wait_list,
                                          cl_event *event);
+
+/* Soft shadows (oclshade/horizon/disc.py; HorizonCaster.sun_disc): the share of the sun's disc
+ * each cell sees, from its exact horizons at `columns` azimuths across the disc.  The disc of
+ * angular radius r is cut into columns vertical strips of width w = 2 r / columns; strip k's
+ * middle is x_k = -r + (k + 1/2) w across, at azimuth (azimuth + x_k / cos(elevation)) mod 360,
+ * its half-chord c_k = sqrt(r^2 - x_k^2), and its horizons are needed only within the
+ * tangents of [elevation - c_k - 0.001, elevation + c_k + 0.001] degrees (clamp_bounds).  The
+ * share is sum_k clip(elevation + c_k - h_k, 0, 2 c_k) / sum_k 2 c_k, in double.
+ * oclshade_sun_disc_strips fills those per strip (azimuths[columns], half_chords[columns],
+ * bounds[columns][2]; any may be NULL): radius in (0, 5] degrees, columns 1..1024, |elevation|
+ * < 90 - radius, azimuth finite.  Both the Python host's bits (disc_columns, strip_bounds). */
+oclshade_status oclshade_sun_disc_strips(double azimuth, double elevation, double radius, int columns,
+                                         double *azimuths, double *half_chords, double (*bounds)[2]);
+
+/* The soft shadows of one sun on a grid as drawn (no row scales: a scaled grid's disc is its
+ * blocks', which need the sun-table kernels this host does not build yet). */
+typedef struct oclshade_sun_disc_params {
+    oclshade_field heights;     /* rows x cols float32 relative heights (the pyramid's), NaN = nodata */
+    int rows, cols;
+    double dx, dy;
+    cl_mem pyramid, offsets;    /* from oclshade_enqueue_extrema_pyramid for these heights */
+    double azimuth, elevation;  /* the sun's centre, degrees */
+    double radius;              /* the disc's angular radius, degrees; 0: 0.2666 (the mean sun's) */
+    int columns;                /* strips across the disc; 0: 16 (the Python host's DEFAULT_COLUMNS) */
+    double curvature, max_distance;   /* as oclshade_horizon_params' */
+} oclshade_sun_disc_params;
+
+void oclshade_sun_disc_params_init(oclshade_sun_disc_params *params);
+/* Blocking: enqueues each strip's clamped horizons (oclshade_enqueue_horizon, clamped) on
+ * `queue` into a buffer of its own, reads them back and writes the visible share into
+ * `fraction` (host memory, rows x cols float32 in [0, 1], NaN at nodata): the Python host's
+ * HorizonCaster(...).sun_disc(Sun(azimuth, elevation), radius, columns) bit for bit. */
+oclshade_status oclshade_sun_disc(oclshade *lib, cl_command_queue queue, const oclshade_sun_disc_params *params,
+                                  float *fraction);
 
 /* ----------------------------------------------------------- environment maps */
 

@@ -148,7 +148,7 @@ static cl_float2 band_cell(const horizon_job *j, const scale_band *b)
 static int sweeps(oclshade *lib, const horizon_job *j)
 {
     const double ux = j->ray.s[0], uy = j->ray.s[1], radius = j->ray.s[3];
-    return j->p->rows >= 2 && j->p->cols >= 2 && radius > 0.0 &&
+    return !j->p->clamped && j->p->rows >= 2 && j->p->cols >= 2 && radius > 0.0 &&
            (radius * (fabs(ux) + fabs(uy)) <= ocls_knob(lib, K_HORIZON_SWEEP_CELLS) ||
             ocls_knob(lib, K_HORIZON_SWEEP_FAR) == 2);
 }
@@ -194,6 +194,16 @@ static oclshade_status horizon_job_for(oclshade *lib, const oclshade_horizon_par
     if (p->svf != NULL && p->svf_definition != OCLSHADE_SVF_COSINE && p->svf_definition != OCLSHADE_SVF_SOLID_ANGLE)
         return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "svf_definition must be OCLSHADE_SVF_COSINE (1) or "
                          "OCLSHADE_SVF_SOLID_ANGLE (2), got %d", (int)p->svf_definition);
+    if (p->clamped != 0 && p->clamped != 1)
+        return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "clamped must be 0 or 1, got %d", p->clamped);
+    if (p->clamped) {
+        if (p->angle.buffer == NULL || p->svf != NULL || p->n_azimuths > 0 || p->row_scales != NULL)
+            return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "clamped angles (a strip of the sun's disc) are one "
+                             "azimuth's angle alone: angle needs a buffer, and svf NULL, n_azimuths 0, row_scales NULL");
+        if (!(isfinite(p->clamp_bounds[0]) && isfinite(p->clamp_bounds[1]) && p->clamp_bounds[0] < p->clamp_bounds[1]))
+            return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "clamp_bounds must be finite tangents lo < hi, got "
+                             "%g, %g", p->clamp_bounds[0], p->clamp_bounds[1]);
+    }
     if (p->row_scales != NULL) {
         const int columns = p->row_scale_columns == 0 ? 2 : p->row_scale_columns;
         if (columns != 2 && columns != 4)
@@ -323,7 +333,7 @@ static oclshade_status horizon_body(ocls_pass *ps, const void *params)
     const oclshade_horizon_params *p = j->p;
     oclshade *lib = ps->lib;
     const size_t W = (size_t)p->cols;
-    const int sweep = sweeps(lib, j), seeded = j->ray.s[3] == 0.0f;
+    const int sweep = sweeps(lib, j), seeded = j->ray.s[3] == 0.0f && !p->clamped;
     const int seed_rows = seeded ? seed_extent(p->rows) : 0, seed_cols = seeded ? seed_extent(p->cols) : 0;
     cl_mem h, angle, seeds = NULL;
     oclshade_status st;
@@ -332,6 +342,7 @@ static oclshade_status horizon_body(ocls_pass *ps, const void *params)
     if (p->svf != NULL) ocls_def_int(&d, "OCLS_OUT_SVF", (int)p->svf_definition);
     ocls_def_flag(&d, "OCLS_CURVATURE", p->curvature > 0.0);
     ocls_def_flag(&d, "OCLS_MAX_DISTANCE", j->ray.s[3] > 0.0f);   /* never with n_azimuths (checked) */
+    ocls_def_flag(&d, "OCLS_CLAMP", p->clamped);
     ocls_def_flag(&d, "OCLS_OWN_BUILTINS", ocls_knob(lib, K_HORIZON_OWN_BUILTINS));
     if (ocls_knob(lib, K_HORIZON_SCAN)) ocls_def_int(&d, "OCLS_LEVEL_SCAN", 1);
     if ((st = ocls_bind_in(ps, &p->heights, p->rows, 4 * W, "heights", &h)) != OCLSHADE_OK) return st;
@@ -374,11 +385,13 @@ static oclshade_status horizon_body(ocls_pass *ps, const void *params)
     if (seeded && ((st = ocls_set_args(ps, seeder, sa, 8)) != OCLSHADE_OK ||
                    (st = ocls_launch(ps, seeder, seed_cols, seed_rows, group, width)) != OCLSHADE_OK))
         return st;
-    ocls_arg a[11] = {OCLS_ARG(h), OCLS_ARG(H), OCLS_ARG(Wi), OCLS_ARG(p->pyramid), OCLS_ARG(p->offsets),
+    const cl_float2 bounds = {{(cl_float)p->clamp_bounds[0], (cl_float)p->clamp_bounds[1]}};
+    ocls_arg a[12] = {OCLS_ARG(h), OCLS_ARG(H), OCLS_ARG(Wi), OCLS_ARG(p->pyramid), OCLS_ARG(p->offsets),
                       OCLS_ARG(nlev), OCLS_ARG(j->ray), OCLS_ARG(angle_arg), OCLS_ARG(svf), OCLS_ARG(seeds_arg),
-                      OCLS_ARG(cell)};
-    if (j->bands == NULL)
-        return (st = ocls_set_args(ps, k, a, 11)) != OCLSHADE_OK ? st : ocls_launch(ps, k, Wi, H, group, width);
+                      OCLS_ARG(cell), OCLS_ARG(bounds)};
+    if (j->bands == NULL)      /* (clamped: the bounds too, never in bands) */
+        return (st = ocls_set_args(ps, k, a, p->clamped ? 12 : 11)) != OCLSHADE_OK ? st :
+               ocls_launch(ps, k, Wi, H, group, width);
     for (int b = 0; b < j->nbands && st == OCLSHADE_OK; ++b) {   /* each band with its ray and cells */
         const cl_float4 ray = band_ray(j, &j->bands[b], p->azimuth);
         const cl_float2 band_cells = band_cell(j, &j->bands[b]);

@@ -691,6 +691,53 @@ int main(int argc, char **argv)
         st = oclshade_enqueue_horizon(lib, queue, &hq, 0, NULL, NULL);
         expect_status(lib, st, OCLSHADE_OK, "", "horizon: two azimuths' sums in one call");
         clReleaseMemObject(two_scratch);
+        /* clamped angles (a strip of the sun's disc) and the soft shadows */
+        hq = hp; hq.svf = NULL; hq.angle = oclshade_field_of(angles); hq.clamped = 1;
+        hq.clamp_bounds[0] = 0.2; hq.clamp_bounds[1] = 0.1;
+        st = oclshade_enqueue_horizon(lib, queue, &hq, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "clamp_bounds must be finite tangents lo < hi, got 0.2, 0.1",
+                      "horizon: clamp bounds the wrong way round");
+        hq.clamp_bounds[1] = 0.3;
+        st = oclshade_enqueue_horizon(lib, queue, &hq, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_OK, "", "horizon: clamped angles");
+        hq.svf = sums;
+        st = oclshade_enqueue_horizon(lib, queue, &hq, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "clamped angles (a strip of the sun's disc) are one azimuth's "
+                      "angle alone", "horizon: clamped with svf");
+        hq.svf = NULL; hq.clamped = 2;
+        st = oclshade_enqueue_horizon(lib, queue, &hq, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "clamped must be 0 or 1, got 2", "horizon: clamped 2");
+        double strip_az[4], strip_c[4], strip_b[4][2];
+        expect(oclshade_sun_disc_strips(10.0, 89.8, 0.2666, 4, strip_az, strip_c, strip_b) == OCLSHADE_INVALID_ARGUMENT,
+               "sun_disc_strips: the disc past the zenith", "OCLSHADE_INVALID_ARGUMENT expected");
+        expect(oclshade_sun_disc_strips(10.0, 30.0, 0.2666, 0, strip_az, strip_c, strip_b) == OCLSHADE_INVALID_ARGUMENT,
+               "sun_disc_strips: 0 strips", "OCLSHADE_INVALID_ARGUMENT expected");
+        expect(oclshade_sun_disc_strips(359.99, 30.0, 0.2666, 4, strip_az, strip_c, strip_b) == OCLSHADE_OK &&
+               strip_az[0] > 359.0 && strip_az[3] < 1.0 && strip_b[0][0] < strip_b[0][1],
+               "sun_disc_strips: strips across north wrap to [0, 360)", "azimuths in [0, 360) expected");
+        oclshade_sun_disc_params dp;
+        oclshade_sun_disc_params_init(&dp);
+        dp.heights = fh; dp.rows = rows; dp.cols = cols; dp.pyramid = pyr; dp.offsets = offs;
+        dp.azimuth = 135.0; dp.elevation = 20.0;
+        float *fraction = (float *)calloc((size_t)n, sizeof *fraction);
+        st = oclshade_sun_disc(lib, queue, &dp, fraction);
+        expect_status(lib, st, OCLSHADE_OK, "", "sun_disc: a valid call");
+        dp.radius = 6.0;
+        st = oclshade_sun_disc(lib, queue, &dp, fraction);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "radius (the sun disc's angular radius) must be in (0, 5] "
+                      "degrees (0: 0.2666), got 6", "sun_disc: radius 6");
+        dp.radius = 0.0; dp.columns = 2000;
+        st = oclshade_sun_disc(lib, queue, &dp, fraction);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "columns (strips across the sun's disc) must be in 1..1024 "
+                      "(0: 16), got 2000", "sun_disc: 2000 strips");
+        dp.columns = 0; dp.elevation = 89.9;
+        st = oclshade_sun_disc(lib, queue, &dp, fraction);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "elevation must leave the whole disc between the nadir and "
+                      "the zenith (|elevation| < 89.7334 degrees), got 89.9", "sun_disc: the disc past the zenith");
+        dp.elevation = 20.0;
+        st = oclshade_sun_disc(lib, queue, &dp, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "params and fraction must not be NULL", "sun_disc: no output");
+        free(fraction);
         st = oclshade_enqueue_zero(lib, queue, sums, 0, 0, NULL, NULL);
         expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "bytes must be >= 1", "zero: 0 bytes");
         st = oclshade_enqueue_zero(lib, queue, sums2, 8 * n, 0, NULL, NULL);

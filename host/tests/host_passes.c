@@ -46,6 +46,9 @@
  *       azimuth sweep_cells 0 and 256 (walked, swept) and sweep_far 2 (swept past the reach)
  *       give the same bits; over the whole map, that all N azimuths in one call (n_azimuths)
  *       give the same bands and sums at batch 1, 8 and 64, and into a pitched field.
+ *   sun_disc OUTDIR HEIGHTS.f64 ROWS COLS DX DY AZ EL RADIUS COLUMNS CURVATURE MAX_DISTANCE
+ *       soft shadows (oclshade_sun_disc) into fraction.f32; checks itself that the strips summed
+ *       here from oclshade_sun_disc_strips and clamped oclshade_enqueue_horizon calls agree.
  *   sunshine OUTDIR HEIGHTS.f64 ROWS COLS DX DY N AZ,EL,SECONDS...
  *       sunshine sums over the (daylight) suns: N 0 by each sun's exact mask (shadow pass),
  *       also with pitched heights (pitched_*); N > 0 by the horizons of N grid azimuths;
@@ -817,6 +820,65 @@ static void run_horizon(int argc, char **argv)
     free_map(&m);
 }
 
+/* sun_disc OUTDIR HEIGHTS.f64 ROWS COLS DX DY AZ EL RADIUS COLUMNS CURVATURE MAX_DISTANCE: soft shadows
+ * (oclshade_sun_disc) into fraction.f32; checks itself that each strip's clamped angles from
+ * oclshade_sun_disc_strips and oclshade_enqueue_horizon (clamped), summed here, give the same bits. */
+static void run_sun_disc(int argc, char **argv)
+{
+    if (argc != 11)
+        fail("usage: host_passes sun_disc OUTDIR HEIGHTS.f64 ROWS COLS DX DY AZ EL RADIUS COLUMNS CURVATURE MAX_DISTANCE");
+    map m;
+    load_map(&m, argv[0], atoi(argv[1]), atoi(argv[2]));
+    oclshade_sun_disc_params p;
+    oclshade_sun_disc_params_init(&p);
+    p.heights = oclshade_field_of(m.heights);
+    p.rows = m.rows; p.cols = m.cols; p.dx = atof(argv[3]); p.dy = atof(argv[4]);
+    p.pyramid = m.pyramid; p.offsets = m.offsets;
+    p.azimuth = atof(argv[5]); p.elevation = atof(argv[6]); p.radius = atof(argv[7]); p.columns = atoi(argv[8]);
+    p.curvature = atof(argv[9]); p.max_distance = atof(argv[10]);
+    float *fraction = (float *)xmalloc(4 * m.n);
+    CHECK(oclshade_sun_disc(lib, queue, &p, fraction));
+    write_file("fraction.f32", fraction, 4 * m.n);
+    /* the same from the parts: the strips, each one's clamped angles, the sum */
+    const int columns = p.columns ? p.columns : 16;
+    double *az = (double *)xmalloc(sizeof(double) * (size_t)columns), *c = (double *)xmalloc(sizeof(double) * (size_t)columns);
+    double (*bounds)[2] = (double (*)[2])xmalloc(sizeof(double) * 2 * (size_t)columns);
+    CHECK(oclshade_sun_disc_strips(p.azimuth, p.elevation, p.radius ? p.radius : 0.2666, columns, az, c, bounds));
+    cl_mem d_angle = buffer(4 * m.n, NULL);
+    double *seen = (double *)xmalloc(sizeof(double) * m.n), whole = 0.0;
+    for (int k = 0; k < columns; ++k) {
+        oclshade_horizon_params h;
+        oclshade_horizon_params_init(&h);
+        h.heights = p.heights; h.rows = m.rows; h.cols = m.cols; h.dx = p.dx; h.dy = p.dy;
+        h.pyramid = m.pyramid; h.offsets = m.offsets; h.curvature = p.curvature; h.max_distance = p.max_distance;
+        h.angle = oclshade_field_of(d_angle);
+        h.azimuth = az[k];
+        h.clamped = 1;
+        h.clamp_bounds[0] = bounds[k][0];
+        h.clamp_bounds[1] = bounds[k][1];
+        size_t bytes = 0;
+        CHECK(oclshade_horizon_scratch_size(lib, &h, &bytes));
+        h.scratch = scratch_of(bytes);
+        CHECK(oclshade_enqueue_horizon(lib, queue, &h, 0, NULL, NULL));
+        float *angles = (float *)read_back(d_angle, 4 * m.n);
+        for (size_t i = 0; i < m.n; ++i) {
+            double v = (p.elevation + c[k]) - (double)angles[i];
+            if (!isnan(v)) v = v < 0.0 ? 0.0 : (v > 2.0 * c[k] ? 2.0 * c[k] : v);
+            seen[i] = k ? seen[i] + v : v;
+        }
+        whole += 2.0 * c[k];
+        free(angles);
+        if (h.scratch) release(h.scratch);
+    }
+    for (size_t i = 0; i < m.n; ++i) {
+        const float f = (float)(seen[i] / whole);
+        if (memcmp(&f, &fraction[i], 4) != 0) fail("sun_disc: the parts' sum differs from oclshade_sun_disc");
+    }
+    free(seen); free(az); free(c); free(bounds); free(fraction);
+    release(d_angle);
+    free_map(&m);
+}
+
 typedef struct sunshine_sums { cl_mem sun, cast, beam; } sunshine_sums;
 
 static void zero_sums(const map *m, sunshine_sums *s)
@@ -1063,6 +1125,7 @@ int main(int argc, char **argv)
     else if (strcmp(argv[1], "compose") == 0) run_compose(argc - 3, argv + 3);
     else if (strcmp(argv[1], "horizon") == 0) run_horizon(argc - 3, argv + 3);
     else if (strcmp(argv[1], "sunshine") == 0) run_sunshine(argc - 3, argv + 3);
+    else if (strcmp(argv[1], "sun_disc") == 0) run_sun_disc(argc - 3, argv + 3);
     else if (strcmp(argv[1], "envmap") == 0) run_envmap(argc - 3, argv + 3);
     else if (strcmp(argv[1], "face_store") == 0) run_face_store(argc - 3, argv + 3);
     else fail("unknown command");

@@ -131,11 +131,12 @@ class HorizonCaster:
     ``lanes``, ``sweep_cells``), any subset; the rest from the device's tuning entry.  Results
     never depend on them.  row_scales: None (default: the heightmap's
     :attr:`~oclshade.heightmap.Heightmap.row_scales`; without them every cell is dx by dy metres),
-    or float64 (rows, 2), for each row the true metres east and north of one of the grid's (a
-    geographic raster's cells are wider towards the equator:
-    :meth:`oclshade.solar.MapPlaces.row_scales`).  The horizons and sky-view factor are then
-    traced per band of rows (:attr:`scale_bands`) with the band's own cell sizes, so their
-    azimuths and angles are true ones to :data:`SCALE_TOLERANCE`; the soft shadows stay on the
+    or float64 (rows, 2) or (rows, 4), for each row the true metres east and north of one of the
+    grid's, and a projected grid's stretch by direction (a geographic raster's cells are wider
+    towards the equator; :meth:`oclshade.solar.MapPlaces.row_scales`, :mod:`oclshade.solar.scale`).
+    The horizons and sky-view factor are then traced per band of rows (:attr:`scale_bands`) with
+    the band's own cell sizes (times its stretch at each azimuth), so their azimuths and angles
+    are true ones to :data:`SCALE_TOLERANCE`; the soft shadows stay on the
     grid (their suns are the grid's: :func:`oclshade.solar.sun_field`, and a sun given by its
     angles on a heightmap with row scales is its bands', :func:`oclshade.solar.field.on_heightmap`).
     """
