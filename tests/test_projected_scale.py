@@ -10,9 +10,6 @@ import pytest
 
 pyproj = pytest.importorskip("pyproj")
 
-# Web Mercator is not conformal on the ellipsoid: its maps warn of the 0.05 degree one scale leaves
-# (test_a_projection_that_stretches_by_direction_is_named checks the warning itself)
-pytestmark = pytest.mark.filterwarnings("ignore:.*angles within 0.0[45]:UserWarning")
 
 from oclshade import ShadowCaster, Sun  # noqa: E402
 from oclshade.cli import main  # noqa: E402
