@@ -931,13 +931,19 @@ typedef struct oclshade_sun_disc_params {
     double radius;              /* the disc's angular radius, degrees; 0: 0.2666 (the mean sun's) */
     int columns;                /* strips across the disc; 0: 16 (the Python host's DEFAULT_COLUMNS) */
     double curvature, max_distance;   /* as oclshade_horizon_params' */
+    oclshade_field angle;       /* rows x cols float32: each strip's clamped angles go through it (written) */
+    cl_mem scratch;             /* >= oclshade_sun_disc_scratch_size (the clamped horizon pass's) */
+    double *work;               /* host memory, rows x cols doubles: the strips' running sums (written) */
 } oclshade_sun_disc_params;
 
 void oclshade_sun_disc_params_init(oclshade_sun_disc_params *params);
-/* Blocking: enqueues each strip's clamped horizons (oclshade_enqueue_horizon, clamped) on
- * `queue` into a buffer of its own, reads them back and writes the visible share into
- * `fraction` (host memory, rows x cols float32 in [0, 1], NaN at nodata): the Python host's
- * HorizonCaster(...).sun_disc(Sun(azimuth, elevation), radius, columns) bit for bit. */
+oclshade_status oclshade_sun_disc_scratch_size(oclshade *lib, const oclshade_sun_disc_params *params,
+                                               size_t *bytes);
+/* Blocking, the one such entry point: per strip a clamped oclshade_enqueue_horizon into `angle`,
+ * read back into `fraction` and summed into `work` in double, as the Python host sums; then
+ * `fraction` (host memory, rows x cols float32) holds the visible share, in [0, 1], NaN at
+ * nodata: HorizonCaster(...).sun_disc(Sun(azimuth, elevation), radius, columns) bit for bit.
+ * Nothing is allocated; the queue is finished by each strip's read. */
 oclshade_status oclshade_sun_disc(oclshade *lib, cl_command_queue queue, const oclshade_sun_disc_params *params,
                                   float *fraction);
 

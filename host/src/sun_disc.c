@@ -3,18 +3,18 @@
 #include "internal.h"
 
 #include <math.h>
-#include <stdlib.h>
 #include <string.h>
 
 #define SUN_RADIUS 0.2666       /* disc.py SUN_RADIUS */
 #define DEFAULT_COLUMNS 16      /* disc.py DEFAULT_COLUMNS */
+#define MAX_COLUMNS 1024        /* disc.py check_disc */
 #define STRIP_MARGIN 1e-3       /* caster.py STRIP_MARGIN: degrees either side of a strip's chord */
 #define DEG (3.14159265358979323846 / 180.0)
 
 oclshade_status oclshade_sun_disc_strips(double azimuth, double elevation, double radius, int columns,
                                          double *azimuths, double *half_chords, double (*bounds)[2])
 {
-    if (!(isfinite(radius) && radius > 0.0 && radius <= 5.0) || columns < 1 || columns > 1024 ||
+    if (!(isfinite(radius) && radius > 0.0 && radius <= 5.0) || columns < 1 || columns > MAX_COLUMNS ||
         !isfinite(azimuth) || !(fabs(elevation) < 90.0 - radius))
         return OCLSHADE_INVALID_ARGUMENT;
     const double width = 2.0 * radius / columns, across = cos(elevation * DEG);
@@ -40,89 +40,82 @@ void oclshade_sun_disc_params_init(oclshade_sun_disc_params *p)
     p->dx = p->dy = 1.0;
 }
 
+typedef struct sun_disc_job {
+    double radius;
+    int columns;
+    double azimuths[MAX_COLUMNS], half_chords[MAX_COLUMNS], bounds[MAX_COLUMNS][2];
+    oclshade_horizon_params h;   /* strip 0's clamped horizon call; the others change the azimuth and bounds */
+} sun_disc_job;
+
+static oclshade_status sun_disc_job_for(oclshade *lib, const oclshade_sun_disc_params *p, sun_disc_job *j)
+{
+    if (p == NULL) return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "params must point to oclshade_sun_disc_params, got NULL");
+    j->radius = p->radius == 0.0 ? SUN_RADIUS : p->radius;
+    j->columns = p->columns == 0 ? DEFAULT_COLUMNS : p->columns;
+    if (!(isfinite(j->radius) && j->radius > 0.0 && j->radius <= 5.0))
+        return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "radius (the sun disc's angular radius) must be in (0, 5] "
+                         "degrees (0: %g), got %g", SUN_RADIUS, p->radius);
+    if (j->columns < 1 || j->columns > MAX_COLUMNS)
+        return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "columns (strips across the sun's disc) must be in "
+                         "1..%d (0: %d), got %d", MAX_COLUMNS, DEFAULT_COLUMNS, p->columns);
+    if (!isfinite(p->azimuth))
+        return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "azimuth must be finite degrees, got %g", p->azimuth);
+    if (!(fabs(p->elevation) < 90.0 - j->radius))
+        return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "elevation must leave the whole disc between the nadir "
+                         "and the zenith (|elevation| < %g degrees), got %g", 90.0 - j->radius, p->elevation);
+    oclshade_sun_disc_strips(p->azimuth, p->elevation, j->radius, j->columns, j->azimuths, j->half_chords, j->bounds);
+    oclshade_horizon_params *h = &j->h;
+    oclshade_horizon_params_init(h);
+    h->heights = p->heights;
+    h->rows = p->rows; h->cols = p->cols; h->dx = p->dx; h->dy = p->dy;
+    h->pyramid = p->pyramid; h->offsets = p->offsets;
+    h->curvature = p->curvature; h->max_distance = p->max_distance;
+    h->angle = p->angle;
+    h->scratch = p->scratch;
+    h->clamped = 1;
+    h->azimuth = j->azimuths[0];
+    h->clamp_bounds[0] = j->bounds[0][0];
+    h->clamp_bounds[1] = j->bounds[0][1];
+    return OCLSHADE_OK;
+}
+
+oclshade_status oclshade_sun_disc_scratch_size(oclshade *lib, const oclshade_sun_disc_params *p, size_t *bytes)
+{
+    sun_disc_job j;             /* (32 KiB on the stack: the strips' tables) */
+    oclshade_status st = ocls_enter(lib);
+    if (st == OCLSHADE_OK) st = sun_disc_job_for(lib, p, &j);
+    return st == OCLSHADE_OK ? oclshade_horizon_scratch_size(lib, &j.h, bytes) : st;
+}
+
 oclshade_status oclshade_sun_disc(oclshade *lib, cl_command_queue queue, const oclshade_sun_disc_params *p,
                                   float *fraction)
 {
+    sun_disc_job j;
     oclshade_status st = ocls_enter(lib);
-    if (st != OCLSHADE_OK) return st;
-    if (p == NULL || fraction == NULL)
-        return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "params and fraction must not be NULL");
-    if ((st = ocls_check_size(lib, "rows", p->rows, "cols", p->cols)) != OCLSHADE_OK) return st;
-    const double radius = p->radius == 0.0 ? SUN_RADIUS : p->radius;
-    const int columns = p->columns == 0 ? DEFAULT_COLUMNS : p->columns;
-    if (!(isfinite(radius) && radius > 0.0 && radius <= 5.0))
-        return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "radius (the sun disc's angular radius) must be in (0, 5] "
-                         "degrees (0: %g), got %g", SUN_RADIUS, p->radius);
-    if (columns < 1 || columns > 1024)
-        return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "columns (strips across the sun's disc) must be in "
-                         "1..1024 (0: %d), got %d", DEFAULT_COLUMNS, p->columns);
-    if (!isfinite(p->azimuth))
-        return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "azimuth must be finite degrees, got %g", p->azimuth);
-    if (!(fabs(p->elevation) < 90.0 - radius))
-        return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "elevation must leave the whole disc between the nadir "
-                         "and the zenith (|elevation| < %g degrees), got %g", 90.0 - radius, p->elevation);
-    const size_t n = (size_t)p->rows * (size_t)p->cols;
-    double *strips = (double *)malloc(sizeof *strips * 4 * (size_t)columns);
-    double *seen = (double *)malloc(sizeof *seen * n);
-    float *angles = (float *)malloc(sizeof *angles * n);
-    cl_mem angle = NULL, scratch = NULL;
-    cl_int err = CL_SUCCESS;
-    if (strips == NULL || seen == NULL || angles == NULL) {
-        st = ocls_fail(lib, OCLSHADE_OUT_OF_MEMORY, 0, "no host memory for a %dx%d map's soft shadows", p->cols, p->rows);
-        goto done;
-    }
-    double *azimuths = strips, *half_chords = strips + columns, (*bounds)[2] = (double (*)[2])(strips + 2 * columns);
-    oclshade_sun_disc_strips(p->azimuth, p->elevation, radius, columns, azimuths, half_chords, bounds);
-    angle = clCreateBuffer(lib->context, CL_MEM_READ_WRITE, 4 * n, NULL, &err);
-    if (err != CL_SUCCESS) {
-        st = ocls_fail_cl(lib, err, "clCreateBuffer (the strips' horizon angles)");
-        goto done;
-    }
-    oclshade_horizon_params h;
-    oclshade_horizon_params_init(&h);
-    h.heights = p->heights;
-    h.rows = p->rows; h.cols = p->cols; h.dx = p->dx; h.dy = p->dy;
-    h.pyramid = p->pyramid; h.offsets = p->offsets;
-    h.curvature = p->curvature; h.max_distance = p->max_distance;
-    h.angle = oclshade_field_of(angle);
-    h.clamped = 1;
-    h.azimuth = azimuths[0];
-    h.clamp_bounds[0] = bounds[0][0];
-    h.clamp_bounds[1] = bounds[0][1];
-    size_t bytes = 0;
-    if ((st = oclshade_horizon_scratch_size(lib, &h, &bytes)) != OCLSHADE_OK) goto done;
-    if (bytes > 0) {
-        scratch = clCreateBuffer(lib->context, CL_MEM_READ_WRITE, bytes, NULL, &err);
-        if (err != CL_SUCCESS) {
-            st = ocls_fail_cl(lib, err, "clCreateBuffer (the horizon pass's scratch)");
-            goto done;
-        }
-        h.scratch = scratch;
-    }
+    if (st != OCLSHADE_OK || (st = sun_disc_job_for(lib, p, &j)) != OCLSHADE_OK) return st;
+    if (fraction == NULL || p->work == NULL)
+        return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "fraction and work must point to rows x cols floats and "
+                         "doubles of host memory, got %s", fraction == NULL ? "fraction NULL" : "work NULL");
+    const size_t n = (size_t)p->rows * (size_t)p->cols, row = 4 * (size_t)p->cols;
+    const size_t origin[3] = {p->angle.offset, 0, 0}, region[3] = {row, (size_t)p->rows, 1};
+    const size_t pitch = p->angle.row_pitch ? p->angle.row_pitch : row;
     double whole = 0.0;
-    for (int k = 0; k < columns; ++k) {
-        h.azimuth = azimuths[k];
-        h.clamp_bounds[0] = bounds[k][0];
-        h.clamp_bounds[1] = bounds[k][1];
-        if ((st = oclshade_enqueue_horizon(lib, queue, &h, 0, NULL, NULL)) != OCLSHADE_OK) goto done;
-        if ((err = clEnqueueReadBuffer(queue, angle, CL_TRUE, 0, 4 * n, angles, 0, NULL, NULL)) != CL_SUCCESS) {
-            st = ocls_fail_cl(lib, err, "clEnqueueReadBuffer (a strip's horizon angles)");
-            goto done;
-        }
-        const double c = half_chords[k], top = p->elevation + c;
+    for (int k = 0; k < j.columns; ++k) {
+        j.h.azimuth = j.azimuths[k];
+        j.h.clamp_bounds[0] = j.bounds[k][0];
+        j.h.clamp_bounds[1] = j.bounds[k][1];
+        if ((st = oclshade_enqueue_horizon(lib, queue, &j.h, 0, NULL, NULL)) != OCLSHADE_OK) return st;
+        const cl_int err = clEnqueueReadBufferRect(queue, p->angle.buffer, CL_TRUE, origin, (const size_t[3]){0, 0, 0},
+                                                   region, pitch, 0, row, 0, fraction, 0, NULL, NULL);
+        if (err != CL_SUCCESS) return ocls_fail_cl(lib, err, "clEnqueueReadBufferRect (a strip's horizon angles)");
+        const double c = j.half_chords[k], top = p->elevation + c;
         for (size_t i = 0; i < n; ++i) {     /* disc.py visible_fraction: clip(e + c - h, 0, 2c), summed */
-            double v = top - (double)angles[i];
+            double v = top - (double)fraction[i];
             if (!isnan(v)) v = v < 0.0 ? 0.0 : (v > 2.0 * c ? 2.0 * c : v);
-            seen[i] = k == 0 ? v : seen[i] + v;
+            p->work[i] = k == 0 ? v : p->work[i] + v;
         }
         whole += 2.0 * c;
     }
-    for (size_t i = 0; i < n; ++i) fraction[i] = (float)(seen[i] / whole);
-done:
-    if (scratch != NULL) clReleaseMemObject(scratch);
-    if (angle != NULL) clReleaseMemObject(angle);
-    free(angles);
-    free(seen);
-    free(strips);
-    return st;
+    for (size_t i = 0; i < n; ++i) fraction[i] = (float)(p->work[i] / whole);
+    return OCLSHADE_OK;
 }

@@ -719,9 +719,25 @@ int main(int argc, char **argv)
         oclshade_sun_disc_params_init(&dp);
         dp.heights = fh; dp.rows = rows; dp.cols = cols; dp.pyramid = pyr; dp.offsets = offs;
         dp.azimuth = 135.0; dp.elevation = 20.0;
+        dp.angle = oclshade_field_of(angles);
         float *fraction = (float *)calloc((size_t)n, sizeof *fraction);
+        double *work = (double *)calloc((size_t)n, sizeof *work);
+        size_t disc_bytes = 0;
+        st = oclshade_sun_disc_scratch_size(lib, &dp, &disc_bytes);
+        expect_status(lib, st, OCLSHADE_OK, "", "sun_disc: the scratch size");
+        cl_mem disc_scratch = disc_bytes ? buffer(ctx, disc_bytes) : NULL;
+        dp.scratch = disc_scratch;
+        st = oclshade_sun_disc(lib, queue, &dp, fraction);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "fraction and work must point to rows x cols floats and "
+                      "doubles of host memory, got work NULL", "sun_disc: no work");
+        dp.work = work;
         st = oclshade_sun_disc(lib, queue, &dp, fraction);
         expect_status(lib, st, OCLSHADE_OK, "", "sun_disc: a valid call");
+        dp.angle = oclshade_field_of(sums2);
+        dp.angle.offset = 4;
+        st = oclshade_sun_disc(lib, queue, &dp, fraction);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "angle must hold at least", "sun_disc: angle too small");
+        dp.angle = oclshade_field_of(angles);
         dp.radius = 6.0;
         st = oclshade_sun_disc(lib, queue, &dp, fraction);
         expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "radius (the sun disc's angular radius) must be in (0, 5] "
@@ -736,8 +752,12 @@ int main(int argc, char **argv)
                       "the zenith (|elevation| < 89.7334 degrees), got 89.9", "sun_disc: the disc past the zenith");
         dp.elevation = 20.0;
         st = oclshade_sun_disc(lib, queue, &dp, NULL);
-        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "params and fraction must not be NULL", "sun_disc: no output");
-        free(fraction);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "got fraction NULL", "sun_disc: no output");
+        st = oclshade_sun_disc(lib, queue, NULL, fraction);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "params must point to oclshade_sun_disc_params, got NULL",
+                      "sun_disc: no params");
+        if (disc_scratch) clReleaseMemObject(disc_scratch);
+        free(fraction); free(work);
         st = oclshade_enqueue_zero(lib, queue, sums, 0, 0, NULL, NULL);
         expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "bytes must be >= 1", "zero: 0 bytes");
         st = oclshade_enqueue_zero(lib, queue, sums2, 8 * n, 0, NULL, NULL);

@@ -47,8 +47,9 @@
  *       give the same bits; over the whole map, that all N azimuths in one call (n_azimuths)
  *       give the same bands and sums at batch 1, 8 and 64, and into a pitched field.
  *   sun_disc OUTDIR HEIGHTS.f64 ROWS COLS DX DY AZ EL RADIUS COLUMNS CURVATURE MAX_DISTANCE
- *       soft shadows (oclshade_sun_disc) into fraction.f32; checks itself that the strips summed
- *       here from oclshade_sun_disc_strips and clamped oclshade_enqueue_horizon calls agree.
+ *       soft shadows (oclshade_sun_disc) into fraction.f32; checks itself that a pitched angle
+ *       field gives the same bits, and so do the strips summed here from oclshade_sun_disc_strips
+ *       and clamped oclshade_enqueue_horizon calls.
  *   sunshine OUTDIR HEIGHTS.f64 ROWS COLS DX DY N AZ,EL,SECONDS...
  *       sunshine sums over the (daylight) suns: N 0 by each sun's exact mask (shadow pass),
  *       also with pitched heights (pitched_*); N > 0 by the horizons of N grid azimuths;
@@ -836,9 +837,31 @@ static void run_sun_disc(int argc, char **argv)
     p.pyramid = m.pyramid; p.offsets = m.offsets;
     p.azimuth = atof(argv[5]); p.elevation = atof(argv[6]); p.radius = atof(argv[7]); p.columns = atoi(argv[8]);
     p.curvature = atof(argv[9]); p.max_distance = atof(argv[10]);
+    cl_mem d_strip = buffer(4 * m.n, NULL);
+    p.angle = oclshade_field_of(d_strip);
+    p.work = (double *)xmalloc(sizeof(double) * m.n);
+    size_t disc_bytes = 0;
+    CHECK(oclshade_sun_disc_scratch_size(lib, &p, &disc_bytes));
+    p.scratch = scratch_of(disc_bytes);
     float *fraction = (float *)xmalloc(4 * m.n);
     CHECK(oclshade_sun_disc(lib, queue, &p, fraction));
     write_file("fraction.f32", fraction, 4 * m.n);
+    {   /* through a pitched angle field at an offset: the same bits */
+        const size_t row = 4 * (size_t)m.cols;
+        float *zeros = (float *)xmalloc(4 * m.n), *again = (float *)xmalloc(4 * m.n);
+        memset(zeros, 0, 4 * m.n);
+        p.angle = pitched_copy(zeros, m.rows, row, 256, row + 68);
+        cl_mem packed_scratch = p.scratch;
+        CHECK(oclshade_sun_disc_scratch_size(lib, &p, &disc_bytes));   /* (room for a packed copy) */
+        p.scratch = scratch_of(disc_bytes);
+        CHECK(oclshade_sun_disc(lib, queue, &p, again));
+        if (p.scratch) release(p.scratch);
+        p.scratch = packed_scratch;
+        if (memcmp(again, fraction, 4 * m.n) != 0) fail("sun_disc: a pitched angle field differs");
+        free(read_pitched(&p.angle, m.rows, row));     /* (checks the gaps kept their bytes) */
+        release(p.angle.buffer);
+        free(zeros); free(again);
+    }
     /* the same from the parts: the strips, each one's clamped angles, the sum */
     const int columns = p.columns ? p.columns : 16;
     double *az = (double *)xmalloc(sizeof(double) * (size_t)columns), *c = (double *)xmalloc(sizeof(double) * (size_t)columns);
@@ -874,8 +897,9 @@ static void run_sun_disc(int argc, char **argv)
         const float f = (float)(seen[i] / whole);
         if (memcmp(&f, &fraction[i], 4) != 0) fail("sun_disc: the parts' sum differs from oclshade_sun_disc");
     }
-    free(seen); free(az); free(c); free(bounds); free(fraction);
-    release(d_angle);
+    free(seen); free(az); free(c); free(bounds); free(fraction); free(p.work);
+    release(d_angle); release(d_strip);
+    if (p.scratch) release(p.scratch);
     free_map(&m);
 }
 

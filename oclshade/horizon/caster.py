@@ -404,7 +404,8 @@ class HorizonCaster:
             for scales, band_grid, rows_of in self._band_launches(w["grid"], band, azimuth is not None):
                 scaled = ray if azimuth is None else self._ray(azimuth, scales)
                 w["kernel"].set_args(*w["fixed"], scaled, angle, svf, w["seeds"] if seeded else self._dummy,
-                                     self._cell(scales).astype(np.float32), *([np.array(bounds, np.float32)] if bounds else []),
+                                     self._cell(scales).astype(np.float32),
+                                     *([np.array(bounds, np.float32)] if bounds else []),
                                      *table)
                 launch(w["kernel"], band_grid, rows_of)
 
@@ -539,14 +540,15 @@ class HorizonCaster:
 
         def launch(azimuths: np.ndarray, angle: cl.Buffer, stride: int, svf: cl.Buffer) -> None:
             n = azimuths.size
-            rays = rt.to_device(self._rays(azimuths, self._seed_scales), "horizon rays")   # the seeds', the cells' unbanded
+            # the seeds' rays (and the cells' where the map is not banded)
+            rays = rt.to_device(self._rays(azimuths, self._seed_scales), "horizon rays")
             seeder.set_args(*fixed, rays, seeds, np.int32(0))
             cl.enqueue_nd_range_kernel(rt.queue, seeder, (sgx, sgy, n), (slx, sly, 1))
             for scales, (_, (_, band_ly)), rows_of in self._band_launches(((gx, gy), (lx, ly)), None):
                 first, count = (0, gy) if rows_of is None else rows_of
                 band_rays = rays if rows_of is None else rt.to_device(self._rays(azimuths, scales), "horizon rays")
-                walker.set_args(*fixed, band_rays, angle, svf, seeds, self._cell(scales).astype(np.float32), np.int32(stride),
-                                np.int32(0), np.int32(n))
+                walker.set_args(*fixed, band_rays, angle, svf, seeds, self._cell(scales).astype(np.float32),
+                                np.int32(stride), np.int32(0), np.int32(n))
                 cl.enqueue_nd_range_kernel(rt.queue, walker, (gx, count, 1 if sums else n), (lx, band_ly, 1),
                                            global_work_offset=(0, first, 0))
 

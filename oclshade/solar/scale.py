@@ -42,7 +42,7 @@ def direction_factor(scales: np.ndarray, azimuth: np.ndarray) -> np.ndarray:
     scales = np.asarray(scales, np.float64)
     if scales.shape[-1] == 2:
         return np.ones(np.broadcast_shapes(scales.shape[:-1], np.shape(azimuth)))
-    sin, cos = sincos_degrees(2.0 * np.asarray(azimuth, np.float64))     # the C library's (host/src/horizon.c)
+    sin, cos = sincos_degrees(2.0 * np.asarray(azimuth, np.float64))     # the C library's (host/src/shadows.c, ocls_direction_factor)
     return np.sqrt(1.0 + scales[..., 2] * cos + scales[..., 3] * sin)
 
 
@@ -55,9 +55,9 @@ def scale_bands(rows: int, row_scales: np.ndarray | None, tolerance: float = SCA
     most sqrt(2) tolerance (radians): a direction then turns by at most d / 2 (sin a cos a d)
     and an elevation angle moves by at most d / 2 (sin e cos e d), together at most the
     tolerance.  (With p, q: d is at most the east and north scales' share plus half of
-    |(dp, dq)|, each the half of its range in the band.)  Bands are the most rows that hold it, in multiples of :data:`SCALE_ALIGN` where
-    that many do (a fine grid), any number where not (coarse cells near the poles: down to one
-    row).  (Rows near enough to 1 to be traced as they are come as 1:
+    |(dp, dq)|, each the half of its range in the band.)  Bands are the most rows that hold it,
+    in multiples of :data:`SCALE_ALIGN` where that many do (a fine grid), any number where not
+    (coarse cells near the poles: down to one row).  (Rows near enough to 1 to be traced as they are come as 1:
     :meth:`oclshade.solar.MapPlaces.row_scales`.)"""
     if row_scales is None:
         return np.array([0, rows]), np.ones((1, 2))
