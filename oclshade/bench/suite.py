@@ -29,6 +29,9 @@ Cases (``family/variant``) and what one timed run is:
   horizon band costs tens of masks);
 * ``horizons/radius``: the same within a search radius of :data:`HORIZON_RADIUS_CELLS`
   cells, on the masks' map (the sweep: kernels/horizon.cl, "The sweep");
+* ``horizons/sun_disc``: ``HorizonCaster(...).sun_disc`` of :data:`LOW_SUN` in
+  :data:`SUN_DISC_COLUMNS` strips (soft shadows: each strip's horizons clamped to its
+  chord, -D OCLS_CLAMP, summed on the host) on the ``horizons`` case's canyon;
 * ``sunshine/masks``: ``SunshineCaster(..., analyse=False).accumulate`` of the
   :data:`SUNSHINE_SUNS` (a day's path, 600 s each) over the masks' map, hours and
   cast fraction: a mask per sun traced and summed on the device, the sums copied
@@ -75,6 +78,8 @@ horizons                  4 N heights + 4 N angles +       30 N (the start patch
                           8 N copy (N: cells of its map)
 horizons/radius           4 N heights + 4 N angles +       60 K N (K patches a ray crosses within
                           8 N copy                         the radius, 60 flops each)
+horizons/sun_disc         k (4 N heights + 4 N angles +    30 k N (each strip's start patch; k: the
+                          8 N copy)                        strips)
 sunshine/masks            S (4 N heights + 2 N mask        S (20 N + 12 N) (each mask's start patch
                           written and read + 16 N sums     test; gradient, facing test and sums;
                           read and written) + 16 N copy    S: the number of suns)
@@ -91,7 +96,7 @@ meshes/shadow_volumes     20 P (position, depth) + P mask  30 P (the view segmen
 
 ``exact`` cases must give the same bits on every device (their results equal
 the float64 reference by construction): the pyramid (min / max only) and the
-``exact`` masks, the horizons (both cases), the sunshine sums of exact masks (integer seconds).  The other cases are compared too, for information.
+``exact`` masks, the horizons (all three cases), the sunshine sums of exact masks (integer seconds).  The other cases are compared too, for information.
 """
 from __future__ import annotations
 
@@ -128,6 +133,7 @@ FIELD_BLOCK = 16          # cells per side of the sun field case's blocks (sun_f
 #: the horizons/radius case's search radius in cells (RVT's default)
 HORIZON_RADIUS_CELLS = 10
 LOW_SUN = Sun(37.0, 10.0)
+SUN_DISC_COLUMNS = 16      # the soft shadows' strips (oclshade.horizon.DEFAULT_COLUMNS)
 VIEW = (200.0, 35.0)      # frame_heightmap azimuth, elevation
 AO_RADIUS_CELLS = 4.0
 #: the sunshine case's suns: a day's path, east to west
@@ -511,6 +517,21 @@ def _horizons_radius(w: Workload) -> Case:
                 run, lambda: [state["angles"]])
 
 
+def _sun_disc(w: Workload) -> Case:
+    side = max(w.sizes.map_side // 4, 8)
+    caster = HorizonCaster(terrain(side), w.rt, cache=False)
+    caster.pyramid
+    state: dict = {}
+
+    def run() -> None:
+        state["share"] = caster.sun_disc(LOW_SUN, columns=SUN_DISC_COLUMNS)
+
+    n, k = side * side, SUN_DISC_COLUMNS
+    return Case(f"soft shadows (the sun's disc in {k} clamped horizon strips), {_map_label(side)}, sun "
+                f"{LOW_SUN.azimuth:g}/{LOW_SUN.elevation:g}", "cells", n, k * 16.0 * n, k * 30.0 * n,
+                terrain_digest(side), run, lambda: [state["share"]])
+
+
 def _sunshine(w: Workload) -> Case:
     caster = SunshineCaster(w.heightmap, w.rt, analyse=False)
     caster.shadows.pyramid
@@ -584,6 +605,7 @@ SPECS: tuple[CaseSpec, ...] = (
     CaseSpec("compose", "compose", False, _compose),
     CaseSpec("horizons", "horizons", True, _horizons),
     CaseSpec("horizons/radius", "horizons", True, _horizons_radius),
+    CaseSpec("horizons/sun_disc", "horizons", True, _sun_disc),
     CaseSpec("sunshine/masks", "sunshine", True, _sunshine),
     CaseSpec("meshes/cast", "meshes", False, _mesh_cast),
     CaseSpec("meshes/shadow_rays", "meshes", False, _mesh_shadow_rays),
