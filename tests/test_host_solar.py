@@ -178,9 +178,9 @@ def test_c_horizons_of_a_geographic_grid_equal_python(host: dict, tmp_path: Path
 
 @pytest.mark.parametrize("radius_cells", [0, 120.0])
 def test_c_horizons_of_an_equal_area_grid_equal_python(host: dict, tmp_path: Path, radius_cells: float) -> None:
-    """row_scale_columns 4: a projected grid's stretch by direction (LAEA Europe's rows at 25 E,
-    60 N, oclshade.solar.MapPlaces.row_scales: east = north = s, and p, q), each band's rays
-    stretched per azimuth, the Python host's HorizonCaster bit for bit (walked, swept, and all
+    """row_scale_columns 4: a projected grid's stretch by direction (rows made like
+    oclshade.solar.MapPlaces.row_scales of an equal-area map: east = north = s, and p, q of a
+    0.2-0.6 % stretch, all changing down the rows), each band's rays stretched per azimuth, the Python host's HorizonCaster bit for bit (walked, swept, and all
     azimuths in one call at batch 1, 8 and 64: host_passes checks those itself)."""
     hm = varied_map()
     rows, cols = hm.shape
