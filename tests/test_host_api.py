@@ -214,16 +214,20 @@ def test_c_host_matches_python_host(host: dict, tmp_path: Path, case: str) -> No
         assert (local != caster.cast(FLIP_SUN).mask).sum() == 1
 
 
-def test_c_host_traces_a_sun_field_block_by_block(host: dict, tmp_path: Path) -> None:
+@pytest.mark.parametrize("cuts_c", [[0, 13, 32, 53], [0, 16, 32, 53]])
+def test_c_host_traces_a_sun_field_block_by_block(host: dict, tmp_path: Path, cuts_c: list[int]) -> None:
     """oclshade_shadow_params' block window, one enqueue per block with its sun: the Python host's
     ShadowCaster.cast_many([SunField]) bit for bit (every output), under every alternative tuning
-    too (packet runs cut to the blocks), and a block outside the map refused."""
+    too (packet runs cut to the blocks), and a block outside the map refused; and the same field
+    in one launch of the sun-table kernels (field_row_blocks ...): the same bits (host_shadows
+    compares them).  Blocks at columns 13 and 32 leave no packets; at 16 and 32, runs of 16."""
     from oclshade.sun import SunBlock, SunField
 
     hm = random_map()
     rows, cols = hm.shape
+    assert cols == cuts_c[-1]
     suns = [(300.0, 12.0), (45.0, 45.0), (181.0, 3.0), (90.0, -3.0), (10.0, 90.0), (250.0, 30.0)]
-    cuts_r, cuts_c = [0, 9, rows], [0, 13, 32, cols]
+    cuts_r = [0, 9, rows]
     blocks = [SunBlock(cuts_r[a], cuts_r[a + 1], cuts_c[b], cuts_c[b + 1], Sun(*suns[a * 3 + b]))
               for a in range(2) for b in range(3)]
     field = SunField(hm.shape, tuple(blocks), blocks[0].sun)
@@ -240,6 +244,7 @@ def test_c_host_traces_a_sun_field_block_by_block(host: dict, tmp_path: Path) ->
     stdout = run_program(host, "host_shadows", str(_kernel_root()), src, rows, cols, repr(hm.dx), repr(hm.dy), out,
                          f"--field={path}", "315.0,20.0")
     assert "field of 6 blocks traced" in stdout and stdout.strip().endswith("ok")
+    assert "field in one launch (sun table): the same outputs" in stdout
     py = ShadowCaster(hm, cache=False).cast_many([field], "exact", "all", K_DARK, K_BRIGHT)[0]
     for ext, arr in (("mask", py.mask), ("self", py.self_shadow), ("coef", py.coefficient)):
         assert np.fromfile(out / f"field.{ext}", arr.dtype).tobytes() == arr.tobytes(), ext

@@ -409,6 +409,18 @@ typedef struct oclshade_shadow_params {
                                    the scratch, for this sun).  With ray packets the run knob is cut to
                                    divide block_col0 and, unless the block ends at the last column,
                                    block_cols; below the lanes knob one ray per work-item runs */
+    int field_row_blocks;       /* A sun field in one launch (-D OCLS_SUN_TABLE, kernels/shadow.cl "sun */
+    int field_col_blocks;       /* tables"; Python: ShadowCaster.cast_many([SunField]) of a BlockGrid):
+                                   0 x 0 (default): the one sun.  Else block (a, b) holds rows
+                                   field_row_edges[a] .. field_row_edges[a + 1] - 1 and columns
+                                   field_col_edges[b] .. field_col_edges[b + 1] - 1 (edges increasing
+                                   from 0 to rows and cols) and is traced with the sun
+                                   field_suns[2 k], field_suns[2 k + 1] (azimuth, elevation in degrees;
+                                   k = a field_col_blocks + b); azimuth and elevation above are
+                                   unread.  The tables go to the scratch; the packet run is cut to
+                                   divide every block's first column.  Not with a block window. */
+    const int *field_row_edges, *field_col_edges;
+    const double *field_suns;
 } oclshade_shadow_params;
 
 /* Defaults: no buffers, 0 x 0, origin (0, 0), dx = dy = 1, sun (315, 45) as gdaldem,
@@ -417,7 +429,8 @@ void oclshade_shadow_params_init(oclshade_shadow_params *params);
 
 /* Scratch bytes oclshade_enqueue_shadows needs for these parameters: the far-field tile
  * certificates of EXACT and MAXMIP (ceil(rows / t) * ceil(cols / t) * 6 floats, t the
- * shadow cert_tile knob) and packed copies of fields that are not packed at offset 0. */
+ * shadow cert_tile knob), packed copies of fields that are not packed at offset 0, and a sun
+ * field's tables ((rows + cols) ints, 2 float4 and an int per block). */
 oclshade_status oclshade_shadows_scratch_size(oclshade *lib, const oclshade_shadow_params *params,
                                               size_t *bytes);
 
@@ -427,7 +440,10 @@ oclshade_status oclshade_shadows_scratch_size(oclshade *lib, const oclshade_shad
  * lanes knob > 0, EXACT and MAXMIP) of shadow_cells_packet, global size (ceil(cols / run),
  * rows) rounded up.  At least one output buffer must be non-NULL; the program variant
  * compiled is the one for that output set (an output not asked for is not in the
- * program).  Knobs: shadow lanes, run, group, cert_tile, own_builtins, gather. */
+ * program).  With a sun field (field_row_blocks > 0) the same two launches with -D
+ * OCLS_SUN_TABLE, shadow_certify always, the band, table and mode arrays (kernels/shadow.cl,
+ * "sun tables") uploaded to the scratch first.  Knobs: shadow lanes, run, group, cert_tile,
+ * own_builtins, gather. */
 oclshade_status oclshade_enqueue_shadows(oclshade *lib, cl_command_queue queue,
                                          const oclshade_shadow_params *params,
                                          cl_uint num_events_in_wait_list,
@@ -921,7 +937,7 @@ oclshade_status oclshade_sun_disc_strips(double azimuth, double elevation, doubl
                                          double *azimuths, double *half_chords, double (*bounds)[2]);
 
 /* The soft shadows of one sun on a grid as drawn (no row scales: a scaled grid's disc is its
- * blocks', which need the sun-table kernels this host does not build yet). */
+ * blocks', which need horizon.cl's sun tables, which this host does not build yet). */
 typedef struct oclshade_sun_disc_params {
     oclshade_field heights;     /* rows x cols float32 relative heights (the pyramid's), NaN = nodata */
     int rows, cols;

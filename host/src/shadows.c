@@ -103,7 +103,7 @@ oclshade_status oclshade_sun_for(double azimuth, double elevation, double dx, do
 /* oclshade/shadows.py ShadowFeatures.defines for (method, outputs) with these knobs
  * (lanes 0: shadow_cells; packets only for EXACT and MAXMIP). */
 static void shadow_defines(oclshade_method method, unsigned outputs, int lanes, int run, int cert_tile, int own,
-                           int gather, ocls_defines *d)
+                           int gather, int sun_table, ocls_defines *d)
 {
     const int packets = lanes > 0 && CERTIFIED(method);
     memset(d, 0, sizeof *d);
@@ -121,6 +121,7 @@ static void shadow_defines(oclshade_method method, unsigned outputs, int lanes, 
     ocls_def_flag(d, "OCLS_OUT_COEF", (outputs & OCLSHADE_OUT_COEFFICIENT) != 0);
     ocls_def_flag(d, "OCLS_OWN_BUILTINS", own);
     ocls_def_flag(d, "OCLS_HW_GATHER", gather && packets);
+    ocls_def_flag(d, "OCLS_SUN_TABLE", sun_table);
 }
 
 static int gcd_int(int a, int b)
@@ -139,7 +140,7 @@ size_t oclshade_shadow_build_options(oclshade_method method, unsigned outputs, c
 {
     if (!method_ok(method) || outputs == 0 || outputs > 7u) return 0;
     ocls_defines d;
-    shadow_defines(method, outputs, 0, 1024, 16, 0, 0, &d);
+    shadow_defines(method, outputs, 0, 1024, 16, 0, 0, 0, &d);
     return ocls_options(&d, buf, size);
 }
 
@@ -148,7 +149,7 @@ static void handle_defines(oclshade *lib, oclshade_method method, unsigned outpu
 {
     shadow_defines(method, outputs, ocls_knob(lib, K_SHADOW_LANES), ocls_knob(lib, K_SHADOW_RUN),
                    ocls_knob(lib, K_SHADOW_CERT_TILE), ocls_knob(lib, K_SHADOW_OWN_BUILTINS),
-                   ocls_knob(lib, K_SHADOW_GATHER), d);
+                   ocls_knob(lib, K_SHADOW_GATHER), 0, d);
 }
 
 size_t oclshade_shadow_build_options_for(const oclshade *clib, oclshade_method method, unsigned outputs, char *buf,
@@ -182,7 +183,78 @@ typedef struct shadow_job {
     unsigned outputs;
     oclshade_pyramid_layout lay;
     oclshade_sun sun;
+    /* a sun field (field_row_blocks > 0): kernels/shadow.cl's sun table, malloc'd (shadow_job_free) */
+    cl_int *band;              /* rows + cols: a row's band times the column bands, a column's band */
+    cl_float4 *table;          /* 2 per block: its ray and sun vector (oclshade_sun_for) */
+    cl_int *modes;             /* 1 per block */
+    int blocks, column_step;   /* the blocks; the gcd of their first columns (0: all at column 0) */
 } shadow_job;
+
+static void shadow_job_free(shadow_job *j)
+{
+    free(j->band);
+    free(j->table);
+    free(j->modes);
+    j->band = j->modes = NULL;
+    j->table = NULL;
+}
+
+/* The field's edges checked (increasing from 0 to n), named by `what`. */
+static oclshade_status check_edges(oclshade *lib, const char *what, const int *edges, int count, int n)
+{
+    if (edges == NULL)
+        return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "%s must point to %d + 1 edges, got NULL", what, count);
+    if (edges[0] != 0 || edges[count] != n)
+        return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "%s must run from 0 to %d, got %d .. %d", what, n, edges[0],
+                         edges[count]);
+    for (int k = 0; k < count; ++k)
+        if (edges[k + 1] <= edges[k])
+            return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "%s must increase, got [%d] = %d, [%d] = %d", what, k,
+                             edges[k], k + 1, edges[k + 1]);
+    return OCLSHADE_OK;
+}
+
+/* ShadowCaster._table_buffers (oclshade/shadows.py _sun_table) of the checked field. */
+static oclshade_status field_table(oclshade *lib, const oclshade_shadow_params *p, shadow_job *j)
+{
+    const int nrb = p->field_row_blocks, ncb = p->field_col_blocks;
+    oclshade_status st;
+    if (p->block_rows != 0)
+        return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "a sun field (field_row_blocks %d) is the whole map's: "
+                         "block_rows and block_cols must be 0", nrb);
+    if ((st = check_edges(lib, "field_row_edges", p->field_row_edges, nrb, p->rows)) != OCLSHADE_OK ||
+        (st = check_edges(lib, "field_col_edges", p->field_col_edges, ncb, p->cols)) != OCLSHADE_OK)
+        return st;
+    if (p->field_suns == NULL)
+        return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "field_suns must point to %d x 2 degrees, got NULL",
+                         nrb * ncb);
+    j->blocks = nrb * ncb;
+    j->band = (cl_int *)malloc(sizeof *j->band * ((size_t)p->rows + (size_t)p->cols));
+    j->table = (cl_float4 *)malloc(sizeof *j->table * 2 * (size_t)j->blocks);
+    j->modes = (cl_int *)malloc(sizeof *j->modes * (size_t)j->blocks);
+    if (j->band == NULL || j->table == NULL || j->modes == NULL)
+        return ocls_fail(lib, OCLSHADE_OUT_OF_MEMORY, 0, "no host memory for a sun table of %d blocks", j->blocks);
+    for (int k = 0; k < j->blocks; ++k) {
+        const double az = p->field_suns[2 * k], el = p->field_suns[2 * k + 1];
+        oclshade_sun sun;
+        if (!isfinite(az) || !(isfinite(el) && el >= -90.0 && el <= 90.0))
+            return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "field_suns of block %d must be a finite azimuth and an "
+                             "elevation in [-90, 90] degrees, got %g, %g", k, az, el);
+        oclshade_sun_for(az, el, p->dx, p->dy, &sun);
+        for (int i = 0; i < 4; ++i) {
+            j->table[2 * k].s[i] = sun.ray[i];
+            j->table[2 * k + 1].s[i] = sun.vector[i];
+        }
+        j->modes[k] = sun.mode;
+    }
+    for (int a = 0; a < nrb; ++a)
+        for (int r = p->field_row_edges[a]; r < p->field_row_edges[a + 1]; ++r) j->band[r] = a * ncb;
+    for (int b = 0; b < ncb; ++b) {
+        for (int c = p->field_col_edges[b]; c < p->field_col_edges[b + 1]; ++c) j->band[p->rows + c] = b;
+        j->column_step = gcd_int(j->column_step, p->field_col_edges[b]);
+    }
+    return OCLSHADE_OK;
+}
 
 static oclshade_status check_method_outputs(oclshade *lib, oclshade_method method, unsigned outputs)
 {
@@ -226,6 +298,10 @@ static oclshade_status shadow_job_for(oclshade *lib, const oclshade_shadow_param
     if (j->outputs == 0)
         return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "at least one of mask, self_shadow, coefficient must have a buffer");
     if ((st = check_method_outputs(lib, p->method, j->outputs)) != OCLSHADE_OK) return st;
+    if (p->field_row_blocks < 0 || p->field_col_blocks < 0 || (p->field_row_blocks == 0) != (p->field_col_blocks == 0))
+        return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "field_row_blocks and field_col_blocks must both be 0 (one "
+                         "sun) or both >= 1, got %d, %d", p->field_row_blocks, p->field_col_blocks);
+    if (p->field_row_blocks > 0 && (st = field_table(lib, p, j)) != OCLSHADE_OK) return st;
     j->p = p;
     oclshade_pyramid_layout_for(p->rows, p->cols, &j->lay);
     oclshade_sun_for(p->azimuth, p->elevation, p->dx, p->dy, &j->sun);
@@ -247,27 +323,39 @@ static oclshade_status shadow_body(ocls_pass *ps, const void *params)
        come back as they were */
     oclshade_status (*bind_out)(ocls_pass *, const oclshade_field *, int, size_t, const char *, cl_mem *) =
         p->block_rows == 0 ? ocls_bind_out : ocls_bind_inout;
+    cl_mem band = NULL, table = NULL, modes = NULL;
+    const size_t band_bytes = sizeof *j->band * ((size_t)p->rows + n1), table_bytes = sizeof *j->table * 2 * (size_t)j->blocks,
+                 modes_bytes = sizeof *j->modes * (size_t)j->blocks;
     if ((st = ocls_bind_in(ps, &p->heights, p->rows, 4 * n1, "heights", &heights)) != OCLSHADE_OK ||
         (st = bind_out(ps, &p->mask, p->rows, n1, "mask", &mask)) != OCLSHADE_OK ||
         (st = bind_out(ps, &p->self_shadow, p->rows, n1, "self_shadow", &self)) != OCLSHADE_OK ||
         (st = bind_out(ps, &p->coefficient, p->rows, 4 * n1, "coefficient", &coef)) != OCLSHADE_OK ||
         (CERTIFIED(p->method) &&
          (st = ocls_scratch(ps, (size_t)tr * (size_t)tc * CERT_K * 4u, "certificates", &cert)) != OCLSHADE_OK) ||
+        (j->blocks > 0 &&
+         ((st = ocls_scratch(ps, band_bytes, "sun table bands", &band)) != OCLSHADE_OK ||
+          (st = ocls_scratch(ps, table_bytes, "sun table", &table)) != OCLSHADE_OK ||
+          (st = ocls_scratch(ps, modes_bytes, "sun table modes", &modes)) != OCLSHADE_OK)) ||
         !ps->run)
+        return st;
+    if (j->blocks > 0 &&
+        ((st = ocls_upload(ps, band, 0, j->band, band_bytes, "sun table bands")) != OCLSHADE_OK ||
+         (st = ocls_upload(ps, table, 0, j->table, table_bytes, "sun table")) != OCLSHADE_OK ||
+         (st = ocls_upload(ps, modes, 0, j->modes, modes_bytes, "sun table modes")) != OCLSHADE_OK))
         return st;
     /* the block (the whole map by default) and, for it, the packet run (ShadowCaster._features) */
     const int whole = p->block_rows == 0;
     const int r0 = whole ? 0 : p->block_row0, c0 = whole ? 0 : p->block_col0;
     const int br = whole ? p->rows : p->block_rows, bc = whole ? p->cols : p->block_cols;
     int lanes = ocls_knob(lib, K_SHADOW_LANES), run = ocls_knob(lib, K_SHADOW_RUN);
-    const int step = gcd_int(c0, c0 + bc == p->cols ? 0 : bc);
+    const int step = j->blocks > 0 ? j->column_step : gcd_int(c0, c0 + bc == p->cols ? 0 : bc);
     if (lanes > 0 && CERTIFIED(p->method) && step != 0 && step % run != 0) {
         run = gcd_int(run, step);
         if (run < lanes) lanes = 0;
     }
     ocls_defines d;
     shadow_defines(p->method, j->outputs, lanes, run, tile, ocls_knob(lib, K_SHADOW_OWN_BUILTINS),
-                   ocls_knob(lib, K_SHADOW_GATHER), &d);
+                   ocls_knob(lib, K_SHADOW_GATHER), j->blocks > 0, &d);
     const int packets = lanes > 0 && CERTIFIED(p->method);
     kernel_entry *k, *certify = NULL;
     st = ocls_kernel(ps, "shadow.cl", &d, packets ? "shadow_cells_packet" : "shadow_cells", &k);
@@ -284,21 +372,28 @@ static oclshade_status shadow_body(ocls_pass *ps, const void *params)
     cell.s[1] = (cl_float)p->dy;
     kcoef.s[0] = (cl_float)p->k_dark;
     kcoef.s[1] = (cl_float)p->k_bright;
-    if (certify != NULL && mode == 0) {   /* ShadowCaster._certifier: grid_2d's defaults (64, 16) */
+    if (certify != NULL && (mode == 0 || j->blocks > 0)) {   /* ShadowCaster._certifier: grid_2d's (64, 16) */
         const ocls_arg a[] = {OCLS_ARG(H), OCLS_ARG(W), OCLS_ARG(origin), OCLS_ARG(p->pyramid), OCLS_ARG(p->offsets),
-                              OCLS_ARG(nlev), OCLS_ARG(ray), OCLS_ARG(cert)};
-        st = ocls_set_args(ps, certify, a, 8);
+                              OCLS_ARG(nlev), OCLS_ARG(ray), OCLS_ARG(cert), OCLS_ARG(band), OCLS_ARG(table),
+                              OCLS_ARG(modes)};
+        st = ocls_set_args(ps, certify, a, j->blocks > 0 ? 11 : 8);
         if (st == OCLSHADE_OK && whole) st = ocls_launch(ps, certify, tc, tr, 64, 16);
         else if (st == OCLSHADE_OK)   /* the tiles the block touches */
             st = ocls_launch_window(ps, certify, c0 / tile, r0 / tile, (c0 + bc + tile - 1) / tile - c0 / tile,
                                     (r0 + br + tile - 1) / tile - r0 / tile, 64, 16);
     }
     /* an output not compiled in gets a NULL buffer (allowed for __global pointers) */
-    const ocls_arg a[] = {OCLS_ARG(heights), OCLS_ARG(H), OCLS_ARG(W), OCLS_ARG(origin), OCLS_ARG(p->pyramid),
-                          OCLS_ARG(p->offsets), OCLS_ARG(nlev), OCLS_ARG(ray), OCLS_ARG(vec), OCLS_ARG(cell),
-                          OCLS_ARG(kcoef), OCLS_ARG(mode), OCLS_ARG(mask), OCLS_ARG(self), OCLS_ARG(coef),
-                          OCLS_ARG(cert)};
-    if (st == OCLSHADE_OK) st = ocls_set_args(ps, k, a, certify != NULL ? 16 : 15);
+    ocls_arg a[19] = {OCLS_ARG(heights), OCLS_ARG(H), OCLS_ARG(W), OCLS_ARG(origin), OCLS_ARG(p->pyramid),
+                      OCLS_ARG(p->offsets), OCLS_ARG(nlev), OCLS_ARG(ray), OCLS_ARG(vec), OCLS_ARG(cell),
+                      OCLS_ARG(kcoef), OCLS_ARG(mode), OCLS_ARG(mask), OCLS_ARG(self), OCLS_ARG(coef)};
+    int nargs = 15;
+    if (certify != NULL) a[nargs++] = (ocls_arg)OCLS_ARG(cert);
+    if (j->blocks > 0) {   /* the sun table after the certificates (kernels/shadow.cl OCLS_SUN_PARAMS) */
+        a[nargs++] = (ocls_arg)OCLS_ARG(band);
+        a[nargs++] = (ocls_arg)OCLS_ARG(table);
+        a[nargs++] = (ocls_arg)OCLS_ARG(modes);
+    }
+    if (st == OCLSHADE_OK) st = ocls_set_args(ps, k, a, nargs);
     const size_t group = (size_t)ocls_knob(lib, K_SHADOW_GROUP);
     if (st == OCLSHADE_OK && whole)
         st = ocls_launch(ps, k, packets ? (W + run - 1) / run : W, H, group, 16);
@@ -313,7 +408,9 @@ oclshade_status oclshade_shadows_scratch_size(oclshade *lib, const oclshade_shad
     oclshade_status st = ocls_enter(lib);
     if (st == OCLSHADE_OK && bytes == NULL) st = ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "bytes must not be NULL");
     if (st == OCLSHADE_OK) st = shadow_job_for(lib, params, &j);
-    return st != OCLSHADE_OK ? st : ocls_plan(lib, shadow_body, &j, bytes);
+    if (st == OCLSHADE_OK) st = ocls_plan(lib, shadow_body, &j, bytes);
+    shadow_job_free(&j);
+    return st;
 }
 
 /* An output is also read when a block window stages it (not packed at offset 0): its cells
@@ -324,6 +421,26 @@ static int output_access(const oclshade_shadow_params *p, const oclshade_field *
     return p->block_rows != 0 && staged ? OCLS_INOUT : OCLS_OUT;
 }
 
+/* The buffers a pass of these parameters uses, and how (ocls_uses). */
+static oclshade_status shadow_uses(oclshade *lib, const oclshade_shadow_params *p, const shadow_job *j, ocls_uses *uses)
+{
+    const size_t n1 = (size_t)p->cols;
+    oclshade_status st;
+    if ((st = ocls_use_field(lib, uses, "heights", &p->heights, p->rows, 4 * n1, OCLS_IN)) != OCLSHADE_OK ||
+        (st = ocls_use_buffer(lib, uses, "pyramid", p->pyramid, j->lay.pyramid_bytes, OCLS_IN)) != OCLSHADE_OK ||
+        (st = ocls_use_buffer(lib, uses, "offsets", p->offsets, j->lay.offsets_bytes, OCLS_IN)) != OCLSHADE_OK ||
+        (p->mask.buffer &&
+         (st = ocls_use_field(lib, uses, "mask", &p->mask, p->rows, n1, output_access(p, &p->mask, n1))) != OCLSHADE_OK) ||
+        (p->self_shadow.buffer &&
+         (st = ocls_use_field(lib, uses, "self_shadow", &p->self_shadow, p->rows, n1,
+                              output_access(p, &p->self_shadow, n1))) != OCLSHADE_OK) ||
+        (p->coefficient.buffer &&
+         (st = ocls_use_field(lib, uses, "coefficient", &p->coefficient, p->rows, 4 * n1,
+                              output_access(p, &p->coefficient, 4 * n1))) != OCLSHADE_OK))
+        return st;
+    return OCLSHADE_OK;
+}
+
 oclshade_status oclshade_enqueue_shadows(oclshade *lib, cl_command_queue queue, const oclshade_shadow_params *p,
                                          cl_uint num_events_in_wait_list, const cl_event *event_wait_list,
                                          cl_event *event)
@@ -331,22 +448,12 @@ oclshade_status oclshade_enqueue_shadows(oclshade *lib, cl_command_queue queue, 
     shadow_job j;
     ocls_uses uses = {0};
     oclshade_status st = ocls_enter(lib);
-    if (st == OCLSHADE_OK) st = shadow_job_for(lib, p, &j);
     if (st != OCLSHADE_OK) return st;
-    const size_t n1 = (size_t)p->cols;
-    if ((st = ocls_use_field(lib, &uses, "heights", &p->heights, p->rows, 4 * n1, OCLS_IN)) != OCLSHADE_OK ||
-        (st = ocls_use_buffer(lib, &uses, "pyramid", p->pyramid, j.lay.pyramid_bytes, OCLS_IN)) != OCLSHADE_OK ||
-        (st = ocls_use_buffer(lib, &uses, "offsets", p->offsets, j.lay.offsets_bytes, OCLS_IN)) != OCLSHADE_OK ||
-        (p->mask.buffer &&
-         (st = ocls_use_field(lib, &uses, "mask", &p->mask, p->rows, n1, output_access(p, &p->mask, n1))) != OCLSHADE_OK) ||
-        (p->self_shadow.buffer &&
-         (st = ocls_use_field(lib, &uses, "self_shadow", &p->self_shadow, p->rows, n1,
-                              output_access(p, &p->self_shadow, n1))) != OCLSHADE_OK) ||
-        (p->coefficient.buffer &&
-         (st = ocls_use_field(lib, &uses, "coefficient", &p->coefficient, p->rows, 4 * n1,
-                              output_access(p, &p->coefficient, 4 * n1))) != OCLSHADE_OK))
-        return st;
-    return ocls_enqueue(lib, queue, p->scratch, &uses, shadow_body, &j, num_events_in_wait_list, event_wait_list, event);
+    if ((st = shadow_job_for(lib, p, &j)) == OCLSHADE_OK && (st = shadow_uses(lib, p, &j, &uses)) == OCLSHADE_OK)
+        st = ocls_enqueue(lib, queue, p->scratch, &uses, shadow_body, &j, num_events_in_wait_list, event_wait_list,
+                          event);
+    shadow_job_free(&j);   /* (the tables' uploads copied them at their enqueue) */
+    return st;
 }
 
 oclshade_status oclshade_prepare(oclshade *lib, oclshade_method method, unsigned outputs)

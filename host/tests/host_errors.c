@@ -321,6 +321,41 @@ int main(int argc, char **argv)
         st = oclshade_enqueue_shadows(lib, queue, &bad[i].q, 0, NULL, NULL);
         expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, bad[i].needle, bad[i].what);
     }
+    {   /* a sun field in one launch: its blocks checked by name */
+        const int rows_e[3] = {0, 2, p.rows}, cols_e[2] = {0, p.cols}, back[3] = {0, 3, 2};
+        double suns[4] = {120.0, 30.0, 200.0, 91.0};
+        oclshade_shadow_params f = p;
+        f.field_row_blocks = 2; f.field_col_blocks = 0;
+        st = oclshade_enqueue_shadows(lib, queue, &f, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "field_row_blocks and field_col_blocks must both be 0 (one "
+                      "sun) or both >= 1, got 2, 0", "shadows: a field of 2 x 0 blocks");
+        f.field_col_blocks = 1;
+        st = oclshade_enqueue_shadows(lib, queue, &f, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "field_row_edges must point to 2 + 1 edges, got NULL",
+                      "shadows: a field without edges");
+        f.field_row_edges = back; f.field_col_edges = cols_e;
+        st = oclshade_enqueue_shadows(lib, queue, &f, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "field_row_edges must run from 0 to", "shadows: a field's "
+                      "rows not reaching the map's end");
+        f.field_row_edges = rows_e;
+        st = oclshade_enqueue_shadows(lib, queue, &f, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "field_suns must point to 2 x 2 degrees, got NULL",
+                      "shadows: a field without suns");
+        f.field_suns = suns;
+        st = oclshade_enqueue_shadows(lib, queue, &f, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "field_suns of block 1 must be a finite azimuth and an "
+                      "elevation in [-90, 90] degrees, got 200, 91", "shadows: a field's sun at 91 degrees");
+        f.block_rows = 1; f.block_cols = 1;
+        st = oclshade_enqueue_shadows(lib, queue, &f, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "a sun field (field_row_blocks 2) is the whole map's: "
+                      "block_rows and block_cols must be 0", "shadows: a field in a block window");
+        f.block_rows = f.block_cols = 0;
+        suns[3] = 20.0;
+        size_t need = 0;
+        st = oclshade_shadows_scratch_size(lib, &f, &need);
+        expect_status(lib, st, OCLSHADE_OK, "", "shadows: a field's scratch size");
+        expect(need >= (size_t)(p.rows + p.cols) * 4 + 2 * 32 + 2 * 4, "shadows: a field's scratch holds its table", "");
+    }
     st = oclshade_enqueue_shadows(lib, queue, NULL, 0, NULL, NULL);
     expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "params", "shadows: NULL params");
     st = oclshade_enqueue_shadows(lib, NULL, &p, 0, NULL, NULL);
