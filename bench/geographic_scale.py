@@ -25,7 +25,7 @@ Per map, in one process:
   cells per azimuth (16 azimuths; must be within the float32 band); on the projected maps, the
   ground check: 16 azimuths' angles on 64 seeded cells near the map's highest cell against the
   float64 twin on the grid at that direction's true metres there (the geodesic between grid points
-  500 m either side, measured here, not by the package), and what one scale for every
+  500 m either side, reference.ground_metre, not the tracing's model), and what one scale for every
   direction (the square root of the area, as before 2026-12-05) leaves against the same.
 
 Writes bench/results/geographic_scale.{json,md} (``--out`` to change).  Figures depend on the
@@ -220,20 +220,6 @@ def twin(hm: Heightmap, row_scales: np.ndarray, angles: np.ndarray, azimuths: np
     return {"twin_cells": checked, "twin_outside": outside, "twin_max_deg": worst, "twin_band_deg": band}
 
 
-def ground_scale(places, row: float, col: float, azimuth: float, step: float = 500.0) -> float:
-    """True metres per grid metre at cell (row, col) along grid azimuth ``azimuth``: the
-    geodesic between the grid points ``step`` grid metres either side (pyproj directly)."""
-    import pyproj
-
-    crs = places.crs
-    to_place = pyproj.Transformer.from_crs(crs, crs.geodetic_crs, always_xy=True)
-    x0, xc, _, y0, _, yr = places.transform
-    x, y = x0 + xc * col, y0 + yr * row
-    dx, dy = step * np.sin(np.radians(azimuth)), step * np.cos(np.radians(azimuth))
-    (lon0, lat0), (lon1, lat1) = to_place.transform(x - dx, y - dy), to_place.transform(x + dx, y + dy)
-    return float(crs.get_geod().inv(lon0, lat0, lon1, lat1)[2] / (2.0 * step))
-
-
 def ground(hm: Heightmap, places, angles: np.ndarray, azimuths: np.ndarray) -> dict:
     """The banded angles, and the float64 twin at one scale every way (the row's s), against the
     twin at each direction's true metres at the map's highest cell, on seeded cells within 16
@@ -247,7 +233,7 @@ def ground(hm: Heightmap, places, angles: np.ndarray, azimuths: np.ndarray) -> d
     one = Heightmap(hm.heights, hm.dx * one_scale, hm.dy * one_scale)
     worst = worst_one = 0.0
     for a, az in enumerate(azimuths):
-        g = ground_scale(places, top_r + 0.5, top_c + 0.5, float(az))
+        g = ref.ground_metre(places, top_r + 0.5, top_c + 0.5, float(az))
         truth = ref.horizon_angles(Heightmap(hm.heights, hm.dx * g, hm.dy * g), float(az), cells=(ii, jj))
         seen = truth > -90.0
         worst = max(worst, float(np.nanmax(np.abs(angles[a, ii, jj] - truth)[seen])))

@@ -76,14 +76,15 @@ def true_directions(azimuth: np.ndarray, elevation: np.ndarray, scales: np.ndarr
     cell sizes (dx, dy times the east and north scales).  A grid metre east is ``sx`` true
     metres, so the grid sun's vector (east, north, up) is (sx east, sy north, up) on the ground,
     its horizontal part times a projected grid's stretch that way
-    (:func:`oclshade.solar.scale.direction_factor`), normalised.  (The cell sizes take no
+    (:func:`oclshade.solar.scale.stretch_of`), normalised.  (The cell sizes take no
     stretch: a slope's normal is the grid's at the mean scale, docs/methods.md "Projected
     grids".)  Where the scales are 1: :func:`sun_vectors` and (dx, dy), to the bit."""
-    from .solar.scale import direction_factor
+    from .solar.scale import stretch_of
 
-    vectors = sun_vectors(azimuth, elevation)
+    sa, ca = sincos_degrees(azimuth)        # sun_vectors', shared with the stretch
+    vectors = _vectors(sa, ca, *sincos_degrees(elevation))
     scales = np.asarray(scales, np.float64)
-    stretch = direction_factor(scales, azimuth)[:, None]
+    stretch = stretch_of(scales, sa, ca)[:, None]
     scaled = np.concatenate([vectors[:, :2] * scales[:, :2] * stretch, vectors[:, 2:]], axis=1)
     unit = scaled / np.linalg.norm(scaled, axis=1, keepdims=True)
     same = np.all(scales[:, :2] == 1.0, axis=1, keepdims=True) & (stretch == 1.0)

@@ -300,7 +300,8 @@ int ocls_extent(int n0, int level);      /* ceil(n0 / 2^level) */
 /* (ux, uy) of oclshade/sun.py Sun(azimuth, 0).ray(dx, dy): cells per metre east and south, float32
  * with subnormals flushed (shadows.c; the horizon rays). */
 void ocls_horizontal_ray(double azimuth, double dx, double dy, cl_float out[2]);
-/* oclshade/solar/scale.py direction_factor: sqrt(1 + p cos 2a + q sin 2a), exactly 1 where p = q = 0 */
+/* oclshade/solar/scale.py direction_factor: sqrt(1 + p cos 2a + q sin 2a) with cos 2a = c^2 - s^2 and
+ * sin 2a = 2 s c of sincos_degrees(azimuth), exactly 1 where p = q = 0 */
 double ocls_direction_factor(double p, double q, double azimuth);
 
 /* ------------------------------------------------------------------ objects on the terrain (quadrics.c) */

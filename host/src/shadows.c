@@ -67,8 +67,8 @@ double ocls_direction_factor(double p, double q, double azimuth)
 {
     double s, c;
     if (p == 0.0 && q == 0.0) return 1.0;
-    sincos_degrees(2.0 * azimuth, &s, &c);
-    return sqrt(1.0 + p * c + q * s);
+    sincos_degrees(azimuth, &s, &c);   /* cos 2a and sin 2a from them, as stretch_of */
+    return sqrt(1.0 + p * (c * c - s * s) + q * (2.0 * s * c));
 }
 
 void ocls_horizontal_ray(double azimuth, double dx, double dy, cl_float out[2])

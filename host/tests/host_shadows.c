@@ -150,57 +150,49 @@ static field_block *read_field(const char *path, int *count)
     return blocks;
 }
 
-/* Each block traced with its own sun through the block window of oclshade_shadow_params (all
- * outputs, EXACT), then the outputs read back. */
-static void trace_field(oclshade *lib, cl_command_queue queue, oclshade_shadow_params p, const field_block *blocks,
-                        int count, cl_mem d_mask, cl_mem d_self, cl_mem d_coef, size_t n, unsigned char *mask,
-                        unsigned char *self, float *coef)
+/* A sun field traced (all outputs, EXACT), then the outputs read back: each block with its own
+ * sun through the block window of oclshade_shadow_params, or with one_launch the whole field in
+ * one launch of the sun-table kernels (field_row_blocks ..., the blocks a grid in raster order). */
+static void trace_field(oclshade *lib, cl_command_queue queue, cl_context ctx, oclshade_shadow_params p,
+                        const field_block *blocks, int count, int one_launch, cl_mem d_mask, cl_mem d_self,
+                        cl_mem d_coef, size_t n, unsigned char *mask, unsigned char *self, float *coef)
 {
     p.method = OCLSHADE_EXACT;
     p.mask = oclshade_field_of(d_mask); p.self_shadow = oclshade_field_of(d_self);
     p.coefficient = oclshade_field_of(d_coef);
-    for (int b = 0; b < count; ++b) {
-        p.block_row0 = blocks[b].r0; p.block_rows = blocks[b].r1 - blocks[b].r0;
-        p.block_col0 = blocks[b].c0; p.block_cols = blocks[b].c1 - blocks[b].c0;
-        p.azimuth = blocks[b].az; p.elevation = blocks[b].el;
+    if (!one_launch) {
+        for (int b = 0; b < count; ++b) {
+            p.block_row0 = blocks[b].r0; p.block_rows = blocks[b].r1 - blocks[b].r0;
+            p.block_col0 = blocks[b].c0; p.block_cols = blocks[b].c1 - blocks[b].c0;
+            p.azimuth = blocks[b].az; p.elevation = blocks[b].el;
+            CHECK(oclshade_enqueue_shadows(lib, queue, &p, 0, NULL, NULL));
+        }
+    } else {
+        int ncb = 0;
+        while (ncb < count && blocks[ncb].r0 == blocks[0].r0) ++ncb;
+        const int nrb = count / ncb;
+        int *row_edges = (int *)xmalloc(sizeof(int) * (size_t)(nrb + 1));
+        int *col_edges = (int *)xmalloc(sizeof(int) * (size_t)(ncb + 1));
+        double *suns = (double *)xmalloc(sizeof(double) * 2 * (size_t)count);
+        for (int a = 0; a < nrb; ++a) row_edges[a] = blocks[a * ncb].r0;
+        row_edges[nrb] = blocks[count - 1].r1;
+        for (int b = 0; b < ncb; ++b) col_edges[b] = blocks[b].c0;
+        col_edges[ncb] = blocks[ncb - 1].c1;
+        for (int k = 0; k < count; ++k) { suns[2 * k] = blocks[k].az; suns[2 * k + 1] = blocks[k].el; }
+        p.field_row_blocks = nrb; p.field_col_blocks = ncb;
+        p.field_row_edges = row_edges; p.field_col_edges = col_edges; p.field_suns = suns;
+        size_t need = 0;
+        CHECK(oclshade_shadows_scratch_size(lib, &p, &need));
+        cl_mem scratch = need ? buffer(ctx, CL_MEM_READ_WRITE, need, NULL) : NULL;
+        p.scratch = scratch;
         CHECK(oclshade_enqueue_shadows(lib, queue, &p, 0, NULL, NULL));
+        clFinish(queue);
+        if (scratch) clReleaseMemObject(scratch);
+        free(row_edges); free(col_edges); free(suns);
     }
     read_buffer(queue, d_mask, n, mask, 0, NULL);
     read_buffer(queue, d_self, n, self, 0, NULL);
     read_buffer(queue, d_coef, 4 * n, coef, 0, NULL);
-}
-
-/* The same field in one launch (oclshade_shadow_params' sun table), its blocks a grid in raster
- * order; the outputs read back. */
-static void trace_field_table(oclshade *lib, cl_command_queue queue, cl_context ctx, oclshade_shadow_params p,
-                              const field_block *blocks, int count, cl_mem d_mask, cl_mem d_self, cl_mem d_coef,
-                              size_t n, unsigned char *mask, unsigned char *self, float *coef)
-{
-    int ncb = 0, nrb;
-    while (ncb < count && blocks[ncb].r0 == blocks[0].r0) ++ncb;
-    nrb = count / ncb;
-    int *row_edges = (int *)xmalloc(sizeof(int) * (size_t)(nrb + 1)), *col_edges = (int *)xmalloc(sizeof(int) * (size_t)(ncb + 1));
-    double *suns = (double *)xmalloc(sizeof(double) * 2 * (size_t)count);
-    for (int a = 0; a < nrb; ++a) row_edges[a] = blocks[a * ncb].r0;
-    row_edges[nrb] = blocks[count - 1].r1;
-    for (int b = 0; b < ncb; ++b) col_edges[b] = blocks[b].c0;
-    col_edges[ncb] = blocks[ncb - 1].c1;
-    for (int k = 0; k < count; ++k) { suns[2 * k] = blocks[k].az; suns[2 * k + 1] = blocks[k].el; }
-    p.method = OCLSHADE_EXACT;
-    p.mask = oclshade_field_of(d_mask); p.self_shadow = oclshade_field_of(d_self);
-    p.coefficient = oclshade_field_of(d_coef);
-    p.field_row_blocks = nrb; p.field_col_blocks = ncb;
-    p.field_row_edges = row_edges; p.field_col_edges = col_edges; p.field_suns = suns;
-    size_t need = 0;
-    CHECK(oclshade_shadows_scratch_size(lib, &p, &need));
-    cl_mem scratch = need ? buffer(ctx, CL_MEM_READ_WRITE, need, NULL) : NULL;
-    p.scratch = scratch;
-    CHECK(oclshade_enqueue_shadows(lib, queue, &p, 0, NULL, NULL));
-    read_buffer(queue, d_mask, n, mask, 0, NULL);
-    read_buffer(queue, d_self, n, self, 0, NULL);
-    read_buffer(queue, d_coef, 4 * n, coef, 0, NULL);
-    if (scratch) clReleaseMemObject(scratch);
-    free(row_edges); free(col_edges); free(suns);
 }
 
 int main(int argc, char **argv)
@@ -412,15 +404,15 @@ int main(int argc, char **argv)
     field_block *blocks = field_path != NULL ? read_field(field_path, &nblocks) : NULL;
     unsigned char *field_out = blocks != NULL ? (unsigned char *)xmalloc(6 * n) : NULL;
     if (blocks != NULL) {
-        trace_field(lib, queue, sh.base, blocks, nblocks, d_mask, d_self, d_coef, n, field_out, field_out + n,
-                    (float *)(field_out + 2 * n));
+        trace_field(lib, queue, ctx, sh.base, blocks, nblocks, 0, d_mask, d_self, d_coef, n, field_out,
+                    field_out + n, (float *)(field_out + 2 * n));
         write_file("field.mask", field_out, n);
         write_file("field.self", field_out + n, n);
         write_file("field.coef", field_out + 2 * n, 4 * n);
         /* the same field in one launch of the sun-table kernels: the same bits */
         unsigned char *table_out = (unsigned char *)xmalloc(6 * n);
-        trace_field_table(lib, queue, ctx, sh.base, blocks, nblocks, d_mask, d_self, d_coef, n, table_out,
-                          table_out + n, (float *)(table_out + 2 * n));
+        trace_field(lib, queue, ctx, sh.base, blocks, nblocks, 1, d_mask, d_self, d_coef, n, table_out,
+                    table_out + n, (float *)(table_out + 2 * n));
         if (memcmp(table_out, field_out, 6 * n) != 0) {
             fprintf(stderr, "a sun field in one launch differs from its blocks' launches\n");
             return 1;
@@ -496,12 +488,14 @@ int main(int argc, char **argv)
                 }
             }
         }
-        if (blocks != NULL) {   /* the field too: packet runs cut to the blocks, or one ray per item */
-            trace_field(lib, queue, sh.base, blocks, nblocks, d_mask, d_self, d_coef, n, mask, self, coef);
+        for (int one_launch = 0; blocks != NULL && one_launch < 2; ++one_launch) {
+            /* the field too, by blocks and in one launch: packet runs cut to the blocks, or one ray per item */
+            trace_field(lib, queue, ctx, sh.base, blocks, nblocks, one_launch, d_mask, d_self, d_coef, n, mask,
+                        self, coef);
             if (memcmp(mask, field_out, n) != 0 || memcmp(self, field_out + n, n) != 0 ||
                 memcmp(coef, field_out + 2 * n, 4 * n) != 0) {
-                fprintf(stderr, "tuning lanes %d run %d group %d: the field's outputs differ\n", t->packet_lanes,
-                        t->packet_run, t->group);
+                fprintf(stderr, "tuning lanes %d run %d group %d: the field's outputs differ%s\n", t->packet_lanes,
+                        t->packet_run, t->group, one_launch ? " (one launch)" : "");
                 return 1;
             }
         }

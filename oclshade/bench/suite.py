@@ -487,10 +487,16 @@ def _compose(w: Workload) -> Case:
                 w.frame_digest(), run, lambda: [state["frame"]])
 
 
-def _horizons(w: Workload) -> Case:
+def _canyon_horizons(w: Workload) -> tuple[int, HorizonCaster]:
+    """(side, caster) of the horizon cases' canyon: a quarter of the masks' side, its pyramid built."""
     side = max(w.sizes.map_side // 4, 8)
     caster = HorizonCaster(terrain(side), w.rt, cache=False)
     caster.pyramid
+    return side, caster
+
+
+def _horizons(w: Workload) -> Case:
+    side, caster = _canyon_horizons(w)
     state: dict = {}
 
     def run() -> None:
@@ -518,9 +524,7 @@ def _horizons_radius(w: Workload) -> Case:
 
 
 def _sun_disc(w: Workload) -> Case:
-    side = max(w.sizes.map_side // 4, 8)
-    caster = HorizonCaster(terrain(side), w.rt, cache=False)
-    caster.pyramid
+    side, caster = _canyon_horizons(w)
     state: dict = {}
 
     def run() -> None:

@@ -25,7 +25,7 @@ import math
 
 import numpy as np
 
-from ..solar.scale import direction_factor
+from ..solar.scale import stretch_of
 from ..sun import SunLike, as_sun, libm, unscaled
 
 _cos = libm(math.cos)
@@ -80,7 +80,8 @@ def disc_stretch(scales: np.ndarray, azimuth: np.ndarray, elevation: np.ndarray)
     scales = np.asarray(scales, np.float64)
     elevation = np.asarray(elevation, np.float64)
     a, e = np.radians(azimuth), np.radians(elevation)
-    s = np.hypot(scales[:, 0] * np.sin(a), scales[:, 1] * np.cos(a)) * direction_factor(scales, azimuth)
+    sa, ca = np.sin(a), np.cos(a)
+    s = np.hypot(scales[:, 0] * sa, scales[:, 1] * ca) * stretch_of(scales, sa, ca)
     same = unscaled(scales)
     stretch = np.where(same, 1.0, (s * s * np.cos(e) ** 2 + np.sin(e) ** 2) / s)
     return stretch, np.where(same, elevation, np.degrees(np.arctan(np.tan(e) / s)))

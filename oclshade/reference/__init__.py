@@ -12,6 +12,7 @@ from .envmap import (CONE_SAMPLES, FACE_NAMES, cone_directions, cube_to_latlong,
                      sample_latlong, schlick, seam_jump, texel_directions)
 from .horizons import (SVF_DEFINITIONS, angle_tolerance, banded_horizon_angles, horizon_angles, horizon_tangents, horizon_tolerance,
                        sky_view_factor)
+from .projected import ground_metre
 from .pyramid import extrema_pyramid, mip_pyramid
 from .quadrics import (ReferenceQuadrics, cast_quadrics, intersect, quadric_occludes, quadric_segment_occludes,
                        terrain_margin, terrain_segment_occludes)
@@ -25,7 +26,7 @@ __all__ = [
     "CORNER_SNAP", "CORNER_TIE", "ReferenceAO", "ReferencePixelShadows", "ReferenceShadows", "ReferenceSunshine",
     "ReferenceTerrain", "facing_tolerance", "gradient_error", "sunshine_sums", "surface_gradient",
     "SVF_DEFINITIONS", "TopDownView", "angle_tolerance", "banded_horizon_angles", "bilinear", "box_blur", "cast_field_shadows", "cast_shadows", "cast_terrain", "compose", "cosine_directions", "field_tie_tolerance",
-    "dilated_max_levels", "edge_blur", "extrema_pyramid", "horizon_angles", "horizon_tangents",
+    "dilated_max_levels", "edge_blur", "extrema_pyramid", "ground_metre", "horizon_angles", "horizon_tangents",
     "horizon_tolerance", "minimal_lod", "mip_pyramid", "pixel_shadows", "raytraced_ao",
     "rotation_vectors", "shadow_coefficient", "sky_view_factor", "ssao", "ssao_lines", "ssao_rays", "surface_height", "tie_tolerance", "topdown_gbuffer",
     "volume_ao", "volume_ao_lines", "world_frame",

@@ -45,7 +45,7 @@ import numpy as np
 from ..io import Raster, geotransform, metres_per_degree
 from ..heightmap import Heightmap
 from ..sun import DEFAULT_SUN_TOLERANCE as DEFAULT_TOLERANCE, BlockGrid, Sun, SunField, Traced
-from .scale import direction_factor, scale_bands, scale_share
+from .scale import scale_bands, scale_share, stretch_of
 from .position import sun_position
 from .site import STEP_METRES, grid_azimuths, projected_crs
 
@@ -222,9 +222,10 @@ class MapPlaces:
         here = np.stack([scale, scale, p, q], axis=-1)
         edges, bands = scale_bands(rows, self.row_scales(), DEFAULT_TOLERANCE)
         band = bands[np.searchsorted(edges, np.floor(r.ravel()).astype(int), side="right") - 1]
-        azimuths = np.arange(RESIDUAL_AZIMUTHS) * (180.0 / RESIDUAL_AZIMUTHS)
-        true = scale[:, None] * direction_factor(here[:, None, :], azimuths[None, :])
-        traced = band[:, None, 0] * direction_factor(band[:, None, :], azimuths[None, :])
+        azimuths = np.radians(np.arange(RESIDUAL_AZIMUTHS) * (180.0 / RESIDUAL_AZIMUTHS))[None, :]
+        sin, cos = np.sin(azimuths), np.cos(azimuths)
+        true = scale[:, None] * stretch_of(here[:, None, :], sin, cos)
+        traced = band[:, None, 0] * stretch_of(band[:, None, :], sin, cos)
         return float(np.degrees(np.max(np.abs(true / traced - 1.0)) / 2.0))
 
     def on_grid(self, rows: np.ndarray, cols: np.ndarray, azimuth: np.ndarray, elevation: np.ndarray
@@ -288,8 +289,9 @@ def scaled_suns(scales: np.ndarray, azimuth: np.ndarray, elevation: np.ndarray) 
     scales = np.asarray(scales, np.float64)
     sx, sy = scales[..., 0], scales[..., 1]
     a, e = np.radians(azimuth), np.radians(elevation)
-    east, north = np.sin(a) / sx, np.cos(a) / sy
-    stretch = direction_factor(scales, azimuth)
+    sa, ca = np.sin(a), np.cos(a)
+    east, north = sa / sx, ca / sy
+    stretch = stretch_of(scales, sa, ca)
     s = stretch / np.hypot(east, north)
     se, ce = np.sin(e), np.cos(e)
     same = (sx == 1.0) & (sy == 1.0) & (stretch == 1.0)      # the centre's own scale: the sun as given, to the bit

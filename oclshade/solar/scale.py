@@ -35,15 +35,22 @@ def scale_share(tolerance: float = SCALE_TOLERANCE) -> float:
     return 2.0 * math.sqrt(2.0) * math.radians(tolerance)
 
 
-def direction_factor(scales: np.ndarray, azimuth: np.ndarray) -> np.ndarray:
-    """sqrt(1 + p cos 2a + q sin 2a) of scales (..., 2 or 4) at grid azimuths ``azimuth``
-    (degrees, broadcast against ``scales[..., 0]``): how much longer a grid metre is that way
-    than ``s``; exactly 1 where p = q = 0 (or there are no such columns)."""
+def stretch_of(scales: np.ndarray, sin: np.ndarray, cos: np.ndarray) -> np.ndarray:
+    """sqrt(1 + p cos 2a + q sin 2a) of scales (..., 2 or 4) along grid azimuths a given by their
+    sines and cosines (broadcast against ``scales[..., 0]``; cos 2a = cos^2 - sin^2, sin 2a =
+    2 sin cos: no trigonometry of its own): how much longer a grid metre is that way than
+    ``s``; exactly 1 where p = q = 0 (or there are no such columns)."""
     scales = np.asarray(scales, np.float64)
     if scales.shape[-1] == 2:
-        return np.ones(np.broadcast_shapes(scales.shape[:-1], np.shape(azimuth)))
-    sin, cos = sincos_degrees(2.0 * np.asarray(azimuth, np.float64))     # the C library's (host/src/shadows.c, ocls_direction_factor)
-    return np.sqrt(1.0 + scales[..., 2] * cos + scales[..., 3] * sin)
+        return np.ones(np.broadcast_shapes(scales.shape[:-1], np.shape(sin)))
+    return np.sqrt(1.0 + scales[..., 2] * (cos * cos - sin * sin) + scales[..., 3] * (2.0 * sin * cos))
+
+
+def direction_factor(scales: np.ndarray, azimuth: np.ndarray) -> np.ndarray:
+    """:func:`stretch_of` at grid azimuths in degrees, through :func:`oclshade.sun.sincos_degrees`
+    (the C library's sine and cosine: the rays' stretch, host/src/shadows.c
+    ocls_direction_factor, bit for bit)."""
+    return stretch_of(scales, *sincos_degrees(azimuth))
 
 
 def scale_bands(rows: int, row_scales: np.ndarray | None, tolerance: float = SCALE_TOLERANCE
