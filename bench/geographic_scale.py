@@ -4,8 +4,9 @@ projected one in its CRS's metres, got wrong, and what tracing each band of rows
 scale costs (oclshade.solar.MapPlaces.on_grid for the masks, HorizonCaster(row_scales=...) for
 the horizons).
 
-    python bench/geographic_scale.py            # the shared SRTM tiles, N22W160's heights at 45.5 N and
-                                                # on six projected grids (bench's PROJECTED)
+    python bench/geographic_scale.py            # the shared SRTM tiles, N22W160's heights at 45.5 N,
+                                                # on six projected grids (bench's PROJECTED) and on
+                                                # three whole EU-DEM tiles' extents (TILES)
     python bench/geographic_scale.py --reduced  # a check that the script works (384^2 crops)
 
 Per map, in one process:
@@ -19,14 +20,19 @@ Per map, in one process:
   (mismatches outside float32 ties: must be 0), and against the horizons at its azimuth (per
   band of rows): the cells where "in cast shadow" and "horizon above the sun" differ, and how
   far from the sun their horizons are (ties: within float32 rounding);
-* **horizons** at 16 and 64 azimuths: time per band of rows against the centre's cell width
-  alone (one run each), the bands, the largest and the 99th-percentile difference of the
+* **horizons** at 16 and 64 azimuths: time per block (bands of rows, by column bands on a
+  projected grid whose scale changes along its rows) against the centre's cell width alone, and
+  on a projected grid cut into column bands against one scale per row (the middle of the row's,
+  as before 2026-12-05; one run each), the blocks, the largest and the 99th-percentile difference of the
   angles, and the banded angles against the float64 twin of each band's cells on 400 seeded
   cells per azimuth (16 azimuths; must be within the float32 band); on the projected maps, the
   ground check: 16 azimuths' angles on 64 seeded cells near the map's highest cell against the
   float64 twin on the grid at that direction's true metres there (the geodesic between grid points
   500 m either side, reference.ground_metre, not the tracing's model), and what one scale for every
-  direction (the square root of the area, as before 2026-12-05) leaves against the same.
+  direction (the square root of the area, as before 2026-12-05) leaves against the same; on the
+  whole tiles, the spread ground check: 16 azimuths' angles on 48 seeded cells all over the map
+  (a third of them within 10 % of its width of its west or east edge), each against the twin at
+  its own cell's true metres that way, for the blocks and for one scale per row.
 
 Writes bench/results/geographic_scale.{json,md} (``--out`` to change).  Figures depend on the
 machine; the results record where they were taken.
@@ -55,6 +61,7 @@ from oclshade.heightmap import Heightmap  # noqa: E402
 from oclshade.horizon import HorizonCaster, azimuth_grid  # noqa: E402
 from oclshade.io import Raster, read_dem  # noqa: E402
 from oclshade.solar import map_places, sun_field  # noqa: E402
+from oclshade.solar.scale import column_edges  # noqa: E402
 from oclshade.sun import Sun  # noqa: E402
 
 SRTM = REPO.parent / "shared" / "data" / "dem" / "srtm3_srtmpy"
@@ -82,6 +89,25 @@ def moved(raster: Raster, north: float, folder: Path) -> Raster:
 PROJECTED = (("UTM 4N, central meridian", 32604, -159.0, 22.5), ("UTM 33N, 2.9 deg east of its meridian", 32633, 17.9, 47.0),
              ("Web Mercator, 45 N", 3857, 10.0, 45.0), ("EPSG:3413 polar stereographic, 62 N", 3413, -45.0, 62.0),
              ("EPSG:5070 CONUS Albers, 47 N", 5070, -120.0, 47.0), ("EPSG:3035 LAEA Europe, 60 N 25 E", 3035, 25.0, 60.0))
+
+
+#: N22W160's heights over whole EU-DEM tiles' extents (EPSG:3035, 1000 km square: its 1201^2 cells
+#: 833 m each), west and north edges in metres: LAEA Europe's scale changes along their rows by up
+#: to 0.9 %, which one scale per row left as 0.07-0.2 degree before 2026-12-05
+TILES = (("EU-DEM tile E30N20 (LAEA, 1000 km)", 3.0e6, 3.0e6), ("EU-DEM tile E40N30 (LAEA, 1000 km)", 4.0e6, 4.0e6),
+         ("EU-DEM tile E50N40 (LAEA, 1000 km)", 5.0e6, 5.0e6))
+SPREAD_CELLS = 48
+
+
+def tile(raster: Raster, west: float, north: float, folder: Path) -> Raster:
+    """The raster's heights over a 1000 km EU-DEM tile's extent in EPSG:3035 (square cells)."""
+    cell = 1.0e6 / raster.heights.shape[1]
+    keys = (1, 1, 0, 3, 1024, 0, 1, 1, 1025, 0, 1, 1, 3072, 0, 1, 3035)
+    path = folder / f"tile_{west:g}_{north:g}.tif"
+    tifffile.imwrite(path, raster.heights.astype(np.float32), extratags=[
+        (34735, 3, len(keys), keys, True), (33550, 12, 3, (cell, cell, 0.0), True),
+        (33922, 12, 6, (0, 0, 0, west, north, 0), True)])
+    return read_dem(path)
 
 
 def projected(raster: Raster, name: str, epsg: int, lon: float, lat: float, folder: Path) -> Raster:
@@ -114,17 +140,28 @@ def maps(reduced: bool, folder: Path) -> dict[str, Raster]:
         out["N22W160's heights at 45.5 N"] = moved(out["SRTM N22W160"], 46.0, folder)
         for name, epsg, lon, lat in PROJECTED:
             out[name] = projected(out["SRTM N22W160"], name, epsg, lon, lat, folder)
+        for name, west, north in TILES:
+            out[name] = tile(out["SRTM N22W160"], west, north, folder)
     return out
 
 
+def one_per_row(row_scales: np.ndarray) -> np.ndarray:
+    """Row scales cut into column bands made one per row again: the middle of each row's (what a
+    projected grid was traced at before 2026-12-05)."""
+    if row_scales.ndim == 2:
+        return row_scales
+    return (row_scales.min(axis=1, keepdims=True) + row_scales.max(axis=1, keepdims=True)) / 2.0
+
+
 def scale_row(name: str, places) -> dict:
-    """The map's grid metre on the ground (the row scales' range), its bands, and what one
-    scale per band of rows leaves (MapPlaces.scale_residual)."""
+    """The map's grid metre on the ground (the row scales' range), its column bands, and what its
+    blocks, and one scale per row, leave (MapPlaces.residual_of)."""
     scales = places.row_scales()
     return {"map": name, "crs": "EPSG:4326" if places.crs is None else places.crs.to_string(),
-            "scale_min": float(scales[:, :2].min()), "scale_max": float(scales[:, :2].max()),
-            "stretch_max": float(np.hypot(scales[:, 2], scales[:, 3]).max() / 2.0) if scales.shape[1] == 4 else 0.0,
-            "residual_deg": places.scale_residual}
+            "scale_min": float(scales[..., :2].min()), "scale_max": float(scales[..., :2].max()),
+            "stretch_max": float(np.hypot(scales[..., 2], scales[..., 3]).max() / 2.0) if scales.shape[-1] == 4 else 0.0,
+            "column_bands": int(scales.shape[1]) if scales.ndim == 3 else 1,
+            "residual_deg": places.scale_residual, "one_per_row_residual_deg": places.residual_of(one_per_row(scales))}
 
 
 def edge_error(places, sun: Sun) -> float:
@@ -175,12 +212,15 @@ def masks(name: str, raster: Raster, hm: Heightmap, places) -> list[dict]:
 
 def horizons(name: str, raster: Raster, hm: Heightmap, places) -> list[dict]:
     scales = places.row_scales()
+    banded_caster = HorizonCaster(hm, row_scales=scales, cache=False)
+    flat_caster = HorizonCaster(hm, cache=False)
+    per_row = one_per_row(scales)
+    row_caster = HorizonCaster(hm, row_scales=per_row, cache=False) if per_row is not scales else None
+    for caster in (flat_caster, banded_caster, row_caster):   # kernels and pyramid made before the clocks
+        if caster is not None:
+            caster.horizons([0.0])
     out = []
     for n in (16, 64):
-        banded_caster = HorizonCaster(hm, row_scales=scales, cache=False)
-        flat_caster = HorizonCaster(hm, cache=False)
-        flat_caster.horizons([0.0])                   # kernels and pyramid made before the clocks
-        banded_caster.horizons([0.0])
         t0 = time.perf_counter()
         banded = banded_caster.horizons(n)
         t_banded = time.perf_counter() - t0
@@ -188,18 +228,48 @@ def horizons(name: str, raster: Raster, hm: Heightmap, places) -> list[dict]:
         flat = flat_caster.horizons(n)
         t_flat = time.perf_counter() - t0
         diff = np.abs(banded - flat)[np.isfinite(banded) & (banded > -90.0)]
-        row = {"map": name, "azimuths": n, "bands": len(banded_caster.scale_bands[1]), "banded_s": t_banded,
-               "flat_s": t_flat, "ratio": t_banded / t_flat, "diff_max_deg": float(diff.max()),
+        blocks = banded_caster.scale_blocks.scales.shape
+        row = {"map": name, "azimuths": n, "bands": int(blocks[0]), "column_bands": int(blocks[1]),
+               "banded_s": t_banded, "flat_s": t_flat, "ratio": t_banded / t_flat, "diff_max_deg": float(diff.max()),
                "diff_p99_deg": float(np.percentile(diff, 99)), "diff_mean_deg": float(diff.mean())}
+        if row_caster is not None:
+            t0 = time.perf_counter()
+            by_row = row_caster.horizons(n)
+            row.update(per_row_s=time.perf_counter() - t0)
         if n == 16:
             row.update(twin(hm, scales, banded, azimuth_grid(n)))
             if places.crs is not None:
                 row.update(ground(hm, places, banded, azimuth_grid(n)))
-        log(f"{name} {n} azimuths: {row['bands']} bands, {t_banded:.2f} s vs {t_flat:.2f} s, max diff "
-            f"{row['diff_max_deg']:.3f} deg" + (f", twin {row['twin_outside']} of {row['twin_cells']} outside"
-                                                if n == 16 else ""))
+            if name.startswith("EU-DEM"):
+                row.update(spread_ground(hm, places, banded, by_row, azimuth_grid(n)))
+        log(f"{name} {n} azimuths: {row['bands']} x {row['column_bands']} blocks, {t_banded:.2f} s vs {t_flat:.2f} s"
+            + (f" ({row['per_row_s']:.2f} s per row)" if "per_row_s" in row else "")
+            + f", max diff {row['diff_max_deg']:.3f} deg"
+            + (f", twin {row['twin_outside']} of {row['twin_cells']} outside" if n == 16 else ""))
         out.append(row)
     return out
+
+
+def spread_ground(hm: Heightmap, places, angles: np.ndarray, by_row: np.ndarray, azimuths: np.ndarray) -> dict:
+    """The blocks' angles, and one scale per row's, against the twin at each cell's own true
+    metres that way (reference.ground_metre there), on :data:`SPREAD_CELLS` seeded cells all over
+    the map, a third of them near its west or east edge."""
+    rng = np.random.default_rng(17)
+    rows, cols = hm.shape
+    edge = cols // 10
+    ii = rng.integers(0, rows, SPREAD_CELLS)
+    jj = np.concatenate([rng.integers(0, edge, SPREAD_CELLS // 6), rng.integers(cols - edge, cols, SPREAD_CELLS // 6),
+                         rng.integers(0, cols, SPREAD_CELLS - 2 * (SPREAD_CELLS // 6))])
+    worst = worst_row = 0.0
+    for a, az in enumerate(azimuths):
+        for i, j in zip(ii.tolist(), jj.tolist()):
+            g = ref.ground_metre(places, i + 0.5, j + 0.5, float(az))
+            truth = float(ref.horizon_angles(Heightmap(hm.heights, hm.dx * g, hm.dy * g), float(az),
+                                             cells=(np.array([i]), np.array([j])))[0])
+            if truth > -90.0:
+                worst = max(worst, abs(float(angles[a, i, j]) - truth))
+                worst_row = max(worst_row, abs(float(by_row[a, i, j]) - truth))
+    return {"spread_cells": int(ii.size * len(azimuths)), "spread_max_deg": worst, "spread_per_row_max_deg": worst_row}
 
 
 def twin(hm: Heightmap, row_scales: np.ndarray, angles: np.ndarray, azimuths: np.ndarray) -> dict:
@@ -229,7 +299,10 @@ def ground(hm: Heightmap, places, angles: np.ndarray, azimuths: np.ndarray) -> d
     top_r, top_c = np.unravel_index(int(np.nanargmax(hm.heights)), hm.shape)
     top_r, top_c = min(max(top_r, 16), rows - 17), min(max(top_c, 16), cols - 17)
     ii, jj = rng.integers(top_r - 16, top_r + 17, 64), rng.integers(top_c - 16, top_c + 17, 64)
-    one_scale = float(places.row_scales()[top_r, 0])
+    scales = places.row_scales()
+    if scales.ndim == 3:                      # the top cell's column band's
+        scales = scales[:, np.searchsorted(column_edges(cols, scales.shape[1]), top_c, side="right") - 1]
+    one_scale = float(scales[top_r, 0])
     one = Heightmap(hm.heights, hm.dx * one_scale, hm.dy * one_scale)
     worst = worst_one = 0.0
     for a, az in enumerate(azimuths):
@@ -251,12 +324,13 @@ def write_markdown(path: Path, result: dict) -> None:
              "0.01 deg) against the sun as given on the grid as drawn (a geographic grid at its centre's cell "
              "width, a projected one in its CRS's metres); horizons: one run each; projected maps: N22W160's "
              "heights on square cells of its north-south size in each CRS", "",
-             "| map | CRS | ground metres per grid metre (rows) | its stretch by direction, at most | "
-             "left by the row scales, deg |",
-             "|---|---|---|---:|---:|"]
+             "| map | CRS | ground metres per grid metre (rows) | its stretch by direction, at most | column bands | "
+             "left by the blocks, deg | left by one scale per row, deg |",
+             "|---|---|---|---:|---:|---:|---:|"]
     for r in result["scales"]:
         lines.append(f"| {r['map']} | {r['crs']} | {r['scale_min']:.6f}-{r['scale_max']:.6f} | "
-                     f"{100.0 * r['stretch_max']:.3f} % | {r['residual_deg']:.4f} |")
+                     f"{100.0 * r['stretch_max']:.3f} % | {r['column_bands']} | {r['residual_deg']:.4f} | "
+                     f"{r['one_per_row_residual_deg']:.4f} |")
     lines += ["",
              "| map | sun az / el | old geometry's error at the edges, deg | blocks | per block s | grid as drawn s | "
              "ratio | cells differing | twin: cells, mismatches / ties | mask vs horizon > el: cells, max abs(h - el) |",
@@ -266,15 +340,17 @@ def write_markdown(path: Path, result: dict) -> None:
                      f"{r['per_block_s']:.3f} | {r['one_sun_s']:.3f} | {r['ratio']:.2f} | {r['cells_differing']} of "
                      f"{r['valid_cells']} | {r['twin_cells']}: {r['twin_mismatch']} / {r['twin_tied']} | "
                      f"{r['horizon_disagree']}, {r['horizon_disagree_max_deg']:.1e} |")
-    lines += ["", "| map | azimuths | bands | per band s | grid as drawn s | ratio | angle difference max / p99 / "
-              "mean, deg | twin (16 azimuths): cells, outside the float32 band, max error deg |",
-              "|---|---:|---:|---:|---:|---:|---|---|"]
+    lines += ["", "| map | azimuths | blocks (rows x columns) | per block s | one scale per row s | grid as drawn s | "
+              "ratio to as drawn | angle difference max / p99 / mean, deg | twin (16 azimuths): cells, outside the "
+              "float32 band, max error deg |",
+              "|---|---:|---:|---:|---:|---:|---:|---|---|"]
     for r in result["horizons"]:
         check = (f"{r['twin_cells']}, {r['twin_outside']}, {r['twin_max_deg']:.2g} (band {r['twin_band_deg']:.2g})"
                  if "twin_cells" in r else "")
-        lines.append(f"| {r['map']} | {r['azimuths']} | {r['bands']} | {r['banded_s']:.2f} | {r['flat_s']:.2f} | "
-                     f"{r['ratio']:.2f} | {r['diff_max_deg']:.3f} / {r['diff_p99_deg']:.3f} / {r['diff_mean_deg']:.4f} "
-                     f"| {check} |")
+        per_row = f"{r['per_row_s']:.2f}" if "per_row_s" in r else "-"
+        lines.append(f"| {r['map']} | {r['azimuths']} | {r['bands']} x {r['column_bands']} | {r['banded_s']:.2f} | "
+                     f"{per_row} | {r['flat_s']:.2f} | {r['ratio']:.2f} | {r['diff_max_deg']:.3f} / "
+                     f"{r['diff_p99_deg']:.3f} / {r['diff_mean_deg']:.4f} | {check} |")
     lines += ["", "Projected maps, against the ground (16 azimuths, 64 cells within 16 of the highest; the twin "
               "at each direction's geodesic metres there):", "",
               "| map | cells | traced by direction: max error, deg | one scale every way (before): max error, deg |",
@@ -283,6 +359,13 @@ def write_markdown(path: Path, result: dict) -> None:
         if "ground_cells" in r:
             lines.append(f"| {r['map']} | {r['ground_cells']} | {r['ground_max_deg']:.4f} | "
                          f"{r['one_scale_max_deg']:.4f} |")
+    lines += ["", "Whole tiles, against the ground all over the map (16 azimuths, 48 cells, a third of them near the "
+              "west or east edge; the twin at each cell's own geodesic metres that way):", "",
+              "| map | cells | blocks: max error, deg | one scale per row (before): max error, deg |", "|---|---:|---:|---:|"]
+    for r in result["horizons"]:
+        if "spread_cells" in r:
+            lines.append(f"| {r['map']} | {r['spread_cells']} | {r['spread_max_deg']:.4f} | "
+                         f"{r['spread_per_row_max_deg']:.4f} |")
     lines.append("")
     path.write_text("\n".join(lines))
 

@@ -176,14 +176,18 @@
  *                                    (soft shadows: each strip of the sun's disc,
  *                                    oclshade/horizon/disc.py), at about the cost
  *                                    of a cast-shadow ray
- *     -D OCLS_SUN_TABLE (with OCLS_CLAMP): each cell's ray and bounds from a table
- *     of blocks instead (the ray and bounds arguments stay, unread), for a sun that
- *     varies over the map (the strip of each block's own disc in one launch), after
- *     bounds:
+ *     -D OCLS_SUN_TABLE: each cell's ray, bounds and cell sizes from a table of
+ *     blocks instead (the ray, cell and bounds arguments stay, unread; bounds is
+ *     then passed without OCLS_CLAMP too), for a sun that varies over the map (the
+ *     strip of each block's own disc in one launch, with OCLS_CLAMP) or a map
+ *     traced in blocks of their own scale (each block's ray and cell sizes: a
+ *     projected grid's blocks in one launch), after bounds:
  *       __global const int *band        H + W ints: cell (i, j) is in block
  *                                       b = band[i] + band[H + j] (shadow.cl's
  *                                       "sun tables")
- *       __global const float4 *strips   2 per block: its ray, then (lo, hi, 0, 0)
+ *       __global const float4 *strips   2 per block: its ray, then (lo, hi, dx, dy)
+ *                                       (lo, hi read with OCLS_CLAMP only, the cell
+ *                                       sizes by the seeds' bound only)
  *   global size (W, H) rounded up to any local size.
  *   __kernel horizon_seeds(h, H, W, ext, lvl_off, nlev, ray, seeds)
  *     arguments as horizon_cells; writes seeds[gi * Ws + gj] = (T, t) of cell
@@ -201,7 +205,11 @@
  *     (Ws, Hs, count) for the seeds; for the cells (W, H, count) (OCLS_OUT_ANGLE alone) or
  *     (W, H, 1) with OCLS_OUT_SVF (each work-item walks the count azimuths in order, adding
  *     to svf and writing the angles too with OCLS_OUT_ANGLE); the first two dimensions
- *     rounded up to any local size, the third's local size 1.
+ *     rounded up to any local size, the third's local size 1.  With -D OCLS_SUN_TABLE the
+ *     cells' rays and cell sizes per block (the seeds keep rays; cell stays, unread), after
+ *     count: __global const int *band (as horizon_cells'), __global const float4 *table,
+ *     const int table_stride: block b's cell sizes (dx, dy, 0, 0) at table[b table_stride],
+ *     its ray at azimuth first + k at table[b table_stride + 1 + k].
  *
  * Build options: -D OCLS_OUT_ANGLE, OCLS_OUT_SVF=1|2, OCLS_CURVATURE,
  *   OCLS_MAX_DISTANCE, OCLS_CLAMP, OCLS_LEVEL_SCAN=0|1 ("Levels"; default 0), OCLS_SWEEP=1|4|8|16
@@ -664,16 +672,18 @@ OCLS_INLINE void cell_walk(__global const float *h, int H, int W, __global const
     store_outputs(angle, svf, idx, T);
 }
 
-#if defined(OCLS_CLAMP) && defined(OCLS_SUN_TABLE)
+#ifdef OCLS_SUN_TABLE
 #define OCLS_TABLE_RAY ray_unread
+#define OCLS_TABLE_CELL cell_unread
 #else
 #define OCLS_TABLE_RAY ray
+#define OCLS_TABLE_CELL cell
 #endif
 __kernel void horizon_cells(__global const float *h, const int H, const int W, __global const float2 *ext,
                             __global const int *lvl_off, const int nlev, const float4 OCLS_TABLE_RAY,
                             __global float *angle, __global float2 *svf, __global const float2 *seeds,
-                            const float2 cell
-#if defined(OCLS_CLAMP) && defined(OCLS_SUN_TABLE)
+                            const float2 OCLS_TABLE_CELL
+#if defined(OCLS_SUN_TABLE)
                             , const float2 bounds_unread, __global const int *band,
                             __global const float4 *strips
 #elif defined(OCLS_CLAMP)
@@ -683,10 +693,15 @@ __kernel void horizon_cells(__global const float *h, const int H, const int W, _
 {
     const int j = get_global_id(0), i = get_global_id(1);
     if (j >= W || i >= H) return;
-#if defined(OCLS_CLAMP) && defined(OCLS_SUN_TABLE)
+#if defined(OCLS_SUN_TABLE)
     const int block = band[i] + band[H + j];
-    const float4 ray = strips[2 * block];
-    const float2 bounds = strips[2 * block + 1].xy;
+    const float4 ray = strips[2 * block], more = strips[2 * block + 1];
+    const float2 cell = more.zw;
+#if defined(OCLS_CLAMP)
+    const float2 bounds = more.xy;
+#else
+    const float2 bounds = (float2)(-INFINITY, INFINITY);
+#endif
 #elif !defined(OCLS_CLAMP)
     const float2 bounds = (float2)(-INFINITY, INFINITY);
 #endif
@@ -710,10 +725,21 @@ __kernel void horizon_seeds_batch(__global const float *h, const int H, const in
 __kernel void horizon_cells_batch(__global const float *h, const int H, const int W, __global const float2 *ext,
                                   __global const int *lvl_off, const int nlev, __global const float4 *rays,
                                   __global float *angle, __global float2 *svf, __global const float2 *seeds,
-                                  const float2 cell, const int stride, const int first, const int count)
+                                  const float2 OCLS_TABLE_CELL, const int stride, const int first, const int count
+#ifdef OCLS_SUN_TABLE
+                                  , __global const int *band, __global const float4 *table, const int table_stride
+#endif
+                                  )
 {
     const int j = get_global_id(0), i = get_global_id(1);
     if (j >= W || i >= H) return;
+#ifdef OCLS_SUN_TABLE
+    __global const float4 *own = table + (size_t)(band[i] + band[H + j]) * table_stride;   /* the cell's block's */
+    const float2 cell = own[0].xy;
+#define OCLS_BATCH_RAY(k) own[1 + (k)]
+#else
+#define OCLS_BATCH_RAY(k) rays[first + (k)]
+#endif
 #ifdef OCLS_OUT_SVF
     const int k0 = 0, k1 = count;                      /* a cell's sums in azimuth order */
 #else
@@ -721,7 +747,7 @@ __kernel void horizon_cells_batch(__global const float *h, const int H, const in
 #endif
     const size_t seed_cells = (size_t)ocls_seed_extent(H) * ocls_seed_extent(W);
     for (int k = k0; k < k1; ++k)
-        cell_walk(h, H, W, ext, lvl_off, nlev, rays[first + k],
+        cell_walk(h, H, W, ext, lvl_off, nlev, OCLS_BATCH_RAY(k),
 #ifdef OCLS_OUT_ANGLE
                   angle + (size_t)(first + k) * stride,
 #else

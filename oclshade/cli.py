@@ -1217,10 +1217,11 @@ def run_horizon(args: argparse.Namespace) -> int:
         caster = HorizonCaster(heightmap, device=args.device, curvature=curvature,
                                max_distance=getattr(args, "max_distance", None), cache=False,
                                row_scales=None if sunlit else solar_cli.map_row_scales(args, raster))
-        band_scales = caster.scale_bands[1]
-        if not args.quiet and len(band_scales) > 1:
-            print(f"{PROG}: the grid's scale: {len(band_scales)} band(s) of rows, each traced with its own cell "
-                  f"sizes (within {SCALE_TOLERANCE:g} deg)", file=sys.stderr)
+        blocks = caster.scale_blocks
+        if not args.quiet and blocks.scales.shape[0] * blocks.scales.shape[1] > 1:
+            print(f"{PROG}: the grid's scale: {blocks.scales.shape[0]} band(s) of rows by {blocks.scales.shape[1]} "
+                  f"of columns, each block traced with its own cell sizes (within {SCALE_TOLERANCE:g} deg)",
+                  file=sys.stderr)
         t1 = time.perf_counter()
         if svf:
             out.write(caster.sky_view_factor(azimuths, args.definition, progress=bar))

@@ -131,21 +131,28 @@ def check_float32(heights: np.ndarray, lo: float, hi: float, dx: float, dy: floa
                      f"(--nodata {value:.9g} or nodata={value:.9g})")
 
 
-def check_row_scales(row_scales: object, rows: int) -> np.ndarray:
-    """``row_scales`` as a read-only float64 (rows, 2) or (rows, 4) array, or a ValueError naming
-    it and what is expected: columns 0 and 1 (east, north) positive and finite; columns 2 and 3,
-    where given, a projected grid's stretch by direction (p, q) (:mod:`oclshade.solar.scale`):
-    finite, p^2 + q^2 < 1, and only on rows whose two scales are equal."""
+def check_row_scales(row_scales: object, rows: int, cols: int) -> np.ndarray:
+    """``row_scales`` as a read-only float64 (rows, 2 or 4) or (rows, m, 2 or 4) array (m column
+    bands, :func:`oclshade.solar.scale.column_edges`: 1 to max(1, cols // 16)), or a ValueError
+    naming it and what is expected: east and north (the last axis' first two) positive and
+    finite; p, q (its last two, where given), a projected grid's stretch by direction
+    (:mod:`oclshade.solar.scale`): finite, p^2 + q^2 < 1, and only where the two scales are equal."""
+    from .solar.scale import max_column_bands       # (solar imports this module)
+
     scales = np.array(row_scales, np.float64)
-    if (scales.ndim != 2 or scales.shape[0] != rows or scales.shape[1] not in (2, 4)
-            or not np.all(np.isfinite(scales)) or not np.all(scales[:, :2] > 0.0)):
-        raise ValueError(f"row_scales must be positive finite float64 ({rows}, 2) or ({rows}, 4) (rows, then "
-                         f"east, north[, p, q]), got shape {scales.shape}")
-    if scales.shape[1] == 4:
-        stretched = (scales[:, 2] != 0.0) | (scales[:, 3] != 0.0)
-        if not np.all(np.hypot(scales[:, 2], scales[:, 3]) < 1.0) or np.any(stretched & (scales[:, 0] != scales[:, 1])):
-            raise ValueError("row_scales' columns 2 and 3 (p, q: a stretch by direction) must have p^2 + q^2 < 1, "
-                             "and be 0 on rows whose east and north scales differ")
+    bands = max_column_bands(cols)
+    if (scales.ndim not in (2, 3) or scales.shape[0] != rows or scales.shape[-1] not in (2, 4)
+            or (scales.ndim == 3 and not 1 <= scales.shape[1] <= bands)
+            or not np.all(np.isfinite(scales)) or not np.all(scales[..., :2] > 0.0)):
+        raise ValueError(f"row_scales must be positive finite float64 ({rows}, 2 or 4) or ({rows}, m, 2 or 4) "
+                         f"with m column bands from 1 to {bands} (rows[, column bands], then east, north[, p, q]), "
+                         f"got shape {scales.shape}")
+    if scales.shape[-1] == 4:
+        stretched = (scales[..., 2] != 0.0) | (scales[..., 3] != 0.0)
+        if (not np.all(np.hypot(scales[..., 2], scales[..., 3]) < 1.0)
+                or np.any(stretched & (scales[..., 0] != scales[..., 1]))):
+            raise ValueError("row_scales' p and q (a stretch by direction) must have p^2 + q^2 < 1, "
+                             "and be 0 where the east and north scales differ")
     scales.setflags(write=False)
     return scales
 
@@ -167,16 +174,16 @@ class Heightmap:
     dy: float                    # north-south cell size, metres
     offset: float = field(init=False)
     relative32: np.ndarray = field(init=False, repr=False)
-    #: None, or float64 (rows, 2) or (rows, 4): each row's true metres east and north of one grid
-    #: metre, and a projected grid's stretch by direction (p, q) (:mod:`oclshade.solar.scale`; a
-    #: georeferenced raster's, :meth:`from_raster`); the casters then trace a sun given by its
-    #: angles per band of rows at the band's own cell sizes (docs/methods.md, "Geographic grids",
+    #: None, or float64 (rows, 2 or 4) or (rows, m, 2 or 4): each row's (in each of m column bands)
+    #: true metres east and north of one grid metre, and a projected grid's stretch by direction
+    #: (p, q) (:mod:`oclshade.solar.scale`; a georeferenced raster's, :meth:`from_raster`); the
+    #: casters then trace a sun given by its angles per block at the block's own cell sizes (docs/methods.md, "Geographic grids",
     #: "Projected grids")
     row_scales: np.ndarray | None = field(default=None, repr=False, compare=False, kw_only=True)
 
     def __post_init__(self) -> None:
         if self.row_scales is not None:
-            object.__setattr__(self, "row_scales", check_row_scales(self.row_scales, self.heights.shape[0]))
+            object.__setattr__(self, "row_scales", check_row_scales(self.row_scales, *self.heights.shape))
         lo, hi = extrema(self.heights)
         if not math.isnan(lo):
             check_float32(self.heights, lo, hi, self.dx, self.dy)

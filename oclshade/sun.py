@@ -187,14 +187,16 @@ class BlockGrid(Sequence[SunBlock]):
     col_edges: np.ndarray    # int64, from 0 to the map's columns, increasing
     azimuth: np.ndarray      # float64 (row blocks, column blocks), degrees
     elevation: np.ndarray
-    scales: np.ndarray | None = None   # float64 (row blocks, 2 or 4): SunField.scales, one per row of
-                                       # blocks (a geographic grid's scale follows the latitude); None: 1
+    scales: np.ndarray | None = None   # float64 (row blocks[, column blocks], 2 or 4): SunField.scales,
+                                       # one per row of blocks (a geographic grid's scale follows the
+                                       # latitude) or per block (a projected one's); None: 1
 
     def __post_init__(self) -> None:
         shape = (len(self.row_edges) - 1, len(self.col_edges) - 1)
-        if self.scales is not None and np.shape(self.scales) not in ((shape[0], 2), (shape[0], 4)):
-            raise ValueError(f"a block grid's scales must be (row blocks, 2 or 4) with {shape[0]} row blocks, "
-                             f"got {np.shape(self.scales)}")
+        if self.scales is not None and np.shape(self.scales) not in (
+                (shape[0], 2), (shape[0], 4), (*shape, 2), (*shape, 4)):
+            raise ValueError(f"a block grid's scales must be (row blocks[, column blocks], 2 or 4) with {shape[0]} "
+                             f"row and {shape[1]} column blocks, got {np.shape(self.scales)}")
         if (np.shape(self.azimuth) != shape or np.shape(self.elevation) != shape or min(shape) < 1
                 or np.any(np.diff(self.row_edges) < 1) or np.any(np.diff(self.col_edges) < 1)
                 or self.row_edges[0] != 0 or self.col_edges[0] != 0):
@@ -234,7 +236,10 @@ class BlockGrid(Sequence[SunBlock]):
         """float64 (blocks, 2 or 4) in raster order: :attr:`SunField.scales`."""
         if self.scales is None:
             return np.ones((len(self), 2))
-        return np.repeat(np.asarray(self.scales, np.float64), self.azimuth.shape[1], axis=0)
+        scales = np.asarray(self.scales, np.float64)
+        if scales.ndim == 3:
+            return scales.reshape(-1, scales.shape[-1])
+        return np.repeat(scales, self.azimuth.shape[1], axis=0)
 
     def bands(self) -> tuple[np.ndarray, np.ndarray]:
         """:attr:`SunField.bands` of the grid: its own rows and columns of blocks."""

@@ -160,7 +160,7 @@ def test_c_horizons_of_a_geographic_grid_equal_python(host: dict, tmp_path: Path
     n = 8
     max_distance = radius_cells * hm.dx or None
     caster = HorizonCaster(hm, max_distance=max_distance, cache=False, row_scales=scales)
-    assert len(caster.scale_bands[1]) > 3            # several bands, of several sizes
+    assert caster.scale_blocks.scales.shape[:2] > (3, 0)       # several bands, of several sizes
     scales_file = tmp_path / "row_scales.f64"
     np.ascontiguousarray(scales, np.float64).tofile(scales_file)
     run_program(host, "host_passes", "horizon", tmp_path, heights_file(tmp_path, hm), rows, cols, repr(hm.dx),
@@ -176,28 +176,42 @@ def test_c_horizons_of_a_geographic_grid_equal_python(host: dict, tmp_path: Path
     assert svf.tobytes() == caster.sky_view_factor(n, "cosine" if definition == 1 else "solid-angle").tobytes()
 
 
-@pytest.mark.parametrize("radius_cells", [0, 120.0])
-def test_c_horizons_of_an_equal_area_grid_equal_python(host: dict, tmp_path: Path, radius_cells: float) -> None:
+@pytest.mark.parametrize("radius_cells, bands", [(0, 0), (120.0, 0), (0, 3), (120.0, 3)])
+def test_c_horizons_of_an_equal_area_grid_equal_python(host: dict, tmp_path: Path, radius_cells: float,
+                                                       bands: int) -> None:
     """row_scale_columns 4: a projected grid's stretch by direction (rows made like
     oclshade.solar.MapPlaces.row_scales of an equal-area map: east = north = s, and p, q of a
-    0.2-0.6 % stretch, all changing down the rows), each band's rays stretched per azimuth, the Python host's HorizonCaster bit for bit (walked, swept, and all
-    azimuths in one call at batch 1, 8 and 64: host_passes checks those itself)."""
+    0.2-0.6 % stretch, all changing down the rows, and with row_scale_bands 3 across the columns
+    too: blocks of rows by column bands), each block's rays stretched per azimuth, the Python
+    host's HorizonCaster bit for bit (walked, swept, and all azimuths in one call at batch 1, 8
+    and 64: host_passes checks those itself)."""
     hm = varied_map()
     rows, cols = hm.shape
     lat = 60.0 - 2.0 * (np.arange(rows) + 0.5) / rows       # made like a map's: s, p and q change down the rows
-    s = 0.9 + 0.05 * (lat - 59.0)
-    scales = np.stack([s, s, -0.004 + 0.002 * (lat - 59.0), 0.0025 + 0.001 * (lat - 59.0)], axis=-1)
+    slow = 0.04 if bands else 1.0                           # (with column bands: bands of several rows each)
+    s = 0.9 + 0.05 * slow * (lat - 59.0)
+    scales = np.stack([s, s, -0.004 + 0.002 * slow * (lat - 59.0), 0.0025 + 0.001 * slow * (lat - 59.0)], axis=-1)
+    if bands:                                               # and across them
+        across = np.arange(bands)[None, :, None] * np.array([0.01, 0.01, 0.001, -0.0005])
+        scales = scales[:, None, :] + across
     n = 8
     max_distance = radius_cells * hm.dx or None
     caster = HorizonCaster(hm, max_distance=max_distance, cache=False, row_scales=scales)
-    assert len(caster.scale_bands[1]) > 3 and caster.scale_bands[1].shape[1] == 4
+    blocks = caster.scale_blocks
+    assert blocks.scales.shape[0] > 3 and blocks.scales.shape[1:] == (max(bands, 1), 4)
+    assert bands == 0 or 1 < np.diff(blocks.row_edges).min() < rows       # bands of rows, of several
     scales_file = tmp_path / "row_scales.f64"
     np.ascontiguousarray(scales, np.float64).tofile(scales_file)
     run_program(host, "host_passes", "horizon", tmp_path, heights_file(tmp_path, hm), rows, cols, repr(hm.dx),
-                repr(hm.dy), "0.0", 1, n, repr(max_distance or 0.0), scales_file, 4)
+                repr(hm.dy), "0.0", 1, n, repr(max_distance or 0.0), scales_file, 4, bands)
     angles = caster.horizons(n)
-    unstretched = HorizonCaster(hm, max_distance=max_distance, cache=False, row_scales=scales[:, :2]).horizons(n)
+    walked = HorizonCaster(hm, max_distance=max_distance, cache=False, row_scales=scales, knobs={"batch": 1})
+    assert walked.horizons(n).tobytes() == angles.tobytes()          # an azimuth per launch: the same bits
+    unstretched = HorizonCaster(hm, max_distance=max_distance, cache=False, row_scales=scales[..., :2]).horizons(n)
     assert not np.array_equal(angles, unstretched, equal_nan=True)     # the stretch changes the angles
+    if bands:                                                          # and the column bands theirs
+        one_band = HorizonCaster(hm, max_distance=max_distance, cache=False, row_scales=scales[:, 0]).horizons(n)
+        assert not np.array_equal(angles[:, :, 64:], one_band[:, :, 64:], equal_nan=True)
     for k in range(n):
         assert np.fromfile(tmp_path / f"angle_{k}.f32", np.float32).tobytes() == angles[k].tobytes(), k
     sums = np.fromfile(tmp_path / "svf.f32", np.float32).reshape(rows, cols, 2).astype(np.float64)

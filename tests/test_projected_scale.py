@@ -154,15 +154,17 @@ def test_a_projection_that_stretches_by_direction_is_followed(tmp_path, capsys, 
     assert "warning" not in capsys.readouterr().err
 
 
-def test_a_map_too_wide_for_one_scale_per_row_is_named(tmp_path, capsys):
-    """Polar stereographic 1500 km wide at 70 N: k changes along each row by more than one
-    scale per band of rows follows (0.06 degree); the run says so in one line, and the API warns."""
+def test_a_map_too_coarse_for_its_scale_is_named(tmp_path, capsys):
+    """Polar stereographic 1500 km wide at 70 N in 30 columns of 50 km (rows of 15): k changes along each row by
+    more than one scale per band of rows follows (0.06 degree), and a map that narrow cannot be cut
+    into column bands (16 columns at least); the run says so in one line, and the API warns."""
     x, y = grid_xy(3413, -45.0, 70.0)
-    path = write_tif(tmp_path / "wide.tif", np.zeros((8, 100)), keys(3413), x - 50 * 15000.0, y + 4 * 15000.0,
-                     15000.0)
+    transform = (50000.0, 0.0, 0.0, x - 15 * 50000.0, 0.0, -15000.0, 0.0, y + 4 * 15000.0) + (0.0,) * 7 + (1.0,)
+    path = write_tif(tmp_path / "wide.tif", np.zeros((8, 30)), keys(3413), transform=transform)   # 50 by 15 km cells
     places = map_places(read_dem(path))
+    assert places.row_scales().shape == (8, 1, 4)
     ks = [pyproj.Proj(places.crs).get_factors(*places.lonlat(np.array([4.0]), np.array([c]))).parallel_scale[0]
-          for c in (0.0, 50.0)]                          # the edge against the middle
+          for c in (0.0, 15.0)]                          # the edge against the middle
     expected = math.degrees(abs(ks[1] / ks[0] - 1.0) / 2.0 / 2.0)  # half the range off the middle, halved
     assert expected <= places.scale_residual <= expected + 0.015 and expected > 0.05   # (+ the bands' own share)
     assert main(["shadow", str(path), str(tmp_path / "m.tif"), "-az", "90", "-alt", "20"]) == 0
@@ -174,17 +176,24 @@ def test_a_map_too_wide_for_one_scale_per_row_is_named(tmp_path, capsys):
     assert map_places(read_dem(path)).scale_residual < 1e-4
 
 
-def test_a_utm_map_far_from_its_meridian_is_traced_at_its_rows_middle_scale(tmp_path, capsys):
+def test_a_utm_map_far_from_its_meridian_is_traced_in_column_bands(tmp_path, capsys):
     """Across 110 km of UTM 33N around 17.9 E, 47 N, k runs from about 1.0000 to 1.0005 along the
-    rows: each row is traced at the middle of its range (not at 1, as its middle alone is near
-    enough to 1), which leaves every cell within the tolerance, and the run says nothing."""
+    rows: each row is cut into column bands (oclshade.solar.scale.column_edges), each traced at
+    the middle of PROJ's k over it (not at 1, as the map's middle alone is near enough to 1),
+    which leaves every cell within the tolerance, and the run says nothing."""
+    from oclshade.solar.scale import column_edges
+
     x, y = grid_xy(32633, 17.9, 47.0)
     path = write_tif(tmp_path / "wide.tif", np.zeros((8, 1200)), keys(32633), x - 600 * 92.0, y + 4 * 92.0, 92.0)
     places = map_places(read_dem(path))
-    ks = [pyproj.Proj(places.crs).get_factors(*places.lonlat(np.array([4.0]), np.array([c]))).parallel_scale[0]
-          for c in (0.0, 1200.0)]
+    scales = places.row_scales()
+    edges = column_edges(1200, scales.shape[1])
+    ks = [pyproj.Proj(places.crs).get_factors(*places.lonlat(np.array([4.5]), np.array([float(c)]))).parallel_scale[0]
+          for c in edges]                                       # k grows eastwards: its extremes at the bands' edges
     assert max(ks) - min(ks) > 4e-4 and abs(1.0 / np.mean(ks) - 1.0) < 2.45e-4      # PROJ's k along the rows
-    assert places.row_scales()[4, 0] == pytest.approx((1.0 / min(ks) + 1.0 / max(ks)) / 2.0, rel=1e-6)
+    assert scales.shape[1] > 1 and np.all(np.diff(ks) > 0.0)
+    for b in range(scales.shape[1]):
+        assert scales[4, b, 0] == pytest.approx((1.0 / ks[b] + 1.0 / ks[b + 1]) / 2.0, rel=2e-6), b
     assert places.scale_residual <= 0.01
     assert main(["shadow", str(path), str(tmp_path / "m.tif"), "-az", "90", "-alt", "20"]) == 0
     assert "warning" not in capsys.readouterr().err
@@ -323,7 +332,7 @@ def test_horizons_on_an_equal_area_grid_are_the_grounds(tmp_path, knobs, radius)
     raster = read_dem(path)
     places = map_places(raster)
     banded = Heightmap.from_raster(raster)
-    assert np.hypot(banded.row_scales[:, 2], banded.row_scales[:, 3]).min() > 5e-3     # stretched by direction
+    assert np.hypot(banded.row_scales[..., 2], banded.row_scales[..., 3]).min() > 5e-3     # stretched by direction
     caster = HorizonCaster(banded, max_distance=radius, knobs=knobs, cache=False)
     azimuths = [0.0, 30.0, 45.0, 90.0, 135.0, 200.0, 300.0]
     got = caster.horizons(azimuths)
@@ -341,7 +350,93 @@ def test_horizons_on_an_equal_area_grid_are_the_grounds(tmp_path, knobs, radius)
         exact = ref.horizon_angles(ground, azimuth, cells=cells, max_distance=limit)
         seen = exact > -90.0
         assert np.nanmax(np.abs(got[k][cells][seen] - exact[seen])) <= band + 0.01
-        one = Heightmap(banded.heights, raster.dx * banded.row_scales[48, 0], raster.dy * banded.row_scales[48, 0])
+        one = Heightmap(banded.heights, raster.dx * banded.row_scales[48, -1, 0], raster.dy * banded.row_scales[48, -1, 0])
         old = ref.horizon_angles(one, azimuth, cells=cells, max_distance=limit)
         worst = max(worst, float(np.nanmax(np.abs(old[seen] - exact[seen]))))
     assert worst > 0.04, worst            # one scale for every direction: four times the bound above
+
+
+def test_a_whole_equal_area_tile_is_traced_in_column_bands(tmp_path, capsys):
+    """An EU-DEM tile (EPSG:3035 E50N40, 1000 km square, far east of the projection's centre): a
+    grid metre's true length in one direction changes along a row by 0.9 %, so one scale per row
+    would leave angles up to 0.13 degree off; cut into column bands (oclshade.solar.scale.column_edges) and bands
+    of rows, every cell is traced within the tolerance, and the run says nothing."""
+    from oclshade.solar.scale import stretch_of
+
+    transform = (500.0, 0.0, 0.0, 5.0e6, 0.0, -5000.0, 0.0, 5.0e6) + (0.0,) * 7 + (1.0,)     # 0.5 by 5 km cells
+    path = write_tif(tmp_path / "e50n40.tif", np.zeros((200, 2000)), keys(3035), transform=transform)
+    places = map_places(read_dem(path))
+    scales = places.row_scales()
+    assert scales.shape[0] == 200 and scales.shape[1] > 40        # dozens of column bands
+    azimuths = np.radians(np.arange(0.0, 180.0, 5.0))[None, :]
+    for r in (0.5, 99.5, 199.5):                                # the ground along a row
+        s, p, q = places.projected_scales(*places.lonlat(np.full(41, r), np.linspace(0.0, 2000.0, 41)))
+        lengths = s[:, None] * stretch_of(np.stack([s, s, p, q], axis=-1)[:, None, :], np.sin(azimuths),
+                                          np.cos(azimuths))
+        assert np.max(lengths.max(axis=0) / lengths.min(axis=0)) > 1.008
+    assert places.scale_residual <= 0.01 / math.sqrt(2.0)       # (d / 2 of the blocks' d <= sqrt(2) tolerance)
+    one_band = (scales.min(axis=1, keepdims=True) + scales.max(axis=1, keepdims=True)) / 2.0   # a scale per row
+    assert places.residual_of(one_band) > 0.1
+    assert main(["shadow", str(path), str(tmp_path / "m.tif"), "-az", "90", "-alt", "20"]) == 0
+    assert "warning" not in capsys.readouterr().err
+
+
+def test_horizons_across_column_bands_are_the_grounds(tmp_path):
+    """820 km of LAEA Europe far east of its centre, in 800 m cells: each cell's horizons equal the
+    float64 twin's on the grid at that cell's own true metres along the azimuth
+    (reference.ground_metre), within the float32 band plus the 0.01-degree tolerance; the row's
+    middle scale for all of it (one scale per row) is off by twice that at the ends.  The
+    device's blocks equal their twin (reference.banded_horizon_angles) within the float32 band."""
+    from oclshade import reference as ref
+    from oclshade.horizon import HorizonCaster
+    from oclshade.synthetic import canyon_crater
+
+    path = write_tif(tmp_path / "laea.tif", canyon_crater(96, 1024, seed=9, relief=3000.0), keys(3035),
+                     5.15e6, 4.1e6, 800.0)
+    raster = read_dem(path)
+    places = map_places(raster)
+    banded = Heightmap.from_raster(raster)
+    assert banded.row_scales.shape[1] > 4
+    caster = HorizonCaster(banded, cache=False)
+    assert caster.scale_blocks.scales.shape[1] == banded.row_scales.shape[1]
+    azimuths = [10.0, 80.0, 135.0, 260.0]
+    got = caster.horizons(azimuths)
+    band = ref.angle_tolerance(banded)
+    rng = np.random.default_rng(4)
+    cells = rng.integers(0, 96, 200), np.concatenate([rng.integers(0, 60, 100), rng.integers(964, 1024, 100)])
+    middle = banded.row_scales[:, banded.row_scales.shape[1] // 2]      # each row at its middle band's scale
+    one_scale = HorizonCaster(Heightmap.from_array(raster.heights, (raster.dx, raster.dy), row_scales=middle),
+                              cache=False).horizons(azimuths)
+    worst = 0.0
+    for k, azimuth in enumerate(azimuths):
+        twin = ref.banded_horizon_angles(banded, azimuth, cells=cells)
+        assert np.array_equal(got[k][cells] == -90.0, twin == -90.0)
+        assert np.nanmax(np.abs(got[k][cells] - twin)) <= band
+        for i, j in zip(*(c[:40] for c in cells)) if k % 2 else zip(*(c[-40:] for c in cells)):
+            true = ground_metre(places, i + 0.5, j + 0.5, azimuth)      # this cell's metres that way
+            ground = Heightmap(raster.heights, raster.dx * true, raster.dy * true)
+            exact = float(ref.horizon_angles(ground, azimuth, cells=(np.array([i]), np.array([j])))[0])
+            if exact > -90.0:
+                assert abs(float(got[k][i, j]) - exact) <= band + 0.01, (azimuth, i, j)
+                worst = max(worst, abs(float(one_scale[k][i, j]) - exact))
+    assert worst > 0.02, worst            # the row's middle scale at its ends: twice the bound above
+
+
+def test_the_stretch_share_bounds_every_direction():
+    """oclshade.solar.scale.stretch_share: over a box of (p, q) and every direction, the stretch
+    sqrt(1 + p cos 2a + q sin 2a) differs from that at the box's middle by at most the share it
+    gives, and by more than half of it somewhere (strong stretches too, where the root is steep)."""
+    from oclshade.solar.scale import stretch_of, stretch_share
+
+    rng = np.random.default_rng(11)
+    a = np.radians(np.arange(0.0, 180.0, 0.5))
+    sin, cos = np.sin(a), np.cos(a)
+    for _ in range(200):
+        middle = rng.uniform(-0.5, 0.5, 2)
+        half = rng.uniform(0.0, 0.05, 2)
+        lo, hi = np.array([1.0, 1.0, *(middle - half)]), np.array([1.0, 1.0, *(middle + half)])
+        p, q = np.meshgrid(np.linspace(lo[2], hi[2], 9), np.linspace(lo[3], hi[3], 9))
+        box = np.stack([np.ones(p.size), np.ones(p.size), p.ravel(), q.ravel()], axis=-1)
+        share = np.abs(stretch_of(box[:, None, :], sin, cos) / stretch_of((lo + hi) / 2.0, sin, cos) - 1.0).max()
+        bound = float(stretch_share(lo, hi))
+        assert bound / 2.0 < share <= bound * (1.0 + 1e-12), (lo, hi)

@@ -882,8 +882,19 @@ typedef struct oclshade_horizon_params {
                                    swept) with its own ray and cell sizes (dx, dy times the band's
                                    scale, the ray's times its stretch at the azimuth; the seeds keep
                                    the middle band's ray): true angles, the Python host's
-                                   HorizonCaster(row_scales=...) bit for bit. */
+                                   HorizonCaster(row_scales=...) bit for bit.  With row_scale_bands,
+                                   per column band too. */
     int row_scale_columns;      /* 2 (default; 0 reads as 2): (east, north); 4: (east, north, p, q) */
+    int row_scale_bands;        /* 0 (default): row_scales holds one scale per row.  m (1 to max(1,
+                                   cols / 16)): rows x m x row_scale_columns doubles, row r's in each
+                                   of m column bands (column band b: columns from (b cols + 8 m) /
+                                   (16 m) * 16, integer division, to the next band's; the Python
+                                   host's MapPlaces.row_scales() of a projected grid: the middle of
+                                   the row's scales over the band), traced in blocks of rows by
+                                   column bands (scale_blocks; its bands of rows keep half of the
+                                   tolerance's share, the rest the cells' spread about their row's
+                                   band's), each block's cells launched with global offsets its
+                                   first column and row */
     int clamped;                /* 0 (default); 1: -D OCLS_CLAMP, only angles whose tangent lies in
                                    clamp_bounds are wanted (a strip of the sun's disc:
                                    oclshade_sun_disc_strips): the walk starts at lo and stops once past
@@ -914,10 +925,14 @@ oclshade_status oclshade_horizon_scratch_size(oclshade *lib, const oclshade_hori
  * (cols, rows, count), or (cols, rows, 1) with svf: each cell walks the count azimuths in
  * order), the rays in scratch.  Knobs: horizon group, width (the work-group's width in cells),
  * own_builtins, lanes, sweep_cells, sweep_far, batch, scan (-D OCLS_LEVEL_SCAN: how the walk finds the
- * tile it may skip; the same bits).  With row_scales (and not one band of scale 1) the cells' launch
- * (horizon_cells, horizon_sweep, horizon_cells_batch) is one per band of rows, global offset its
- * first row, with the band's ray(s) (a batch's: uploaded to scratch per band) and cell sizes; the
- * seeds keep the grid's ray (the route, walk or sweep, is the grid ray's, as the Python host's). */
+ * tile it may skip; the same bits).  With row_scales (and not one block of scale 1: blocks of a
+ * band of rows by a column band) horizon_cells and horizon_cells_batch are built with -D
+ * OCLS_SUN_TABLE and read each cell's block's ray(s) and cell sizes from a table in scratch (the
+ * blocks' bands, rows + cols ints, and per block its ray then (-inf, inf, dx, dy), or per batch
+ * its (dx, dy, 0, 0) then the batch's rays: uploaded by clEnqueueFillBuffer), one launch as
+ * without them; horizon_sweep is launched once per block, global offsets its first column (in
+ * lanes) and row, with the block's ray; the seeds keep the middle block's ray (the route, walk
+ * or sweep, is the grid ray's, as the Python host's). */
 oclshade_status oclshade_enqueue_horizon(oclshade *lib, cl_command_queue queue,
                                          const oclshade_horizon_params *params,
                                          cl_uint num_events_in_wait_list, const cl_event *event_wait_list,

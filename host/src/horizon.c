@@ -24,10 +24,12 @@ void oclshade_horizon_params_init(oclshade_horizon_params *p)
  * SCALE_ALIGN rows) */
 #define SCALE_TOLERANCE 0.01
 #define SCALE_ALIGN 16
+#define SEGMENT_SHARE 0.5      /* oclshade/solar/scale.py: what column bands leave to their cells' spread */
 
-typedef struct scale_band {
+typedef struct scale_band {    /* a block of cells (scale_blocks) */
     int row0, rows;
-    double sx, sy;             /* the band's scale: the middle of its rows' (east, north) */
+    int col0, cols;
+    double sx, sy;             /* the block's scale: the middle of its rows' (east, north) */
     double p, q;               /* and of their stretch by direction (0 without one) */
 } scale_band;
 
@@ -36,8 +38,11 @@ typedef struct horizon_job {
     oclshade_pyramid_layout lay;
     cl_float4 ray;
     cl_float4 *rays;           /* n_azimuths > 0: each azimuth's ray (malloc'd; horizon_job_free) */
-    scale_band *bands;         /* row_scales not one band of scale 1: its bands (malloc'd), else NULL */
+    scale_band *bands;         /* row_scales not one block of scale 1: its blocks in raster order (malloc'd),
+                                  else NULL */
     int nbands;
+    cl_int *band;              /* with bands: kernels/horizon.cl's OCLS_SUN_TABLE band (rows + cols; malloc'd):
+                                  cell (i, j) in block band[i] + band[rows + j] */
     cl_float4 seed_ray;        /* the seeds' ray: the grid's, or with bands the middle row's band's
                                   (HorizonCaster._seed_cell: the same bits, fewer steps) */
 } horizon_job;
@@ -46,78 +51,134 @@ static void horizon_job_free(horizon_job *j)
 {
     free(j->rays);
     free(j->bands);
+    free(j->band);
     j->rays = NULL;
     j->bands = NULL;
+    j->band = NULL;
 }
 
-/* Whether rows of these (east, north[, p, q]) extremes hold the tolerance's share (scale_bands' holds):
- * the scales' share plus half the stretch's (a quarter of the hypot of its ranges) */
-static int scales_hold(const double lo[4], const double hi[4], int columns, double share)
+/* stretch_share (oclshade/solar/scale.py): the most by which the stretch by direction may differ
+ * as a share from that of the middle of these extremes of (p, q); 0 without them */
+static double stretch_share(const double lo[4], const double hi[4], int columns)
 {
-    const double stretch = columns == 4 ? hypot(hi[2] - lo[2], hi[3] - lo[3]) / 4.0 : 0.0;
-    return hi[0] - lo[0] + stretch * (hi[0] + lo[0]) <= share * (hi[0] + lo[0]) / 2.0 &&
-           hi[1] - lo[1] + stretch * (hi[1] + lo[1]) <= share * (hi[1] + lo[1]) / 2.0;
+    if (columns != 4) return 0.0;
+    const double most = hypot(fmax(fabs(lo[2]), fabs(hi[2])), fmax(fabs(lo[3]), fabs(hi[3])));
+    return most < 1.0 ? hypot(hi[2] - lo[2], hi[3] - lo[3]) / (4.0 * (1.0 - most)) : INFINITY;   /* (no bound) */
 }
 
-/* lo, hi widened by rows r0 .. r1 - 1 of the (rows x columns) scales */
-static void widen(double lo[4], double hi[4], const double *scales, int columns, int r0, int r1)
+/* Whether rows of these (east, north[, p, q]) extremes hold the share (scale_blocks' holds):
+ * the scales' share plus the stretch's, in each of `bands` column bands */
+static int scales_hold(const double *lo, const double *hi, int bands, int columns, double share)
+{
+    for (int b = 0; b < bands; ++b) {
+        const double *l = lo + 4 * b, *h = hi + 4 * b, stretch = stretch_share(l, h, columns);
+        if (!(h[0] - l[0] + stretch * (h[0] + l[0]) <= share * (h[0] + l[0]) / 2.0 &&
+              h[1] - l[1] + stretch * (h[1] + l[1]) <= share * (h[1] + l[1]) / 2.0))
+            return 0;
+    }
+    return 1;
+}
+
+/* lo, hi (bands x 4) widened by rows r0 .. r1 - 1 of the (rows x bands x columns) scales */
+static void widen(double *lo, double *hi, const double *scales, int bands, int columns, int r0, int r1)
 {
     for (int r = r0; r < r1; ++r)
-        for (int c = 0; c < columns; ++c) {
-            const double v = scales[columns * r + c];
-            if (v < lo[c]) lo[c] = v;
-            if (v > hi[c]) hi[c] = v;
-        }
+        for (int b = 0; b < bands; ++b)
+            for (int c = 0; c < columns; ++c) {
+                const double v = scales[(r * bands + b) * columns + c];
+                if (v < lo[4 * b + c]) lo[4 * b + c] = v;
+                if (v > hi[4 * b + c]) hi[4 * b + c] = v;
+            }
 }
 
-/* scale_bands of the checked row_scales: the most rows from each band's first that hold the
- * tolerance, in steps of SCALE_ALIGN where a first step of that many holds, else of 1 (the same
- * comparisons on the same doubles as the Python host, on running extremes); j->bands stays NULL
- * where the map is one band of scale 1 (traced as it is). */
-static oclshade_status scale_bands(oclshade *lib, const oclshade_horizon_params *p, int columns, horizon_job *j)
+/* oclshade.solar.scale.column_edges: the inner edges the multiples of SCALE_ALIGN nearest to
+ * b cols / bands (integer arithmetic) */
+static int column_edge(int cols, int bands, int b)
 {
-    const double *s = p->row_scales, share = 2.0 * sqrt(2.0) * (SCALE_TOLERANCE * (3.141592653589793 / 180.0));
-    const int rows = p->rows;
-    const size_t row_bytes = sizeof(double) * (size_t)columns;
-    j->bands = (scale_band *)malloc(sizeof *j->bands * (size_t)rows);
-    if (j->bands == NULL) return ocls_fail(lib, OCLSHADE_OUT_OF_MEMORY, 0, "no host memory for %d bands of rows", rows);
+    if (b == bands) return cols;
+    return (int)(((long long)b * cols + 8LL * bands) / ((long long)SCALE_ALIGN * bands) * SCALE_ALIGN);
+}
+
+/* scale_blocks of the checked row_scales (rows x bands x columns): bands of rows from each band's
+ * first, the most that hold the tolerance in every column band, in steps of SCALE_ALIGN where a
+ * first step of that many holds, else of 1 (the same comparisons on the same doubles as the
+ * Python host, on running extremes), times the column bands; j->bands stays NULL where the map
+ * is one block of scale 1 (traced as it is). */
+static oclshade_status scale_bands(oclshade *lib, const oclshade_horizon_params *p, int bands, int columns,
+                                   horizon_job *j)
+{
+    const double *s = p->row_scales;
+    double share = 2.0 * sqrt(2.0) * (SCALE_TOLERANCE * (3.141592653589793 / 180.0));
+    const int rows = p->rows, nb = bands > 0 ? bands : 1;
+    if (bands > 0) share *= 1.0 - SEGMENT_SHARE;
+    double *ext = (double *)calloc((size_t)nb * 4 * 6, sizeof *ext);    /* lo, hi, alo, ahi, tlo, thi */
+    j->bands = (scale_band *)malloc(sizeof *j->bands * (size_t)rows * (size_t)nb);
+    if (j->bands == NULL || ext == NULL) {
+        free(ext);
+        return ocls_fail(lib, OCLSHADE_OUT_OF_MEMORY, 0, "no host memory for %d blocks of rows", rows * nb);
+    }
+    double *lo = ext, *hi = ext + 4 * nb, *alo = ext + 8 * nb, *ahi = ext + 12 * nb, *tlo = ext + 16 * nb,
+           *thi = ext + 20 * nb;
+    const size_t all = sizeof(double) * 4 * (size_t)nb;
     for (int r0 = 0; r0 < rows;) {
-        double lo[4] = {0.0}, hi[4] = {0.0}, alo[4], ahi[4];
-        memcpy(lo, s + columns * r0, row_bytes);
-        memcpy(hi, lo, sizeof hi);
+        for (int b = 0; b < nb; ++b)
+            for (int c = 0; c < 4; ++c) lo[4 * b + c] = c < columns ? s[(r0 * nb + b) * columns + c] : 0.0;
+        memcpy(hi, lo, all);
         const int end = r0 + SCALE_ALIGN < rows ? r0 + SCALE_ALIGN : rows;
-        memcpy(alo, lo, sizeof alo);
-        memcpy(ahi, hi, sizeof ahi);
-        widen(alo, ahi, s, columns, r0 + 1, end);
-        const int step = scales_hold(alo, ahi, columns, share) ? SCALE_ALIGN : 1;
+        memcpy(alo, lo, all);
+        memcpy(ahi, hi, all);
+        widen(alo, ahi, s, nb, columns, r0 + 1, end);
+        const int step = scales_hold(alo, ahi, nb, columns, share) ? SCALE_ALIGN : 1;
         int r1 = r0 + 1;
         if (step == SCALE_ALIGN) {
-            memcpy(lo, alo, sizeof lo);
-            memcpy(hi, ahi, sizeof hi);
+            memcpy(lo, alo, all);
+            memcpy(hi, ahi, all);
             r1 = end;
         }
         while (r1 < rows) {
             const int next = r1 + step < rows ? r1 + step : rows;
-            double tlo[4], thi[4];
-            memcpy(tlo, lo, sizeof tlo);
-            memcpy(thi, hi, sizeof thi);
-            widen(tlo, thi, s, columns, r1, next);
-            if (!scales_hold(tlo, thi, columns, share)) break;
-            memcpy(lo, tlo, sizeof lo);
-            memcpy(hi, thi, sizeof hi);
+            memcpy(tlo, lo, all);
+            memcpy(thi, hi, all);
+            widen(tlo, thi, s, nb, columns, r1, next);
+            if (!scales_hold(tlo, thi, nb, columns, share)) break;
+            memcpy(lo, tlo, all);
+            memcpy(hi, thi, all);
             r1 = next;
         }
-        j->bands[j->nbands++] = (scale_band){r0, r1 - r0, (lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0,
-                                             (lo[2] + hi[2]) / 2.0, (lo[3] + hi[3]) / 2.0};
+        for (int b = 0; b < nb; ++b) {
+            const double *l = lo + 4 * b, *h = hi + 4 * b;
+            const int c0 = column_edge(p->cols, nb, b);
+            j->bands[j->nbands++] = (scale_band){r0, r1 - r0, c0, column_edge(p->cols, nb, b + 1) - c0,
+                                                 (l[0] + h[0]) / 2.0, (l[1] + h[1]) / 2.0,
+                                                 (l[2] + h[2]) / 2.0, (l[3] + h[3]) / 2.0};
+        }
         r0 = r1;
     }
+    free(ext);
     const scale_band *one = &j->bands[0];
     if (j->nbands == 1 && one->sx == 1.0 && one->sy == 1.0 && one->p == 0.0 && one->q == 0.0) {   /* as it is */
         free(j->bands);
         j->bands = NULL;
         j->nbands = 0;
+        return OCLSHADE_OK;
     }
+    j->band = (cl_int *)malloc(sizeof *j->band * ((size_t)rows + (size_t)p->cols));
+    if (j->band == NULL) return ocls_fail(lib, OCLSHADE_OUT_OF_MEMORY, 0, "no host memory for the blocks' bands");
+    for (int b = 0; b < j->nbands; b += nb)              /* each band of rows: its first block's number */
+        for (int r = j->bands[b].row0; r < j->bands[b].row0 + j->bands[b].rows; ++r) j->band[r] = b;
+    for (int b = 0; b < nb; ++b)                         /* each column band: its number in the row */
+        for (int c = j->bands[b].col0; c < j->bands[b].col0 + j->bands[b].cols; ++c) j->band[rows + c] = b;
     return OCLSHADE_OK;
+}
+
+/* Enqueue k over a block's cells, `unit` cells of a row per work-item (the sweep's lanes; the
+ * inner column edges are multiples of 16) */
+static oclshade_status launch_block(ocls_pass *ps, kernel_entry *k, const horizon_job *j, const scale_band *b,
+                                    int unit, int layers, size_t group, size_t width)
+{
+    const int x0 = b->col0 / unit, last = b->col0 + b->cols == j->p->cols;
+    const int x1 = last ? (j->p->cols + unit - 1) / unit : (b->col0 + b->cols) / unit;
+    return ocls_launch_block(ps, k, x0, x1 - x0, last, b->row0, b->rows, layers, group, width);
 }
 
 /* The ray of `azimuth` with a band's cell sizes, times its stretch that way
@@ -206,21 +267,29 @@ static oclshade_status horizon_job_for(oclshade *lib, const oclshade_horizon_par
     }
     if (p->row_scales != NULL) {
         const int columns = p->row_scale_columns == 0 ? 2 : p->row_scale_columns;
+        const int most = p->cols / SCALE_ALIGN > 1 ? p->cols / SCALE_ALIGN : 1, bands = p->row_scale_bands;
         if (columns != 2 && columns != 4)
             return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "row_scale_columns must be 2 (east, north) or 4 "
                              "(east, north, p, q), got %d", p->row_scale_columns);
-        for (int r = 0; r < p->rows; ++r) {
-            const double *row = p->row_scales + columns * r;
-            for (int c = 0; c < 2; ++c)
-                if (!(isfinite(row[c]) && row[c] > 0.0))
-                    return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "row_scales[%d] (row %d, %s) must be a positive "
-                                     "finite scale, got %g", columns * r + c, r, c ? "north" : "east", row[c]);
-            if (columns == 4 && !(isfinite(row[2]) && isfinite(row[3]) && hypot(row[2], row[3]) < 1.0 &&
-                                  ((row[2] == 0.0 && row[3] == 0.0) || row[0] == row[1])))
-                return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "row_scales row %d's stretch (p, q) = (%g, %g) must "
-                                 "have p^2 + q^2 < 1, and be 0 where its east and north scales differ", r, row[2], row[3]);
-        }
-        if ((st = scale_bands(lib, p, columns, j)) != OCLSHADE_OK) return st;
+        if (bands < 0 || bands > most)
+            return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "row_scale_bands must be 0 (one scale per row) or 1 to "
+                             "%d (column bands of a map %d wide), got %d", most, p->cols, bands);
+        const int nb = bands > 0 ? bands : 1;
+        for (int r = 0; r < p->rows; ++r)
+            for (int b = 0; b < nb; ++b) {
+                const double *row = p->row_scales + columns * (r * nb + b);
+                for (int c = 0; c < 2; ++c)
+                    if (!(isfinite(row[c]) && row[c] > 0.0))
+                        return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "row_scales[%d] (row %d, column band %d, %s) "
+                                         "must be a positive finite scale, got %g", columns * (r * nb + b) + c, r, b,
+                                         c ? "north" : "east", row[c]);
+                if (columns == 4 && !(isfinite(row[2]) && isfinite(row[3]) && hypot(row[2], row[3]) < 1.0 &&
+                                      ((row[2] == 0.0 && row[3] == 0.0) || row[0] == row[1])))
+                    return ocls_fail(lib, OCLSHADE_INVALID_ARGUMENT, 0, "row_scales row %d column band %d's stretch (p, q) "
+                                     "= (%g, %g) must have p^2 + q^2 < 1, and be 0 where its east and north scales "
+                                     "differ", r, b, row[2], row[3]);
+            }
+        if ((st = scale_bands(lib, p, bands, columns, j)) != OCLSHADE_OK) return st;
     }
     oclshade_pyramid_layout_for(p->rows, p->cols, &j->lay);
     cl_float u[2];
@@ -230,9 +299,13 @@ static oclshade_status horizon_job_for(oclshade *lib, const oclshade_horizon_par
     j->ray.s[2] = (cl_float)p->curvature;
     j->ray.s[3] = (cl_float)p->max_distance;
     j->p = p;
-    const scale_band *seed_band = NULL;   /* the band holding the middle row */
-    for (int b = 0; b < j->nbands; ++b)
-        if (j->bands[b].row0 <= p->rows / 2 && p->rows / 2 < j->bands[b].row0 + j->bands[b].rows) seed_band = &j->bands[b];
+    const scale_band *seed_band = NULL;   /* the block holding the middle cell */
+    for (int b = 0; b < j->nbands; ++b) {
+        const scale_band *k = &j->bands[b];
+        if (k->row0 <= p->rows / 2 && p->rows / 2 < k->row0 + k->rows && k->col0 <= p->cols / 2 &&
+            p->cols / 2 < k->col0 + k->cols)
+            seed_band = k;
+    }
     j->seed_ray = seed_band ? band_ray(j, seed_band, p->azimuth) : j->ray;
     if (p->n_azimuths > 0) {   /* the seeds' rays (and the cells' without bands) */
         j->rays = (cl_float4 *)malloc(sizeof *j->rays * (size_t)p->n_azimuths);
@@ -251,27 +324,23 @@ static oclshade_status horizon_job_for(oclshade *lib, const oclshade_horizon_par
     return OCLSHADE_OK;
 }
 
-/* horizon_cells_batch (arguments `a`, the rays and cell sizes replaced) over each band of rows, its
- * rays for azimuths first .. first + count - 1 uploaded to band_rays at those places first. */
-static oclshade_status batch_bands(ocls_pass *ps, const horizon_job *j, kernel_entry *walker, ocls_arg *a,
-                                   cl_mem band_rays, cl_int first, cl_int count, size_t group, size_t width)
+/* The blocks' table for horizon_cells_batch (-D OCLS_SUN_TABLE; HorizonCaster._batch_launcher):
+ * per block its cell sizes, then its rays for azimuths first .. first + count - 1, uploaded to
+ * `table` (table_stride = count + 1) */
+static oclshade_status upload_batch_table(ocls_pass *ps, const horizon_job *j, cl_mem table, cl_int first,
+                                          cl_int count)
 {
-    const oclshade_horizon_params *p = j->p;
-    cl_float4 *rays = (cl_float4 *)malloc(sizeof *rays * (size_t)count);
-    oclshade_status st = OCLSHADE_OK;
-    if (rays == NULL) return ocls_fail(ps->lib, OCLSHADE_OUT_OF_MEMORY, 0, "no host memory for %d rays", count);
-    for (int b = 0; b < j->nbands && st == OCLSHADE_OK; ++b) {
-        const scale_band *band = &j->bands[b];
-        const cl_float2 cell = band_cell(j, band);
-        for (int k = 0; k < count; ++k) rays[k] = band_ray(j, band, p->azimuths[first + k]);
-        a[6] = (ocls_arg)OCLS_ARG(band_rays);
-        a[10] = (ocls_arg)OCLS_ARG(cell);
-        if ((st = ocls_upload(ps, band_rays, sizeof *rays * (size_t)first, rays, sizeof *rays * (size_t)count,
-                              "a band's horizon rays")) == OCLSHADE_OK &&
-            (st = ocls_set_args(ps, walker, a, 14)) == OCLSHADE_OK)
-            st = ocls_launch_rows(ps, walker, p->cols, band->row0, band->rows, p->svf ? 1 : count, group, width);
+    const size_t stride = (size_t)count + 1, bytes = sizeof(cl_float4) * stride * (size_t)j->nbands;
+    cl_float4 *rows = (cl_float4 *)malloc(bytes);
+    if (rows == NULL) return ocls_fail(ps->lib, OCLSHADE_OUT_OF_MEMORY, 0, "no host memory for the blocks' rays");
+    for (int b = 0; b < j->nbands; ++b) {
+        const cl_float2 cell = band_cell(j, &j->bands[b]);
+        const cl_float4 head = {{cell.s[0], cell.s[1], 0.0f, 0.0f}};
+        rows[b * stride] = head;
+        for (int k = 0; k < count; ++k) rows[b * stride + 1 + k] = band_ray(j, &j->bands[b], j->p->azimuths[first + k]);
     }
-    free(rays);
+    const oclshade_status st = ocls_upload(ps, table, 0, rows, bytes, "the blocks' horizon rays");
+    free(rows);
     return st;
 }
 
@@ -284,18 +353,25 @@ static oclshade_status horizon_batch_body(ocls_pass *ps, const horizon_job *j, c
     oclshade *lib = ps->lib;
     const int n = p->n_azimuths, batch = ocls_knob(lib, K_HORIZON_BATCH) < n ? ocls_knob(lib, K_HORIZON_BATCH) : n;
     const size_t W = (size_t)p->cols, seed_cells = (size_t)seed_extent(p->rows) * (size_t)seed_extent(p->cols);
-    cl_mem angle, seeds, rays, band_rays = NULL;
+    const size_t band_bytes = sizeof(cl_int) * ((size_t)p->rows + W);
+    const size_t table_bytes = sizeof(cl_float4) * ((size_t)batch + 1) * (size_t)j->nbands;
+    cl_mem angle, seeds, rays, band = NULL, table = NULL;
     oclshade_status st;
     if ((st = ocls_bind_out(ps, &p->angle, n * p->rows, 4 * W, "angle", &angle)) != OCLSHADE_OK ||
         (st = ocls_scratch(ps, 8 * seed_cells * (size_t)batch, "horizon seeds", &seeds)) != OCLSHADE_OK ||
         (st = ocls_scratch(ps, sizeof *j->rays * (size_t)n, "horizon rays", &rays)) != OCLSHADE_OK ||
-        (j->bands && (st = ocls_scratch(ps, sizeof *j->rays * (size_t)n, "a band's horizon rays", &band_rays))
-                     != OCLSHADE_OK) || !ps->run)
+        (j->bands && ((st = ocls_scratch(ps, band_bytes, "the blocks' bands", &band)) != OCLSHADE_OK ||
+                      (st = ocls_scratch(ps, table_bytes, "the blocks' horizon rays", &table)) != OCLSHADE_OK)) ||
+        !ps->run)
         return st;
-    if ((st = ocls_upload(ps, rays, 0, j->rays, sizeof *j->rays * (size_t)n, "horizon rays")) != OCLSHADE_OK) return st;
+    if ((st = ocls_upload(ps, rays, 0, j->rays, sizeof *j->rays * (size_t)n, "horizon rays")) != OCLSHADE_OK ||
+        (j->bands && (st = ocls_upload(ps, band, 0, j->band, band_bytes, "the blocks' bands")) != OCLSHADE_OK))
+        return st;
+    ocls_defines tabled = *d;             /* blocks: each cell's rays and cell sizes from their table */
+    ocls_def_flag(&tabled, "OCLS_SUN_TABLE", j->bands != NULL);
     kernel_entry *seeder, *walker;
     if ((st = ocls_kernel(ps, "horizon.cl", d, "horizon_seeds_batch", &seeder)) != OCLSHADE_OK ||
-        (st = ocls_kernel(ps, "horizon.cl", d, "horizon_cells_batch", &walker)) != OCLSHADE_OK)
+        (st = ocls_kernel(ps, "horizon.cl", &tabled, "horizon_cells_batch", &walker)) != OCLSHADE_OK)
         return st;
     const size_t group = (size_t)ocls_knob(lib, K_HORIZON_GROUP), width = (size_t)ocls_knob(lib, K_HORIZON_WIDTH);
     const cl_int H = p->rows, Wi = p->cols, nlev = j->lay.levels, stride = p->rows * p->cols;
@@ -305,22 +381,20 @@ static oclshade_status horizon_batch_body(ocls_pass *ps, const horizon_job *j, c
         const cl_int count = n - first < batch ? n - first : batch;
         ocls_arg sa[9] = {OCLS_ARG(h), OCLS_ARG(H), OCLS_ARG(Wi), OCLS_ARG(p->pyramid), OCLS_ARG(p->offsets),
                           OCLS_ARG(nlev), OCLS_ARG(rays), OCLS_ARG(seeds), OCLS_ARG(first)};
-        ocls_arg a[14] = {OCLS_ARG(h), OCLS_ARG(H), OCLS_ARG(Wi), OCLS_ARG(p->pyramid), OCLS_ARG(p->offsets),
+        const cl_int table_stride = count + 1;
+        ocls_arg a[17] = {OCLS_ARG(h), OCLS_ARG(H), OCLS_ARG(Wi), OCLS_ARG(p->pyramid), OCLS_ARG(p->offsets),
                           OCLS_ARG(nlev), OCLS_ARG(rays), OCLS_ARG(angle_arg), OCLS_ARG(svf), OCLS_ARG(seeds),
-                          OCLS_ARG(cell), OCLS_ARG(stride), OCLS_ARG(first), OCLS_ARG(count)};
+                          OCLS_ARG(cell), OCLS_ARG(stride), OCLS_ARG(first), OCLS_ARG(count), OCLS_ARG(band),
+                          OCLS_ARG(table), OCLS_ARG(table_stride)};
         if ((st = ocls_set_args(ps, seeder, sa, 9)) != OCLSHADE_OK ||
             (st = ocls_launch_3d(ps, seeder, seed_extent(p->cols), seed_extent(p->rows),
                                  count, group, width)) != OCLSHADE_OK)
             return st;
-        if (j->bands == NULL) {
-            if ((st = ocls_set_args(ps, walker, a, 14)) != OCLSHADE_OK ||
-                (st = ocls_launch_3d(ps, walker, Wi, H, p->svf ? 1 : count, group, width)) != OCLSHADE_OK)
-                return st;
-            continue;
-        }
-        /* each band's cells with its rays, at the batch's places in a buffer of their own (the seeds
-         * keep the grid's rays: kernels/horizon.cl, "Seeds") */
-        if ((st = batch_bands(ps, j, walker, a, band_rays, first, count, group, width)) != OCLSHADE_OK) return st;
+        /* with blocks, each block's rays (the seeds keep the middle block's: kernels/horizon.cl, "Seeds") */
+        if ((j->bands && (st = upload_batch_table(ps, j, table, first, count)) != OCLSHADE_OK) ||
+            (st = ocls_set_args(ps, walker, a, j->bands ? 17 : 14)) != OCLSHADE_OK ||
+            (st = ocls_launch_3d(ps, walker, Wi, H, p->svf ? 1 : count, group, width)) != OCLSHADE_OK)
+            return st;
     }
     return OCLSHADE_OK;
 }
@@ -347,8 +421,13 @@ static oclshade_status horizon_body(ocls_pass *ps, const void *params)
     if (ocls_knob(lib, K_HORIZON_SCAN)) ocls_def_int(&d, "OCLS_LEVEL_SCAN", 1);
     if ((st = ocls_bind_in(ps, &p->heights, p->rows, 4 * W, "heights", &h)) != OCLSHADE_OK) return st;
     if (p->n_azimuths > 0) return horizon_batch_body(ps, j, h, &d);
+    const int tabled = j->bands != NULL && !sweep;   /* blocks walked in one launch from their table */
+    const size_t band_bytes = sizeof(cl_int) * ((size_t)p->rows + W), strips_bytes = sizeof(cl_float4) * 2 * (size_t)j->nbands;
+    cl_mem band = NULL, strips = NULL;
     if ((st = ocls_bind_out(ps, &p->angle, p->rows, 4 * W, "angle", &angle)) != OCLSHADE_OK ||
         (seeded && (st = ocls_scratch(ps, 8 * (size_t)seed_rows * (size_t)seed_cols, "horizon seeds", &seeds)) != OCLSHADE_OK) ||
+        (tabled && ((st = ocls_scratch(ps, band_bytes, "the blocks' bands", &band)) != OCLSHADE_OK ||
+                    (st = ocls_scratch(ps, strips_bytes, "the blocks' horizon rays", &strips)) != OCLSHADE_OK)) ||
         !ps->run)
         return st;
     const size_t group = (size_t)ocls_knob(lib, K_HORIZON_GROUP), width = (size_t)ocls_knob(lib, K_HORIZON_WIDTH);
@@ -369,13 +448,14 @@ static oclshade_status horizon_body(ocls_pass *ps, const void *params)
             const cl_float4 ray = band_ray(j, &j->bands[b], p->azimuth);
             a[3] = (ocls_arg)OCLS_ARG(ray);
             if ((st = ocls_set_args(ps, sweeper, a, 6)) == OCLSHADE_OK)
-                st = ocls_launch_rows(ps, sweeper, (p->cols + lanes - 1) / lanes, j->bands[b].row0, j->bands[b].rows,
-                                      0, group, width);
+                st = launch_block(ps, sweeper, j, &j->bands[b], lanes, 0, group, width);
         }
         return st;
     }
     kernel_entry *k, *seeder = NULL;
-    if ((st = ocls_kernel(ps, "horizon.cl", &d, "horizon_cells", &k)) != OCLSHADE_OK ||
+    ocls_defines table_defines = d;
+    ocls_def_flag(&table_defines, "OCLS_SUN_TABLE", tabled);
+    if ((st = ocls_kernel(ps, "horizon.cl", &table_defines, "horizon_cells", &k)) != OCLSHADE_OK ||
         (seeded && (st = ocls_kernel(ps, "horizon.cl", &d, "horizon_seeds", &seeder)) != OCLSHADE_OK))
         return st;
     const cl_int nlev = j->lay.levels;
@@ -386,21 +466,25 @@ static oclshade_status horizon_body(ocls_pass *ps, const void *params)
                    (st = ocls_launch(ps, seeder, seed_cols, seed_rows, group, width)) != OCLSHADE_OK))
         return st;
     const cl_float2 bounds = {{(cl_float)p->clamp_bounds[0], (cl_float)p->clamp_bounds[1]}};
-    ocls_arg a[12] = {OCLS_ARG(h), OCLS_ARG(H), OCLS_ARG(Wi), OCLS_ARG(p->pyramid), OCLS_ARG(p->offsets),
+    ocls_arg a[14] = {OCLS_ARG(h), OCLS_ARG(H), OCLS_ARG(Wi), OCLS_ARG(p->pyramid), OCLS_ARG(p->offsets),
                       OCLS_ARG(nlev), OCLS_ARG(j->ray), OCLS_ARG(angle_arg), OCLS_ARG(svf), OCLS_ARG(seeds_arg),
-                      OCLS_ARG(cell), OCLS_ARG(bounds)};
-    if (j->bands == NULL)      /* (clamped: the bounds too, never in bands) */
-        return (st = ocls_set_args(ps, k, a, p->clamped ? 12 : 11)) != OCLSHADE_OK ? st :
-               ocls_launch(ps, k, Wi, H, group, width);
-    for (int b = 0; b < j->nbands && st == OCLSHADE_OK; ++b) {   /* each band with its ray and cells */
-        const cl_float4 ray = band_ray(j, &j->bands[b], p->azimuth);
-        const cl_float2 band_cells = band_cell(j, &j->bands[b]);
-        a[6] = (ocls_arg)OCLS_ARG(ray);
-        a[10] = (ocls_arg)OCLS_ARG(band_cells);
-        if ((st = ocls_set_args(ps, k, a, 11)) == OCLSHADE_OK)
-            st = ocls_launch_rows(ps, k, Wi, j->bands[b].row0, j->bands[b].rows, 0, group, width);
+                      OCLS_ARG(cell), OCLS_ARG(bounds), OCLS_ARG(band), OCLS_ARG(strips)};
+    if (tabled) {              /* each block's ray, then (-inf, inf, its cell sizes) (clamped: never in blocks) */
+        cl_float4 *rows = (cl_float4 *)malloc(strips_bytes);
+        if (rows == NULL) return ocls_fail(lib, OCLSHADE_OUT_OF_MEMORY, 0, "no host memory for the blocks' rays");
+        for (int b = 0; b < j->nbands; ++b) {
+            const cl_float2 block_cell = band_cell(j, &j->bands[b]);
+            const cl_float4 more = {{-INFINITY, INFINITY, block_cell.s[0], block_cell.s[1]}};
+            rows[2 * b] = band_ray(j, &j->bands[b], p->azimuth);
+            rows[2 * b + 1] = more;
+        }
+        st = ocls_upload(ps, strips, 0, rows, strips_bytes, "the blocks' horizon rays");
+        free(rows);
+        if (st != OCLSHADE_OK || (st = ocls_upload(ps, band, 0, j->band, band_bytes, "the blocks' bands")) != OCLSHADE_OK)
+            return st;
     }
-    return st;
+    return (st = ocls_set_args(ps, k, a, tabled ? 14 : p->clamped ? 12 : 11)) != OCLSHADE_OK ? st :
+           ocls_launch(ps, k, Wi, H, group, width);
 }
 
 oclshade_status oclshade_horizon_scratch_size(oclshade *lib, const oclshade_horizon_params *params, size_t *bytes)

@@ -69,6 +69,19 @@ static void print_handle_options(const oclshade *lib, const char *prefix)
     }
 }
 
+static cl_mem buffer(cl_context ctx, size_t n);
+
+/* q's scratch: a buffer of oclshade_horizon_scratch_size (blocks of row scales need their tables),
+ * in place of the one *held */
+static void size_horizon_scratch(oclshade *lib, cl_context ctx, oclshade_horizon_params *q, cl_mem *held)
+{
+    size_t bytes = 0;
+    if (oclshade_horizon_scratch_size(lib, q, &bytes) != OCLSHADE_OK) return;   /* (the call names it) */
+    if (*held) clReleaseMemObject(*held);
+    *held = buffer(ctx, bytes);
+    q->scratch = *held;
+}
+
 static cl_mem buffer(cl_context ctx, size_t n)
 {
     cl_int err;
@@ -662,37 +675,53 @@ int main(int argc, char **argv)
         /* a geographic grid's row scales: each named where it is not a positive finite scale */
         double *scales = (double *)calloc(4 * (size_t)rows, sizeof *scales);   /* room for 4 columns */
         for (int k = 0; k < 2 * rows; ++k) scales[k] = 1.0 + 0.01 * k;
+        cl_mem scaled_scratch = NULL;
         hq = hp; hq.row_scales = scales;
+        size_horizon_scratch(lib, ctx, &hq, &scaled_scratch);
         st = oclshade_enqueue_horizon(lib, queue, &hq, 0, NULL, NULL);
         expect_status(lib, st, OCLSHADE_OK, "", "horizon: row scales");
         scales[3] = 0.0;
         st = oclshade_enqueue_horizon(lib, queue, &hq, 0, NULL, NULL);
-        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "row_scales[3] (row 1, north) must be a positive finite "
-                      "scale, got 0", "horizon: a row scale 0");
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "row_scales[3] (row 1, column band 0, north) must be a "
+                      "positive finite scale, got 0", "horizon: a row scale 0");
         scales[3] = NAN;
         st = oclshade_enqueue_horizon(lib, queue, &hq, 0, NULL, NULL);
-        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "row_scales[3] (row 1, north)", "horizon: a row scale NaN");
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "row_scales[3] (row 1, column band 0, north)",
+                      "horizon: a row scale NaN");
         scales[3] = 1.03;
+        hq.row_scale_bands = 2;
+        st = oclshade_enqueue_horizon(lib, queue, &hq, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "row_scale_bands must be 0 (one scale per row) or 1 to 1 "
+                      "(column bands of a map", "horizon: 2 column bands on a narrow map");
+        hq.row_scale_bands = 1;        /* (rows x 1 x 2: the same doubles, read as one column band) */
+        size_horizon_scratch(lib, ctx, &hq, &scaled_scratch);
+        st = oclshade_enqueue_horizon(lib, queue, &hq, 0, NULL, NULL);
+        expect_status(lib, st, OCLSHADE_OK, "", "horizon: row scales in one column band");
+        hq.row_scale_bands = 0;
         hq.row_scale_columns = 3;
         st = oclshade_enqueue_horizon(lib, queue, &hq, 0, NULL, NULL);
         expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "row_scale_columns must be 2 (east, north) or 4 (east, "
                       "north, p, q), got 3", "horizon: 3 row scale columns");
         hq.row_scale_columns = 4;      /* (the rows' first half read as rows of 4: east != north, p, q not 0) */
         st = oclshade_enqueue_horizon(lib, queue, &hq, 0, NULL, NULL);
-        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "row_scales row 0's stretch (p, q) = (1.02, 1.03) must "
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "row_scales row 0 column band 0's stretch (p, q) = (1.02, "
+                      "1.03) must "
                       "have p^2 + q^2 < 1", "horizon: a row's stretch of 1.4");
         for (int r = 0; r < rows; ++r) {           /* east = north, a small stretch: fine */
             scales[4 * r] = scales[4 * r + 1] = 1.0 + 0.001 * r;
             scales[4 * r + 2] = 0.003;
             scales[4 * r + 3] = -0.002;
         }
+        size_horizon_scratch(lib, ctx, &hq, &scaled_scratch);
         st = oclshade_enqueue_horizon(lib, queue, &hq, 0, NULL, NULL);
         expect_status(lib, st, OCLSHADE_OK, "", "horizon: row scales with a stretch by direction");
         scales[4] = 1.5;                            /* row 1: east != north with a stretch */
         st = oclshade_enqueue_horizon(lib, queue, &hq, 0, NULL, NULL);
-        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "row_scales row 1's stretch (p, q) = (0.003, -0.002) must "
+        expect_status(lib, st, OCLSHADE_INVALID_ARGUMENT, "row_scales row 1 column band 0's stretch (p, q) = (0.003, "
+                      "-0.002) must "
                       "have p^2 + q^2 < 1, and be 0 where its east and north scales differ", "horizon: a stretch off");
         free(scales);
+        clReleaseMemObject(scaled_scratch);
         /* several azimuths in one call */
         double two[2] = {10.0, 200.0}, bad[2] = {10.0, NAN};
         hq = hp; hq.n_azimuths = -1;

@@ -36,12 +36,13 @@
  *       image.u8 (image.f32 with LINEAR 1); checks itself that pitched fields give the same
  *       image.  LIGHT X,Y,Z,DISTANCE: a point light at world (X, Y, Z), falloff reference
  *       distance DISTANCE (0: none) instead of the sun; INDIR then holds translation.f64 (3).
- *   horizon OUTDIR HEIGHTS.f64 ROWS COLS DX DY CURVATURE DEFINITION N [MAX_DISTANCE [ROW_SCALES.f64 [COLUMNS]]]
+ *   horizon OUTDIR HEIGHTS.f64 ROWS COLS DX DY CURVATURE DEFINITION N [MAX_DISTANCE [ROW_SCALES.f64 [COLUMNS [BANDS]]]]
  *       horizon angles at the N azimuths 360 k / N (angle_<k>.f32) and the sky-view factor
  *       sums over them (svf.f32: float2 per cell, zeroed by oclshade_enqueue_zero), within
  *       the search radius MAX_DISTANCE (default 0: the whole map), each band of rows at its
  *       own cell sizes with ROW_SCALES (rows x COLUMNS doubles, 2 or 4 (default 2): row_scales,
- *       row_scale_columns); checks itself that a
+ *       row_scale_columns; rows x BANDS x COLUMNS with BANDS > 0: row_scale_bands, in blocks of
+ *       rows by column bands); checks itself that a
  *       pitched angle field and another group (at azimuth 360 / N) and, with a radius, at every
  *       azimuth sweep_cells 0 and 256 (walked, swept) and sweep_far 2 (swept past the reach)
  *       give the same bits; over the whole map, that all N azimuths in one call (n_azimuths)
@@ -661,6 +662,7 @@ static void run_compose(int argc, char **argv)
 static double horizon_max_distance = 0.0;   /* run_horizon's MAX_DISTANCE */
 static const double *horizon_row_scales;     /* run_horizon's ROW_SCALES (NULL: none) */
 static int horizon_row_scale_columns = 2;     /* run_horizon's COLUMNS */
+static int horizon_row_scale_bands = 0;       /* run_horizon's BANDS */
 
 /* One oclshade_enqueue_horizon call into `angle` and/or `svf`: the azimuth azimuths[0] (n 0), or the
  * n azimuths in one call (n_azimuths: kernels/horizon.cl "Batches"; `angle` then n bands of rows). */
@@ -678,6 +680,7 @@ static void horizon_call(const map *m, double dx, double dy, double curvature, c
     p.max_distance = horizon_max_distance;
     p.row_scales = horizon_row_scales;
     p.row_scale_columns = horizon_row_scale_columns;
+    p.row_scale_bands = horizon_row_scale_bands;
     if (angle) p.angle = *angle;
     p.svf = svf;
     p.svf_definition = (oclshade_svf_definition)definition;
@@ -746,16 +749,16 @@ static void check_horizon_batches(const map *m, double dx, double dy, double cur
 
 static void run_horizon(int argc, char **argv)
 {
-    if (argc < 8 || argc > 11)
+    if (argc < 8 || argc > 12)
         fail("usage: host_passes horizon OUTDIR HEIGHTS.f64 ROWS COLS DX DY CURVATURE DEFINITION N [MAX_DISTANCE "
-             "[ROW_SCALES.f64 [COLUMNS]]]");
+             "[ROW_SCALES.f64 [COLUMNS [BANDS]]]]");
     if (argc >= 9) horizon_max_distance = atof(argv[8]);
-    if (argc == 11) horizon_row_scale_columns = atoi(argv[10]);
+    if (argc >= 11) horizon_row_scale_columns = atoi(argv[10]);
+    if (argc == 12) horizon_row_scale_bands = atoi(argv[11]);
     map m;
     load_map(&m, argv[0], atoi(argv[1]), atoi(argv[2]));
-    double *row_scales = argc >= 10 ? (double *)read_file(NULL, argv[9],
-                                                          8 * (size_t)horizon_row_scale_columns * (size_t)m.rows, 0)
-                                    : NULL;
+    const size_t per_row = (size_t)horizon_row_scale_columns * (size_t)(horizon_row_scale_bands > 0 ? horizon_row_scale_bands : 1);
+    double *row_scales = argc >= 10 ? (double *)read_file(NULL, argv[9], 8 * per_row * (size_t)m.rows, 0) : NULL;
     horizon_row_scales = row_scales;
     const double dx = atof(argv[3]), dy = atof(argv[4]), curvature = atof(argv[5]);
     const int definition = atoi(argv[6]), n = atoi(argv[7]);

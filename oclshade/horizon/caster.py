@@ -41,7 +41,7 @@ from ..pyramid import ExtremaPyramid, cached_pyramid
 from ..reference.horizons import SVF_DEFINITIONS
 from ..runtime import Runtime, get_runtime
 from ..solar.field import on_heightmap
-from ..solar.scale import SCALE_TOLERANCE, direction_factor, scale_bands
+from ..solar.scale import SCALE_TOLERANCE, ScaleBlocks, direction_factor, scale_blocks
 from ..sun import Sun, SunField, SunLike, as_sun, libm, sun_rays, unscaled
 from .disc import DEFAULT_COLUMNS, SUN_RADIUS, disc_columns, disc_columns_of, disc_stretch, visible_fraction
 from .pilot import MIN_CELLS as PILOT_MIN_CELLS, MIN_ROWS as PILOT_MIN_ROWS, Pilot
@@ -131,11 +131,11 @@ class HorizonCaster:
     ``lanes``, ``sweep_cells``), any subset; the rest from the device's tuning entry.  Results
     never depend on them.  row_scales: None (default: the heightmap's
     :attr:`~oclshade.heightmap.Heightmap.row_scales`; without them every cell is dx by dy metres),
-    or float64 (rows, 2) or (rows, 4), for each row the true metres east and north of one of the
-    grid's, and a projected grid's stretch by direction (a geographic raster's cells are wider
-    towards the equator; :meth:`oclshade.solar.MapPlaces.row_scales`, :mod:`oclshade.solar.scale`).
-    The horizons and sky-view factor are then traced per band of rows (:attr:`scale_bands`) with
-    the band's own cell sizes (times its stretch at each azimuth), so their azimuths and angles
+    or float64 (rows[, column bands], 2 or 4), for each row (in each column band) the true metres
+    east and north of one of the grid's, and a projected grid's stretch by direction (a geographic
+    raster's cells are wider towards the equator; :meth:`oclshade.solar.MapPlaces.row_scales`,
+    :mod:`oclshade.solar.scale`).  The horizons and sky-view factor are then traced per block
+    (:attr:`scale_blocks`) with the block's own cell sizes (times its stretch at each azimuth), so their azimuths and angles
     are true ones to :data:`SCALE_TOLERANCE`; the soft shadows stay on the
     grid (their suns are the grid's: :func:`oclshade.solar.sun_field`, and a sun given by its
     angles on a heightmap with row scales is its bands', :func:`oclshade.solar.field.on_heightmap`).
@@ -149,8 +149,8 @@ class HorizonCaster:
             raise TypeError(f"curvature must be None or a Curvature, got {curvature!r}")
         self.radius = check_max_distance(max_distance)
         self.heightmap = heightmap
-        self.scale_bands = scale_bands(heightmap.shape[0], heightmap.row_scales if row_scales is None else row_scales,
-                                       SCALE_TOLERANCE)
+        self.scale_blocks: ScaleBlocks = scale_blocks(
+            heightmap.shape, heightmap.row_scales if row_scales is None else row_scales, SCALE_TOLERANCE)
         self.runtime = get_runtime(device)
         self.curvature = curvature
         self.cache = cache
@@ -360,10 +360,11 @@ class HorizonCaster:
         seeded = not clamped and self.radius is None
 
         @functools.cache
-        def walker() -> dict[str, object]:
+        def walker(tabled: bool = False) -> dict[str, object]:
+            """The walk's kernels (``tabled``: horizon_cells built to read its blocks' table)."""
             pyr = self.pyramid
             self._heights = None             # a sweep's own copy: the pyramid's heights from now on
-            kernel = rt.kernel("horizon.cl", "horizon_cells", defines)
+            kernel = rt.kernel("horizon.cl", "horizon_cells", {**defines, "OCLS_SUN_TABLE": True} if tabled else defines)
             walk = {"kernel": kernel, "grid": self._grid(kernel, cols, rows),
                     "fixed": (pyr.heights, np.int32(rows), np.int32(cols), pyr.buffer, pyr.offsets,
                               np.int32(pyr.levels))}
@@ -380,34 +381,36 @@ class HorizonCaster:
             kernel = rt.kernel("horizon.cl", "horizon_sweep", {**defines, "OCLS_SWEEP": lanes})
             return kernel, self._grid(kernel, -(-cols // lanes), rows)
 
-        def launch(kernel: cl.Kernel, grid: tuple, band: tuple[int, int] | None) -> None:
-            """The whole grid, or only the band (first row, rows) of it."""
-            (gx, gy), local = grid
-            first, count = (0, gy) if band is None else band
-            cl.enqueue_nd_range_kernel(rt.queue, kernel, (gx, count), local, global_work_offset=(0, first))
-
         def sweep(ray: np.ndarray, angle: cl.Buffer, svf: cl.Buffer, band: tuple[int, int] | None = None,
                   azimuth: float | None = None) -> None:
             kernel, grid = sweeper()
-            for scales, band_grid, rows_of in self._band_launches(grid, band, azimuth is not None):
+            for scales, size, local, offset in self._block_launches(grid, band, azimuth is not None, self.knobs["lanes"]):
                 scaled = ray if azimuth is None else self._ray(azimuth, scales)
                 kernel.set_args(self.heights_buffer, np.int32(rows), np.int32(cols), scaled, angle, svf)
-                launch(kernel, band_grid, rows_of)
+                cl.enqueue_nd_range_kernel(rt.queue, kernel, size, local, global_work_offset=offset)
 
         def walk(ray: np.ndarray, angle: cl.Buffer, svf: cl.Buffer, bounds: tuple[float, float] = (),
                  band: tuple[int, int] | None = None, table: tuple = (), azimuth: float | None = None) -> None:
-            w = walker()
-            if seeded:                # any seed gives each cell a lower bound (horizon.cl): the middle band's ray
+            # a map in blocks of their own scale: one launch, each block's ray and cells from a table
+            tabled = azimuth is not None and not table and not self.scale_blocks.as_drawn
+            w = walker(tabled)
+            if seeded:                # any seed gives each cell a lower bound (horizon.cl): the middle block's ray
                 w["seeder"].set_args(*w["fixed"], ray if azimuth is None else self._ray(azimuth, self._seed_scales),
                                      w["seeds"])
                 cl.enqueue_nd_range_kernel(rt.queue, w["seeder"], *w["seed_grid"])
-            for scales, band_grid, rows_of in self._band_launches(w["grid"], band, azimuth is not None):
+            if tabled:
+                rays, cells = self._block_rays(np.array([azimuth]))
+                strips = np.empty((len(cells), 2, 4), np.float32)
+                strips[:, 0], strips[:, 1, :2], strips[:, 1, 2:] = rays[:, 0], bounds or (-np.inf, np.inf), cells
+                table = (self._block_bands, rt.to_device(strips, "horizon block table"))
+                bounds = bounds or (0.0, 0.0)                                      # (unread)
+            for scales, size, local, offset in self._block_launches(w["grid"], band, azimuth is not None and not tabled):
                 scaled = ray if azimuth is None else self._ray(azimuth, scales)
                 w["kernel"].set_args(*w["fixed"], scaled, angle, svf, w["seeds"] if seeded else self._dummy,
                                      self._cell(scales).astype(np.float32),
                                      *([np.array(bounds, np.float32)] if bounds else []),
                                      *table)
-                launch(w["kernel"], band_grid, rows_of)
+                cl.enqueue_nd_range_kernel(rt.queue, w["kernel"], size, local, global_work_offset=offset)
 
         def pilot(ray: np.ndarray, angle: cl.Buffer, crossings: float) -> Pilot:
             """Both on bands of rows (pilot.py): into ``angle`` (the launch that follows writes the
@@ -439,45 +442,65 @@ class HorizonCaster:
 
         return enqueue
 
-    def _band_launches(self, grid: tuple, band: tuple[int, int] | None, scaled: bool = True
-                       ) -> list[tuple[np.ndarray | None, tuple, tuple[int, int] | None]]:
-        """(scales, grid, rows) of each launch over the rows of ``band`` (None: the map): one with
-        the map's cell sizes (scales None), or with ``scaled`` and :attr:`scale_bands` one per
-        band of rows with its own scales (float64 (2 or 4,), :mod:`oclshade.solar.scale`), each
-        launch's work-groups as tall as divides its rows (the last band's rows rounded up to the
-        grid's)."""
-        edges, scales = self.scale_bands
-        if not scaled or self._as_drawn:
-            return [(None, grid, band)]
+    def _block_launches(self, grid: tuple, band: tuple[int, int] | None, scaled: bool = True, unit: int = 1
+                        ) -> list[tuple[np.ndarray | None, tuple[int, int], tuple[int, int], tuple[int, int]]]:
+        """(scales, global, local, offset) of each 2-D launch over the rows of ``band`` (None: the
+        map) of a kernel whose work-items take ``unit`` cells of a row each (the sweep's lanes):
+        one with the map's cell sizes (scales None), or with ``scaled`` and :attr:`scale_blocks`
+        one per block with its own scales (float64 (2 or 4,), :mod:`oclshade.solar.scale`), each
+        launch's work-groups as wide and tall as divide its work-items (the last blocks' rounded up
+        to the grid's)."""
         (gx, gy), (lx, ly) = grid
         first, stop = (0, gy) if band is None else (band[0], band[0] + band[1])
-        ends = np.append(edges[1:-1], gy)
+        blocks = self.scale_blocks
+        if not scaled or blocks.as_drawn:
+            return [(None, (gx, stop - first), (lx, ly), (0, first))]
+        row_ends = np.append(blocks.row_edges[1:-1], gy)
+        col_starts = blocks.col_edges[:-1] // unit            # (inner edges are multiples of 16 >= unit)
+        col_ends = np.append(col_starts[1:], gx)
         out = []
-        for k in range(len(scales)):
-            r0, r1 = max(int(edges[k]), first), min(int(ends[k]), stop)
-            if r1 > r0:
-                out.append((scales[k], ((gx, gy), (lx, math.gcd(ly, r1 - r0))), (r0, r1 - r0)))
+        for a in range(len(blocks.row_edges) - 1):
+            r0, r1 = max(int(blocks.row_edges[a]), first), min(int(row_ends[a]), stop)
+            if r1 <= r0:
+                continue
+            for b, (x0, x1) in enumerate(zip(col_starts.tolist(), col_ends.tolist())):
+                out.append((blocks.scales[a, b], (x1 - x0, r1 - r0), (math.gcd(lx, x1 - x0), math.gcd(ly, r1 - r0)),
+                            (x0, r0)))
         return out
 
     @functools.cached_property
-    def _as_drawn(self) -> bool:
-        """Whether the map is one band of scale 1: traced with its own cell sizes."""
-        return len(self.scale_bands[1]) == 1 and bool(np.all(unscaled(self.scale_bands[1])))
-
-    @functools.cached_property
     def _seed_scales(self) -> np.ndarray | None:
-        """The scales of the seeds' rays: those of the band holding the middle row, so that a
-        seed's horizon point lies near every band's cells' own rays (a seed gives any cell a
+        """The scales of the seeds' rays: those of the block holding the middle cell, so that a
+        seed's horizon point lies near every block's cells' own rays (a seed gives any cell a
         lower bound, kernels/horizon.cl "Seeds"; a poor one, traced at another scale, only
         prunes less: at the grid's metres, Web Mercator's horizons had cost 1.8-2x); None (the
         map's) where the map is traced as it is."""
-        if self._as_drawn:
-            return None
-        edges, scales = self.scale_bands
-        return scales[int(np.searchsorted(edges, self.heightmap.shape[0] // 2, side="right")) - 1]
+        return None if self.scale_blocks.as_drawn else self.scale_blocks.middle()
+
+    @functools.cached_property
+    def _block_bands(self) -> cl.Buffer:
+        """kernels/horizon.cl's ``band`` of :attr:`scale_blocks` (OCLS_SUN_TABLE): cell (i, j) is in
+        block band[i] + band[rows + j], raster order."""
+        blocks = self.scale_blocks
+        across = len(blocks.col_edges) - 1
+        band = np.concatenate([np.repeat(np.arange(len(blocks.row_edges) - 1) * across, np.diff(blocks.row_edges)),
+                               np.repeat(np.arange(across), np.diff(blocks.col_edges))]).astype(np.int32)
+        return self.runtime.to_device(band, "scale block bands")
+
+    def _block_rays(self, azimuths: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(rays float32 (blocks, azimuths, 4), cells float32 (blocks, 2)): :meth:`_rays` and
+        :meth:`_cell` of every block of :attr:`scale_blocks` (raster order), bit for bit, at once."""
+        scales = self.scale_blocks.scales.reshape(-1, self.scale_blocks.scales.shape[-1])
+        dx, dy = self.heightmap.dx * scales[:, 0], self.heightmap.dy * scales[:, 1]
+        stretch = direction_factor(scales[:, None, :], azimuths[None, :])
+        rays = np.empty((len(scales), len(azimuths), 4), np.float32)
+        rays[..., :2] = sun_rays(np.broadcast_to(azimuths, stretch.shape), np.zeros(stretch.shape),
+                                 dx[:, None] * stretch, dy[:, None] * stretch)[..., :2]
+        rays[..., 2], rays[..., 3] = self.coefficient, self.radius or 0.0
+        return rays, np.stack([dx, dy], axis=-1).astype(np.float32)
 
     def _cell(self, scales: np.ndarray | None) -> np.ndarray:
-        """float64 (dx, dy): the cell sizes in true metres of a band of these scales (None: the
+        """float64 (dx, dy): the cell sizes in true metres of a block of these scales (None: the
         map's), east and north; the kernels' seeds read them (without the stretch by direction:
         any cell size gives a lower bound, and a batch's azimuths share one)."""
         dx, dy = self.heightmap.dx, self.heightmap.dy
@@ -495,13 +518,13 @@ class HorizonCaster:
                 "OCLS_OWN_BUILTINS": bool(self.knobs["own_builtins"])}
 
     def _ray(self, azimuth: float, scales: np.ndarray | None = None) -> np.ndarray:
-        """kernels/horizon.cl's float4 ray (ux, uy, c, R) at ``azimuth`` (``scales``: a band's,
-        :meth:`_band_launches`; default the map's cell sizes)."""
+        """kernels/horizon.cl's float4 ray (ux, uy, c, R) at ``azimuth`` (``scales``: a block's,
+        :meth:`_block_launches`; default the map's cell sizes)."""
         return self._rays(np.array([azimuth]), scales)[0]
 
     def _rays(self, azimuths: np.ndarray, scales: np.ndarray | None = None) -> np.ndarray:
         """:meth:`_ray` of each azimuth, float32 (n, 4): the cell sizes of :meth:`_cell`, times a
-        projected band's stretch that way (:func:`oclshade.solar.scale.direction_factor`)."""
+        projected block's stretch that way (:func:`oclshade.solar.scale.direction_factor`)."""
         dx, dy = self._cell(scales)
         stretch = np.ones(len(azimuths)) if scales is None else direction_factor(scales, azimuths)
         rays = np.empty((len(azimuths), 4), np.float32)
@@ -529,9 +552,10 @@ class HorizonCaster:
         room = min(device.global_mem_size // 8, device.max_mem_alloc_size) // (band_bytes + seed_bytes)
         size = int(max(1, min(self.knobs["batch"], n_azimuths, room)))
         defines = self._defines(outputs)
+        tabled = not self.scale_blocks.as_drawn       # each block's rays and cells from a table, in one launch
         pyr = self.pyramid
         seeder = rt.kernel("horizon.cl", "horizon_seeds_batch", defines)
-        walker = rt.kernel("horizon.cl", "horizon_cells_batch", defines)
+        walker = rt.kernel("horizon.cl", "horizon_cells_batch", {**defines, "OCLS_SUN_TABLE": True} if tabled else defines)
         (sgx, sgy), (slx, sly) = self._grid(seeder, seed_extent(cols), seed_extent(rows))
         (gx, gy), (lx, ly) = self._grid(walker, cols, rows)
         fixed = (pyr.heights, np.int32(rows), np.int32(cols), pyr.buffer, pyr.offsets, np.int32(pyr.levels))
@@ -544,13 +568,15 @@ class HorizonCaster:
             rays = rt.to_device(self._rays(azimuths, self._seed_scales), "horizon rays")
             seeder.set_args(*fixed, rays, seeds, np.int32(0))
             cl.enqueue_nd_range_kernel(rt.queue, seeder, (sgx, sgy, n), (slx, sly, 1))
-            for scales, (_, (_, band_ly)), rows_of in self._band_launches(((gx, gy), (lx, ly)), None):
-                first, count = (0, gy) if rows_of is None else rows_of
-                band_rays = rays if rows_of is None else rt.to_device(self._rays(azimuths, scales), "horizon rays")
-                walker.set_args(*fixed, band_rays, angle, svf, seeds, self._cell(scales).astype(np.float32),
-                                np.int32(stride), np.int32(0), np.int32(n))
-                cl.enqueue_nd_range_kernel(rt.queue, walker, (gx, count, 1 if sums else n), (lx, band_ly, 1),
-                                           global_work_offset=(0, first, 0))
+            table = ()
+            if tabled:
+                block_rays, cells = self._block_rays(azimuths)
+                block_table = np.empty((len(cells), 1 + n, 4), np.float32)
+                block_table[:, 0, :2], block_table[:, 0, 2:], block_table[:, 1:] = cells, 0.0, block_rays
+                table = (self._block_bands, rt.to_device(block_table, "horizon block table"), np.int32(1 + n))
+            walker.set_args(*fixed, rays, angle, svf, seeds, self._cell(None).astype(np.float32),
+                            np.int32(stride), np.int32(0), np.int32(n), *table)
+            cl.enqueue_nd_range_kernel(rt.queue, walker, (gx, gy, 1 if sums else n), (lx, ly, 1))
 
         return launch, size
 

@@ -41,7 +41,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..heightmap import Heightmap
-from ..solar.scale import SCALE_TOLERANCE, direction_factor, scale_bands
+from ..solar.scale import SCALE_TOLERANCE, direction_factor, scale_blocks
 from ..sun import Sun
 from .shadows import CORNER_SNAP, FLOAT32_EPS, _patch_valid, _sample, _segment_margin, start_patches
 
@@ -110,20 +110,22 @@ def banded_horizon_angles(hm: Heightmap, azimuth: float, curvature: float = 0.0,
                           cells: tuple[np.ndarray, np.ndarray] | None = None,
                           max_distance: float = np.inf) -> np.ndarray:
     """:func:`horizon_angles` of a heightmap with :attr:`~oclshade.heightmap.Heightmap.row_scales`
-    (a geographic raster's) as :class:`oclshade.horizon.HorizonCaster` traces it: each cell with
-    the cell sizes of its band of rows (:func:`oclshade.solar.scale.scale_bands`: dx, dy times
-    the band's scale, and a projected band's stretch at ``azimuth``,
+    (a georeferenced raster's) as :class:`oclshade.horizon.HorizonCaster` traces it: each cell with
+    the cell sizes of its block (:func:`oclshade.solar.scale.scale_blocks`: dx, dy times
+    the block's scale, and a projected block's stretch at ``azimuth``,
     :func:`oclshade.solar.scale.direction_factor`), rays over the whole map.  Without row scales: :func:`horizon_angles`.
     (Every other reference takes the grid as drawn, dx by dy, and the suns as the grid traces
     them.)"""
     ii, jj = (a.ravel() for a in np.indices(hm.shape)) if cells is None else \
         (np.asarray(a, np.int64).ravel() for a in cells)
-    edges, scales = scale_bands(hm.shape[0], hm.row_scales, SCALE_TOLERANCE)
-    which = np.searchsorted(edges, ii, side="right") - 1
+    blocks = scale_blocks(hm.shape, hm.row_scales, SCALE_TOLERANCE)
+    a, b = blocks.block_of(ii, jj)
+    which = a * len(blocks.col_edges) + b
     out = np.empty(ii.shape)
     for k in np.unique(which):
-        stretch = float(direction_factor(scales[k], azimuth))       # a projected band's, that way (1: none)
-        own = Heightmap(hm.heights, hm.dx * float(scales[k, 0]) * stretch, hm.dy * float(scales[k, 1]) * stretch)
+        scales = blocks.scales[divmod(int(k), len(blocks.col_edges))]
+        stretch = float(direction_factor(scales, azimuth))       # a projected block's, that way (1: none)
+        own = Heightmap(hm.heights, hm.dx * float(scales[0]) * stretch, hm.dy * float(scales[1]) * stretch)
         at = which == k
         out[at] = horizon_angles(own, azimuth, curvature, (ii[at], jj[at]), max_distance)
     return out.reshape(hm.shape if cells is None else np.shape(cells[0]))

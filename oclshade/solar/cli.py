@@ -270,9 +270,9 @@ def scale_line(places: MapPlaces, tolerance: float = DEFAULT_SUN_TOLERANCE) -> s
     if places.crs is None:
         return "a geographic grid, each band of rows traced with its own cell width"
     scales = places.row_scales()
-    stretch = float(np.max(np.hypot(scales[:, 2], scales[:, 3]))) / 2.0     # the largest share by direction
+    stretch = float(np.max(np.hypot(scales[..., 2], scales[..., 3]))) / 2.0     # the largest share by direction
     by_direction = f" (up to {100.0 * stretch:.2f} % more or less by direction)" if stretch > 0.0 else ""
-    return (f"a projected grid ({places.crs.name}) whose metre is {scales[:, 0].min():.6f}-{scales[:, 0].max():.6f} m "
+    return (f"a projected grid ({places.crs.name}) whose metre is {scales[..., 0].min():.6f}-{scales[..., 0].max():.6f} m "
             f"on the ground{by_direction}, traced at that scale")
 
 

@@ -45,7 +45,8 @@ import numpy as np
 from ..io import Raster, geotransform, metres_per_degree
 from ..heightmap import Heightmap
 from ..sun import DEFAULT_SUN_TOLERANCE as DEFAULT_TOLERANCE, BlockGrid, Sun, SunField, Traced
-from .scale import scale_bands, scale_share, stretch_of
+from .scale import (SEGMENT_SHARE, column_edges, max_column_bands, scale_blocks, scale_share, stretch_of,
+                    stretch_share)
 from .position import sun_position
 from .site import STEP_METRES, grid_azimuths, projected_crs
 
@@ -103,7 +104,7 @@ class MapPlaces:
         conformal, polar stereographic), bilinear between their values on a
         :data:`SCALE_LATTICE`-square lattice over the map (a smooth field: within 2e-7 of it on a
         1-degree Web Mercator tile); (1, 1, 0, 0) where every direction's length is within half
-        of :func:`scale_share` of 1 (as :func:`scale_bands` takes a map: the angles move by at
+        of :func:`scale_share` of 1 (as :func:`scale_blocks` takes a map: the angles move by at
         most 0.01 / sqrt(2) degree)."""
         rows, cols = np.asarray(rows, np.float64), np.asarray(cols, np.float64)
         if self.crs is not None:
@@ -182,14 +183,19 @@ class MapPlaces:
 
     @cached_property
     def _row_scales(self) -> np.ndarray:
-        """float64 (rows, 2) (east, north) on a geographic grid, (rows, 4) (east, north, p, q) on a
-        projected one (:mod:`oclshade.solar.scale`): each row's scales, what
-        :class:`oclshade.horizon.HorizonCaster` traces the horizons with and a sun given by its
-        angles is banded by (:func:`banded_field`): a geographic grid's :meth:`grid_scales` at
-        the row's middle (all 1 where all are within half of :func:`scale_share` of 1: traced as
-        it is); a projected grid's the middle of their
-        extremes along the row (bilinear on the lattice: at its columns; UTM, far from its
-        meridian, changes along the rows), (1, 1, 0, 0) where all of the row is near 1 as there."""
+        """float64 (rows, 2) (east, north) on a geographic grid, (rows, m, 4) (east, north, p, q)
+        in m column bands (:func:`oclshade.solar.scale.column_edges`) on a projected one
+        (:mod:`oclshade.solar.scale`): each row's scales, what :class:`oclshade.horizon.HorizonCaster`
+        traces the horizons with and a sun given by its angles is blocked by (:func:`banded_field`):
+        a geographic grid's :meth:`grid_scales` at the row's middle (all 1 where all are within
+        half of :func:`scale_share` of 1: traced as it is); a projected grid's, in each column band,
+        the middle of their extremes along the row's stretch of it (bilinear on the lattice: at
+        its columns and the band's edges), m the fewest (up to
+        :func:`oclshade.solar.scale.max_column_bands`) that keep every stretch's spread (the scales'
+        share plus :func:`oclshade.solar.scale.stretch_share`) within
+        :data:`oclshade.solar.scale.SEGMENT_SHARE` of the half share (UTM far from its meridian, or
+        a whole equal-area tile, changes along the rows); all (1, 1, 0, 0) where the whole map is
+        near 1 (traced as it is)."""
         rows, cols = self.shape
         middle = np.arange(rows) + 0.5
         if self.crs is None:     # all within half the share of 1: traced at the centre's width, as it is
@@ -197,22 +203,39 @@ class MapPlaces:
             scales = np.ones((rows, 2)) if np.all(_near_one(scales)) else scales
             scales.setflags(write=False)
             return scales
-        along = self._lattice_scale(np.repeat(middle, SCALE_LATTICE), np.tile(self._scale_lattice[1], rows))
+        lattice_cols = self._scale_lattice[1]
+        along = self._lattice_scale(np.repeat(middle, SCALE_LATTICE), np.tile(lattice_cols, rows))
         along = along.reshape(rows, SCALE_LATTICE, 3)
-        scale, p, q = np.moveaxis((along.min(axis=1) + along.max(axis=1)) / 2.0, -1, 0)
-        ones = np.all(_identity(along), axis=1)                          # the whole row near 1
-        scales = np.stack([np.where(ones, 1.0, scale), np.where(ones, 1.0, scale),
-                           np.where(ones, 0.0, p), np.where(ones, 0.0, q)], axis=-1)
+        if np.all(_identity(along)):        # (bilinear: a row's extremes lie at the lattice's columns)
+            scales = np.tile([1.0, 1.0, 0.0, 0.0], (rows, 1, 1))
+            scales.setflags(write=False)
+            return scales
+        allowed, most, bands = SEGMENT_SHARE * scale_share() / 2.0, max_column_bands(cols), 1
+        while True:
+            lo, hi = _stretch_extremes(along, lattice_cols, column_edges(cols, bands))
+            spread = ((hi[..., 0] - lo[..., 0]) / (hi[..., 0] + lo[..., 0])
+                      + stretch_share(np.insert(lo, 0, lo[..., 0], axis=-1), np.insert(hi, 0, hi[..., 0], axis=-1)))
+            over = float(spread.max()) / allowed
+            if over <= 1.0 or bands == most:
+                break
+            bands = min(most, max(bands + 1, math.ceil(bands * over)))
+        scale, p, q = np.moveaxis((lo + hi) / 2.0, -1, 0)
+        scales = np.stack([scale, scale, p, q], axis=-1)
         scales.setflags(write=False)
         return scales
 
     @cached_property
     def scale_residual(self) -> float:
-        """Degrees: what tracing each band of rows at its scales (:meth:`row_scales`) leaves of
-        the grid's own distortion, at most, over a 9 x 9 lattice: a grid metre's length in a
-        direction a share d off its band's moves an angle by at most d / 2 radians (the
-        scales' change along a row, and any stretch by direction they do not follow: the
-        largest d over :data:`RESIDUAL_AZIMUTHS` grid azimuths).  0 on a geographic grid."""
+        """:meth:`residual_of` the map's own :meth:`row_scales`."""
+        return self.residual_of(self.row_scales())
+
+    def residual_of(self, row_scales: np.ndarray) -> float:
+        """Degrees: what tracing each block at these row scales (float64 (rows[, column bands], 4),
+        :func:`oclshade.solar.scale.scale_blocks`) leaves of the grid's own distortion, at most,
+        over a 9 x 9 lattice: a grid metre's length in a direction a share d off its block's
+        moves an angle by at most d / 2 radians (the scales' change within a block, and any
+        stretch by direction they do not follow: the largest d over :data:`RESIDUAL_AZIMUTHS`
+        grid azimuths).  0 on a geographic grid."""
         if self.crs is None:
             return 0.0
         rows, cols = self.shape
@@ -220,12 +243,12 @@ class MapPlaces:
         lon, lat = self.lonlat(r.ravel(), c.ravel())
         scale, p, q = self.projected_scales(lon, lat)
         here = np.stack([scale, scale, p, q], axis=-1)
-        edges, bands = scale_bands(rows, self.row_scales(), DEFAULT_TOLERANCE)
-        band = bands[np.searchsorted(edges, np.floor(r.ravel()).astype(int), side="right") - 1]
+        blocks = scale_blocks(self.shape, row_scales, DEFAULT_TOLERANCE)
+        block = blocks.scales[blocks.block_of(r.ravel(), c.ravel())]
         azimuths = np.radians(np.arange(RESIDUAL_AZIMUTHS) * (180.0 / RESIDUAL_AZIMUTHS))[None, :]
         sin, cos = np.sin(azimuths), np.cos(azimuths)
         true = scale[:, None] * stretch_of(here[:, None, :], sin, cos)
-        traced = band[:, None, 0] * stretch_of(band[:, None, :], sin, cos)
+        traced = block[:, None, 0] * stretch_of(block[:, None, :], sin, cos)
         return float(np.degrees(np.max(np.abs(true / traced - 1.0)) / 2.0))
 
     def on_grid(self, rows: np.ndarray, cols: np.ndarray, azimuth: np.ndarray, elevation: np.ndarray
@@ -279,6 +302,24 @@ def _identity(scales: np.ndarray) -> np.ndarray:
 def _as_one(scales: np.ndarray) -> np.ndarray:
     """(s, p, q) (..., 3), (1, 0, 0) where :func:`_identity`."""
     return np.where(_identity(scales)[..., None], np.array([1.0, 0.0, 0.0]), scales)
+
+
+def _stretch_extremes(along: np.ndarray, lattice_cols: np.ndarray, edges: np.ndarray
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """(lo, hi), float64 (rows, bands, 3): the extremes of each row's (s, p, q) over each column
+    band [edges[b], edges[b + 1]], from its values at the lattice's columns (``along``: (rows,
+    lattice columns, 3)), linear between them (bilinear at a fixed row): at the lattice columns
+    within the band and at its edges."""
+    j = np.clip(np.searchsorted(lattice_cols, edges, side="right") - 1, 0, len(lattice_cols) - 2)
+    f = ((edges - lattice_cols[j]) / (lattice_cols[j + 1] - lattice_cols[j]))[None, :, None]
+    at_edges = along[:, j] * (1.0 - f) + along[:, j + 1] * f
+    bands = len(edges) - 1
+    lo, hi = np.empty((len(along), bands, 3)), np.empty((len(along), bands, 3))
+    for b in range(bands):
+        inside = (lattice_cols > edges[b]) & (lattice_cols < edges[b + 1])
+        samples = np.concatenate([at_edges[:, b:b + 2], along[:, inside]], axis=1)
+        lo[:, b], hi[:, b] = samples.min(axis=1), samples.max(axis=1)
+    return lo, hi
 
 
 def scaled_suns(scales: np.ndarray, azimuth: np.ndarray, elevation: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -388,21 +429,24 @@ def sun_field(places: MapPlaces, when: datetime | Sun, tolerance: float = DEFAUL
 
 def banded_field(row_scales: np.ndarray, cols: int, sun: Sun, tolerance: float = DEFAULT_TOLERANCE
                  ) -> SunField:
-    """A sun given by its angles on a grid whose rows have these scales (float64 (rows, 2 or 4),
-    :meth:`MapPlaces.row_scales`: geographic or projected): blocks the map's width (``cols``), one per band of
-    rows of :func:`oclshade.solar.scale.scale_bands` (the bands a :class:`HorizonCaster` with
-    these rows' scales traces: a mask and the horizons at its azimuth then see the same lines),
-    each with the sun as the grid traces it at the band's scale."""
+    """A sun given by its angles on a grid whose rows have these scales (float64 (rows, 2 or 4) or
+    (rows, m, 2 or 4), :meth:`MapPlaces.row_scales`: geographic or projected), on a map ``cols``
+    wide: one block per block of :func:`oclshade.solar.scale.scale_blocks` (the blocks a
+    :class:`HorizonCaster` with these rows' scales traces: a mask and the horizons at its azimuth
+    then see the same lines), each with the sun as the grid traces it at the block's scale."""
     rows = len(row_scales)
-    edges, scales = scale_bands(rows, row_scales, tolerance)
-    own = unit_vectors(*scaled_suns(row_scales, np.full(rows, sun.azimuth), np.full(rows, sun.elevation)))
-    az, el = scaled_suns(scales, np.full(len(scales), sun.azimuth), np.full(len(scales), sun.elevation))
-    band = np.repeat(np.arange(len(scales)), np.diff(edges))
+    blocks = scale_blocks((rows, cols), row_scales, tolerance)
+    per_row = np.asarray(row_scales, np.float64).reshape(rows, -1, np.shape(row_scales)[-1])  # (rows, column bands, k)
+    own = unit_vectors(*scaled_suns(per_row, np.full(per_row.shape[:2], sun.azimuth),
+                                    np.full(per_row.shape[:2], sun.elevation)))
+    az, el = scaled_suns(blocks.scales, np.full(blocks.scales.shape[:2], sun.azimuth),
+                         np.full(blocks.scales.shape[:2], sun.elevation))
+    band = np.repeat(np.arange(len(az)), np.diff(blocks.row_edges))
     deviation = float(sun_differences(own, unit_vectors(az, el)[band]).max())
-    if len(scales) == 1:
-        return SunField.single(Sun(float(az[0]), float(el[0])), (rows, cols), deviation, tolerance,
-                               tuple(float(v) for v in scales[0]))
-    return SunField((rows, cols), BlockGrid(edges, np.array([0, cols]), az[:, None], el[:, None], scales),
+    if az.size == 1:
+        return SunField.single(Sun(float(az[0, 0]), float(el[0, 0])), (rows, cols), deviation, tolerance,
+                               tuple(float(v) for v in blocks.scales[0, 0]))
+    return SunField((rows, cols), BlockGrid(blocks.row_edges, blocks.col_edges, az, el, blocks.scales),
                     sun, deviation, tolerance)
 
 

@@ -1,6 +1,6 @@
 """A grid's scale: a geographic grid's cells are metres at the centre latitude's scale
 (oclshade.io), so a row's true cell width differs from the grid's, and a projected grid's metre
-is 1 / k of the ground's; what traces each band of rows with its own (docs/methods.md,
+is 1 / k of the ground's; what traces each block of cells with its own (docs/methods.md,
 "Geographic grids", "Projected grids").
 
 A row's scales (:meth:`oclshade.solar.MapPlaces.row_scales`) are float64 (east, north) or
@@ -15,22 +15,28 @@ every way, a conformal projection's k; p, q only with east = north)."""
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
 from ..heightmap import check_row_scales
 from ..sun import sincos_degrees
 
-#: degrees: a geographic grid's bands of rows (:func:`scale_bands`) keep every row's directions
-#: and angles within this of its band's (the horizons' default; the sun fields take their tolerance)
+#: degrees: a scaled grid's blocks (:func:`scale_blocks`) keep every cell's directions and angles
+#: within this of its block's (the horizons' default; the sun fields take their tolerance)
 SCALE_TOLERANCE = 0.01
-#: rows: the bands' edges are multiples of this where the tolerance allows
+#: rows: the bands' edges are multiples of this where the tolerance allows; columns: the column
+#: bands' inner edges always are (:func:`column_edges`)
 SCALE_ALIGN = 16
+#: the share of the tolerance's budget that a (row, column band)'s scales leave to the spread of
+#: its cells' own (row_scales (rows, m, k): :meth:`oclshade.solar.MapPlaces.row_scales` picks m so);
+#: their blocks keep the rest (:func:`scale_blocks`)
+SEGMENT_SHARE = 0.5
 
 
 def scale_share(tolerance: float = SCALE_TOLERANCE) -> float:
-    """The share by which cell sizes may differ from their band's (2 sqrt(2) tolerance in
-    radians, :func:`scale_bands`); a map whose scales are all within half of it of 1 is traced
+    """The share by which cell sizes may differ from their block's (2 sqrt(2) tolerance in
+    radians, :func:`scale_blocks`); a map whose scales are all within half of it of 1 is traced
     as it is (:meth:`oclshade.solar.MapPlaces.row_scales`)."""
     return 2.0 * math.sqrt(2.0) * math.radians(tolerance)
 
@@ -53,28 +59,95 @@ def direction_factor(scales: np.ndarray, azimuth: np.ndarray) -> np.ndarray:
     return stretch_of(scales, *sincos_degrees(azimuth))
 
 
-def scale_bands(rows: int, row_scales: np.ndarray | None, tolerance: float = SCALE_TOLERANCE
-                ) -> tuple[np.ndarray, np.ndarray]:
-    """(edges, scales): bands of rows [edges[k], edges[k + 1]) and float64 (bands, 2 or 4, as
-    ``row_scales``), each band's scales, the middle of its rows' (``row_scales``: float64 (rows,
-    2 or 4), the module docstring's, :meth:`oclshade.solar.MapPlaces.row_scales`; None: one band
-    of scale 1).  A row's cell sizes in any direction differ from its band's by a share d of at
-    most sqrt(2) tolerance (radians): a direction then turns by at most d / 2 (sin a cos a d)
-    and an elevation angle moves by at most d / 2 (sin e cos e d), together at most the
-    tolerance.  (With p, q: d is at most the east and north scales' share plus half of
-    |(dp, dq)|, each the half of its range in the band.)  Bands are the most rows that hold it,
-    in multiples of :data:`SCALE_ALIGN` where that many do (a fine grid), any number where not
-    (coarse cells near the poles: down to one row).  (Rows near enough to 1 to be traced as they are come as 1:
-    :meth:`oclshade.solar.MapPlaces.row_scales`.)"""
+def stretch_share(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """The most by which a grid metre's stretch by direction, sqrt(1 + p cos 2a + q sin 2a), may
+    differ as a share from that of the middle of these extremes of (p, q) (``lo``, ``hi``: (..., 2
+    or 4); 0 without p, q): a quarter of |(dp, dq)| (half the range, half the root's slope at 1),
+    over 1 - |(p, q)|: |sqrt(1 + x) - sqrt(1 + m)| / sqrt(1 + m) = |x - m| / (sqrt(1 + m) (sqrt(1 +
+    x) + sqrt(1 + m))), and 1 + x, 1 + m >= 1 - |(p, q)| (bounded by the larger ends')."""
+    lo, hi = np.asarray(lo, np.float64), np.asarray(hi, np.float64)
+    if lo.shape[-1] == 2:
+        return np.zeros(lo.shape[:-1])
+    most = np.hypot(np.maximum(np.abs(lo[..., 2]), np.abs(hi[..., 2])), np.maximum(np.abs(lo[..., 3]), np.abs(hi[..., 3])))
+    with np.errstate(divide="ignore", invalid="ignore"):     # (a box reaching |(p, q)| >= 1: no bound)
+        return np.where(most < 1.0, np.hypot(hi[..., 2] - lo[..., 2], hi[..., 3] - lo[..., 3]) / (4.0 * (1.0 - most)),
+                        np.inf)
+
+
+def column_edges(cols: int, bands: int) -> np.ndarray:
+    """int64 (bands + 1,): the edges of ``bands`` column bands of a map ``cols`` wide, the inner
+    ones the multiples of :data:`SCALE_ALIGN` nearest to j cols / bands (integer arithmetic:
+    host/src/horizon.c, the same); ``bands`` from 1 to max(1, cols // SCALE_ALIGN)."""
+    if not 1 <= bands <= max_column_bands(cols):
+        raise ValueError(f"column bands must be 1 to {max_column_bands(cols)} on a map {cols} wide, got {bands}")
+    inner = [(j * cols + 8 * bands) // (SCALE_ALIGN * bands) * SCALE_ALIGN for j in range(1, bands)]
+    return np.array([0, *inner, cols], np.int64)
+
+
+def max_column_bands(cols: int) -> int:
+    """The most column bands a map ``cols`` wide is cut into (each at least :data:`SCALE_ALIGN` wide)."""
+    return max(1, cols // SCALE_ALIGN)
+
+
+@dataclass(frozen=True)
+class ScaleBlocks:
+    """A map cut into blocks each traced at its own scales: block (a, b) holds rows
+    [row_edges[a], row_edges[a + 1]) and columns [col_edges[b], col_edges[b + 1]), its scales
+    ``scales[a, b]`` (2 or 4,: the module docstring's)."""
+
+    row_edges: np.ndarray     # int64, 0 .. rows
+    col_edges: np.ndarray     # int64, 0 .. cols
+    scales: np.ndarray        # float64 (row bands, column bands, 2 or 4)
+
+    @property
+    def as_drawn(self) -> bool:
+        """Whether the map is one block of scale 1: traced with its own cell sizes."""
+        one = self.scales.reshape(-1, self.scales.shape[-1])
+        return len(one) == 1 and bool(np.all(one[0, :2] == 1.0) and np.all(one[0, 2:] == 0.0))
+
+    def block_of(self, rows: np.ndarray, cols: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(a, b): the block of each cell (row, col) (integers, or cell coordinates: floors)."""
+        a = np.searchsorted(self.row_edges, np.floor(rows), side="right") - 1
+        b = np.searchsorted(self.col_edges, np.floor(cols), side="right") - 1
+        return a, b
+
+    def middle(self) -> np.ndarray:
+        """The scales of the block holding the map's middle cell (rows // 2, cols // 2)."""
+        a, b = self.block_of(np.array(self.row_edges[-1] // 2), np.array(self.col_edges[-1] // 2))
+        return self.scales[int(a), int(b)]
+
+
+def scale_blocks(shape: tuple[int, int], row_scales: np.ndarray | None, tolerance: float = SCALE_TOLERANCE
+                 ) -> ScaleBlocks:
+    """The blocks a map of ``shape`` with these scales is traced in (``row_scales``: float64
+    (rows, 2 or 4), each row's scales (the module docstring's), or (rows, m, 2 or 4), each row's in
+    m column bands (:func:`column_edges`), :meth:`oclshade.solar.MapPlaces.row_scales`; None: one
+    block of scale 1): the column bands, times bands of rows common to all of them, each block's
+    scales the middle of its rows'.  A row's cell sizes in any direction differ from its block's
+    by a share d of at most sqrt(2) tolerance (radians): a direction then turns by at most d / 2
+    (sin a cos a d) and an elevation angle moves by at most d / 2 (sin e cos e d), together at
+    most the tolerance.  (With p, q: d is at most the east and north scales' share plus
+    :func:`stretch_share`, each from the extremes in the block; with column bands, the blocks keep
+    1 - :data:`SEGMENT_SHARE` of it, the rest being the cells' own spread about their row's
+    scales in the band.)  Bands are the most rows that hold it in every column band, in
+    multiples of :data:`SCALE_ALIGN` where that many do (a fine grid), any number where not
+    (coarse cells near the poles: down to one row).  (Rows near enough to 1 to be traced as they
+    are come as 1: :meth:`oclshade.solar.MapPlaces.row_scales`.)"""
+    rows, cols = shape
     if row_scales is None:
-        return np.array([0, rows]), np.ones((1, 2))
-    scales = check_row_scales(row_scales, rows)
+        return ScaleBlocks(np.array([0, rows]), np.array([0, cols]), np.ones((1, 1, 2)))
+    scales = check_row_scales(row_scales, rows, cols)
     share = scale_share(tolerance)
+    if scales.ndim == 2:
+        scales = scales[:, None, :]
+    else:
+        share *= 1.0 - SEGMENT_SHARE
 
     def holds(lo: np.ndarray, hi: np.ndarray) -> bool:
-        # (hi - lo) / (hi + lo), the scales' share, plus the stretch's, at most half the share
-        stretch = np.hypot(hi[2] - lo[2], hi[3] - lo[3]) / 4.0 if len(lo) == 4 else 0.0
-        return bool(np.all(hi[:2] - lo[:2] + stretch * (hi[:2] + lo[:2]) <= share * (hi[:2] + lo[:2]) / 2.0))
+        # (hi - lo) / (hi + lo), the scales' share, plus the stretch's, at most half the share, in every column band
+        stretch = stretch_share(lo, hi)[:, None]
+        return bool(np.all(hi[:, :2] - lo[:, :2] + stretch * (hi[:, :2] + lo[:, :2])
+                           <= share * (hi[:, :2] + lo[:, :2]) / 2.0))
 
     # each band from its first row, its rows' extremes kept as it grows (host/src/horizon.c: the same)
     edges, middles, r0 = [0], [], 0
@@ -93,4 +166,4 @@ def scale_bands(rows: int, row_scales: np.ndarray | None, tolerance: float = SCA
         edges.append(r1)
         middles.append((lo + hi) / 2.0)
         r0 = r1
-    return np.array(edges), np.array(middles)
+    return ScaleBlocks(np.array(edges), column_edges(cols, scales.shape[1]), np.array(middles))
