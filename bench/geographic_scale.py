@@ -317,10 +317,10 @@ def ground(hm: Heightmap, places, angles: np.ndarray, azimuths: np.ndarray) -> d
 
 def write_markdown(path: Path, result: dict) -> None:
     m = result["meta"]
-    lines = ["# A grid's scale: per band of rows against the grid's metres as the ground's", "",
+    lines = ["# A grid's scale: per block of rows (and columns) against the grid's metres as the ground's", "",
              f"- date: {m['date']}; command: `{m['command']}`",
              f"- CPU: {m['cpu']}, {m['cores']} cores; device: {m['device']}; {m['pocl_version']}",
-             "- masks: best of 3 after a warm-up; the sun as the grid traces it per band of rows (tolerance "
+             "- masks: best of 3 after a warm-up; the sun as the grid traces it per block (tolerance "
              "0.01 deg) against the sun as given on the grid as drawn (a geographic grid at its centre's cell "
              "width, a projected one in its CRS's metres); horizons: one run each; projected maps: N22W160's "
              "heights on square cells of its north-south size in each CRS", "",

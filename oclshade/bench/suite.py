@@ -29,6 +29,10 @@ Cases (``family/variant``) and what one timed run is:
   horizon band costs tens of masks);
 * ``horizons/radius``: the same within a search radius of :data:`HORIZON_RADIUS_CELLS`
   cells, on the masks' map (the sweep: kernels/horizon.cl, "The sweep");
+* ``horizons/blocks``: the ``horizons`` case on the same canyon traced in blocks of their own
+  scale (:func:`blocked_scales`: an equal-area-like grid metre changing 1 % across the map
+  and stretched 3-4 % by direction, :data:`BLOCK_COLUMN_BANDS` column bands; each cell's ray
+  and cell sizes from its block's table in one launch, kernels/horizon.cl OCLS_SUN_TABLE);
 * ``horizons/sun_disc``: ``HorizonCaster(...).sun_disc`` of :data:`LOW_SUN` in
   :data:`SUN_DISC_COLUMNS` strips (soft shadows: each strip's horizons clamped to its
   chord, -D OCLS_CLAMP, summed on the host) on the ``horizons`` case's canyon;
@@ -78,6 +82,8 @@ horizons                  4 N heights + 4 N angles +       30 N (the start patch
                           8 N copy (N: cells of its map)
 horizons/radius           4 N heights + 4 N angles +       60 K N (K patches a ray crosses within
                           8 N copy                         the radius, 60 flops each)
+horizons/blocks           4 N heights + 4 N angles +       30 N (as horizons; the table's reads not
+                          8 N copy                         counted)
 horizons/sun_disc         k (4 N heights + 4 N angles +    30 k N (each strip's start patch; k: the
                           8 N copy)                        strips)
 sunshine/masks            S (4 N heights + 2 N mask        S (20 N + 12 N) (each mask's start patch
@@ -96,7 +102,7 @@ meshes/shadow_volumes     20 P (position, depth) + P mask  30 P (the view segmen
 
 ``exact`` cases must give the same bits on every device (their results equal
 the float64 reference by construction): the pyramid (min / max only) and the
-``exact`` masks, the horizons (all three cases), the sunshine sums of exact masks (integer seconds).  The other cases are compared too, for information.
+``exact`` masks, the horizons (all four cases), the sunshine sums of exact masks (integer seconds).  The other cases are compared too, for information.
 """
 from __future__ import annotations
 
@@ -212,6 +218,21 @@ def terrain(side: int) -> Heightmap:
 def terrain_digest(side: int) -> str:
     hm = terrain(side)
     return digest([hm.heights, np.array([hm.dx, hm.dy])])
+
+
+#: the ``horizons/blocks`` case's column bands
+BLOCK_COLUMN_BANDS = 8
+
+
+def blocked_scales(side: int) -> np.ndarray:
+    """float64 (side, :data:`BLOCK_COLUMN_BANDS` (at most side // 16), 4): row scales like a
+    whole equal-area tile's far from its centre (oclshade.solar.scale): s from 0.996 to 1.006
+    over the map, p about 0.03 and q about 0.035, all changing across the rows and columns."""
+    bands = min(BLOCK_COLUMN_BANDS, max(1, side // 16))
+    y = (np.arange(side)[:, None] + 0.5) / side
+    x = (np.arange(bands)[None, :] + 0.5) / bands
+    s = 1.0 + 0.006 * x - 0.004 * y
+    return np.stack(np.broadcast_arrays(s, s, 0.03 + 0.01 * x - 0.005 * y, 0.035 - 0.008 * y + 0.002 * x), axis=-1)
 
 
 def bench_mesh(hm: Heightmap) -> TriangleMesh:
@@ -507,6 +528,21 @@ def _horizons(w: Workload) -> Case:
                 30.0 * n, terrain_digest(side), run, lambda: [state["angles"]])
 
 
+def _horizons_blocks(w: Workload) -> Case:
+    side = max(w.sizes.map_side // 4, 8)
+    caster = HorizonCaster(terrain(side), w.rt, cache=False, row_scales=blocked_scales(side))
+    caster.pyramid
+    state: dict = {}
+
+    def run() -> None:
+        state["angles"] = caster.horizons([MASK_SUN.azimuth])
+
+    n, blocks = side * side, caster.scale_blocks.scales.shape
+    return Case(f"horizon angles in {blocks[0]} x {blocks[1]} blocks of their own scale, {_map_label(side)}, azimuth "
+                f"{MASK_SUN.azimuth:g}", "cells", n, 16.0 * n, 30.0 * n, terrain_digest(side), run,
+                lambda: [state["angles"]])
+
+
 def _horizons_radius(w: Workload) -> Case:
     hm = w.heightmap
     caster = HorizonCaster(hm, w.rt, cache=False, max_distance=HORIZON_RADIUS_CELLS * hm.dx)
@@ -608,6 +644,7 @@ SPECS: tuple[CaseSpec, ...] = (
     CaseSpec("ssao/paper", "ssao", False, _ssao("paper", PAPER_RECIPE, PAPER_M)),
     CaseSpec("compose", "compose", False, _compose),
     CaseSpec("horizons", "horizons", True, _horizons),
+    CaseSpec("horizons/blocks", "horizons", True, _horizons_blocks),
     CaseSpec("horizons/radius", "horizons", True, _horizons_radius),
     CaseSpec("horizons/sun_disc", "horizons", True, _sun_disc),
     CaseSpec("sunshine/masks", "sunshine", True, _sunshine),

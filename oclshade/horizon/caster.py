@@ -42,7 +42,7 @@ from ..reference.horizons import SVF_DEFINITIONS
 from ..runtime import Runtime, get_runtime
 from ..solar.field import on_heightmap
 from ..solar.scale import SCALE_TOLERANCE, ScaleBlocks, direction_factor, scale_blocks
-from ..sun import Sun, SunField, SunLike, as_sun, libm, sun_rays, unscaled
+from ..sun import Sun, SunField, SunLike, as_sun, libm, sun_rays
 from .disc import DEFAULT_COLUMNS, SUN_RADIUS, disc_columns, disc_columns_of, disc_stretch, visible_fraction
 from .pilot import MIN_CELLS as PILOT_MIN_CELLS, MIN_ROWS as PILOT_MIN_ROWS, Pilot
 from .pilot import bands as pilot_bands, measure as measure_pilot
