@@ -216,7 +216,7 @@ def test_sunshine_beam_on_a_geographic_map_is_the_true_suns(tmp_path, method):
 def test_masks_and_horizons_agree_on_a_geographic_map(tmp_path):
     """A cell is in cast shadow at (az, e) exactly when its horizon at az is above e, ties apart,
     on a geographic map too: a sun given by its angles is traced in the horizons' bands of rows
-    (oclshade.solar.scale.scale_bands), so both follow the same lines."""
+    (oclshade.solar.scale.scale_blocks), so both follow the same lines."""
     path, raster, places, hm = geo_map(tmp_path, rows=600, cols=300, step=1 / 1200, north=60.25)   # 3" cells
     horizons = tmp_path / "horizons.tif"
     assert main(["horizon", str(path), str(horizons), "--azimuths", "8", "-q"]) == 0

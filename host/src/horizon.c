@@ -20,8 +20,8 @@ void oclshade_horizon_params_init(oclshade_horizon_params *p)
     p->svf_definition = OCLSHADE_SVF_COSINE;
 }
 
-/* A geographic grid's bands of rows (oclshade/solar/scale.py scale_bands: SCALE_TOLERANCE degrees,
- * SCALE_ALIGN rows) */
+/* A scaled grid's blocks (oclshade/solar/scale.py scale_blocks: SCALE_TOLERANCE degrees,
+ * SCALE_ALIGN rows and columns) */
 #define SCALE_TOLERANCE 0.01
 #define SCALE_ALIGN 16
 #define SEGMENT_SHARE 0.5      /* oclshade/solar/scale.py: what column bands leave to their cells' spread */
@@ -99,13 +99,13 @@ static int column_edge(int cols, int bands, int b)
     return (int)(((long long)b * cols + 8LL * bands) / ((long long)SCALE_ALIGN * bands) * SCALE_ALIGN);
 }
 
-/* scale_blocks of the checked row_scales (rows x bands x columns): bands of rows from each band's
- * first, the most that hold the tolerance in every column band, in steps of SCALE_ALIGN where a
- * first step of that many holds, else of 1 (the same comparisons on the same doubles as the
- * Python host, on running extremes), times the column bands; j->bands stays NULL where the map
- * is one block of scale 1 (traced as it is). */
-static oclshade_status scale_bands(oclshade *lib, const oclshade_horizon_params *p, int bands, int columns,
-                                   horizon_job *j)
+/* scale_blocks (oclshade/solar/scale.py) of the checked row_scales (rows x bands x columns): bands
+ * of rows from each band's first, the most that hold the tolerance in every column band, in steps
+ * of SCALE_ALIGN where a first step of that many holds, else of 1 (the same comparisons on the
+ * same doubles as the Python host, on running extremes), times the column bands; j->bands stays
+ * NULL where the map is one block of scale 1 (traced as it is). */
+static oclshade_status scale_blocks(oclshade *lib, const oclshade_horizon_params *p, int bands, int columns,
+                                    horizon_job *j)
 {
     const double *s = p->row_scales;
     double share = 2.0 * sqrt(2.0) * (SCALE_TOLERANCE * (3.141592653589793 / 180.0));
@@ -155,6 +155,8 @@ static oclshade_status scale_bands(oclshade *lib, const oclshade_horizon_params 
         r0 = r1;
     }
     free(ext);
+    scale_band *fit = (scale_band *)realloc(j->bands, sizeof *j->bands * (size_t)j->nbands);   /* (rows x m at most) */
+    if (fit != NULL) j->bands = fit;
     const scale_band *one = &j->bands[0];
     if (j->nbands == 1 && one->sx == 1.0 && one->sy == 1.0 && one->p == 0.0 && one->q == 0.0) {   /* as it is */
         free(j->bands);
@@ -289,7 +291,7 @@ static oclshade_status horizon_job_for(oclshade *lib, const oclshade_horizon_par
                                      "= (%g, %g) must have p^2 + q^2 < 1, and be 0 where its east and north scales "
                                      "differ", r, b, row[2], row[3]);
             }
-        if ((st = scale_bands(lib, p, bands, columns, j)) != OCLSHADE_OK) return st;
+        if ((st = scale_blocks(lib, p, bands, columns, j)) != OCLSHADE_OK) return st;
     }
     oclshade_pyramid_layout_for(p->rows, p->cols, &j->lay);
     cl_float u[2];

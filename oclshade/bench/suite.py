@@ -508,10 +508,11 @@ def _compose(w: Workload) -> Case:
                 w.frame_digest(), run, lambda: [state["frame"]])
 
 
-def _canyon_horizons(w: Workload) -> tuple[int, HorizonCaster]:
-    """(side, caster) of the horizon cases' canyon: a quarter of the masks' side, its pyramid built."""
+def _canyon_horizons(w: Workload, blocked: bool = False) -> tuple[int, HorizonCaster]:
+    """(side, caster) of the horizon cases' canyon: a quarter of the masks' side, its pyramid built
+    (``blocked``: traced in blocks of :func:`blocked_scales`)."""
     side = max(w.sizes.map_side // 4, 8)
-    caster = HorizonCaster(terrain(side), w.rt, cache=False)
+    caster = HorizonCaster(terrain(side), w.rt, cache=False, row_scales=blocked_scales(side) if blocked else None)
     caster.pyramid
     return side, caster
 
@@ -529,9 +530,7 @@ def _horizons(w: Workload) -> Case:
 
 
 def _horizons_blocks(w: Workload) -> Case:
-    side = max(w.sizes.map_side // 4, 8)
-    caster = HorizonCaster(terrain(side), w.rt, cache=False, row_scales=blocked_scales(side))
-    caster.pyramid
+    side, caster = _canyon_horizons(w, blocked=True)
     state: dict = {}
 
     def run() -> None:
