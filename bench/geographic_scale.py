@@ -8,6 +8,7 @@ the horizons).
                                                 # on six projected grids (bench's PROJECTED) and on
                                                 # three whole EU-DEM tiles' extents (TILES)
     python bench/geographic_scale.py --reduced  # a check that the script works (384^2 crops)
+    python bench/geographic_scale.py --radius   # only the horizons within a search radius (RADIUS_CELLS)
 
 Per map, in one process:
 
@@ -33,6 +34,14 @@ Per map, in one process:
   whole tiles, the spread ground check: 16 azimuths' angles on 48 seeded cells all over the map
   (a third of them within 10 % of its width of its west or east edge), each against the twin at
   its own cell's true metres that way, for the blocks and for one scale per row.
+
+Per map also **far terrain's bound** (MapPlaces.far_residual): how fast a grid metre's length
+changes along a ray, the map's relief, and what a ray keeping its cell's scale leaves at most.
+
+With ``--radius``, per map only the **horizons within a search radius** of RADIUS_CELLS cells (the
+sweep): time per block against the grid as drawn and one scale per row (best of 3 after a
+warm-up), and the twin within the
+same radius, into bench/results/geographic_scale_radius.{json,md}.
 
 Writes bench/results/geographic_scale.{json,md} (``--out`` to change).  Figures depend on the
 machine; the results record where they were taken.
@@ -97,6 +106,8 @@ PROJECTED = (("UTM 4N, central meridian", 32604, -159.0, 22.5), ("UTM 33N, 2.9 d
 TILES = (("EU-DEM tile E30N20 (LAEA, 1000 km)", 3.0e6, 3.0e6), ("EU-DEM tile E40N30 (LAEA, 1000 km)", 4.0e6, 4.0e6),
          ("EU-DEM tile E50N40 (LAEA, 1000 km)", 5.0e6, 5.0e6))
 SPREAD_CELLS = 48
+#: ``--radius``'s search radius in cells (12 cells: 10 km on the tiles' 833 m cells)
+RADIUS_CELLS = 12
 
 
 def tile(raster: Raster, west: float, north: float, folder: Path) -> Raster:
@@ -153,11 +164,15 @@ def one_per_row(row_scales: np.ndarray) -> np.ndarray:
     return (row_scales.min(axis=1, keepdims=True) + row_scales.max(axis=1, keepdims=True)) / 2.0
 
 
-def scale_row(name: str, places) -> dict:
-    """The map's grid metre on the ground (the row scales' range), its column bands, and what its
-    blocks, and one scale per row, leave (MapPlaces.residual_of)."""
+def scale_row(name: str, places, hm: Heightmap) -> dict:
+    """The map's grid metre on the ground (the row scales' range), its column bands, what its
+    blocks, and one scale per row, leave (MapPlaces.residual_of), and the far terrain's bound
+    under its relief (MapPlaces.far_residual)."""
     scales = places.row_scales()
+    lo, hi = np.nanmin(hm.heights), np.nanmax(hm.heights)
     return {"map": name, "crs": "EPSG:4326" if places.crs is None else places.crs.to_string(),
+            "relief_m": float(hi - lo), "far_rate_per_100km": 1e5 * places.far_scale_rate(hm.dx, hm.dy),
+            "far_residual_deg": places.far_residual(float(hi - lo), hm.dx, hm.dy),
             "scale_min": float(scales[..., :2].min()), "scale_max": float(scales[..., :2].max()),
             "stretch_max": float(np.hypot(scales[..., 2], scales[..., 3]).max() / 2.0) if scales.shape[-1] == 4 else 0.0,
             "column_bands": int(scales.shape[1]) if scales.ndim == 3 else 1,
@@ -250,6 +265,42 @@ def horizons(name: str, raster: Raster, hm: Heightmap, places) -> list[dict]:
     return out
 
 
+def radius_horizons(name: str, hm: Heightmap, places) -> list[dict]:
+    """Horizons within a search radius of :data:`RADIUS_CELLS` cells (the sweep where the device's
+    knobs take it, kernels/horizon.cl "The sweep"), 16 and 64 azimuths, a warm-up then best of 3
+    taken in turn: per block
+    against the grid as drawn and (projected grids in column bands) one scale per row; the twin
+    within the same radius on 400 seeded cells per azimuth at 16."""
+    scales = places.row_scales()
+    radius = RADIUS_CELLS * hm.dx
+    casters = {"blocks": HorizonCaster(hm, row_scales=scales, max_distance=radius, cache=False),
+               "drawn": HorizonCaster(hm, max_distance=radius, cache=False)}
+    per_row = one_per_row(scales)
+    if per_row is not scales:
+        casters["per_row"] = HorizonCaster(hm, row_scales=per_row, max_distance=radius, cache=False)
+    for caster in casters.values():              # kernels made before the clocks
+        caster.horizons([0.0])
+    out = []
+    for n in (16, 64):
+        row = {"map": name, "azimuths": n, "radius_cells": RADIUS_CELLS,
+               "swept": int(sum(bool(casters["blocks"].takes_sweep(a)) for a in azimuth_grid(n))),
+               "blocks": list(casters["blocks"].scale_blocks.scales.shape[:2])}
+        for rep in range(4):                     # a warm-up, then best of 3, the casters in turn
+            for key, caster in casters.items():
+                t0 = time.perf_counter()
+                caster.horizons(n)
+                if rep:
+                    row[f"{key}_s"] = min(row.get(f"{key}_s", np.inf), time.perf_counter() - t0)
+        row.update(twin(hm, scales, casters["blocks"].horizons(n), azimuth_grid(n), radius) if n == 16 else {})
+        row["ratio"] = row["blocks_s"] / row["drawn_s"]
+        log(f"{name} within {RADIUS_CELLS} cells, {n} azimuths ({row['swept']} swept): "
+            f"{row['blocks'][0]} x {row['blocks'][1]} blocks {row['blocks_s']:.2f} s vs {row['drawn_s']:.2f} s as drawn"
+            + (f", {row['per_row_s']:.2f} s per row" if "per_row_s" in row else "")
+            + (f", twin {row['twin_outside']} of {row['twin_cells']} outside" if n == 16 else ""))
+        out.append(row)
+    return out
+
+
 def spread_ground(hm: Heightmap, places, angles: np.ndarray, by_row: np.ndarray, azimuths: np.ndarray) -> dict:
     """The blocks' angles, and one scale per row's, against the twin at each cell's own true
     metres that way (reference.ground_metre there), on :data:`SPREAD_CELLS` seeded cells all over
@@ -272,9 +323,11 @@ def spread_ground(hm: Heightmap, places, angles: np.ndarray, by_row: np.ndarray,
     return {"spread_cells": int(ii.size * len(azimuths)), "spread_max_deg": worst, "spread_per_row_max_deg": worst_row}
 
 
-def twin(hm: Heightmap, row_scales: np.ndarray, angles: np.ndarray, azimuths: np.ndarray) -> dict:
+def twin(hm: Heightmap, row_scales: np.ndarray, angles: np.ndarray, azimuths: np.ndarray,
+         max_distance: float = np.inf) -> dict:
     """The banded angles against the float64 twin with each band's own cell sizes
-    (:func:`oclshade.reference.banded_horizon_angles`), on seeded cells."""
+    (:func:`oclshade.reference.banded_horizon_angles`, within ``max_distance`` metres), on seeded
+    cells."""
     rng = np.random.default_rng(11)
     banded = Heightmap(hm.heights, hm.dx, hm.dy, row_scales=row_scales)
     valid = np.flatnonzero(~np.isnan(hm.heights).ravel())
@@ -283,7 +336,8 @@ def twin(hm: Heightmap, row_scales: np.ndarray, angles: np.ndarray, azimuths: np
     worst = 0.0
     for a, az in enumerate(azimuths):
         ii, jj = np.divmod(np.sort(rng.choice(valid, TWIN_CELLS, replace=False)), hm.shape[1])
-        err = np.abs(angles[a, ii, jj] - ref.banded_horizon_angles(banded, float(az), cells=(ii, jj)))
+        err = np.abs(angles[a, ii, jj] - ref.banded_horizon_angles(banded, float(az), cells=(ii, jj),
+                                                                   max_distance=max_distance))
         outside += int(np.count_nonzero(err > band))
         worst = max(worst, float(np.nanmax(err)))
         checked += ii.size
@@ -315,23 +369,9 @@ def ground(hm: Heightmap, places, angles: np.ndarray, azimuths: np.ndarray) -> d
     return {"ground_cells": int(ii.size * len(azimuths)), "ground_max_deg": worst, "one_scale_max_deg": worst_one}
 
 
-def write_markdown(path: Path, result: dict) -> None:
-    m = result["meta"]
-    lines = ["# A grid's scale: per block of rows (and columns) against the grid's metres as the ground's", "",
-             f"- date: {m['date']}; command: `{m['command']}`",
-             f"- CPU: {m['cpu']}, {m['cores']} cores; device: {m['device']}; {m['pocl_version']}",
-             "- masks: best of 3 after a warm-up; the sun as the grid traces it per block (tolerance "
-             "0.01 deg) against the sun as given on the grid as drawn (a geographic grid at its centre's cell "
-             "width, a projected one in its CRS's metres); horizons: one run each; projected maps: N22W160's "
-             "heights on square cells of its north-south size in each CRS", "",
-             "| map | CRS | ground metres per grid metre (rows) | its stretch by direction, at most | column bands | "
-             "left by the blocks, deg | left by one scale per row, deg |",
-             "|---|---|---|---:|---:|---:|---:|"]
-    for r in result["scales"]:
-        lines.append(f"| {r['map']} | {r['crs']} | {r['scale_min']:.6f}-{r['scale_max']:.6f} | "
-                     f"{100.0 * r['stretch_max']:.3f} % | {r['column_bands']} | {r['residual_deg']:.4f} | "
-                     f"{r['one_per_row_residual_deg']:.4f} |")
-    lines += ["",
+def masks_and_horizons_markdown(result: dict) -> list[str]:
+    """The masks', horizons' and ground checks' tables (the whole run's, not ``--radius``'s)."""
+    lines = ["",
              "| map | sun az / el | old geometry's error at the edges, deg | blocks | per block s | grid as drawn s | "
              "ratio | cells differing | twin: cells, mismatches / ties | mask vs horizon > el: cells, max abs(h - el) |",
              "|---|---|---:|---:|---:|---:|---:|---:|---|---|"]
@@ -366,6 +406,41 @@ def write_markdown(path: Path, result: dict) -> None:
         if "spread_cells" in r:
             lines.append(f"| {r['map']} | {r['spread_cells']} | {r['spread_max_deg']:.4f} | "
                          f"{r['spread_per_row_max_deg']:.4f} |")
+    return lines
+
+
+def write_markdown(path: Path, result: dict) -> None:
+    m = result["meta"]
+    lines = ["# A grid's scale: per block of rows (and columns) against the grid's metres as the ground's", "",
+             f"- date: {m['date']}; command: `{m['command']}`",
+             f"- CPU: {m['cpu']}, {m['cores']} cores; device: {m['device']}; {m['pocl_version']}",
+             *(["- masks: best of 3 after a warm-up; the sun as the grid traces it per block (tolerance "
+                "0.01 deg) against the sun as given on the grid as drawn (a geographic grid at its centre's cell "
+                "width, a projected one in its CRS's metres); horizons: one run each"] if result["masks"] else []),
+             "- projected maps: N22W160's heights on square cells of its north-south size in each CRS", "",
+             "| map | CRS | ground metres per grid metre (rows) | its stretch by direction, at most | column bands | "
+             "left by the blocks, deg | left by one scale per row, deg | far terrain: scale change per 100 km, "
+             "relief, bound deg |",
+             "|---|---|---|---:|---:|---:|---:|---|"]
+    for r in result["scales"]:
+        far = (f"{100.0 * r['far_rate_per_100km']:.2f} %, {r['relief_m']:.0f} m, {r['far_residual_deg']:.4f}"
+               if "far_residual_deg" in r else "")
+        lines.append(f"| {r['map']} | {r['crs']} | {r['scale_min']:.6f}-{r['scale_max']:.6f} | "
+                     f"{100.0 * r['stretch_max']:.3f} % | {r['column_bands']} | {r['residual_deg']:.4f} | "
+                     f"{r['one_per_row_residual_deg']:.4f} | {far} |")
+    if result["masks"]:
+        lines += masks_and_horizons_markdown(result)
+    if result.get("radius"):
+        lines += ["", f"Within a search radius (`--radius`: {RADIUS_CELLS} cells, the sweep where the device's knobs take "
+                  "it; a warm-up, then best of 3 in turn):", "",
+                  "| map | azimuths | swept | blocks (rows x columns) | per block s | one scale per row s | grid as drawn s | "
+                  "ratio to as drawn | twin (16 azimuths): cells, outside the float32 band |",
+                  "|---|---:|---:|---:|---:|---:|---:|---:|---|"]
+        for r in result["radius"]:
+            per_row = f"{r['per_row_s']:.2f}" if "per_row_s" in r else "-"
+            check = f"{r['twin_cells']}, {r['twin_outside']}" if "twin_cells" in r else ""
+            lines.append(f"| {r['map']} | {r['azimuths']} | {r['swept']} | {r['blocks'][0]} x {r['blocks'][1]} | "
+                         f"{r['blocks_s']:.2f} | {per_row} | {r['drawn_s']:.2f} | {r['ratio']:.2f} | {check} |")
     lines.append("")
     path.write_text("\n".join(lines))
 
@@ -373,14 +448,20 @@ def write_markdown(path: Path, result: dict) -> None:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--reduced", action="store_true", help="384^2 crops (a check)")
-    parser.add_argument("--out", type=Path, default=REPO / "bench" / "results" / "geographic_scale")
+    parser.add_argument("--radius", action="store_true",
+                        help=f"only the horizons within {RADIUS_CELLS} cells (default --out geographic_scale_radius)")
+    parser.add_argument("--out", type=Path)
     args = parser.parse_args(argv)
-    result = {"meta": metadata(sys.argv), "scales": [], "masks": [], "horizons": []}
+    args.out = args.out or REPO / "bench" / "results" / ("geographic_scale_radius" if args.radius else "geographic_scale")
+    result = {"meta": metadata(sys.argv), "scales": [], "masks": [], "horizons": [], "radius": []}
     with tempfile.TemporaryDirectory() as folder:
         for name, raster in maps(args.reduced, Path(folder)).items():
             hm = Heightmap.from_array(raster.heights, (raster.dx, raster.dy))
             places = map_places(raster)
-            result["scales"].append(scale_row(name, places))
+            result["scales"].append(scale_row(name, places, hm))
+            if args.radius:
+                result["radius"] += radius_horizons(name, hm, places)
+                continue
             result["masks"] += masks(name, raster, hm, places)
             result["horizons"] += horizons(name, raster, hm, places)
     args.out.parent.mkdir(parents=True, exist_ok=True)

@@ -14,7 +14,8 @@
  *                  -D OCLS_MAX_DISTANCE or OCLS_CLAMP.
  *   horizon_sweep  within a short search radius, instead of both (see "The
  *                  sweep" at the end): -D OCLS_SWEEP=lanes, OCLS_LANES cells of
- *                  a row per work-item, arguments (h, H, W, ray, angle, svf).
+ *                  a row per work-item, arguments (h, H, W, ray, angle, svf)
+ *                  (-D OCLS_SUN_TABLE: then band and the blocks' rays).
  *   horizon_cells  one work-item per cell, global size (W, H) rounded up to
  *                  any local size (the tuning knob `group`); arguments: the
  *                  H*W float32 relative heights (row-major, NaN = nodata), H,
@@ -27,8 +28,9 @@
  *   term), OCLS_CURVATURE (read c), OCLS_MAX_DISTANCE (read R: a search
  *   radius), OCLS_CLAMP (a trailing float2 argument: only T within [lo, hi]
  *   is wanted), OCLS_LEVEL_SCAN (how the walk finds its level: "Levels"),
- *   OCLS_SWEEP (lanes: the sweep's build), OCLS_OWN_BUILTINS (common.h); no
- *   others.
+ *   OCLS_SWEEP (lanes: the sweep's build), OCLS_SUN_TABLE (the rays, for the
+ *   walk also bounds and cell sizes, of blocks from a table), OCLS_OWN_BUILTINS
+ *   (common.h); no others.
  *
  * Geometry (as shadow.cl).  Sample (i, j) sits at x = j (east), y = i
  * (south) in cell units; the surface is bilinear over patches (pyramid.cl).
@@ -802,7 +804,14 @@ __kernel void horizon_cells_batch(__global const float *h, const int H, const in
  *     global size (ceil(W / OCLS_LANES), H) rounded up to any local size.  A
  *     work-item takes columns j0 .. j0 + OCLS_LANES - 1, j0 = OCLS_LANES gid(0),
  *     shifted left to end at column W - 1 at the right edge (it writes the
- *     columns from j0 on). */
+ *     columns from j0 on).  With -D OCLS_SUN_TABLE (a map traced in blocks of
+ *     their own scale, in one launch; ray stays, unread) two more arguments:
+ *       __global const int *band     as horizon_cells'
+ *       __global const float4 *rays  one per block: its ray
+ *     a run takes the ray of the block holding row i and column j0, the first
+ *     it writes (the inner column edges are multiples of 16, so the columns a
+ *     run writes are in one block; the last run's shifted lanes are not
+ *     written). */
 #ifdef OCLS_SWEEP
 
 /* h[row, col0 + k] on lane k, NaN off the map */
@@ -827,12 +836,21 @@ OCLS_INLINE ocls_intv valid_lanes(__global const float *h, int H, int W, int row
                   row_at(h, H, W, row + 1, col0 + 1));
 }
 
+#ifdef OCLS_SUN_TABLE
+__kernel void horizon_sweep(__global const float *h, const int H, const int W, const float4 ray_unread,
+                            __global float *angle, __global float2 *svf, __global const int *band,
+                            __global const float4 *rays)
+#else
 __kernel void horizon_sweep(__global const float *h, const int H, const int W, const float4 ray,
                             __global float *angle, __global float2 *svf)
+#endif
 {
     const int j0 = get_global_id(0) * OCLS_LANES, i = get_global_id(1);
     if (j0 >= W || i >= H) return;
     const int jc = max(min(j0, W - OCLS_LANES), 0);        /* the run's first column */
+#ifdef OCLS_SUN_TABLE
+    const float4 ray = rays[band[i] + band[H + j0]];     /* the block of the columns it writes */
+#endif
     HRay r;                                                 /* the ray of a cell at (0, 0): the steps */
     init_ray(&r, 0, 0, ray);
     const ocls_floatv z0 = row_at(h, H, W, i, jc);

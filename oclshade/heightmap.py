@@ -240,8 +240,10 @@ class Heightmap:
         1.001 of the ground's, Web Mercator's sec(latitude)), so the casters trace a sun given by
         its angles, and the horizons, per band of rows with the band's true cell sizes, as the
         CLI does.  A raster without a CRS, or a projected one whose CRS pyproj cannot identify,
-        has no :attr:`row_scales`; that, and a projection one scale per band cannot follow, come
-        as an :class:`InputWarning` (:func:`oclshade.solar.field.checked_places`)."""
+        has no :attr:`row_scales`; that, a projection one scale per band cannot follow, and a
+        scale that changes too fast along the rays for the map's relief (far terrain's angles
+        past 0.01 degree) come as an :class:`InputWarning`
+        (:func:`oclshade.solar.field.checked_places`)."""
         from .solar.field import checked_places
 
         places, notes = checked_places(raster)

@@ -67,7 +67,7 @@ def test_json_schema(report):
         assert r["throughput_per_s"] > 0 and r["bytes"] > 0 and r["flops"] > 0, cid
     for cid, a in report["agreement"].items():
         assert a["status"] == "single device" and a["must_match"] == (cid in ("pyramid", "masks/exact", "horizons",
-                                                                                "horizons/radius", "horizons/sun_disc", "horizons/blocks",
+                                                                                "horizons/radius", "horizons/sun_disc", "horizons/blocks", "horizons/radius_blocks",
                                                                                 "sunshine/masks",
                                                                                 "masks/sun_field"))
     for fam in FAMILIES:

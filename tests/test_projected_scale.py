@@ -422,6 +422,93 @@ def test_horizons_across_column_bands_are_the_grounds(tmp_path):
     assert worst > 0.02, worst            # the row's middle scale at its ends: twice the bound above
 
 
+@pytest.mark.parametrize("lanes", [1, 4, 8, 16])
+def test_the_sweep_of_blocks_is_their_walk(lanes):
+    """A search radius's sweep over blocks of their own scale (one launch, each run of lanes reading
+    its block's ray from the table: kernels/horizon.cl "The sweep") gives the walk's angles and
+    sky-view sums bit for bit, as it does on a map traced as drawn.  63 columns in 3 column
+    bands put the last band's inner edge at 48: 15 columns, narrower than 16 lanes, so the last
+    run is shifted left into the band before it and must take the ray of the columns it writes.
+    And the blocks' scales matter: the map as drawn gives other angles."""
+    from oclshade.horizon import HorizonCaster
+    from oclshade.solar.scale import column_edges
+    from oclshade.synthetic import canyon_crater
+
+    rows, cols = 40, 63
+    assert column_edges(cols, 3).tolist() == [0, 16, 48, 63]
+    s = 0.9 + 0.002 * np.arange(rows)[:, None] + np.array([0.0, 0.02, 0.05])[None, :]     # (rows, 3)
+    scales = np.stack([s, s, np.full_like(s, -0.004), 0.003 + 0.001 * np.arange(3)[None, :] + 0 * s], axis=-1)
+    hm = Heightmap.from_array(canyon_crater(rows, cols, seed=11, relief=400.0), 30.0, row_scales=scales)
+    radius = 12 * 30.0
+    swept = HorizonCaster(hm, max_distance=radius, cache=False, knobs={"sweep_far": 2, "lanes": lanes})
+    walked = HorizonCaster(hm, max_distance=radius, cache=False, knobs={"sweep_cells": 0, "sweep_far": 0})
+    assert swept.scale_blocks.scales.shape[1] == 3 and swept.takes_sweep(30.0) and not walked.takes_sweep(30.0)
+    azimuths = [0.0, 30.0, 90.0, 160.0, 215.0, 300.0]
+    got = swept.horizons(azimuths)
+    assert got.tobytes() == walked.horizons(azimuths).tobytes()
+    assert swept.sky_view_factor(16).tobytes() == walked.sky_view_factor(16).tobytes()
+    drawn = HorizonCaster(Heightmap.from_array(hm.heights, 30.0), max_distance=radius, cache=False,
+                          knobs={"sweep_far": 2, "lanes": lanes}).horizons(azimuths)
+    assert not np.array_equal(got[..., 48:], drawn[..., 48:], equal_nan=True)
+
+
+def test_far_terrain_is_off_by_at_most_the_far_residual(tmp_path, capsys):
+    """A ray keeps its cell's block scale along its whole length (docs/methods.md, "Far terrain"),
+    and on Web Mercator at 60 N a grid metre is 2.7 % shorter on the ground 100 km further north:
+    a 3000 m tower 20 to 115 km north is seen, against the truth atan(H / D) at the geodesic
+    distance D (pyproj), up to MapPlaces.far_residual off (within the float32 band and the
+    blocks' own residual), and by more than 0.8 of it (about as much from 20 km as from 115 km: a
+    first-order error of rate dh cos^2 / 2): the bound is tight, and the run says it."""
+    from oclshade import reference as ref
+    from oclshade.horizon import HorizonCaster
+
+    rows, cols, cell, height = 1200, 32, 200.0, 3000.0      # 200 grid m: 100 m on the ground
+    heights = np.zeros((rows, cols))
+    heights[4:7, 15:18] = height                            # its south face's top at row 6
+    x, y = grid_xy(3857, 10.0, 60.0)
+    path = write_tif(tmp_path / "wm60.tif", heights, keys(3857), x - cols / 2 * cell, y + 60 * cell, cell)
+    raster = read_dem(path)
+    places = map_places(raster)
+    far = places.far_residual(height, raster.dx, raster.dy)
+    rate = places.far_scale_rate(raster.dx, raster.dy)
+    assert rate == pytest.approx(math.tan(math.radians(60.0)) / 6.371e6, rel=0.05)
+    assert 0.02 < far < 0.03
+    with pytest.warns(InputWarning, match=f"far terrain's angles within {far:.3f} deg"):     # the API's warning
+        hm = Heightmap.from_raster(raster)
+    got = HorizonCaster(hm, cache=False).horizons([0.0])[0]
+    observers = np.arange(200, 1160, 40)
+    lon, lat = places.lonlat(np.append(observers, 6) + 0.5, np.full(observers.size + 1, 16.5))
+    _, _, metres = pyproj.Geod(ellps="WGS84").inv(lon[:-1], lat[:-1], np.full(observers.size, lon[-1]),
+                                                   np.full(observers.size, lat[-1]))
+    truth = np.degrees(np.arctan(height / metres))
+    error = np.abs(got[observers, 16] - truth)
+    assert np.all(error <= far + places.scale_residual + ref.angle_tolerance(hm)), (error.max(), far)
+    assert error.max() > 0.8 * far, (error.max(), far)       # a tight bound (the blocks hold 0.01 / sqrt(2))
+    assert main(["horizon", str(path), str(tmp_path / "h.tif"), "--azimuths", "4", "-q"]) == 0
+    assert f"far terrain's angles within {far:.3f} deg" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("latitude", [22.0, 46.0, 62.0])
+def test_a_geographic_grids_far_scale_rate_is_its_widths(tmp_path, latitude):
+    """On a geographic grid only a cell's east width changes, with latitude (cos f): a grid metre at
+    grid azimuth a changes along a by sin^2 a cos a tan f / R per metre, at most 2 / (3 sqrt 3)
+    tan f / R (a = 54.7 degrees); a 1-degree tile at 62 N with 4000 m of relief goes past the
+    tolerance, and a flat one does not warn."""
+    from oclshade.solar.field import checked_places
+
+    wgs84 = (1, 1, 0, 3, 1024, 0, 1, 2, 1025, 0, 1, 1, 2048, 0, 1, 4326)
+    heights = np.zeros((241, 241))
+    heights[120, 120] = 4000.0
+    raster = read_dem(write_tif(tmp_path / "tile.tif", heights, wgs84, 10.0, latitude + 0.5, 1.0 / 240))
+    places = map_places(raster)
+    expected = 2.0 / (3.0 * math.sqrt(3.0)) * math.tan(math.radians(latitude)) / 6.371e6
+    assert places.far_scale_rate(raster.dx, raster.dy) == pytest.approx(expected, rel=0.03)
+    notes = checked_places(raster)[1]
+    assert bool(notes) == (places.far_residual(4000.0, raster.dx, raster.dy) > 0.01) == (latitude == 62.0)
+    flat = read_dem(write_tif(tmp_path / "flat.tif", np.zeros((241, 241)), wgs84, 10.0, latitude + 0.5, 1.0 / 240))
+    assert checked_places(flat)[1] == []
+
+
 def test_the_stretch_share_bounds_every_direction():
     """oclshade.solar.scale.stretch_share: over a box of (p, q) and every direction, the stretch
     sqrt(1 + p cos 2a + q sin 2a) differs from that at the box's middle by at most the share it

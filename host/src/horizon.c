@@ -173,16 +173,6 @@ static oclshade_status scale_blocks(oclshade *lib, const oclshade_horizon_params
     return OCLSHADE_OK;
 }
 
-/* Enqueue k over a block's cells, `unit` cells of a row per work-item (the sweep's lanes; the
- * inner column edges are multiples of 16) */
-static oclshade_status launch_block(ocls_pass *ps, kernel_entry *k, const horizon_job *j, const scale_band *b,
-                                    int unit, int layers, size_t group, size_t width)
-{
-    const int x0 = b->col0 / unit, last = b->col0 + b->cols == j->p->cols;
-    const int x1 = last ? (j->p->cols + unit - 1) / unit : (b->col0 + b->cols) / unit;
-    return ocls_launch_block(ps, k, x0, x1 - x0, last, b->row0, b->rows, layers, group, width);
-}
-
 /* The ray of `azimuth` with a band's cell sizes, times its stretch that way
  * (HorizonCaster._ray(azimuth, scales)) */
 static cl_float4 band_ray(const horizon_job *j, const scale_band *b, double azimuth)
@@ -401,6 +391,28 @@ static oclshade_status horizon_batch_body(ocls_pass *ps, const horizon_job *j, c
     return OCLSHADE_OK;
 }
 
+/* The blocks' bands and table for one azimuth (-D OCLS_SUN_TABLE; HorizonCaster._enqueuer): per
+ * block its ray, then for the walk (not `swept`) (-inf, inf, its cell sizes) (clamped: never in
+ * blocks) */
+static oclshade_status upload_block_rays(ocls_pass *ps, const horizon_job *j, cl_mem band, cl_mem table, int swept)
+{
+    const size_t per = swept ? 1 : 2, bytes = sizeof(cl_float4) * per * (size_t)j->nbands;
+    cl_float4 *rows = (cl_float4 *)malloc(bytes);
+    if (rows == NULL) return ocls_fail(ps->lib, OCLSHADE_OUT_OF_MEMORY, 0, "no host memory for the blocks' rays");
+    for (int b = 0; b < j->nbands; ++b) {
+        const cl_float2 block_cell = band_cell(j, &j->bands[b]);
+        const cl_float4 more = {{-INFINITY, INFINITY, block_cell.s[0], block_cell.s[1]}};
+        rows[per * b] = band_ray(j, &j->bands[b], j->p->azimuth);
+        if (!swept) rows[per * b + 1] = more;
+    }
+    oclshade_status st = ocls_upload(ps, table, 0, rows, bytes, "the blocks' horizon rays");
+    free(rows);
+    if (st == OCLSHADE_OK)
+        st = ocls_upload(ps, band, 0, j->band, sizeof(cl_int) * ((size_t)j->p->rows + (size_t)j->p->cols),
+                         "the blocks' bands");
+    return st;
+}
+
 /* HorizonCaster._enqueuer: within a short search radius horizon_sweep; else horizon_seeds on the
  * seed grid into scratch (over the whole map, no search radius), then horizon_cells. */
 static oclshade_status horizon_body(ocls_pass *ps, const void *params)
@@ -423,7 +435,7 @@ static oclshade_status horizon_body(ocls_pass *ps, const void *params)
     if (ocls_knob(lib, K_HORIZON_SCAN)) ocls_def_int(&d, "OCLS_LEVEL_SCAN", 1);
     if ((st = ocls_bind_in(ps, &p->heights, p->rows, 4 * W, "heights", &h)) != OCLSHADE_OK) return st;
     if (p->n_azimuths > 0) return horizon_batch_body(ps, j, h, &d);
-    const int tabled = j->bands != NULL && !sweep;   /* blocks walked in one launch from their table */
+    const int tabled = j->bands != NULL;   /* blocks walked or swept in one launch from their table */
     const size_t band_bytes = sizeof(cl_int) * ((size_t)p->rows + W), strips_bytes = sizeof(cl_float4) * 2 * (size_t)j->nbands;
     cl_mem band = NULL, strips = NULL;
     if ((st = ocls_bind_out(ps, &p->angle, p->rows, 4 * W, "angle", &angle)) != OCLSHADE_OK ||
@@ -441,18 +453,14 @@ static oclshade_status horizon_body(ocls_pass *ps, const void *params)
         const int lanes = ocls_knob(lib, K_HORIZON_LANES);
         kernel_entry *sweeper;
         ocls_def_int(&d, "OCLS_SWEEP", lanes);
-        if ((st = ocls_kernel(ps, "horizon.cl", &d, "horizon_sweep", &sweeper)) != OCLSHADE_OK) return st;
-        ocls_arg a[6] = {OCLS_ARG(h), OCLS_ARG(H), OCLS_ARG(Wi), OCLS_ARG(j->ray), OCLS_ARG(angle_arg), OCLS_ARG(svf)};
-        if (j->bands == NULL)
-            return (st = ocls_set_args(ps, sweeper, a, 6)) != OCLSHADE_OK ? st :
-                   ocls_launch(ps, sweeper, (p->cols + lanes - 1) / lanes, H, group, width);
-        for (int b = 0; b < j->nbands && st == OCLSHADE_OK; ++b) {   /* each band with its ray */
-            const cl_float4 ray = band_ray(j, &j->bands[b], p->azimuth);
-            a[3] = (ocls_arg)OCLS_ARG(ray);
-            if ((st = ocls_set_args(ps, sweeper, a, 6)) == OCLSHADE_OK)
-                st = launch_block(ps, sweeper, j, &j->bands[b], lanes, 0, group, width);
-        }
-        return st;
+        ocls_def_flag(&d, "OCLS_SUN_TABLE", tabled);
+        if ((st = ocls_kernel(ps, "horizon.cl", &d, "horizon_sweep", &sweeper)) != OCLSHADE_OK ||
+            (tabled && (st = upload_block_rays(ps, j, band, strips, 1)) != OCLSHADE_OK))
+            return st;
+        ocls_arg a[8] = {OCLS_ARG(h), OCLS_ARG(H), OCLS_ARG(Wi), OCLS_ARG(j->ray), OCLS_ARG(angle_arg), OCLS_ARG(svf),
+                         OCLS_ARG(band), OCLS_ARG(strips)};
+        return (st = ocls_set_args(ps, sweeper, a, tabled ? 8 : 6)) != OCLSHADE_OK ? st :
+               ocls_launch(ps, sweeper, (p->cols + lanes - 1) / lanes, H, group, width);
     }
     kernel_entry *k, *seeder = NULL;
     ocls_defines table_defines = d;
@@ -471,20 +479,7 @@ static oclshade_status horizon_body(ocls_pass *ps, const void *params)
     ocls_arg a[14] = {OCLS_ARG(h), OCLS_ARG(H), OCLS_ARG(Wi), OCLS_ARG(p->pyramid), OCLS_ARG(p->offsets),
                       OCLS_ARG(nlev), OCLS_ARG(j->ray), OCLS_ARG(angle_arg), OCLS_ARG(svf), OCLS_ARG(seeds_arg),
                       OCLS_ARG(cell), OCLS_ARG(bounds), OCLS_ARG(band), OCLS_ARG(strips)};
-    if (tabled) {              /* each block's ray, then (-inf, inf, its cell sizes) (clamped: never in blocks) */
-        cl_float4 *rows = (cl_float4 *)malloc(strips_bytes);
-        if (rows == NULL) return ocls_fail(lib, OCLSHADE_OUT_OF_MEMORY, 0, "no host memory for the blocks' rays");
-        for (int b = 0; b < j->nbands; ++b) {
-            const cl_float2 block_cell = band_cell(j, &j->bands[b]);
-            const cl_float4 more = {{-INFINITY, INFINITY, block_cell.s[0], block_cell.s[1]}};
-            rows[2 * b] = band_ray(j, &j->bands[b], p->azimuth);
-            rows[2 * b + 1] = more;
-        }
-        st = ocls_upload(ps, strips, 0, rows, strips_bytes, "the blocks' horizon rays");
-        free(rows);
-        if (st != OCLSHADE_OK || (st = ocls_upload(ps, band, 0, j->band, band_bytes, "the blocks' bands")) != OCLSHADE_OK)
-            return st;
-    }
+    if (tabled && (st = upload_block_rays(ps, j, band, strips, 0)) != OCLSHADE_OK) return st;
     return (st = ocls_set_args(ps, k, a, tabled ? 14 : p->clamped ? 12 : 11)) != OCLSHADE_OK ? st :
            ocls_launch(ps, k, Wi, H, group, width);
 }

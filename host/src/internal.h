@@ -266,13 +266,6 @@ oclshade_status ocls_launch_3d(ocls_pass *ps, kernel_entry *k, int cols, int row
  * (a sun field's block, one enqueue each): nothing outside the window runs. */
 oclshade_status ocls_launch_window(ocls_pass *ps, kernel_entry *k, int col0, int row0, int cols, int rows,
                                    size_t wanted, size_t max_x);
-/* Enqueue k over the block of work-items col0 .. col0 + cols - 1 by rows row0 .. row0 + rows - 1
- * (global offsets col0, row0; exactly those, but for `last`: a block that reaches the map's last
- * column, its width rounded up to the local one), and `layers` deep (0: 2-D): the local width the
- * largest power of two within the limits that divides both ends (col0 alone where last), its
- * height the largest that divides rows: a block of cells traced with its own arguments. */
-oclshade_status ocls_launch_block(ocls_pass *ps, kernel_entry *k, int col0, int cols, int last, int row0, int rows,
-                                  int layers, size_t wanted, size_t max_x);
 /* Copies out the staged outputs, releases the views; returns st (or the first failure) and
  * the last command's event in *event. */
 oclshade_status ocls_pass_finish(ocls_pass *ps, oclshade_status st, cl_event *event);

@@ -393,18 +393,6 @@ oclshade_status ocls_launch_window(ocls_pass *ps, kernel_entry *k, int col0, int
     return launch(ps, k, 2, offset, global, local);
 }
 
-oclshade_status ocls_launch_block(ocls_pass *ps, kernel_entry *k, int col0, int cols, int last, int row0, int rows,
-                                  int layers, size_t wanted, size_t max_x)
-{
-    const size_t ls = local_size(ps->lib, k, wanted);
-    size_t local[3] = {1, 1, 1}, offset[3] = {(size_t)col0, (size_t)row0, 0};
-    /* as wide as divides both ends (the last block's width rounded up instead) */
-    local[0] = power_of_two_divisor((size_t)col0 | (last ? 0 : (size_t)(col0 + cols)), ls < max_x ? ls : max_x);
-    local[1] = power_of_two_divisor((size_t)rows, ls / local[0] ? ls / local[0] : 1);
-    size_t global[3] = {last ? round_up((size_t)cols, local[0]) : (size_t)cols, (size_t)rows, (size_t)layers};
-    return launch(ps, k, layers > 0 ? 3 : 2, offset, global, local);
-}
-
 oclshade_status ocls_pass_finish(ocls_pass *ps, oclshade_status st, cl_event *event)
 {
     for (int i = 0; i < ps->nstaged && st == OCLSHADE_OK; ++i) {

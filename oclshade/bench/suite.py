@@ -29,6 +29,8 @@ Cases (``family/variant``) and what one timed run is:
   horizon band costs tens of masks);
 * ``horizons/radius``: the same within a search radius of :data:`HORIZON_RADIUS_CELLS`
   cells, on the masks' map (the sweep: kernels/horizon.cl, "The sweep");
+* ``horizons/radius_blocks``: the ``horizons/radius`` case traced in blocks of :func:`blocked_scales`
+  (the sweep's runs read their block's ray from a table, one launch);
 * ``horizons/blocks``: the ``horizons`` case on the same canyon traced in blocks of their own
   scale (:func:`blocked_scales`: an equal-area-like grid metre changing 1 % across the map
   and stretched 3-4 % by direction, :data:`BLOCK_COLUMN_BANDS` column bands; each cell's ray
@@ -82,6 +84,8 @@ horizons                  4 N heights + 4 N angles +       30 N (the start patch
                           8 N copy (N: cells of its map)
 horizons/radius           4 N heights + 4 N angles +       60 K N (K patches a ray crosses within
                           8 N copy                         the radius, 60 flops each)
+horizons/radius_blocks    as horizons/radius               as horizons/radius (the table's reads not
+                                                           counted)
 horizons/blocks           4 N heights + 4 N angles +       30 N (as horizons; the table's reads not
                           8 N copy                         counted)
 horizons/sun_disc         k (4 N heights + 4 N angles +    30 k N (each strip's start patch; k: the
@@ -102,7 +106,7 @@ meshes/shadow_volumes     20 P (position, depth) + P mask  30 P (the view segmen
 
 ``exact`` cases must give the same bits on every device (their results equal
 the float64 reference by construction): the pyramid (min / max only) and the
-``exact`` masks, the horizons (all four cases), the sunshine sums of exact masks (integer seconds).  The other cases are compared too, for information.
+``exact`` masks, the horizons (all five cases), the sunshine sums of exact masks (integer seconds).  The other cases are compared too, for information.
 """
 from __future__ import annotations
 
@@ -542,9 +546,12 @@ def _horizons_blocks(w: Workload) -> Case:
                 lambda: [state["angles"]])
 
 
-def _horizons_radius(w: Workload) -> Case:
-    hm = w.heightmap
-    caster = HorizonCaster(hm, w.rt, cache=False, max_distance=HORIZON_RADIUS_CELLS * hm.dx)
+def _horizons_radius(w: Workload, blocked: bool = False) -> Case:
+    """The ``horizons/radius`` case (``blocked``: ``horizons/radius_blocks``, its map traced in
+    blocks of :func:`blocked_scales`)."""
+    hm, side = w.heightmap, w.sizes.map_side
+    caster = HorizonCaster(hm, w.rt, cache=False, max_distance=HORIZON_RADIUS_CELLS * hm.dx,
+                           row_scales=blocked_scales(side) if blocked else None)
     ux, uy, _ = Sun(MASK_SUN.azimuth, 0.0).ray(hm.dx, hm.dy)
     patches = caster.radius * (abs(ux) + abs(uy))
     state: dict = {}
@@ -552,9 +559,10 @@ def _horizons_radius(w: Workload) -> Case:
     def run() -> None:
         state["angles"] = caster.horizons([MASK_SUN.azimuth])
 
-    n = w.cells
-    return Case(f"horizon angles within {HORIZON_RADIUS_CELLS} cells, {_map_label(w.sizes.map_side)}, azimuth "
-                f"{MASK_SUN.azimuth:g}", "cells", n, 16.0 * n, 60.0 * patches * n, terrain_digest(w.sizes.map_side),
+    n, blocks = w.cells, caster.scale_blocks.scales.shape
+    where = f" in {blocks[0]} x {blocks[1]} blocks of their own scale" if blocked else ""
+    return Case(f"horizon angles within {HORIZON_RADIUS_CELLS} cells{where}, {_map_label(side)}, azimuth "
+                f"{MASK_SUN.azimuth:g}", "cells", n, 16.0 * n, 60.0 * patches * n, terrain_digest(side),
                 run, lambda: [state["angles"]])
 
 
@@ -645,6 +653,7 @@ SPECS: tuple[CaseSpec, ...] = (
     CaseSpec("horizons", "horizons", True, _horizons),
     CaseSpec("horizons/blocks", "horizons", True, _horizons_blocks),
     CaseSpec("horizons/radius", "horizons", True, _horizons_radius),
+    CaseSpec("horizons/radius_blocks", "horizons", True, functools.partial(_horizons_radius, blocked=True)),
     CaseSpec("horizons/sun_disc", "horizons", True, _sun_disc),
     CaseSpec("sunshine/masks", "sunshine", True, _sunshine),
     CaseSpec("meshes/cast", "meshes", False, _mesh_cast),

@@ -376,18 +376,24 @@ class HorizonCaster:
             return walk
 
         @functools.cache
-        def sweeper() -> tuple[cl.Kernel, tuple]:
+        def sweeper(tabled: bool = False) -> tuple[cl.Kernel, tuple]:
+            """The sweep's kernel (``tabled``: built to read its blocks' rays) and grid."""
             lanes = self.knobs["lanes"]
-            kernel = rt.kernel("horizon.cl", "horizon_sweep", {**defines, "OCLS_SWEEP": lanes})
+            kernel = rt.kernel("horizon.cl", "horizon_sweep",
+                               {**defines, "OCLS_SWEEP": lanes, "OCLS_SUN_TABLE": tabled or None})
             return kernel, self._grid(kernel, -(-cols // lanes), rows)
 
         def sweep(ray: np.ndarray, angle: cl.Buffer, svf: cl.Buffer, band: tuple[int, int] | None = None,
                   azimuth: float | None = None) -> None:
-            kernel, grid = sweeper()
-            for scales, size, local, offset in self._block_launches(grid, band, azimuth is not None, self.knobs["lanes"]):
-                scaled = ray if azimuth is None else self._ray(azimuth, scales)
-                kernel.set_args(self.heights_buffer, np.int32(rows), np.int32(cols), scaled, angle, svf)
-                cl.enqueue_nd_range_kernel(rt.queue, kernel, size, local, global_work_offset=offset)
+            # a map in blocks of their own scale: one launch, each block's ray from a table
+            tabled = azimuth is not None and not self.scale_blocks.as_drawn
+            kernel, grid = sweeper(tabled)
+            table = ()
+            if tabled:          # (kept referenced until enqueued: set_args does not hold the buffer)
+                table = (self._block_bands, rt.to_device(np.ascontiguousarray(self._block_rays(np.array([azimuth]))[0][:, 0]),
+                                                         "horizon block rays"))
+            kernel.set_args(self.heights_buffer, np.int32(rows), np.int32(cols), ray, angle, svf, *table)
+            cl.enqueue_nd_range_kernel(rt.queue, kernel, *self._band_launch(grid, band))
 
         def walk(ray: np.ndarray, angle: cl.Buffer, svf: cl.Buffer, bounds: tuple[float, float] = (),
                  band: tuple[int, int] | None = None, table: tuple = (), azimuth: float | None = None) -> None:
@@ -404,13 +410,10 @@ class HorizonCaster:
                 strips[:, 0], strips[:, 1, :2], strips[:, 1, 2:] = rays[:, 0], bounds or (-np.inf, np.inf), cells
                 table = (self._block_bands, rt.to_device(strips, "horizon block table"))
                 bounds = bounds or (0.0, 0.0)                                      # (unread)
-            for scales, size, local, offset in self._block_launches(w["grid"], band, azimuth is not None and not tabled):
-                scaled = ray if azimuth is None else self._ray(azimuth, scales)
-                w["kernel"].set_args(*w["fixed"], scaled, angle, svf, w["seeds"] if seeded else self._dummy,
-                                     self._cell(scales).astype(np.float32),
-                                     *([np.array(bounds, np.float32)] if bounds else []),
-                                     *table)
-                cl.enqueue_nd_range_kernel(rt.queue, w["kernel"], size, local, global_work_offset=offset)
+            w["kernel"].set_args(*w["fixed"], ray, angle, svf, w["seeds"] if seeded else self._dummy,
+                                 self._cell(None).astype(np.float32),
+                                 *([np.array(bounds, np.float32)] if bounds else []), *table)
+            cl.enqueue_nd_range_kernel(rt.queue, w["kernel"], *self._band_launch(w["grid"], band))
 
         def pilot(ray: np.ndarray, angle: cl.Buffer, crossings: float) -> Pilot:
             """Both on bands of rows (pilot.py): into ``angle`` (the launch that follows writes the
@@ -442,31 +445,13 @@ class HorizonCaster:
 
         return enqueue
 
-    def _block_launches(self, grid: tuple, band: tuple[int, int] | None, scaled: bool = True, unit: int = 1
-                        ) -> list[tuple[np.ndarray | None, tuple[int, int], tuple[int, int], tuple[int, int]]]:
-        """(scales, global, local, offset) of each 2-D launch over the rows of ``band`` (None: the
-        map) of a kernel whose work-items take ``unit`` cells of a row each (the sweep's lanes):
-        one with the map's cell sizes (scales None), or with ``scaled`` and :attr:`scale_blocks`
-        one per block with its own scales (float64 (2 or 4,), :mod:`oclshade.solar.scale`), each
-        launch's work-groups as wide and tall as divide its work-items (the last blocks' rounded up
-        to the grid's)."""
+    @staticmethod
+    def _band_launch(grid: tuple, band: tuple[int, int] | None) -> tuple[tuple[int, int], tuple[int, int], tuple[int, int]]:
+        """(global, local, offset) of a 2-D launch on ``grid`` over the rows of ``band`` ((first, count);
+        None: the map)."""
         (gx, gy), (lx, ly) = grid
         first, stop = (0, gy) if band is None else (band[0], band[0] + band[1])
-        blocks = self.scale_blocks
-        if not scaled or blocks.as_drawn:
-            return [(None, (gx, stop - first), (lx, ly), (0, first))]
-        row_ends = np.append(blocks.row_edges[1:-1], gy)
-        col_starts = blocks.col_edges[:-1] // unit            # (inner edges are multiples of 16 >= unit)
-        col_ends = np.append(col_starts[1:], gx)
-        out = []
-        for a in range(len(blocks.row_edges) - 1):
-            r0, r1 = max(int(blocks.row_edges[a]), first), min(int(row_ends[a]), stop)
-            if r1 <= r0:
-                continue
-            for b, (x0, x1) in enumerate(zip(col_starts.tolist(), col_ends.tolist())):
-                out.append((blocks.scales[a, b], (x1 - x0, r1 - r0), (math.gcd(lx, x1 - x0), math.gcd(ly, r1 - r0)),
-                            (x0, r0)))
-        return out
+        return (gx, stop - first), (lx, ly), (0, first)
 
     @functools.cached_property
     def _seed_scales(self) -> np.ndarray | None:
@@ -519,7 +504,7 @@ class HorizonCaster:
 
     def _ray(self, azimuth: float, scales: np.ndarray | None = None) -> np.ndarray:
         """kernels/horizon.cl's float4 ray (ux, uy, c, R) at ``azimuth`` (``scales``: a block's,
-        :meth:`_block_launches`; default the map's cell sizes)."""
+        :attr:`scale_blocks`; default the map's cell sizes)."""
         return self._rays(np.array([azimuth]), scales)[0]
 
     def _rays(self, azimuths: np.ndarray, scales: np.ndarray | None = None) -> np.ndarray:

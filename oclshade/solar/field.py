@@ -43,7 +43,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from ..io import Raster, geotransform, metres_per_degree
-from ..heightmap import Heightmap
+from ..heightmap import Heightmap, extrema
 from ..sun import DEFAULT_SUN_TOLERANCE as DEFAULT_TOLERANCE, BlockGrid, Sun, SunField, Traced
 from .scale import (SEGMENT_SHARE, column_edges, max_column_bands, scale_blocks, scale_share, stretch_of,
                     stretch_share)
@@ -54,6 +54,7 @@ LATTICE = 9                # points per side where the turn per cell is measured
 SCALE_LATTICE = 33         # points per side where a projected grid's scale is measured
 STRETCH_NOISE = 1e-7       # a projected grid's stretch by direction below this is its central differences' noise (0)
 RESIDUAL_AZIMUTHS = 180    # grid azimuths over which scale_residual compares a grid metre's lengths
+FAR_LATTICE = 17           # points per side where far_scale_rate differences a grid metre's lengths
 ALIGN = 16                 # block sides are multiples of this where the tolerance allows (widths: 4x from 8x on)
 MAX_SHRINK = 12            # tries to shrink the blocks into the tolerance
 
@@ -251,6 +252,44 @@ class MapPlaces:
         traced = block[:, None, 0] * stretch_of(block[:, None, :], sin, cos)
         return float(np.degrees(np.max(np.abs(true / traced - 1.0)) / 2.0))
 
+    def far_scale_rate(self, dx: float, dy: float) -> float:
+        """Per true metre: the most by which a grid metre's true length in a direction changes, as a
+        share, along that direction (|d ln m(a) / dD|, m(a) the true metres of a grid metre at grid
+        azimuth a, D the true distance), over a :data:`FAR_LATTICE`-square lattice over the map
+        and :data:`RESIDUAL_AZIMUTHS` directions (central differences between the lattice's
+        points; ``dx``, ``dy``: the grid metres of a cell east and north, the heightmap's).  A ray
+        keeps its cell's block scale along its whole length (docs/methods.md, "Projected grids":
+        "Far terrain"); this rate bounds what that leaves (:meth:`far_residual`).  Web Mercator
+        at latitude f: tan f / R (the scale is sec f); a geographic grid's: 0.385 tan f / R
+        (only its east width changes, with latitude); UTM at x from its meridian: about x / R^2."""
+        rows, cols = self.shape
+        r, c = np.linspace(0.0, rows, FAR_LATTICE), np.linspace(0.0, cols, FAR_LATTICE)
+        rr, cc = np.meshgrid(r, c, indexing="ij")
+        if self.crs is None:
+            east, north = self.grid_scales(rr, cc)
+            scales = np.stack([east, north], axis=-1)
+        else:                                       # (not snapped to 1, as grid_scales is: no false steps)
+            s, p, q = self.projected_scales(*self.lonlat(rr.ravel(), cc.ravel()))
+            scales = np.stack([s, s, p, q], axis=-1).reshape(*rr.shape, 4)
+        a = np.radians(np.arange(RESIDUAL_AZIMUTHS) * (180.0 / RESIDUAL_AZIMUTHS))
+        sin, cos = np.sin(a), np.cos(a)
+        sc = scales[..., None, :]
+        metres = np.hypot(sc[..., 0] * sin, sc[..., 1] * cos) * stretch_of(sc, sin, cos)    # (r, c, a)
+        log_m = np.log(metres)
+        d_row, d_col = np.gradient(log_m, r * dy, c * dx, axis=(0, 1))       # per grid metre south, east
+        along = d_col * sin - d_row * cos                                     # along grid azimuth a
+        return float(np.max(np.abs(along) / metres))
+
+    def far_residual(self, relief: float, dx: float, dy: float) -> float:
+        """Degrees: what a ray keeping its cell's block scale along its length leaves, at most, of
+        an angle to terrain at most ``relief`` metres above the cell (first order): a point D
+        true metres away is traced at a distance off by a share of at most rate D / 2
+        (:meth:`far_scale_rate`), which moves its angle atan(dh / D) by at most
+        rate dh cos^2 / 2 <= rate relief / 2 radians.  (Horizons at or above the horizontal,
+        and a sun's: its terrain lies above the cell; below it, the depth instead, curvature's
+        drop included.)"""
+        return float(np.degrees(self.far_scale_rate(dx, dy) * max(float(relief), 0.0) / 2.0))
+
     def on_grid(self, rows: np.ndarray, cols: np.ndarray, azimuth: np.ndarray, elevation: np.ndarray
                 ) -> tuple[np.ndarray, np.ndarray]:
         """Directions at these places (cell coordinates; grid azimuths, elevations in degrees)
@@ -359,8 +398,10 @@ def checked_places(raster: Raster) -> tuple[MapPlaces | None, list[str]]:
     """(:func:`map_places` with its row scales made, what to warn of): a projected raster whose
     CRS pyproj cannot identify or carry to the ground has none (its grid metres are the
     ground's), and a projection that one scale per band of rows cannot follow is named
-    (:attr:`MapPlaces.scale_residual` past the tolerance).  A geographic raster's problem raises
-    ValueError.  What the CLI and :meth:`oclshade.heightmap.Heightmap.from_raster` take."""
+    (:attr:`MapPlaces.scale_residual` past the tolerance), and so is a grid whose scale changes
+    fast enough along a ray, under the map's relief, to move far terrain's angles past it
+    (:meth:`MapPlaces.far_residual`).  A geographic raster's problem raises ValueError.  What
+    the CLI and :meth:`oclshade.heightmap.Heightmap.from_raster` take."""
     try:
         places = map_places(raster)
         residual = 0.0 if places is None else places.scale_residual      # (a projected grid's: through its CRS)
@@ -368,11 +409,21 @@ def checked_places(raster: Raster) -> tuple[MapPlaces | None, list[str]]:
         if raster.geographic:
             raise
         return None, [f"{exc}: its grid metres are taken as the ground's"]
-    if residual <= DEFAULT_TOLERANCE:
-        return places, []
-    return places, [f"its projection stretches lengths by direction or along its rows by more than one scale "
-                    f"per band of rows follows: angles within {residual:.3f} deg (docs/methods.md, "
-                    f"\"Projected grids\")"]
+    notes = []
+    if residual > DEFAULT_TOLERANCE:
+        notes.append(f"its projection stretches lengths by direction or along its rows by more than one scale "
+                     f"per band of rows follows: angles within {residual:.3f} deg (docs/methods.md, "
+                     f"\"Projected grids\")")
+    lo, hi = extrema(raster.heights)
+    relief = hi - lo if hi >= lo else 0.0              # (all nodata: NaN, none)
+    far = 0.0 if places is None else places.far_residual(relief, raster.dx, raster.dy)
+    if far > DEFAULT_TOLERANCE:
+        notes.append(f"a grid metre's length on the ground changes by "
+                     f"{100.0 * places.far_scale_rate(raster.dx, raster.dy) * 1e5:.2g} % per 100 km, and a ray "
+                     f"keeps its cell's: with {relief:.0f} m of relief, far terrain's "
+                     f"angles within {far:.3f} deg (a grid whose scale changes less, such as a UTM zone, keeps "
+                     f"them closer; docs/methods.md, \"Far terrain\")")
+    return places, notes
 
 
 def unit_vectors(azimuth: np.ndarray, elevation: np.ndarray) -> np.ndarray:
