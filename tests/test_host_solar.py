@@ -220,6 +220,33 @@ def test_c_horizons_of_an_equal_area_grid_equal_python(host: dict, tmp_path: Pat
     assert svf.tobytes() == caster.sky_view_factor(n, "cosine").tobytes()
 
 
+def test_c_sweep_of_blocks_with_a_narrow_last_column_band_equals_python(host: dict, tmp_path: Path) -> None:
+    """63 columns in 3 column bands (edges 0, 16, 48, 63): the last band is 15 columns, narrower
+    than 16 lanes, so the sweep's last run is shifted into the band before it and must take the
+    ray of the columns it writes (kernels/horizon.cl).  Within a search radius of 12 cells, the C
+    host's angles and sky-view sums equal the Python host's bit for bit (host_passes checks
+    itself the walk and the sweep at lanes 1, 4, 8 and 16 against each other)."""
+    from oclshade.synthetic import canyon_crater
+
+    rows, cols = 40, 63
+    s = 0.9 + 0.002 * np.arange(rows)[:, None] + np.array([0.0, 0.02, 0.05])[None, :]
+    scales = np.stack(np.broadcast_arrays(s, s, -0.004, 0.003 + 0.001 * np.arange(3)[None, :]), axis=-1)
+    hm = Heightmap.from_array(canyon_crater(rows, cols, seed=11, relief=400.0), 30.0)
+    n, max_distance = 8, 12 * 30.0
+    caster = HorizonCaster(hm, max_distance=max_distance, cache=False, row_scales=scales)
+    assert caster.scale_blocks.col_edges.tolist() == [0, 16, 48, 63]
+    scales_file = tmp_path / "row_scales.f64"
+    np.ascontiguousarray(scales, np.float64).tofile(scales_file)
+    run_program(host, "host_passes", "horizon", tmp_path, heights_file(tmp_path, hm), rows, cols, repr(hm.dx),
+                repr(hm.dy), "0.0", 1, n, repr(max_distance), scales_file, 4, 3)
+    angles = caster.horizons(n)
+    for k in range(n):
+        assert np.fromfile(tmp_path / f"angle_{k}.f32", np.float32).tobytes() == angles[k].tobytes(), k
+    sums = np.fromfile(tmp_path / "svf.f32", np.float32).reshape(rows, cols, 2).astype(np.float64)
+    svf = (1.0 - (sums[..., 0] - sums[..., 1]) / n).astype(np.float32)
+    assert svf.tobytes() == caster.sky_view_factor(n, "cosine").tobytes()
+
+
 @pytest.mark.parametrize("azimuth, elevation, radius, columns, curved, radius_cells",
                          [(135.0, 12.0, 0.0, 0, False, 0.0), (300.5, 4.0, 0.2666, 64, False, 0.0),
                           (10.0, 25.0, 1.5, 7, True, 0.0), (225.0, 6.0, 0.0, 16, False, 150.0)])

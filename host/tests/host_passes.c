@@ -44,8 +44,8 @@
  *       row_scale_columns; rows x BANDS x COLUMNS with BANDS > 0: row_scale_bands, in blocks of
  *       rows by column bands); checks itself that a
  *       pitched angle field and another group (at azimuth 360 / N) and, with a radius, at every
- *       azimuth sweep_cells 0 and 256 (walked, swept) and sweep_far 2 (swept past the reach)
- *       give the same bits; over the whole map, that all N azimuths in one call (n_azimuths)
+ *       azimuth sweep_cells 0 and 256 (walked, swept) and sweep_far 2 (swept past the reach),
+ *       and swept at lanes 1, 4, 8 and 16, give the same bits; over the whole map, that all N azimuths in one call (n_azimuths)
  *       give the same bands and sums at batch 1, 8 and 64, and into a pitched field.
  *   sun_disc OUTDIR HEIGHTS.f64 ROWS COLS DX DY AZ EL RADIUS COLUMNS CURVATURE MAX_DISTANCE
  *       soft shadows (oclshade_sun_disc) into fraction.f32; checks itself that a pitched angle
@@ -808,6 +808,23 @@ static void run_horizon(int argc, char **argv)
                 }
                 free(again);
             }
+            /* and swept at every lanes knob (a last column band narrower than the lanes: the last
+             * run takes the ray of the block of the columns it writes) */
+            static const int lanes[] = {1, 4, 8, 16};
+            int default_lanes = 0;
+            CHECK(oclshade_get_knob(lib, "horizon", "lanes", &default_lanes));
+            CHECK(oclshade_set_knob(lib, "horizon", "sweep_far", 2));
+            for (size_t i = 0; i < sizeof lanes / sizeof lanes[0]; ++i) {
+                CHECK(oclshade_set_knob(lib, "horizon", "lanes", lanes[i]));
+                horizon_band(&m, dx, dy, curvature, 360.0 * k / n, &angle, NULL, definition);
+                void *again = read_back(d_angle, 4 * m.n);
+                if (memcmp(again, band, 4 * m.n) != 0) {
+                    fprintf(stderr, "azimuth %g, lanes %d: ", 360.0 * k / n, lanes[i]);
+                    fail("horizon: the sweep at another lanes knob differs");
+                }
+                free(again);
+            }
+            CHECK(oclshade_set_knob(lib, "horizon", "lanes", default_lanes));
             CHECK(oclshade_set_knob(lib, "horizon", "sweep_cells", default_cells));
             CHECK(oclshade_set_knob(lib, "horizon", "sweep_far", default_far));
         }
