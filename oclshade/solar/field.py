@@ -278,7 +278,8 @@ class MapPlaces:
         log_m = np.log(metres)
         d_row, d_col = np.gradient(log_m, r * dy, c * dx, axis=(0, 1))       # per grid metre south, east
         along = d_col * sin - d_row * cos                                     # along grid azimuth a
-        return float(np.max(np.abs(along) / metres))
+        rate = float(np.max(np.abs(along) / metres))
+        return rate if math.isfinite(rate) else math.inf           # (a cell of no width: a pole)
 
     def far_residual(self, relief: float, dx: float, dy: float) -> float:
         """Degrees: what a ray keeping its cell's block scale along its length leaves, at most, of
@@ -419,7 +420,7 @@ def checked_places(raster: Raster) -> tuple[MapPlaces | None, list[str]]:
     far = 0.0 if places is None else places.far_residual(relief, raster.dx, raster.dy)
     if far > DEFAULT_TOLERANCE:
         notes.append(f"a grid metre's length on the ground changes by "
-                     f"{100.0 * places.far_scale_rate(raster.dx, raster.dy) * 1e5:.2g} % per 100 km, and a ray "
+                     f"{100.0 * places.far_scale_rate(raster.dx, raster.dy) * 1e5:.3g} % per 100 km, and a ray "
                      f"keeps its cell's: with {relief:.0f} m of relief, far terrain's "
                      f"angles within {far:.3f} deg (a grid whose scale changes less, such as a UTM zone, keeps "
                      f"them closer; docs/methods.md, \"Far terrain\")")
