@@ -411,7 +411,7 @@ class HorizonCaster:
                 table = (self._block_bands, rt.to_device(strips, "horizon block table"))
                 bounds = bounds or (0.0, 0.0)                                      # (unread)
             w["kernel"].set_args(*w["fixed"], ray, angle, svf, w["seeds"] if seeded else self._dummy,
-                                 self._cell(None).astype(np.float32),
+                                 self._grid_cell,
                                  *([np.array(bounds, np.float32)] if bounds else []), *table)
             cl.enqueue_nd_range_kernel(rt.queue, w["kernel"], *self._band_launch(w["grid"], band))
 
@@ -473,23 +473,33 @@ class HorizonCaster:
         return self.runtime.to_device(band, "scale block bands")
 
     def _block_rays(self, azimuths: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(rays float32 (blocks, azimuths, 4), cells float32 (blocks, 2)): :meth:`_rays` and
-        :meth:`_cell` of every block of :attr:`scale_blocks` (raster order), bit for bit, at once."""
-        scales = self.scale_blocks.scales.reshape(-1, self.scale_blocks.scales.shape[-1])
+        """(rays float32 (blocks, azimuths, 4), cells float32 (blocks, 2)): :meth:`_scaled_rays` of
+        every block of :attr:`scale_blocks` (raster order), at once."""
+        rays, cells = self._scaled_rays(self.scale_blocks.scales.reshape(-1, self.scale_blocks.scales.shape[-1]),
+                                        azimuths)
+        return rays, cells.astype(np.float32)
+
+    def _scaled_rays(self, scales: np.ndarray, azimuths: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(rays float32 (len(scales), azimuths, 4), cells float64 (len(scales), 2)): kernels/horizon.cl's
+        float4 ray (ux, uy, c, R) of blocks of these scales (float64 (n, 2 or 4),
+        :mod:`oclshade.solar.scale`) at each azimuth, and their cell sizes in true metres (dx, dy
+        times the scales): the rays' are the cell sizes times the block's stretch that way
+        (:func:`oclshade.solar.scale.direction_factor`; host/src/horizon.c band_ray, the same
+        floats)."""
         dx, dy = self.heightmap.dx * scales[:, 0], self.heightmap.dy * scales[:, 1]
         stretch = direction_factor(scales[:, None, :], azimuths[None, :])
         rays = np.empty((len(scales), len(azimuths), 4), np.float32)
         rays[..., :2] = sun_rays(np.broadcast_to(azimuths, stretch.shape), np.zeros(stretch.shape),
                                  dx[:, None] * stretch, dy[:, None] * stretch)[..., :2]
         rays[..., 2], rays[..., 3] = self.coefficient, self.radius or 0.0
-        return rays, np.stack([dx, dy], axis=-1).astype(np.float32)
+        return rays, np.stack([dx, dy], axis=-1)
 
-    def _cell(self, scales: np.ndarray | None) -> np.ndarray:
-        """float64 (dx, dy): the cell sizes in true metres of a block of these scales (None: the
-        map's), east and north; the kernels' seeds read them (without the stretch by direction:
-        any cell size gives a lower bound, and a batch's azimuths share one)."""
-        dx, dy = self.heightmap.dx, self.heightmap.dy
-        return np.array([dx, dy]) if scales is None else np.array([dx * scales[0], dy * scales[1]])
+    @functools.cached_property
+    def _grid_cell(self) -> np.ndarray:
+        """float32 (dx, dy): the map's cell sizes, the kernels' ``cell`` argument where no table
+        gives a block's (the seeds' bound reads them: any cell size gives a lower bound, and a
+        batch's azimuths share one)."""
+        return np.array([self.heightmap.dx, self.heightmap.dy], np.float32)
 
     def _grid(self, kernel: cl.Kernel, cols: int, rows: int) -> tuple[tuple[int, int], tuple[int, int]]:
         """(global, local) sizes for one work-item per (col, row): work-groups of the knob ``group``
@@ -508,14 +518,9 @@ class HorizonCaster:
         return self._rays(np.array([azimuth]), scales)[0]
 
     def _rays(self, azimuths: np.ndarray, scales: np.ndarray | None = None) -> np.ndarray:
-        """:meth:`_ray` of each azimuth, float32 (n, 4): the cell sizes of :meth:`_cell`, times a
-        projected block's stretch that way (:func:`oclshade.solar.scale.direction_factor`)."""
-        dx, dy = self._cell(scales)
-        stretch = np.ones(len(azimuths)) if scales is None else direction_factor(scales, azimuths)
-        rays = np.empty((len(azimuths), 4), np.float32)
-        rays[:, :2] = sun_rays(azimuths, np.zeros(len(azimuths)), dx * stretch, dy * stretch)[:, :2]
-        rays[:, 2], rays[:, 3] = self.coefficient, self.radius or 0.0
-        return rays
+        """:meth:`_ray` of each azimuth, float32 (n, 4): :meth:`_scaled_rays` of one block."""
+        one = np.ones(2) if scales is None else np.asarray(scales, np.float64)
+        return self._scaled_rays(one[None, :], np.asarray(azimuths, np.float64))[0][0]
 
     def _batched(self) -> bool:
         """Whether the whole map's walk takes several azimuths per launch (the knob ``batch``;
@@ -559,7 +564,7 @@ class HorizonCaster:
                 block_table = np.empty((len(cells), 1 + n, 4), np.float32)
                 block_table[:, 0, :2], block_table[:, 0, 2:], block_table[:, 1:] = cells, 0.0, block_rays
                 table = (self._block_bands, rt.to_device(block_table, "horizon block table"), np.int32(1 + n))
-            walker.set_args(*fixed, rays, angle, svf, seeds, self._cell(None).astype(np.float32),
+            walker.set_args(*fixed, rays, angle, svf, seeds, self._grid_cell,
                             np.int32(stride), np.int32(0), np.int32(n), *table)
             cl.enqueue_nd_range_kernel(rt.queue, walker, (gx, gy, 1 if sums else n), (lx, ly, 1))
 

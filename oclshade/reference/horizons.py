@@ -120,10 +120,11 @@ def banded_horizon_angles(hm: Heightmap, azimuth: float, curvature: float = 0.0,
         (np.asarray(a, np.int64).ravel() for a in cells)
     blocks = scale_blocks(hm.shape, hm.row_scales, SCALE_TOLERANCE)
     a, b = blocks.block_of(ii, jj)
-    which = a * len(blocks.col_edges) + b
+    across = blocks.scales.shape[1]
+    which = a * across + b                                  # raster order
     out = np.empty(ii.shape)
     for k in np.unique(which):
-        scales = blocks.scales[divmod(int(k), len(blocks.col_edges))]
+        scales = blocks.scales[divmod(int(k), across)]
         stretch = float(direction_factor(scales, azimuth))       # a projected block's, that way (1: none)
         own = Heightmap(hm.heights, hm.dx * float(scales[0]) * stretch, hm.dy * float(scales[1]) * stretch)
         at = which == k

@@ -289,7 +289,7 @@ class MapPlaces:
         rate dh cos^2 / 2 <= rate relief / 2 radians.  (Horizons at or above the horizontal,
         and a sun's: its terrain lies above the cell; below it, the depth instead, curvature's
         drop included.)"""
-        return float(np.degrees(self.far_scale_rate(dx, dy) * max(float(relief), 0.0) / 2.0))
+        return far_residual_of(self.far_scale_rate(dx, dy), relief)
 
     def on_grid(self, rows: np.ndarray, cols: np.ndarray, azimuth: np.ndarray, elevation: np.ndarray
                 ) -> tuple[np.ndarray, np.ndarray]:
@@ -325,6 +325,12 @@ class MapPlaces:
         grid, elevation = self.on_grid(np.broadcast_to(rows, shape), np.broadcast_to(cols, shape), grid,
                                        np.broadcast_to(position.elevation, shape))
         return (grid, elevation) if many else (grid[0], elevation[0])
+
+
+def far_residual_of(rate: float, relief: float) -> float:
+    """Degrees: :meth:`MapPlaces.far_residual` of a map whose :meth:`MapPlaces.far_scale_rate` is
+    ``rate`` (per true metre), rate relief / 2 radians."""
+    return float(np.degrees(rate * max(float(relief), 0.0) / 2.0))
 
 
 def _near_one(scale: np.ndarray) -> np.ndarray:
@@ -417,10 +423,10 @@ def checked_places(raster: Raster) -> tuple[MapPlaces | None, list[str]]:
                      f"\"Projected grids\")")
     lo, hi = extrema(raster.heights)
     relief = hi - lo if hi >= lo else 0.0              # (all nodata: NaN, none)
-    far = 0.0 if places is None else places.far_residual(relief, raster.dx, raster.dy)
+    rate = 0.0 if places is None else places.far_scale_rate(raster.dx, raster.dy)
+    far = far_residual_of(rate, relief)
     if far > DEFAULT_TOLERANCE:
-        notes.append(f"a grid metre's length on the ground changes by "
-                     f"{100.0 * places.far_scale_rate(raster.dx, raster.dy) * 1e5:.3g} % per 100 km, and a ray "
+        notes.append(f"a grid metre's length on the ground changes by {100.0 * rate * 1e5:.3g} % per 100 km, and a ray "
                      f"keeps its cell's: with {relief:.0f} m of relief, far terrain's "
                      f"angles within {far:.3f} deg (a grid whose scale changes less, such as a UTM zone, keeps "
                      f"them closer; docs/methods.md, \"Far terrain\")")
