@@ -246,7 +246,7 @@ class Heightmap:
         (:func:`oclshade.solar.field.checked_places`)."""
         from .solar.field import checked_places
 
-        places, notes = checked_places(raster)
+        places, notes = checked_places(raster, z_factor)
         for note in notes:
             warnings.warn(f"{raster.path}: {note}" if raster.path else note, InputWarning, stacklevel=2)
         return cls.from_array(raster.heights, (raster.dx, raster.dy), z_factor,

@@ -17,7 +17,7 @@ from oclshade.heightmap import Heightmap, InputWarning  # noqa: E402
 from oclshade.io import read_dem  # noqa: E402
 from oclshade.solar import map_places, sun_field  # noqa: E402
 from oclshade.reference import ground_metre  # noqa: E402
-from oclshade.solar.scale import direction_factor  # noqa: E402
+from oclshade.solar.scale import direction_factor, height_factor, height_residual_of  # noqa: E402
 
 from test_site import write_tif  # noqa: E402
 
@@ -202,7 +202,7 @@ def test_a_utm_map_far_from_its_meridian_is_traced_in_column_bands(tmp_path, cap
 @pytest.mark.parametrize("offset", [0.5, -0.3])
 def test_a_walls_penumbra_on_web_mercator_is_the_skys(tmp_path, offset):
     """Soft shadows on a scaled grid: a cell sees a long wall's top at h = atan(H / D) on the
-    ground (D in ground metres), and the sun's disc (radius r) centred at h - offset r, so the
+    ground (D in ground metres at the top's height H, H / R longer than the ellipsoid's), and the sun's disc (radius r) centred at h - offset r, so the
     share above the wall is the circular segment above offset r, in closed form. The grid draws
     the disc 0.75 times as tall (sin^2 + 0.5 cos^2 of its 14 degrees, over 0.71): traced with
     the sky's chords it read that share at 0.75 offset instead."""
@@ -217,7 +217,7 @@ def test_a_walls_penumbra_on_web_mercator_is_the_skys(tmp_path, offset):
     banded = Heightmap.from_raster(raster)
     scale = ground_metre(map_places(raster), 4.5, 60.0, 90.0)      # ground metres per grid metre east (0.71)
     assert scale == pytest.approx(1.0 / math.sqrt(2.0), rel=2e-3)
-    distance = 40 * 30.0 * scale                      # the cell 40 columns west of the wall's top
+    distance = 40 * 30.0 * scale * height_factor(400.0)      # the cell 40 columns west of the wall's top
     top = math.degrees(math.atan(400.0 / distance))
     sun = Sun(90.0, top - offset * SUN_RADIUS)
     got = HorizonCaster(banded, cache=False).sun_disc(sun, columns=64)[4, 60]
@@ -458,9 +458,13 @@ def test_far_terrain_is_off_by_at_most_the_far_residual(tmp_path, capsys):
     a 3000 m tower 20 to 115 km north is seen, against the truth atan(H / D) at the geodesic
     distance D (pyproj), up to MapPlaces.far_residual off (within the float32 band and the
     blocks' own residual), and by more than 0.8 of it (about as much from 20 km as from 115 km: a
-    first-order error of rate dh cos^2 / 2): the bound is tight, and the run says it."""
+    first-order error of rate dh cos^2 / 2): the bound is tight, and the run says it, with the
+    ground metres' height at the middle of the heights (the truth's distance at the tower's top,
+    H / R longer than the ellipsoid's; height_residual_of).  With curvature the error grows to
+    rate (dh + c D^2) / 2, and the bound with it (the drop across the map, up to the relief):
+    from 115 km the tower is seen 0.9 of that bound off, and the run with --curvature says so."""
     from oclshade import reference as ref
-    from oclshade.horizon import HorizonCaster
+    from oclshade.horizon import Curvature, HorizonCaster
 
     rows, cols, cell, height = 1200, 32, 200.0, 3000.0      # 200 grid m: 100 m on the ground
     heights = np.zeros((rows, cols))
@@ -473,38 +477,54 @@ def test_far_terrain_is_off_by_at_most_the_far_residual(tmp_path, capsys):
     rate = places.far_scale_rate(raster.dx, raster.dy)
     assert rate == pytest.approx(math.tan(math.radians(60.0)) / 6.371e6, rel=0.05)
     assert 0.02 < far < 0.03
-    with pytest.warns(InputWarning, match=f"far terrain's angles within {far:.3f} deg"):     # the API's warning
+    bound = far + height_residual_of(height)
+    with pytest.warns(InputWarning, match=f"angles to terrain within {bound:.3f} deg"):     # the API's warning
         hm = Heightmap.from_raster(raster)
     got = HorizonCaster(hm, cache=False).horizons([0.0])[0]
     observers = np.arange(200, 1160, 40)
     lon, lat = places.lonlat(np.append(observers, 6) + 0.5, np.full(observers.size + 1, 16.5))
     _, _, metres = pyproj.Geod(ellps="WGS84").inv(lon[:-1], lat[:-1], np.full(observers.size, lon[-1]),
                                                    np.full(observers.size, lat[-1]))
-    truth = np.degrees(np.arctan(height / metres))
+    truth = np.degrees(np.arctan(height / (metres * height_factor(height))))
     error = np.abs(got[observers, 16] - truth)
-    assert np.all(error <= far + places.scale_residual + ref.angle_tolerance(hm)), (error.max(), far)
+    assert np.all(error <= bound + places.scale_residual + ref.angle_tolerance(hm)), (error.max(), bound)
     assert error.max() > 0.8 * far, (error.max(), far)       # a tight bound (the blocks hold 0.01 / sqrt(2))
     assert main(["horizon", str(path), str(tmp_path / "h.tif"), "--azimuths", "4", "-q"]) == 0
-    assert f"far terrain's angles within {far:.3f} deg" in capsys.readouterr().err
+    assert f"angles to terrain within {bound:.3f} deg" in capsys.readouterr().err
+    c = Curvature().coefficient
+    curved = HorizonCaster(hm, curvature=Curvature(), cache=False).horizons([0.0])[0]
+    ground = metres * height_factor(height)
+    truth = np.degrees(np.arctan((height - c * ground * metres) / ground))        # drop (R + H) theta^2 / 2
+    drop = c * (rows * raster.dy * hm.row_scales[..., 0].max()) ** 2                # across the map (its length)
+    far_curved = places.far_residual(height, raster.dx, raster.dy, drop)
+    assert far_curved > 1.3 * far
+    error = np.abs(curved[observers, 16] - truth)
+    assert np.all(error <= far_curved + height_residual_of(height) + places.scale_residual
+                  + ref.angle_tolerance(hm, c)), (error.max(), far_curved)
+    assert error.max() > 0.85 * far_curved, (error.max(), far_curved)
+    assert main(["horizon", str(path), str(tmp_path / "h.tif"), "--azimuths", "4", "-q", "--curvature"]) == 0
+    assert "curvature's drop of up to" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("latitude", [22.0, 46.0, 62.0])
 def test_a_geographic_grids_far_scale_rate_is_its_widths(tmp_path, latitude):
     """On a geographic grid only a cell's east width changes, with latitude (cos f): a grid metre at
     grid azimuth a changes along a by sin^2 a cos a tan f / R per metre, at most 2 / (3 sqrt 3)
-    tan f / R (a = 54.7 degrees); a 1-degree tile at 62 N with 4000 m of relief goes past the
-    tolerance, and a flat one does not warn."""
+    tan f / R (a = 54.7 degrees); a 1-degree tile at 62 N with 2000 m of relief goes past the
+    tolerance (with what the ground metres' height leaves, height_residual_of), and a flat one
+    does not warn."""
     from oclshade.solar.field import checked_places
 
     wgs84 = (1, 1, 0, 3, 1024, 0, 1, 2, 1025, 0, 1, 1, 2048, 0, 1, 4326)
     heights = np.zeros((241, 241))
-    heights[120, 120] = 4000.0
+    heights[120, 120] = 2000.0
     raster = read_dem(write_tif(tmp_path / "tile.tif", heights, wgs84, 10.0, latitude + 0.5, 1.0 / 240))
     places = map_places(raster)
     expected = 2.0 / (3.0 * math.sqrt(3.0)) * math.tan(math.radians(latitude)) / 6.371e6
     assert places.far_scale_rate(raster.dx, raster.dy) == pytest.approx(expected, rel=0.03)
     notes = checked_places(raster)[1]
-    assert bool(notes) == (places.far_residual(4000.0, raster.dx, raster.dy) > 0.01) == (latitude == 62.0)
+    bound = places.far_residual(2000.0, raster.dx, raster.dy) + height_residual_of(2000.0)
+    assert bool(notes) == (bound > 0.01) == (latitude == 62.0)
     flat = read_dem(write_tif(tmp_path / "flat.tif", np.zeros((241, 241)), wgs84, 10.0, latitude + 0.5, 1.0 / 240))
     assert checked_places(flat)[1] == []
 
@@ -527,3 +547,75 @@ def test_the_stretch_share_bounds_every_direction():
         share = np.abs(stretch_of(box[:, None, :], sin, cos) / stretch_of((lo + hi) / 2.0, sin, cos) - 1.0).max()
         bound = float(stretch_share(lo, hi))
         assert bound / 2.0 < share <= bound * (1.0 + 1e-12), (lo, hi)
+
+
+@pytest.mark.parametrize("crs, cells, rows", [("geographic", 1.0 / 240, 241), (32632, 30.0, 300)])
+def test_terrain_high_above_the_ellipsoid_is_seen_at_its_height(tmp_path, crs, cells, rows):
+    """A georeferenced grid's metres are the ellipsoid's, and terrain h above it is (R + h) / R
+    further apart; the ground metres are taken at the middle of the map's heights.  A 6000 m
+    ridge seen due north from a 4000 m plateau (a geographic grid at 46 N, UTM 32N on its central
+    meridian), with curvature and no refraction, against the elevation angle between the two
+    points in ECEF (pyproj, WGS 84 heights): within height_residual_of(2000 m) = 0.0045 degree,
+    and by more than 0.8 of it (terrain 1000 m above the middle, at 45 degrees: a tight bound),
+    where the ellipsoid's metres read up to 0.027 degree off."""
+    from oclshade import reference as ref
+    from oclshade.horizon import EARTH_RADIUS, Curvature, HorizonCaster
+    from oclshade.solar.field import MapPlaces
+
+    cols = 41
+    heights = np.full((rows, cols), 4000.0)
+    heights[20:23] = 6000.0                                     # its south face's top at row 22
+    if crs == "geographic":
+        gkeys = (1, 1, 0, 3, 1024, 0, 1, 2, 1025, 0, 1, 1, 2048, 0, 1, 4326)
+        path = write_tif(tmp_path / "ridge.tif", heights, gkeys, 9.0, 46.5, cells)
+    else:
+        x, y = grid_xy(crs, 9.0, 46.0)
+        path = write_tif(tmp_path / "ridge.tif", heights, keys(crs), x - cols / 2 * cells, y, cells)
+    raster = read_dem(path)
+    places = map_places(raster)
+    assert places.height == 5000.0
+    curvature = Curvature(EARTH_RADIUS, 0.0)
+    hm = Heightmap.from_raster(raster)
+    observers = np.arange(26, rows, 10)
+    at = (observers, np.full(observers.size, cols // 2))
+    got = HorizonCaster(hm, curvature=curvature, cache=False).horizons([0.0])[0][at]
+    twin = ref.banded_horizon_angles(hm, 0.0, curvature.coefficient, at)
+    assert np.abs(got - twin).max() <= ref.angle_tolerance(hm, curvature.coefficient)
+    on_ellipsoid = MapPlaces(places.transform, places.shape, places.crs)     # (height 0: the ellipsoid's metres)
+    flat = Heightmap.from_array(raster.heights, (raster.dx, raster.dy), row_scales=on_ellipsoid.row_scales())
+    before = ref.banded_horizon_angles(flat, 0.0, curvature.coefficient, at)
+    lon, lat = places.lonlat(np.append(observers, 22) + 0.5, np.full(observers.size + 1, cols // 2 + 0.5))
+    to_ecef = pyproj.Transformer.from_crs("EPSG:4979", "EPSG:4978", always_xy=True)
+    points = np.stack(to_ecef.transform(lon, lat, np.append(np.full(observers.size, 4000.0), 6000.0)), axis=-1)
+    phi, lam = np.radians(lat[:-1]), np.radians(lon[:-1])
+    up = np.stack([np.cos(phi) * np.cos(lam), np.cos(phi) * np.sin(lam), np.sin(phi)], axis=-1)
+    sight = points[-1] - points[:-1]
+    truth = np.degrees(np.arcsin(np.sum(up * sight, axis=-1) / np.linalg.norm(sight, axis=-1)))
+    bound = height_residual_of(2000.0)
+    sphere = 5e-4       # curvature's drop on a sphere of R, not the ellipsoid: 0.3 m at 100 km, 2e-4 degree
+    error = np.abs(twin - truth)
+    assert error.max() <= bound + sphere, (error.max(), bound)
+    assert error.max() > 0.8 * bound, (error.max(), bound)
+    assert np.abs(before - truth).max() > 0.02, np.abs(before - truth).max()          # the ellipsoid's metres
+
+
+def test_the_relief_and_the_middle_height_are_in_metres_after_the_z_factor(tmp_path, capsys):
+    """Heights in kilometres with -z 1000 (or Heightmap.from_raster's z_factor): the map's middle
+    height and relief, which set the ground metres and the bound the run warns of, are the
+    metres the heightmap traces, not the raster's numbers."""
+    from oclshade.solar.field import checked_places
+
+    heights = np.zeros((64, 64))
+    heights[30:34, 30:34] = 6.0                               # 6 km
+    x, y = grid_xy(32632, 9.0, 46.0)
+    path = write_tif(tmp_path / "km.tif", heights, keys(32632), x, y, 30.0)
+    raster = read_dem(path)
+    assert checked_places(raster)[1] == []
+    places, notes = checked_places(raster, 1000.0)
+    assert places.height == 3000.0 and len(notes) == 1
+    assert f"with 6000 m of relief, angles to terrain within {height_residual_of(6000.0):.3f} deg" in notes[0]
+    with pytest.warns(InputWarning, match="with 6000 m of relief"):
+        hm = Heightmap.from_raster(raster, z_factor=1000.0)
+    assert hm.row_scales[0, 0, 0] == pytest.approx(height_factor(3000.0) / 0.9996, rel=1e-6)
+    assert main(["shadow", str(path), str(tmp_path / "m.tif"), "-az", "90", "-alt", "20", "-z", "1000"]) == 0
+    assert "with 6000 m of relief" in capsys.readouterr().err

@@ -41,7 +41,7 @@ from ..pyramid import ExtremaPyramid, cached_pyramid
 from ..reference.horizons import SVF_DEFINITIONS
 from ..runtime import Runtime, get_runtime
 from ..solar.field import on_heightmap
-from ..solar.scale import SCALE_TOLERANCE, ScaleBlocks, direction_factor, scale_blocks
+from ..solar.scale import EARTH_RADIUS, SCALE_TOLERANCE, ScaleBlocks, direction_factor, scale_blocks
 from ..sun import Sun, SunField, SunLike, as_sun, libm, sun_rays
 from .disc import DEFAULT_COLUMNS, SUN_RADIUS, disc_columns, disc_columns_of, disc_stretch, visible_fraction
 from .pilot import MIN_CELLS as PILOT_MIN_CELLS, MIN_ROWS as PILOT_MIN_ROWS, Pilot
@@ -50,7 +50,6 @@ from .pilot import bands as pilot_bands, measure as measure_pilot
 #: degrees added on both sides of a strip's elevations before its horizons are clamped: far
 #: above the float32 error of an angle, so a clamped angle never lands inside the strip
 STRIP_MARGIN = 1e-3
-EARTH_RADIUS = 6371008.8          # metres: the IUGG mean radius (r.horizon and HORAYZON use about this)
 MAX_AZIMUTHS = 65536
 #: kernels/horizon.cl's OCLS_SEED_STRIDE: the seed grid's spacing in cells (part of the algorithm:
 #: the angles' last bits may depend on it, so it is not a tuning knob)

@@ -235,10 +235,12 @@ class PlacedSuns:
 def _scaled_places(args: argparse.Namespace, raster) -> MapPlaces | None:
     """The raster's :class:`oclshade.solar.MapPlaces` as :func:`oclshade.solar.field.checked_places`
     gives them, its warnings on stderr; a geographic raster's problem is the run's error."""
-    from ..cli import PROG, CliError
+    from ..cli import PROG, CliError, curvature_argument
 
+    curvature = curvature_argument(args) if hasattr(args, "curvature") else None
     try:
-        places, notes = checked_places(raster)
+        places, notes = checked_places(raster, getattr(args, "z_factor", 1.0),
+                                       0.0 if curvature is None else curvature.coefficient)
     except ValueError as exc:
         raise CliError(f"INPUT {args.input!r}: {exc}") from None
     for note in notes:

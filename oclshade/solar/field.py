@@ -45,8 +45,8 @@ import numpy as np
 from ..io import Raster, geotransform, metres_per_degree
 from ..heightmap import Heightmap, extrema
 from ..sun import DEFAULT_SUN_TOLERANCE as DEFAULT_TOLERANCE, BlockGrid, Sun, SunField, Traced
-from .scale import (SEGMENT_SHARE, column_edges, max_column_bands, scale_blocks, scale_share, stretch_of,
-                    stretch_share)
+from .scale import (SEGMENT_SHARE, column_edges, height_factor, height_residual_of, max_column_bands,
+                    scale_blocks, scale_share, stretch_of, stretch_share)
 from .position import sun_position
 from .site import STEP_METRES, grid_azimuths, projected_crs
 
@@ -63,11 +63,14 @@ MAX_SHRINK = 12            # tries to shrink the blocks into the tolerance
 class MapPlaces:
     """Where a map's cells lie: (row, col) in cell units (0 at the first cell's outer corner)
     to longitude and latitude, and the map's grid turn there.  ``crs``: the projected CRS
-    (pyproj) of a projected map, None for a geographic one."""
+    (pyproj) of a projected map, None for a geographic one.  ``height``: the metres above the
+    ellipsoid at which its ground metres are taken (:func:`map_places`: the middle of the map's
+    heights), each (R + height) / R of the ellipsoid's (:func:`oclshade.solar.scale.height_factor`)."""
 
     transform: tuple[float, ...]
     shape: tuple[int, int]
     crs: Any = field(default=None, repr=False)
+    height: float = 0.0
 
     def lonlat(self, rows: np.ndarray, cols: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         x0, xc, xr, y0, yc, yr = self.transform
@@ -99,7 +102,8 @@ class MapPlaces:
         :meth:`lonlat`), and its stretch by direction (:mod:`oclshade.solar.scale`).  A
         geographic cell's metres over the grid's (the centre latitude's), by the very formula
         the cell sizes come from (:func:`oclshade.io.metres_per_degree`, once per distinct
-        latitude: on a north-up grid, one per row of the places).  On a projected grid the CRS's own distortion
+        latitude: on a north-up grid, one per row of the places), at :attr:`height`.  On a projected grid
+        the CRS's own distortion
         (:meth:`projected_scales`): east = north = s, the root mean square of a grid metre's
         length over the directions, and p, q (0 on a conformal projection: UTM, Lambert
         conformal, polar stereographic), bilinear between their values on a
@@ -113,7 +117,7 @@ class MapPlaces:
             return scale, scale.copy(), p, q
         lat = self.lonlat(rows.ravel(), cols.ravel())[1].reshape(rows.shape)
         distinct, where = np.unique(lat, return_inverse=True)
-        east, north = (np.asarray(v, np.float64) for v in _METRES_PER_DEGREE(distinct))
+        east, north = (np.asarray(v, np.float64) * height_factor(self.height) for v in _METRES_PER_DEGREE(distinct))
         centre = metres_per_degree(self.centre_latitude)
         return (east / centre[0])[where].reshape(np.shape(lat)), (north / centre[1])[where].reshape(np.shape(lat))
 
@@ -137,8 +141,8 @@ class MapPlaces:
 
     def projected_scales(self, lon: np.ndarray, lat: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(s, p, q) of a projected grid at these places: a grid metre along grid azimuth a is
-        s sqrt(1 + p cos 2a + q sin 2a) true metres (on the ellipsoid; :mod:`oclshade.solar.scale`),
-        s the root mean square over the directions; p = q = 0 where that is within
+        s sqrt(1 + p cos 2a + q sin 2a) true metres (at :attr:`height` above the ellipsoid;
+        :mod:`oclshade.solar.scale`), s the root mean square over the directions; p = q = 0 where that is within
         :data:`STRETCH_NOISE` of all directions' (a conformal projection).  From the metric of a
         grid metre, by central differences of :data:`STEP_METRES` along the grid's columns and
         rows through the CRS and the ellipsoid's geodesics (pyproj)."""
@@ -163,7 +167,7 @@ class MapPlaces:
         mean = (m_ee + m_nn) / 2.0          # s(a)^2 = mean (1 + p cos 2a + q sin 2a)
         p, q = (m_nn - m_ee) / (2.0 * mean), m_en / mean
         still = np.hypot(p, q) <= STRETCH_NOISE
-        return np.sqrt(mean), np.where(still, 0.0, p), np.where(still, 0.0, q)
+        return np.sqrt(mean) * height_factor(self.height), np.where(still, 0.0, p), np.where(still, 0.0, q)
 
     @cached_property
     def _transformers(self) -> tuple[Any, Any]:
@@ -281,15 +285,15 @@ class MapPlaces:
         rate = float(np.max(np.abs(along) / metres))
         return rate if math.isfinite(rate) else math.inf           # (a cell of no width: a pole)
 
-    def far_residual(self, relief: float, dx: float, dy: float) -> float:
+    def far_residual(self, relief: float, dx: float, dy: float, drop: float = 0.0) -> float:
         """Degrees: what a ray keeping its cell's block scale along its length leaves, at most, of
         an angle to terrain at most ``relief`` metres above the cell (first order): a point D
         true metres away is traced at a distance off by a share of at most rate D / 2
         (:meth:`far_scale_rate`), which moves its angle atan(dh / D) by at most
-        rate dh cos^2 / 2 <= rate relief / 2 radians.  (Horizons at or above the horizontal,
-        and a sun's: its terrain lies above the cell; below it, the depth instead, curvature's
-        drop included.)"""
-        return far_residual_of(self.far_scale_rate(dx, dy), relief)
+        rate dh cos^2 / 2 <= rate relief / 2 radians; with curvature (``drop``: its drop
+        across the map, metres) :func:`far_residual_of`.  (Angles at or above the horizontal:
+        a sun's, and those the sky-view factors take.)"""
+        return far_residual_of(self.far_scale_rate(dx, dy), relief, drop)
 
     def on_grid(self, rows: np.ndarray, cols: np.ndarray, azimuth: np.ndarray, elevation: np.ndarray
                 ) -> tuple[np.ndarray, np.ndarray]:
@@ -327,10 +331,14 @@ class MapPlaces:
         return (grid, elevation) if many else (grid[0], elevation[0])
 
 
-def far_residual_of(rate: float, relief: float) -> float:
+def far_residual_of(rate: float, relief: float, drop: float = 0.0) -> float:
     """Degrees: :meth:`MapPlaces.far_residual` of a map whose :meth:`MapPlaces.far_scale_rate` is
-    ``rate`` (per true metre), rate relief / 2 radians."""
-    return float(np.degrees(rate * max(float(relief), 0.0) / 2.0))
+    ``rate`` (per true metre): rate relief / 2 radians, and with curvature, whose drop c D^2
+    reaches ``drop`` metres across the map, rate (relief + min(relief, drop)) / 2: a tangent
+    (dh - c D^2) / D traced at a distance a share d off moves by d (dh + c D^2) / D, and at or
+    above the horizontal c D^2 <= dh."""
+    relief = max(float(relief), 0.0)
+    return float(np.degrees(rate * (relief + min(relief, max(float(drop), 0.0))) / 2.0))
 
 
 def _near_one(scale: np.ndarray) -> np.ndarray:
@@ -389,28 +397,36 @@ def scaled_suns(scales: np.ndarray, azimuth: np.ndarray, elevation: np.ndarray) 
 _METRES_PER_DEGREE = np.frompyfunc(metres_per_degree, 1, 2)
 
 
-def map_places(raster: Raster) -> MapPlaces | None:
+def map_places(raster: Raster, z_factor: float = 1.0) -> MapPlaces | None:
     """A raster's :class:`MapPlaces`: geographic or projected (pyproj identifies its CRS) and
-    georeferenced; None otherwise.  Raises ValueError as :func:`oclshade.solar.site.projected_crs`."""
+    georeferenced, its ground metres at the middle of its heights (times ``z_factor``, as the
+    heightmap takes them: metres); None otherwise.  Raises ValueError as
+    :func:`oclshade.solar.site.projected_crs`."""
     transform = geotransform(raster.georef)
     if transform is None:
         return None
     found = projected_crs(raster)
     if found is None and not raster.geographic:
         return None
-    return MapPlaces(tuple(float(v) for v in transform), raster.heights.shape, found[0] if found else None)
+    lo, hi = extrema(raster.heights)
+    middle = float(z_factor) * (lo + hi) / 2.0 if hi >= lo else 0.0       # (all nodata: NaN, none)
+    return MapPlaces(tuple(float(v) for v in transform), raster.heights.shape, found[0] if found else None, middle)
 
 
-def checked_places(raster: Raster) -> tuple[MapPlaces | None, list[str]]:
+def checked_places(raster: Raster, z_factor: float = 1.0, curvature: float = 0.0
+                   ) -> tuple[MapPlaces | None, list[str]]:
     """(:func:`map_places` with its row scales made, what to warn of): a projected raster whose
     CRS pyproj cannot identify or carry to the ground has none (its grid metres are the
     ground's), and a projection that one scale per band of rows cannot follow is named
-    (:attr:`MapPlaces.scale_residual` past the tolerance), and so is a grid whose scale changes
-    fast enough along a ray, under the map's relief, to move far terrain's angles past it
-    (:meth:`MapPlaces.far_residual`).  A geographic raster's problem raises ValueError.  What
-    the CLI and :meth:`oclshade.heightmap.Heightmap.from_raster` take."""
+    (:attr:`MapPlaces.scale_residual` past the tolerance), and so is a map whose relief (its
+    heights times ``z_factor``: metres) moves angles past it: a grid whose scale changes fast
+    enough along a ray (:meth:`MapPlaces.far_residual`), and ground metres taken at the map's
+    middle height (:func:`oclshade.solar.scale.height_residual_of`); ``curvature``: the drop per
+    square metre of a run with curvature (:attr:`oclshade.horizon.Curvature.coefficient`; 0: none),
+    which raises the first.  A geographic raster's problem raises ValueError.  What the CLI and
+    :meth:`oclshade.heightmap.Heightmap.from_raster` (without curvature) take."""
     try:
-        places = map_places(raster)
+        places = map_places(raster, z_factor)
         residual = 0.0 if places is None else places.scale_residual      # (a projected grid's: through its CRS)
     except ValueError as exc:
         if raster.geographic:
@@ -421,15 +437,25 @@ def checked_places(raster: Raster) -> tuple[MapPlaces | None, list[str]]:
         notes.append(f"its projection stretches lengths by direction or along its rows by more than one scale "
                      f"per band of rows follows: angles within {residual:.3f} deg (docs/methods.md, "
                      f"\"Projected grids\")")
+    if places is None:
+        return places, notes
     lo, hi = extrema(raster.heights)
-    relief = hi - lo if hi >= lo else 0.0              # (all nodata: NaN, none)
-    rate = 0.0 if places is None else places.far_scale_rate(raster.dx, raster.dy)
-    far = far_residual_of(rate, relief)
-    if far > DEFAULT_TOLERANCE:
-        notes.append(f"a grid metre's length on the ground changes by {100.0 * rate * 1e5:.3g} % per 100 km, and a ray "
-                     f"keeps its cell's: with {relief:.0f} m of relief, far terrain's "
-                     f"angles within {far:.3f} deg (a grid whose scale changes less, such as a UTM zone, keeps "
-                     f"them closer; docs/methods.md, \"Far terrain\")")
+    relief = abs(float(z_factor)) * (hi - lo) if hi >= lo else 0.0              # (all nodata: NaN, none)
+    rows, cols = places.shape
+    diagonal = math.hypot(rows * raster.dy, cols * raster.dx) * float(np.max(places.row_scales()[..., :2]))
+    drop = float(curvature) * diagonal ** 2                        # true metres
+    rate = places.far_scale_rate(raster.dx, raster.dy)
+    far, heights = far_residual_of(rate, relief, drop), height_residual_of(relief)
+    if far + heights > DEFAULT_TOLERANCE:
+        causes = [f"{heights:.3f} deg as ground metres are taken at the heights' middle, {places.height:.0f} m"]
+        if far > 0.0:
+            dropped = f", curvature's drop of up to {min(drop, relief):.0f} m with it" if drop > 0.0 else ""
+            causes.insert(0, f"{far:.3f} deg as a ray keeps its cell's ground metre, whose length changes by "
+                             f"{100.0 * rate * 1e5:.3g} % per 100 km{dropped}")
+        if far > heights:
+            causes.append("a grid whose scale changes less, such as a UTM zone, keeps them closer")
+        notes.append(f"with {relief:.0f} m of relief, angles to terrain within {far + heights:.3f} deg "
+                     f"({'; '.join(causes)}; docs/methods.md, \"Far terrain\")")
     return places, notes
 
 

@@ -32,6 +32,10 @@ SCALE_ALIGN = 16
 #: its cells' own (row_scales (rows, m, k): :meth:`oclshade.solar.MapPlaces.row_scales` picks m so);
 #: their blocks keep the rest (:func:`scale_blocks`)
 SEGMENT_SHARE = 0.5
+#: metres: the Earth's mean radius (IUGG), for curvature's drop (:class:`oclshade.horizon.Curvature`;
+#: r.horizon and HORAYZON use about this) and a ground metre's length at a height
+#: (:func:`height_factor`)
+EARTH_RADIUS = 6371008.8
 
 
 def scale_share(tolerance: float = SCALE_TOLERANCE) -> float:
@@ -39,6 +43,21 @@ def scale_share(tolerance: float = SCALE_TOLERANCE) -> float:
     radians, :func:`scale_blocks`); a map whose scales are all within half of it of 1 is traced
     as it is (:meth:`oclshade.solar.MapPlaces.row_scales`)."""
     return 2.0 * math.sqrt(2.0) * math.radians(tolerance)
+
+
+def height_factor(height: float) -> float:
+    """How much longer a ground metre is at ``height`` metres above the ellipsoid than on it,
+    (R + h) / R (:data:`EARTH_RADIUS`): a georeferenced grid's metres are the ellipsoid's, and
+    terrain at height h is that much further apart (HORAYZON counts it; r.horizon does not)."""
+    return 1.0 + float(height) / EARTH_RADIUS
+
+
+def height_residual_of(relief: float) -> float:
+    """Degrees: what taking every ground metre at the map's middle height (:func:`height_factor`)
+    leaves, at most, of an angle, ``relief`` being the map's range of heights: terrain h from the
+    middle is at a distance off by a share of |h| / R <= relief / 2R, which moves its angle
+    atan(T) by T share / (1 + T^2) <= share / 2, so relief / 4R radians (first order)."""
+    return math.degrees(max(float(relief), 0.0) / (4.0 * EARTH_RADIUS))
 
 
 def stretch_of(scales: np.ndarray, sin: np.ndarray, cos: np.ndarray) -> np.ndarray:
