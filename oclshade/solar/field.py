@@ -454,8 +454,8 @@ def checked_places(raster: Raster, z_factor: float = 1.0, curvature: float = 0.0
                              f"{100.0 * rate * 1e5:.3g} % per 100 km{dropped}")
         if far > heights:
             causes.append("a grid whose scale changes less, such as a UTM zone, keeps them closer")
-        notes.append(f"with {relief:.0f} m of relief, angles to terrain within {far + heights:.3f} deg "
-                     f"({'; '.join(causes)}; docs/methods.md, \"Far terrain\")")
+        notes.append(f"with {relief:.0f} m of relief, angles to terrain within {far + heights:.3f} deg beyond the "
+                     f"scale's {DEFAULT_TOLERANCE:g} ({'; '.join(causes)}; docs/methods.md, \"Far terrain\")")
     return places, notes
 
 
