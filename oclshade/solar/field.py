@@ -397,18 +397,19 @@ def scaled_suns(scales: np.ndarray, azimuth: np.ndarray, elevation: np.ndarray) 
 _METRES_PER_DEGREE = np.frompyfunc(metres_per_degree, 1, 2)
 
 
-def map_places(raster: Raster, z_factor: float = 1.0) -> MapPlaces | None:
+def map_places(raster: Raster, z_factor: float = 1.0, heights_range: tuple[float, float] | None = None
+               ) -> MapPlaces | None:
     """A raster's :class:`MapPlaces`: geographic or projected (pyproj identifies its CRS) and
     georeferenced, its ground metres at the middle of its heights (times ``z_factor``, as the
-    heightmap takes them: metres); None otherwise.  Raises ValueError as
-    :func:`oclshade.solar.site.projected_crs`."""
+    heightmap takes them: metres; ``heights_range``: the raster's (min, max) where known, else
+    read); None otherwise.  Raises ValueError as :func:`oclshade.solar.site.projected_crs`."""
     transform = geotransform(raster.georef)
     if transform is None:
         return None
     found = projected_crs(raster)
     if found is None and not raster.geographic:
         return None
-    lo, hi = extrema(raster.heights)
+    lo, hi = extrema(raster.heights) if heights_range is None else heights_range
     middle = float(z_factor) * (lo + hi) / 2.0 if hi >= lo else 0.0       # (all nodata: NaN, none)
     return MapPlaces(tuple(float(v) for v in transform), raster.heights.shape, found[0] if found else None, middle)
 
@@ -425,8 +426,9 @@ def checked_places(raster: Raster, z_factor: float = 1.0, curvature: float = 0.0
     square metre of a run with curvature (:attr:`oclshade.horizon.Curvature.coefficient`; 0: none),
     which raises the first.  A geographic raster's problem raises ValueError.  What the CLI and
     :meth:`oclshade.heightmap.Heightmap.from_raster` (without curvature) take."""
+    lo, hi = extrema(raster.heights)
     try:
-        places = map_places(raster, z_factor)
+        places = map_places(raster, z_factor, (lo, hi))
         residual = 0.0 if places is None else places.scale_residual      # (a projected grid's: through its CRS)
     except ValueError as exc:
         if raster.geographic:
@@ -439,7 +441,6 @@ def checked_places(raster: Raster, z_factor: float = 1.0, curvature: float = 0.0
                      f"\"Projected grids\")")
     if places is None:
         return places, notes
-    lo, hi = extrema(raster.heights)
     relief = abs(float(z_factor)) * (hi - lo) if hi >= lo else 0.0              # (all nodata: NaN, none)
     rows, cols = places.shape
     diagonal = math.hypot(rows * raster.dy, cols * raster.dx) * float(np.max(places.row_scales()[..., :2]))
