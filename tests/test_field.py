@@ -21,7 +21,8 @@ from oclshade.horizon import Curvature  # noqa: E402
 from oclshade.io import read_dem  # noqa: E402
 from oclshade.solar import map_places, map_site, sun_field, suns_at  # noqa: E402
 from oclshade.solar.cli import suns_for  # noqa: E402
-from oclshade.solar.field import angles_between, sun_differences, sun_spread, unit_vectors  # noqa: E402
+from oclshade.solar.field import (MapPlaces, angles_between, on_heightmap, sun_differences, sun_spread,  # noqa: E402
+                                   unit_vectors)
 from oclshade.sun import Sun, SunBlock, SunField  # noqa: E402
 from oclshade.sunshine import SunshineCaster  # noqa: E402
 
@@ -494,6 +495,37 @@ def test_tiled_cli_traces_datetimes_per_block(tmp_path, capsys, workers):
     err = capsys.readouterr().err
     assert "the sun per block of cells" in err and "warning" not in err
     assert np.array_equal(tifffile.imread(tmp_path / "tiled.tif"), tifffile.imread(tmp_path / "whole.tif"))
+
+
+@pytest.mark.parametrize("workers", [None, 1])
+def test_tiled_runs_take_the_ground_metres_at_the_maps_middle_height(tmp_path, capsys, workers):
+    """A windowed run holds no heights until it reads them: its relief pass gives the places
+    the map's middle height (MapPlaces.height), so a high UTM map on its meridian (2700 m up:
+    its ground metres 1.0004 of the ellipsoid's and UTM's 1 / 0.9996, traced per block) comes
+    out of `shadow --sun --tile` and `--workers` as the whole run, bit for bit, and its masks
+    differ from the ellipsoid's metres' (the places without the height)."""
+    if workers is not None:
+        pytest.importorskip("distributed")
+    rng = np.random.default_rng(3)
+    heights = 2700.0 + np.cumsum(np.cumsum(rng.normal(size=(300, 400)), 0), 1) * 0.5
+    dem = write_tif(tmp_path / "high.tif", heights, north=5200000.0, cell=30.0)
+    sun = ["--sun", "120,4", "--sun", "250,9"]
+    assert main(["shadow", str(dem), str(tmp_path / "whole.tif"), *sun, "-q"]) == 0
+    assert main(["shadow", str(dem), str(tmp_path / "tiled.tif"), *sun, "--tile", "96", "-q",
+                 *(["--workers", str(workers)] if workers else [])]) == 0
+    assert "warning" not in capsys.readouterr().err
+    whole = tifffile.imread(tmp_path / "whole.tif")
+    assert np.array_equal(tifffile.imread(tmp_path / "tiled.tif"), whole)
+    places = map_places(read_dem(dem))
+    assert places.height == pytest.approx(2700.0, abs=300.0)
+    low = MapPlaces(places.transform, places.shape, places.crs)          # (the ellipsoid's metres)
+
+    def masks(hm: Heightmap) -> np.ndarray:
+        suns = [on_heightmap(hm, Sun(120.0, 4.0)), on_heightmap(hm, Sun(250.0, 9.0))]
+        return np.stack([r.mask for r in ShadowCaster(hm, cache=False).cast_many(suns)])
+
+    assert np.array_equal(masks(Heightmap.from_raster(read_dem(dem))), whole)
+    assert not np.array_equal(masks(Heightmap.from_array(heights, 30.0, row_scales=low.row_scales())), whole)
 
 
 def test_large_fields_trace_instead_of_proving_each_block_shadow_free():

@@ -34,6 +34,7 @@ number of cells.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from datetime import datetime
@@ -43,7 +44,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from ..io import Raster, geotransform, metres_per_degree
-from ..heightmap import Heightmap, extrema
+from ..heightmap import Heightmap
 from ..sun import DEFAULT_SUN_TOLERANCE as DEFAULT_TOLERANCE, BlockGrid, Sun, SunField, Traced
 from .scale import (SEGMENT_SHARE, column_edges, height_factor, height_residual_of, max_column_bands,
                     scale_blocks, scale_share, stretch_of, stretch_share)
@@ -397,19 +398,18 @@ def scaled_suns(scales: np.ndarray, azimuth: np.ndarray, elevation: np.ndarray) 
 _METRES_PER_DEGREE = np.frompyfunc(metres_per_degree, 1, 2)
 
 
-def map_places(raster: Raster, z_factor: float = 1.0, heights_range: tuple[float, float] | None = None
-               ) -> MapPlaces | None:
+def map_places(raster: Raster, z_factor: float = 1.0) -> MapPlaces | None:
     """A raster's :class:`MapPlaces`: geographic or projected (pyproj identifies its CRS) and
-    georeferenced, its ground metres at the middle of its heights (times ``z_factor``, as the
-    heightmap takes them: metres; ``heights_range``: the raster's (min, max) where known, else
-    read); None otherwise.  Raises ValueError as :func:`oclshade.solar.site.projected_crs`."""
+    georeferenced, its ground metres at the middle of its heights (:meth:`Raster.extremes`,
+    times ``z_factor``, as the heightmap takes them: metres); None otherwise.  Raises ValueError
+    as :func:`oclshade.solar.site.projected_crs`."""
     transform = geotransform(raster.georef)
     if transform is None:
         return None
     found = projected_crs(raster)
     if found is None and not raster.geographic:
         return None
-    lo, hi = extrema(raster.heights) if heights_range is None else heights_range
+    lo, hi = raster.extremes()
     middle = float(z_factor) * (lo + hi) / 2.0 if hi >= lo else 0.0       # (all nodata: NaN, none)
     return MapPlaces(tuple(float(v) for v in transform), raster.heights.shape, found[0] if found else None, middle)
 
@@ -426,9 +426,11 @@ def checked_places(raster: Raster, z_factor: float = 1.0, curvature: float = 0.0
     square metre of a run with curvature (:attr:`oclshade.horizon.Curvature.coefficient`; 0: none),
     which raises the first.  A geographic raster's problem raises ValueError.  What the CLI and
     :meth:`oclshade.heightmap.Heightmap.from_raster` (without curvature) take."""
-    lo, hi = extrema(raster.heights)
+    lo, hi = raster.extremes()
+    if raster.heights_range is None:            # (read once: map_places takes them from the raster)
+        raster = dataclasses.replace(raster, heights_range=(lo, hi))
     try:
-        places = map_places(raster, z_factor, (lo, hi))
+        places = map_places(raster, z_factor)
         residual = 0.0 if places is None else places.scale_residual      # (a projected grid's: through its CRS)
     except ValueError as exc:
         if raster.geographic:

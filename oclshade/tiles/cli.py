@@ -21,7 +21,7 @@ import numpy as np
 from ..geotiff import tiff_options
 from ..heightmap import InputWarning
 from ..io import open_dem
-from .stream import peak_rss_bytes, shadow_stream
+from .stream import peak_rss_bytes, relief_pass, relief_stripe_bytes, shadow_stream
 
 _UNITS = {"": 1, "K": 1 << 10, "M": 1 << 20, "G": 1 << 30, "T": 1 << 40}
 
@@ -89,8 +89,14 @@ def run(args: argparse.Namespace, job) -> int:
     with contextlib.closing(windows):
         raster = windows.raster
         cli.check_input_raster(args, raster, job.cellsize)
+        with warnings.catch_warnings(record=True) as sentinels:      # (the relief pass's)
+            warnings.simplefilter("always", InputWarning)
+            relief = relief_pass(windows, args.z_factor, stripe_bytes=relief_stripe_bytes(args.max_memory))
+        caught += sentinels
         for warning in caught:
             sys.stderr.write(f"{cli.PROG}: warning: {warning.message}\n")
+        lo, hi = relief.extrema           # the places' middle height and relief (the raster's units, before -z)
+        raster.heights_range = tuple(sorted((lo / args.z_factor, hi / args.z_factor)))
         traced = None      # per time the sun over the map (per block), or None: job.suns
         if job.times:
             placed = solar_cli.suns_for(job.times, args, raster)
@@ -122,7 +128,7 @@ def run(args: argparse.Namespace, job) -> int:
                 if args.workers is None:
                     done = shadow_stream(windows, out, traced or job.suns, bands=bands, dx=dx, dy=dy, z_factor=args.z_factor,
                                          tile_size=args.tile, max_memory=args.max_memory, device=args.device,
-                                         out_block=out_block, progress=bar, **common)
+                                         out_block=out_block, progress=bar, relief=relief, **common)
                     plan = done.plan
                 else:
                     from .distributed import shadow_file_workers

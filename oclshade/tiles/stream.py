@@ -3,7 +3,7 @@
 :func:`shadow_stream` makes one pass over the input for the :class:`ReliefGrid`
 (stripes of rows; the whole map's base, float32 check and nodata-sentinel
 warnings, as :class:`~oclshade.heightmap.Heightmap` does them for a map in
-memory), plans the tiles within the memory budget and runs them through the
+memory; or takes the caller's, whose extrema the CLI gives the map's places), plans the tiles within the memory budget and runs them through the
 pipeline of :func:`oclshade.tiles.run_jobs`, each tile's bands going to the
 writer as windows (:meth:`oclshade.io.RasterWriter.write_window`).
 
@@ -174,15 +174,18 @@ def shadow_stream(windows: DemWindows, writer: RasterWriter, suns: Sequence[Sun]
                   method: str = "exact", outputs: Sequence[str] = ("mask",), k_dark: float = 0.25,
                   k_bright: float = 0.65, tile_size: int | None = None, max_memory: int | None = None,
                   device=None, overlap: bool = True, out_block: int = 512,
-                  progress: Callable[[int, int], None] | None = None) -> StreamRun:
+                  progress: Callable[[int, int], None] | None = None,
+                  relief: ReliefGrid | None = None) -> StreamRun:
     """Shadows of a windowed DEM into a writer, tile by tile (see the module docstring).
     ``bands(result)``: a sun's output bands (written as bands k * n .. k * n + n - 1 for sun
     k); ``outputs``: what the tiles compute; ``out_block``: the output's block height (its
-    partly filled blocks are budgeted)."""
+    partly filled blocks are budgeted); ``relief``: the map's :func:`relief_pass` at this
+    ``z_factor`` where the caller has made it (else made here)."""
     rt = get_runtime(device)
     if max_memory is not None:
         return_freed_memory()
-    relief = relief_pass(windows, z_factor, stripe_bytes=relief_stripe_bytes(max_memory))
+    if relief is None:
+        relief = relief_pass(windows, z_factor, stripe_bytes=relief_stripe_bytes(max_memory))
     check_relief(relief, dx, dy)
     base = relief.base
     tracing = Tracing(tuple(suns), method, tuple(outputs), k_dark, k_bright, dx, dy, base, rt)
