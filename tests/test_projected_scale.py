@@ -494,6 +494,8 @@ def test_far_terrain_is_off_by_at_most_the_far_residual(tmp_path, capsys):
     assert error.max() > 0.8 * far, (error.max(), far)       # a tight bound (the blocks hold 0.01 / sqrt(2))
     assert main(["horizon", str(path), str(tmp_path / "h.tif"), "--azimuths", "4", "-q"]) == 0
     assert f"angles to terrain within {bound:.3f} deg" in capsys.readouterr().err
+    assert main(["shadow", str(path), str(tmp_path / "m.tif"), "--sun", "0,10", "--tile", "256", "-q"]) == 0
+    assert f"angles to terrain within {bound:.3f} deg" in capsys.readouterr().err     # a windowed run too
     c = Curvature().coefficient
     curved = HorizonCaster(hm, curvature=Curvature(), cache=False).horizons([0.0])[0]
     ground = metres * height_factor(height)

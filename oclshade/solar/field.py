@@ -292,8 +292,9 @@ class MapPlaces:
         true metres away is traced at a distance off by a share of at most rate D / 2
         (:meth:`far_scale_rate`), which moves its angle atan(dh / D) by at most
         rate dh cos^2 / 2 <= rate relief / 2 radians; with curvature (``drop``: its drop
-        across the map, metres) :func:`far_residual_of`.  (Angles at or above the horizontal:
-        a sun's, and those the sky-view factors take.)"""
+        across the map, metres) :func:`far_residual_of`.  (Below the horizontal the depth, within
+        the relief, takes its place; with curvature the bound is for angles at or above it: a
+        sun's, and those the sky-view factors take.)"""
         return far_residual_of(self.far_scale_rate(dx, dy), relief, drop)
 
     def on_grid(self, rows: np.ndarray, cols: np.ndarray, azimuth: np.ndarray, elevation: np.ndarray
