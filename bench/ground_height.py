@@ -189,7 +189,7 @@ def run(reduced: bool) -> dict:
 def markdown(result: dict) -> str:
     m = result["meta"]
     lines = ["# Ground metres at the map's middle height against ECEF", "",
-             f"`python bench/ground_height.py`; {m.get('cpu')}, {m.get('cores')} cores, PoCL {m.get('pocl_version')} "
+             f"`{m.get('command', 'python bench/ground_height.py')}`; {m.get('cpu')}, {m.get('cores')} cores, PoCL {m.get('pocl_version')} "
              f"`{m.get('device')}`, {m.get('date')}.",
              f"{result['azimuths']} azimuths with curvature (no refraction), seeded cells; |traced - float64 "
              "ECEF brute force| in degrees (mean / 99th percentile / max); the bound the run states with "
