@@ -543,3 +543,45 @@ def test_large_fields_trace_instead_of_proving_each_block_shadow_free():
     assert caster._casts_nothing(small) and not caster._casts_nothing(large)
     for field in (small, large):
         assert np.all(caster.cast(field, outputs=("mask",)).mask == 0)
+
+
+@settings(max_examples=60, deadline=None)
+@given(azimuth=st.floats(0.0, 360.0), elevation=st.floats(-90.0, 90.0), stretched=st.booleans(),
+       seed=st.integers(0, 2**32 - 1))
+def test_a_banded_fields_vectors_are_its_suns_unit_vectors(azimuth, elevation, stretched, seed):
+    """scaled_sun_vectors (banded_field's deviation, by algebra) are unit_vectors of scaled_suns'
+    angles (geographic (east, north) and projected (s, s, p, q) scales), and angles_between (the
+    chord's form) is the atan2 form's angle, to float64 rounding."""
+    from oclshade.solar.field import scaled_sun_vectors, scaled_suns
+
+    rng = np.random.default_rng(seed)
+    east, north = rng.uniform(0.5, 1.5, 64), rng.uniform(0.5, 1.5, 64)
+    scales = (np.stack([east, east, *rng.uniform(-0.45, 0.45, (2, 64))], axis=-1) if stretched
+              else np.stack([east, north], axis=-1))
+    sun = Sun(azimuth, elevation)
+    want = unit_vectors(*scaled_suns(scales, np.full(64, azimuth), np.full(64, elevation)))
+    got = scaled_sun_vectors(scales, sun)
+    assert np.abs(got - want).max() <= 1e-14
+    other = unit_vectors(rng.uniform(0.0, 360.0, 64), rng.uniform(-90.0, 90.0, 64))
+    atan2 = np.degrees(np.arctan2(np.linalg.norm(np.cross(got, other), axis=-1), np.sum(got * other, axis=-1)))
+    assert np.abs(angles_between(got, other) - atan2).max() <= 1e-9
+
+
+def test_the_blocks_of_a_read_only_map_are_cut_once():
+    """scale_blocks remembers the blocks of a read-only row-scale array (a heightmap's: every sun
+    given by its angles cuts the same) and gives them read-only; a writable array, another
+    tolerance or another array is cut anew, to the same blocks."""
+    from oclshade.solar.scale import scale_blocks
+
+    scales = np.stack(np.broadcast_arrays(1.0 + 1e-4 * np.arange(200)[:, None], 1.0), axis=-1)[:, 0, :]
+    frozen = scales.copy()
+    frozen.setflags(write=False)
+    first = scale_blocks((200, 50), frozen)
+    assert scale_blocks((200, 50), frozen) is first and not first.scales.flags.writeable
+    again = scale_blocks((200, 50), scales)                   # writable: not remembered
+    assert again is not first and np.array_equal(again.scales, first.scales)
+    assert np.array_equal(again.row_edges, first.row_edges) and len(first.row_edges) > 2
+    assert scale_blocks((200, 50), frozen, 0.02) is not first
+    copy = frozen.copy()
+    copy.setflags(write=False)
+    assert scale_blocks((200, 50), copy) is not first

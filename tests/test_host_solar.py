@@ -220,21 +220,25 @@ def test_c_horizons_of_an_equal_area_grid_equal_python(host: dict, tmp_path: Pat
     assert svf.tobytes() == caster.sky_view_factor(n, "cosine").tobytes()
 
 
-def test_c_sweep_of_blocks_with_a_narrow_last_column_band_equals_python(host: dict, tmp_path: Path) -> None:
+@pytest.mark.parametrize("cols, edges", [(63, [0, 16, 48, 63]), (400, [0, 128, 256, 400])])
+def test_c_sweep_of_blocks_with_a_narrow_last_column_band_equals_python(host: dict, tmp_path: Path, cols: int,
+                                                                         edges: list) -> None:
     """63 columns in 3 column bands (edges 0, 16, 48, 63): the last band is 15 columns, narrower
     than 16 lanes, so the sweep's last run is shifted into the band before it and must take the
-    ray of the columns it writes (kernels/horizon.cl).  Within a search radius of 12 cells, the C
-    host's angles and sky-view sums equal the Python host's bit for bit (host_passes checks
-    itself the walk and the sweep at lanes 1, 4, 8 and 16 against each other)."""
+    ray of the columns it writes (kernels/horizon.cl).  400 columns: bands wide enough for edges
+    at multiples of 64 (oclshade.solar.scale.column_alignment; at 16 they would be 0, 128, 272),
+    which the C host cuts alike.  Within a search radius of 12 cells, the C host's angles and
+    sky-view sums equal the Python host's bit for bit (host_passes checks itself the walk and
+    the sweep at lanes 1, 4, 8 and 16 against each other)."""
     from oclshade.synthetic import canyon_crater
 
-    rows, cols = 40, 63
+    rows = 40
     s = 0.9 + 0.002 * np.arange(rows)[:, None] + np.array([0.0, 0.02, 0.05])[None, :]
     scales = np.stack(np.broadcast_arrays(s, s, -0.004, 0.003 + 0.001 * np.arange(3)[None, :]), axis=-1)
     hm = Heightmap.from_array(canyon_crater(rows, cols, seed=11, relief=400.0), 30.0)
     n, max_distance = 8, 12 * 30.0
     caster = HorizonCaster(hm, max_distance=max_distance, cache=False, row_scales=scales)
-    assert caster.scale_blocks.col_edges.tolist() == [0, 16, 48, 63]
+    assert caster.scale_blocks.col_edges.tolist() == edges
     scales_file = tmp_path / "row_scales.f64"
     np.ascontiguousarray(scales, np.float64).tofile(scales_file)
     run_program(host, "host_passes", "horizon", tmp_path, heights_file(tmp_path, hm), rows, cols, repr(hm.dx),

@@ -887,8 +887,9 @@ typedef struct oclshade_horizon_params {
     int row_scale_columns;      /* 2 (default; 0 reads as 2): (east, north); 4: (east, north, p, q) */
     int row_scale_bands;        /* 0 (default): row_scales holds one scale per row.  m (1 to max(1,
                                    cols / 16)): rows x m x row_scale_columns doubles, row r's in each
-                                   of m column bands (column band b: columns from (b cols + 8 m) /
-                                   (16 m) * 16, integer division, to the next band's; the Python
+                                   of m column bands (column band b: columns from (b cols + A m / 2)
+                                   / (A m) * A, integer division, to the next band's, A the largest
+                                   of 1024, 256, 64 and 16 with 2 A m <= cols, else 16; the Python
                                    host's MapPlaces.row_scales() of a projected grid: the middle of
                                    the row's scales over the band), traced in blocks of rows by
                                    column bands (scale_blocks; its bands of rows keep half of the

@@ -91,12 +91,17 @@ static void widen(double *lo, double *hi, const double *scales, int bands, int c
             }
 }
 
-/* oclshade.solar.scale.column_edges: the inner edges the multiples of SCALE_ALIGN nearest to
- * b cols / bands (integer arithmetic) */
+/* oclshade.solar.scale.column_edges: the inner edges the multiples of column_alignment nearest
+ * to b cols / bands (integer arithmetic): the largest of 1024, 256, 64 and 16 that bands at least
+ * twice as wide leave, else SCALE_ALIGN */
 static int column_edge(int cols, int bands, int b)
 {
+    static const long long alignments[] = {1024, 256, 64, 16};
+    long long a = SCALE_ALIGN;
     if (b == bands) return cols;
-    return (int)(((long long)b * cols + 8LL * bands) / ((long long)SCALE_ALIGN * bands) * SCALE_ALIGN);
+    for (int k = 0; k < 4; ++k)
+        if (2 * alignments[k] * bands <= cols) { a = alignments[k]; break; }
+    return (int)(((long long)b * cols + a / 2 * bands) / (a * bands) * a);
 }
 
 /* scale_blocks (oclshade/solar/scale.py) of the checked row_scales (rows x bands x columns): bands

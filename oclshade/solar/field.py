@@ -396,6 +396,22 @@ def scaled_suns(scales: np.ndarray, azimuth: np.ndarray, elevation: np.ndarray) 
             np.where(same | (np.abs(elevation) >= 90.0), elevation, np.degrees(np.arctan2(s * se, ce))))
 
 
+def scaled_sun_vectors(scales: np.ndarray, sun: Sun) -> np.ndarray:
+    """(..., 3) :func:`unit_vectors` of :func:`scaled_suns` of one sun at these ``scales``, by
+    algebra rather than through angles (no trigonometry per place: a field's deviation over
+    every row and column band, :func:`banded_field`): the grid azimuth's sine and cosine are
+    (sin a / sx, cos a / sy) over their length, and tan e' = s tan e gives cos e' = cos e / r,
+    sin e' = s sin e / r with r = |(cos e, s sin e)|."""
+    scales = np.asarray(scales, np.float64)
+    a, e = math.radians(sun.azimuth), math.radians(sun.elevation)
+    sa, ca, se, ce = math.sin(a), math.cos(a), math.sin(e), math.cos(e)
+    east, north = sa / scales[..., 0], ca / scales[..., 1]
+    length = np.hypot(east, north)
+    s = stretch_of(scales, sa, ca) / length
+    r = np.hypot(ce, s * se)
+    return np.stack([east / length * (ce / r), north / length * (ce / r), s * se / r], axis=-1)
+
+
 _METRES_PER_DEGREE = np.frompyfunc(metres_per_degree, 1, 2)
 
 
@@ -470,8 +486,12 @@ def unit_vectors(azimuth: np.ndarray, elevation: np.ndarray) -> np.ndarray:
 
 
 def angles_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Angles in degrees between unit vectors (..., 3) (atan2 form: exact for tiny angles)."""
-    return np.degrees(np.arctan2(np.linalg.norm(np.cross(a, b), axis=-1), np.sum(a * b, axis=-1)))
+    """Angles in degrees between unit vectors (..., 3): 2 asin(|a - b| / 2), the chord's form,
+    exact for tiny angles (within 1e-6 degree of 180 it loses digits, which two suns' angles
+    never come near) and a third of the cross product's time."""
+    d = np.asarray(a, np.float64) - np.asarray(b, np.float64)
+    half = np.sqrt(np.einsum("...i,...i->...", d, d)) / 2.0
+    return np.degrees(2.0 * np.arcsin(np.minimum(half, 1.0)))
 
 
 def sun_differences(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -525,8 +545,7 @@ def banded_field(row_scales: np.ndarray, cols: int, sun: Sun, tolerance: float =
     rows = len(row_scales)
     blocks = scale_blocks((rows, cols), row_scales, tolerance)
     per_row = np.asarray(row_scales, np.float64).reshape(rows, -1, np.shape(row_scales)[-1])  # (rows, column bands, k)
-    own = unit_vectors(*scaled_suns(per_row, np.full(per_row.shape[:2], sun.azimuth),
-                                    np.full(per_row.shape[:2], sun.elevation)))
+    own = scaled_sun_vectors(per_row, sun)
     az, el = scaled_suns(blocks.scales, np.full(blocks.scales.shape[:2], sun.azimuth),
                          np.full(blocks.scales.shape[:2], sun.elevation))
     band = np.repeat(np.arange(len(az)), np.diff(blocks.row_edges))

@@ -15,6 +15,7 @@ every way, a conformal projection's k; p, q only with east = north)."""
 from __future__ import annotations
 
 import math
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -28,6 +29,9 @@ SCALE_TOLERANCE = 0.01
 #: rows: the bands' edges are multiples of this where the tolerance allows; columns: the column
 #: bands' inner edges always are (:func:`column_edges`)
 SCALE_ALIGN = 16
+#: the multiples a projected grid's column bands' inner edges may be at, largest first
+#: (:func:`column_alignment`): the packet kernels' run lengths (shadows.py's knob ``run``)
+COLUMN_ALIGNMENTS = (1024, 256, 64, 16)
 #: the share of the tolerance's budget that a (row, column band)'s scales leave to the spread of
 #: its cells' own (row_scales (rows, m, k): :meth:`oclshade.solar.MapPlaces.row_scales` picks m so);
 #: their blocks keep the rest (:func:`scale_blocks`)
@@ -93,13 +97,24 @@ def stretch_share(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
                         np.inf)
 
 
+def column_alignment(cols: int, bands: int) -> int:
+    """The multiple the inner edges of ``bands`` column bands of a map ``cols`` wide are at: the
+    largest of :data:`COLUMN_ALIGNMENTS` that bands at least twice as wide leave (the nearest
+    multiples of j cols / bands are then distinct), else :data:`SCALE_ALIGN`.  A sun given by
+    its angles is traced in packet runs that divide every block's first column
+    (:attr:`oclshade.sun.SunField.column_step`): 16-cell runs cost 1.29-1.38x one sun on a
+    1201^2 tile, 64-cell 1.13-1.28x, 256-cell 1.07-1.11x (docs/solar.md)."""
+    return next((a for a in COLUMN_ALIGNMENTS if 2 * a * bands <= cols), SCALE_ALIGN)
+
+
 def column_edges(cols: int, bands: int) -> np.ndarray:
     """int64 (bands + 1,): the edges of ``bands`` column bands of a map ``cols`` wide, the inner
-    ones the multiples of :data:`SCALE_ALIGN` nearest to j cols / bands (integer arithmetic:
-    host/src/horizon.c, the same); ``bands`` from 1 to max(1, cols // SCALE_ALIGN)."""
+    ones the multiples of :func:`column_alignment` nearest to j cols / bands (integer
+    arithmetic: host/src/horizon.c, the same); ``bands`` from 1 to max(1, cols // SCALE_ALIGN)."""
     if not 1 <= bands <= max_column_bands(cols):
         raise ValueError(f"column bands must be 1 to {max_column_bands(cols)} on a map {cols} wide, got {bands}")
-    inner = [(j * cols + 8 * bands) // (SCALE_ALIGN * bands) * SCALE_ALIGN for j in range(1, bands)]
+    a = column_alignment(cols, bands)
+    inner = [(j * cols + a // 2 * bands) // (a * bands) * a for j in range(1, bands)]
     return np.array([0, *inner, cols], np.int64)
 
 
@@ -151,10 +166,39 @@ def scale_blocks(shape: tuple[int, int], row_scales: np.ndarray | None, toleranc
     scales in the band.)  Bands are the most rows that hold it in every column band, in
     multiples of :data:`SCALE_ALIGN` where that many do (a fine grid), any number where not
     (coarse cells near the poles: down to one row).  (Rows near enough to 1 to be traced as they
-    are come as 1: :meth:`oclshade.solar.MapPlaces.row_scales`.)"""
+    are come as 1: :meth:`oclshade.solar.MapPlaces.row_scales`.)  The blocks of a read-only
+    ``row_scales`` array (a heightmap's, a map's places') are remembered for the last
+    :data:`REMEMBERED_BLOCKS` such arrays: every sun given by its angles on a map cuts the same
+    (6 ms on a whole EU-DEM tile); their arrays are read-only."""
     rows, cols = shape
     if row_scales is None:
-        return ScaleBlocks(np.array([0, rows]), np.array([0, cols]), np.ones((1, 1, 2)))
+        return _read_only(ScaleBlocks(np.array([0, rows]), np.array([0, cols]), np.ones((1, 1, 2))))
+    remembered = isinstance(row_scales, np.ndarray) and not row_scales.flags.writeable
+    key = (id(row_scales), tuple(shape), float(tolerance))
+    if remembered and key in _REMEMBERED and _REMEMBERED[key][0]() is row_scales:
+        return _REMEMBERED[key][1]
+    blocks = _read_only(_cut_blocks(shape, row_scales, tolerance))
+    if remembered:
+        while len(_REMEMBERED) >= REMEMBERED_BLOCKS:
+            del _REMEMBERED[next(iter(_REMEMBERED))]
+        _REMEMBERED[key] = (weakref.ref(row_scales), blocks)
+    return blocks
+
+
+#: how many read-only row-scale arrays' blocks :func:`scale_blocks` remembers
+REMEMBERED_BLOCKS = 8
+_REMEMBERED: dict[tuple, tuple[weakref.ref, ScaleBlocks]] = {}
+
+
+def _read_only(blocks: ScaleBlocks) -> ScaleBlocks:
+    for array in (blocks.row_edges, blocks.col_edges, blocks.scales):
+        array.setflags(write=False)
+    return blocks
+
+
+def _cut_blocks(shape: tuple[int, int], row_scales: np.ndarray, tolerance: float) -> ScaleBlocks:
+    """:func:`scale_blocks`' work."""
+    rows, cols = shape
     scales = check_row_scales(row_scales, rows, cols)
     share = scale_share(tolerance)
     if scales.ndim == 2:
