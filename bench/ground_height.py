@@ -27,7 +27,6 @@ figures depend on the machine, the results record where they were taken.
 from __future__ import annotations
 
 import argparse
-import json
 import shutil
 import sys
 import tempfile
@@ -40,7 +39,7 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "bench"))
 
-from shadow_masks import log, metadata  # noqa: E402  (same metadata as the other benches)
+from shadow_masks import log, metadata, write_results  # noqa: E402  (same metadata as the other benches)
 
 from oclshade import reference as ref  # noqa: E402
 from oclshade.heightmap import Heightmap  # noqa: E402
@@ -216,9 +215,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", type=Path, default=REPO / "bench" / "results" / "ground_height")
     args = ap.parse_args(argv)
     result = run(args.reduced)
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.with_suffix(".json").write_text(json.dumps(result, indent=1) + "\n")
-    args.out.with_suffix(".md").write_text(markdown(result))
+    write_results(args.out, result, markdown(result))
     print(markdown(result))
     return 0
 

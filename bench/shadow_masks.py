@@ -134,6 +134,13 @@ def metadata(argv: list[str]) -> dict:
 
 
 # ----------------------------------------------------------------------------- measuring
+def write_results(out: Path, result: dict, text: str) -> None:
+    """``out``.json (the result) and ``out``.md (``text``), their folder made."""
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.with_suffix(".json").write_text(json.dumps(result, indent=1) + "\n")
+    out.with_suffix(".md").write_text(text)
+
+
 def _stats(samples: list[float]) -> dict:
     return {"min": min(samples), "median": statistics.median(samples), "n": len(samples), "all": samples}
 

@@ -16,10 +16,8 @@ where they were taken.  Runs on another commit: copy this file into a worktree o
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import tempfile
-import time
 import warnings
 from pathlib import Path
 
@@ -28,7 +26,8 @@ sys.path.insert(0, str(REPO / "bench"))
 sys.path.insert(0, str(REPO))
 
 import geographic_scale as gs  # noqa: E402  (its maps)
-from shadow_masks import log, metadata  # noqa: E402
+from shadow_masks import log, metadata, write_results  # noqa: E402
+from sun_field import best_of  # noqa: E402
 
 from oclshade import ShadowCaster, Sun  # noqa: E402
 from oclshade.heightmap import Heightmap  # noqa: E402
@@ -37,15 +36,6 @@ from oclshade.solar.field import on_heightmap  # noqa: E402
 
 SUNS = (Sun(135.0, 15.0), Sun(315.0, 45.0), Sun(90.0, 20.0))
 PROJECTED = (32633, 3857, 5070, 3035)      # of bench/geographic_scale.py's PROJECTED
-
-
-def best(fn, repeats: int = 3) -> float:
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
 
 
 def run(reduced: bool, folder: Path) -> dict:
@@ -68,8 +58,8 @@ def run(reduced: bool, folder: Path) -> dict:
             as_drawn.cast(sun)
             tb, td = [], []
             for _ in range(3):
-                tb.append(best(lambda: per_block.cast(sun)))
-                td.append(best(lambda: as_drawn.cast(sun)))
+                tb.append(best_of(lambda: per_block.cast(sun)))
+                td.append(best_of(lambda: as_drawn.cast(sun)))
             field = on_heightmap(blocked, sun)
             blocks = len(field.blocks) if hasattr(field, "blocks") else 1
             step = getattr(field, "column_step", None)
@@ -106,9 +96,7 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     with tempfile.TemporaryDirectory() as folder:
         result = run(args.reduced, Path(folder))
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.with_suffix(".json").write_text(json.dumps(result, indent=1) + "\n")
-    args.out.with_suffix(".md").write_text(markdown(result))
+    write_results(args.out, result, markdown(result))
     print(markdown(result))
     return 0
 
