@@ -15,6 +15,7 @@ every way, a conformal projection's k; p, q only with east = north)."""
 from __future__ import annotations
 
 import math
+import threading
 import weakref
 from dataclasses import dataclass
 
@@ -175,19 +176,23 @@ def scale_blocks(shape: tuple[int, int], row_scales: np.ndarray | None, toleranc
         return _read_only(ScaleBlocks(np.array([0, rows]), np.array([0, cols]), np.ones((1, 1, 2))))
     remembered = isinstance(row_scales, np.ndarray) and not row_scales.flags.writeable
     key = (id(row_scales), tuple(shape), float(tolerance))
-    if remembered and key in _REMEMBERED and _REMEMBERED[key][0]() is row_scales:
-        return _REMEMBERED[key][1]
+    with _REMEMBERED_LOCK:
+        found = _REMEMBERED.get(key) if remembered else None
+    if found is not None and found[0]() is row_scales:
+        return found[1]
     blocks = _read_only(_cut_blocks(shape, row_scales, tolerance))
     if remembered:
-        while len(_REMEMBERED) >= REMEMBERED_BLOCKS:
-            del _REMEMBERED[next(iter(_REMEMBERED))]
-        _REMEMBERED[key] = (weakref.ref(row_scales), blocks)
+        with _REMEMBERED_LOCK:          # (casters in threads: the tiles' pipeline)
+            while len(_REMEMBERED) >= REMEMBERED_BLOCKS:
+                del _REMEMBERED[next(iter(_REMEMBERED))]
+            _REMEMBERED[key] = (weakref.ref(row_scales), blocks)
     return blocks
 
 
 #: how many read-only row-scale arrays' blocks :func:`scale_blocks` remembers
 REMEMBERED_BLOCKS = 8
 _REMEMBERED: dict[tuple, tuple[weakref.ref, ScaleBlocks]] = {}
+_REMEMBERED_LOCK = threading.Lock()
 
 
 def _read_only(blocks: ScaleBlocks) -> ScaleBlocks:

@@ -133,7 +133,7 @@ def run(args: argparse.Namespace, job) -> int:
                 else:
                     from .distributed import shadow_file_workers
                     plan = shadow_file_workers(args, windows, out, traced or job.suns, bands, dx, dy, args.workers,
-                                               args.tile, bar, **common)
+                                               args.tile, bar, relief=relief, **common)
             for warning in caught:
                 sys.stderr.write(f"{cli.PROG}: warning: {warning.message}\n")
             t2 = time.perf_counter()

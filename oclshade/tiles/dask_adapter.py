@@ -74,14 +74,18 @@ def tile_tasks(heights, suns: Sequence, dx: float, dy: float, *, method: str = "
                outputs: Sequence[str] = ("mask",), k_dark: float = DEFAULT_K_DARK,
                k_bright: float = DEFAULT_K_BRIGHT, tile_size: int | None = None,
                max_window_cells: int | None = None, device: str | int | None = None,
-               block: int = DEFAULT_BLOCK) -> tuple[TilePlan, list[tuple[TileJob, object]]]:
+               block: int = DEFAULT_BLOCK, relief: ReliefGrid | None = None
+               ) -> tuple[TilePlan, list[tuple[TileJob, object]]]:
     """The plan of a dask array of float64 heights and, per job, a delayed list of its suns'
-    cropped :class:`ShadowResult` (what :func:`shadow_dask` assembles and the CLI writes)."""
+    cropped :class:`ShadowResult` (what :func:`shadow_dask` assembles and the CLI writes);
+    ``relief``: the heights' relief grid in blocks of ``block`` where the caller has made it
+    (the CLI's pass over the file), else computed here."""
     dask, _ = _dask()
     for sun in suns:
         if isinstance(sun, SunField):
             sun.check_shape(heights.shape)
-    relief = relief_of(heights, block)
+    if relief is None:
+        relief = relief_of(heights, block)
     check_relief(relief, dx, dy)
     tracing = Tracing(tuple(suns), method, tuple(outputs), k_dark, k_bright, dx, dy, relief.base, device)
     plan = plan_tiles(relief, tracing.suns, dx, dy, tile_size or max(heights.chunksize), max_window_cells)

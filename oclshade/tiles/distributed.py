@@ -16,6 +16,7 @@ from ..io import DemWindows, RasterWriter, open_dem
 from ..shadows import ShadowResult
 from .dask_adapter import _dask, tile_tasks
 from .plan import TilePlan
+from .relief import ReliefGrid
 
 DEFAULT_CHUNK = 1024
 
@@ -42,8 +43,9 @@ def file_array(path: str, shape: tuple[int, int], chunk: int, cellsize=None, ban
 def shadow_file_workers(args: argparse.Namespace, windows: DemWindows, out: RasterWriter, suns: Sequence,
                         bands: Callable[[ShadowResult], list[np.ndarray]], dx: float, dy: float, workers: int,
                         tile_size: int | None, progress: Callable[[int, int], None] | None,
-                        **tracing) -> TilePlan:
-    """Trace ``args.input`` on ``workers`` local processes into ``out`` (see the module docstring)."""
+                        relief: ReliefGrid | None = None, **tracing) -> TilePlan:
+    """Trace ``args.input`` on ``workers`` local processes into ``out`` (see the module docstring);
+    ``relief``: the input's relief grid where the caller has made it (else the graph makes it)."""
     from distributed import Client, LocalCluster, as_completed
 
     chunk = tile_size or DEFAULT_CHUNK
@@ -51,7 +53,7 @@ def shadow_file_workers(args: argparse.Namespace, windows: DemWindows, out: Rast
     arr = file_array(args.input, windows.shape, chunk, cell, args.band, args.nodata, args.z_factor)
     with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
             Client(cluster) as client:
-        plan, tasks = tile_tasks(arr, suns, dx, dy, tile_size=chunk, device=args.device, **tracing)
+        plan, tasks = tile_tasks(arr, suns, dx, dy, tile_size=chunk, device=args.device, relief=relief, **tracing)
         futures = client.compute([task for _, task in tasks])
         job_of = {future.key: job for future, (job, _) in zip(futures, tasks)}
         per_sun = None
