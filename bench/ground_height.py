@@ -27,6 +27,7 @@ figures depend on the machine, the results record where they were taken.
 from __future__ import annotations
 
 import argparse
+import math
 import shutil
 import sys
 import tempfile
@@ -87,6 +88,44 @@ def bilinear(heights: np.ndarray, y: np.ndarray, x: np.ndarray) -> np.ndarray:
             + (heights[i + 1, j] * (1 - fx) + heights[i + 1, j + 1] * fx) * fy)
 
 
+def grid_line(azimuth: float, east: float, north: float) -> tuple[float, float]:
+    """(vx, vy): one cell unit of the grid line leaving a cell at true ``azimuth`` (radians), the
+    cell ``east`` by ``north`` metres (a component within rounding of 0 is 0: along a grid line)."""
+    vx, vy = math.sin(azimuth) / east, -math.cos(azimuth) / north
+    vx, vy = (0.0 if abs(v) < 1e-12 * math.hypot(vx, vy) else v for v in (vx, vy))
+    norm = math.hypot(vx, vy)
+    return vx / norm, vy / norm
+
+
+def patch_ends(i: int, j: int, vx: float, vy: float, rows: int, cols: int) -> np.ndarray:
+    """The distances s (cell units) along the line from sample (i, j) at which it crosses a grid
+    line (the profile's kinks), from :data:`NEAR` to the map's edge; empty where it leaves at once."""
+    reach = min(((cols - 1 - j) / vx if vx > 0 else j / -vx) if vx else math.inf,
+                ((rows - 1 - i) / vy if vy > 0 else i / -vy) if vy else math.inf)
+    if reach <= 0.0:
+        return np.empty(0)
+    crossings = [(np.arange(np.floor(p0) + 1, np.ceil(p0 + v * reach)) - p0) / v if v > 0 else
+                 (np.arange(np.ceil(p0) - 1, np.floor(p0 + v * reach), -1) - p0) / v if v < 0 else
+                 np.empty(0) for p0, v in ((j, vx), (i, vy))]
+    ends = np.unique(np.concatenate([[NEAR[0], reach], *crossings]))
+    return ends[(ends >= NEAR[0]) & (ends <= reach)]
+
+
+def highest(angles, ends: np.ndarray) -> float:
+    """The largest of ``angles(s)`` (degrees) over the patches between ``ends``: each patch's ends
+    and inner points, then :data:`REFINED` best patches finely (-90 where nothing is seen)."""
+    if ends.size < 2:
+        return -90.0
+    lo, hi = ends[:-1], ends[1:]
+    coarse = angles((lo[:, None] + (hi - lo)[:, None] * np.linspace(0.0, 1.0, PER_PATCH)).ravel())
+    best = np.nanmax(coarse.reshape(lo.size, PER_PATCH), axis=1)
+    if np.all(np.isnan(best)):
+        return -90.0
+    top = np.argsort(np.where(np.isnan(best), -np.inf, best))[-REFINED:]
+    fine = angles((lo[top, None] + (hi - lo)[top, None] * np.linspace(0.0, 1.0, FINE)).ravel())
+    return max(float(np.nanmax(best)), float(np.nanmax(fine)))
+
+
 def ecef_horizons(raster: Raster, places: MapPlaces, cells: tuple[np.ndarray, np.ndarray],
                   azimuths: np.ndarray) -> np.ndarray:
     """(azimuths, cells) float64 degrees: the brute force of the module docstring."""
@@ -100,39 +139,16 @@ def ecef_horizons(raster: Raster, places: MapPlaces, cells: tuple[np.ndarray, np
         eye = ecef(lon0, lat0, np.array([h[i, j]]))[0]
         phi, lam = np.radians(lat0[0]), np.radians(lon0[0])
         up = np.array([np.cos(phi) * np.cos(lam), np.cos(phi) * np.sin(lam), np.sin(phi)])
-
-        def angles(s: np.ndarray, vx: float, vy: float) -> np.ndarray:
-            y, x = i + vy * s, j + vx * s
-            lon, lat = places.lonlat(y + 0.5, x + 0.5)
-            sight = ecef(lon, lat, bilinear(h, y, x)) - eye
-            return np.degrees(np.arcsin(sight @ up / np.linalg.norm(sight, axis=-1)))
-
         for a, az in enumerate(np.radians(azimuths)):
-            vx, vy = np.sin(az) / (raster.dx * east), -np.cos(az) / (raster.dy * north)
-            vx, vy = (0.0 if abs(v) < 1e-12 * np.hypot(vx, vy) else v for v in (vx, vy))   # (along a grid line)
-            norm = np.hypot(vx, vy)
-            vx, vy = vx / norm, vy / norm                             # one cell-unit of grid line per s
-            reach = min(((cols - 1 - j) / vx if vx > 0 else j / -vx) if vx else np.inf,
-                        ((rows - 1 - i) / vy if vy > 0 else i / -vy) if vy else np.inf)
-            if reach <= 0.0:
-                continue
-            crossings = [(np.arange(np.floor(p0) + 1, np.ceil(p0 + v * reach)) - p0) / v if v > 0 else
-                         (np.arange(np.ceil(p0) - 1, np.floor(p0 + v * reach), -1) - p0) / v if v < 0 else
-                         np.empty(0) for p0, v in ((j, vx), (i, vy))]
-            ends = np.unique(np.concatenate([[NEAR[0], reach], *crossings]))
-            ends = ends[(ends >= NEAR[0]) & (ends <= reach)]          # patch boundaries: the profile's kinks
-            if ends.size < 2:
-                continue
-            lo, hi = ends[:-1], ends[1:]
-            f = np.linspace(0.0, 1.0, PER_PATCH)
-            coarse = angles((lo[:, None] + (hi - lo)[:, None] * f).ravel(), vx, vy).reshape(lo.size, PER_PATCH)
-            best = np.nanmax(coarse, axis=1)
-            if np.all(np.isnan(best)):
-                continue
-            top = np.argsort(np.where(np.isnan(best), -np.inf, best))[-REFINED:]
-            g = np.linspace(0.0, 1.0, FINE)
-            fine = angles((lo[top, None] + (hi - lo)[top, None] * g).ravel(), vx, vy)
-            out[a, c] = max(float(np.nanmax(best)), float(np.nanmax(fine)))
+            vx, vy = grid_line(float(az), raster.dx * east, raster.dy * north)
+
+            def angles(s: np.ndarray) -> np.ndarray:
+                y, x = i + vy * s, j + vx * s
+                lon, lat = places.lonlat(y + 0.5, x + 0.5)
+                sight = ecef(lon, lat, bilinear(h, y, x)) - eye
+                return np.degrees(np.arcsin(sight @ up / np.linalg.norm(sight, axis=-1)))
+
+            out[a, c] = highest(angles, patch_ends(i, j, vx, vy, rows, cols))
     return out
 
 

@@ -33,6 +33,7 @@ from oclshade import ShadowCaster, Sun  # noqa: E402
 from oclshade.heightmap import Heightmap  # noqa: E402
 from oclshade.io import read_dem  # noqa: E402
 from oclshade.solar.field import on_heightmap  # noqa: E402
+from oclshade.sun import SunField  # noqa: E402
 
 SUNS = (Sun(135.0, 15.0), Sun(315.0, 45.0), Sun(90.0, 20.0))
 PROJECTED = (32633, 3857, 5070, 3035)      # of bench/geographic_scale.py's PROJECTED
@@ -61,8 +62,7 @@ def run(reduced: bool, folder: Path) -> dict:
                 tb.append(best_of(lambda: per_block.cast(sun)))
                 td.append(best_of(lambda: as_drawn.cast(sun)))
             field = on_heightmap(blocked, sun)
-            blocks = len(field.blocks) if hasattr(field, "blocks") else 1
-            step = getattr(field, "column_step", None)
+            blocks, step = (len(field.blocks), field.column_step) if isinstance(field, SunField) else (1, None)
             row = {"map": name, "sun": [sun.azimuth, sun.elevation], "blocks": blocks, "column_step": step,
                    "per_block_s": min(tb), "as_drawn_s": min(td), "ratio": min(tb) / min(td)}
             out["maps"].append(row)
