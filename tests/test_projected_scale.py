@@ -632,3 +632,46 @@ def test_the_relief_and_the_middle_height_are_in_metres_after_the_z_factor(tmp_p
     assert hm.row_scales[0, 0, 0] == pytest.approx(height_factor(3000.0) / 0.9996, rel=1e-6)
     assert main(["shadow", str(path), str(tmp_path / "m.tif"), "-az", "90", "-alt", "20", "-z", "1000"]) == 0
     assert "with 6000 m of relief" in capsys.readouterr().err
+
+
+def test_rays_follow_the_grid_lines_not_the_geodesics(tmp_path):
+    """The convention bench/geodesic_rays.py measures: a horizon at azimuth a looks along the
+    grid's straight line leaving the cell at a (as r.horizon and SAGA do), not along the geodesic
+    (the vertical plane, as HORAYZON's ECEF rays).  On a flat geographic grid at 46 N (3 arc-sec)
+    one sample 30 km due east of the observer but 0.9 row south of its row, where the geodesic
+    heading east passes (pyproj): the kernel at 90 degrees follows the row and does not see it, the
+    bench's geodesic brute force does (about 0.6 degree up), and the kernel sees it along the grid
+    line that points at it.  The bench's grid-line brute force equals the kernel's float64 twin."""
+    import importlib.util
+
+    from oclshade import reference as ref
+    from oclshade.horizon import EARTH_RADIUS, Curvature, HorizonCaster
+
+    cell = 1.0 / 1200
+    rows, cols, eye = 41, 520, (20, 10)
+    lon0, lat0 = 9.0 + (eye[1] + 0.5) * cell, 46.5 - (eye[0] + 0.5) * cell
+    lon, lat, _ = pyproj.Geod(ellps="WGS84").fwd(lon0, lat0, 90.0, 30000.0)
+    spike = (round((46.5 - lat) / cell - 0.5), round((lon - 9.0) / cell - 0.5))
+    assert spike[0] == eye[0] + 1, spike            # the geodesic has turned 0.5-1.5 rows south
+    heights = np.zeros((rows, cols))
+    heights[spike] = 500.0
+    gkeys = (1, 1, 0, 3, 1024, 0, 1, 2, 1025, 0, 1, 1, 2048, 0, 1, 4326)
+    raster = read_dem(write_tif(tmp_path / "spike.tif", heights, gkeys, 9.0, 46.5, cell))
+    places = map_places(raster)
+    hm = Heightmap.from_raster(raster)
+    curvature = Curvature(EARTH_RADIUS, 0.0)
+    at = (np.array([eye[0]]), np.array([eye[1]]))
+    dx, dy = raster.dx * hm.row_scales[eye[0], 0], raster.dy * hm.row_scales[eye[0], 1]
+    along = math.degrees(math.atan2((spike[1] - eye[1]) * dx, -(spike[0] - eye[0]) * dy))   # the grid line to it
+    assert 90.0 < along < 90.2
+    caster = HorizonCaster(hm, curvature=curvature, cache=False)
+    east, aimed = (caster.horizons([a])[0][at][0] for a in (90.0, along))
+    assert abs(east) < 1e-3 and aimed > 0.8, (east, aimed)     # (a plain's horizon with curvature: 0)
+    spec = importlib.util.spec_from_file_location("bench_geodesic_rays", ROOT / "bench" / "geodesic_rays.py")
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    geodesic = bench.geodesic_horizons(raster, places, at, np.array([90.0]))[0][0, 0]
+    line = bench.ecef_horizons(raster, places, at, np.array([90.0]))[0, 0]
+    assert 0.5 < geodesic < aimed, (geodesic, aimed)
+    twin = ref.banded_horizon_angles(hm, 90.0, curvature.coefficient, at)[0]
+    assert abs(line - twin) < 2e-3 and abs(east - twin) <= ref.angle_tolerance(hm, curvature.coefficient)
