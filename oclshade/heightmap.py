@@ -89,16 +89,34 @@ def extrema(heights: np.ndarray) -> tuple[float, float]:
         return float(np.nanmin(heights)), float(np.nanmax(heights))
 
 
+def sentinels_within(lo: float, hi: float) -> list[tuple[float, float]]:
+    """(value, how near counts as equal) of the :data:`NODATA_SENTINELS` within [lo, hi]."""
+    near = [(value, 1e-7 * abs(value)) for value in NODATA_SENTINELS]   # float32 max written as text
+    return [(value, d) for value, d in near if lo - d <= value <= hi + d]  # ("3.4028235e38") is not float32 max
+
+
+def ordinary_extrema(heights: np.ndarray, lo: float, hi: float) -> tuple[float, float]:
+    """(min, max) of ``heights`` (whose extrema are ``lo``, ``hi``) leaving out the cells that
+    equal one of :data:`NODATA_SENTINELS`: the range a map's ground metres and scale bounds
+    take (:func:`oclshade.solar.field.checked_places`), so that an undeclared sentinel, warned
+    of (:func:`warn_sentinels`), does not move them too; (lo, hi) where none lies within."""
+    found = sentinels_within(lo, hi)
+    if not found:
+        return lo, hi
+    marked = np.zeros(np.shape(heights), bool)
+    for value, near in found:
+        marked |= np.abs(heights - value) <= near
+    return extrema(np.where(marked, np.nan, heights))
+
+
 def warn_sentinels(heights: np.ndarray, lo: float, hi: float, name: str = "heights") -> None:
     """Warn (:class:`InputWarning`) for each of :data:`NODATA_SENTINELS` found in ``heights``."""
-    for value in NODATA_SENTINELS:
-        near = 1e-7 * abs(value)   # float32 max written as text ("3.4028235e38") is not float32 max exactly
-        if lo - near <= value <= hi + near:
-            count = int(np.count_nonzero(np.abs(heights - value) <= near))
-            if count:
-                warnings.warn(f"{name}: {count} cell(s) equal {value:.8g}, a common nodata value, but it is not "
-                              f"declared as nodata; if those cells are holes, declare it (--nodata {value:.8g} "
-                              f"or nodata={value:.8g})", InputWarning, stacklevel=3)
+    for value, near in sentinels_within(lo, hi):
+        count = int(np.count_nonzero(np.abs(heights - value) <= near))
+        if count:
+            warnings.warn(f"{name}: {count} cell(s) equal {value:.8g}, a common nodata value, but it is not "
+                          f"declared as nodata; if those cells are holes, declare it (--nodata {value:.8g} "
+                          f"or nodata={value:.8g})", InputWarning, stacklevel=3)
 
 
 def float32_tolerance(dx: float, dy: float) -> float:

@@ -28,7 +28,7 @@ from PIL import Image
 
 from . import gdal_reader
 from .geotiff import GeoTiffWriter, tiff_options
-from .heightmap import InputWarning, extrema, nodata_value
+from .heightmap import InputWarning, extrema, nodata_value, ordinary_extrema
 
 __all__ = ["DemWindows", "Raster", "RasterIOError", "RasterWriter", "decimated", "geotransform", "metres_per_degree",
            "open_dem", "read_dem", "write_raster"]
@@ -71,9 +71,9 @@ class Raster:
 
     ``crs_wkt`` is the CRS as WKT where the file gives it so (an ESRI ASCII grid's
     ``.prj``), else None: GeoTIFF and SRTM input keep theirs in the geokeys of ``georef``.
-    ``heights_range``: the (min, max) of the valid heights where ``heights`` does not hold them
-    (a windowed raster's placeholder, :func:`open_dem`, once a pass over its windows has read
-    them); None: read from ``heights`` (:meth:`extremes`).
+    ``heights_range``: :meth:`extremes` where ``heights`` does not hold them (a windowed
+    raster's placeholder, :func:`open_dem`, once a pass over its windows has read them); None:
+    read from ``heights``.
     """
 
     heights: np.ndarray
@@ -87,9 +87,12 @@ class Raster:
     heights_range: tuple[float, float] | None = None
 
     def extremes(self) -> tuple[float, float]:
-        """(min, max) of the valid heights (:attr:`heights_range` where given); (nan, nan) when
-        none is valid."""
-        return self.heights_range if self.heights_range is not None else extrema(self.heights)
+        """(min, max) of the valid heights but those equal to an undeclared nodata sentinel
+        (:func:`oclshade.heightmap.ordinary_extrema`: the range the map's ground metres and
+        scale bounds take), :attr:`heights_range` where given; (nan, nan) when none is valid."""
+        if self.heights_range is not None:
+            return self.heights_range
+        return ordinary_extrema(self.heights, *extrema(self.heights))
 
 
 @dataclass

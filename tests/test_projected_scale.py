@@ -675,3 +675,32 @@ def test_rays_follow_the_grid_lines_not_the_geodesics(tmp_path):
     assert 0.5 < geodesic < aimed, (geodesic, aimed)
     twin = ref.banded_horizon_angles(hm, 90.0, curvature.coefficient, at)[0]
     assert abs(line - twin) < 2e-3 and abs(east - twin) <= ref.angle_tolerance(hm, curvature.coefficient)
+
+
+def test_an_undeclared_sentinel_moves_neither_the_middle_height_nor_the_relief(tmp_path, capsys):
+    """A geographic DEM whose voids hold -32768 without declaring it: the run warns of the
+    sentinel (declare it), but the map's ground metres and the relief its bounds take are the
+    other cells' (the middle height had read about -15000 m: every scale 0.24 % short, and a
+    second warning of 35000 m of relief), whole and tiled alike."""
+    import tifffile
+
+    from oclshade.solar.field import checked_places
+
+    heights = np.random.default_rng(5).uniform(1000.0, 2500.0, (96, 96))
+    heights[40:43, 50:53] = -32768.0
+    gkeys = (1, 1, 0, 3, 1024, 0, 1, 2, 1025, 0, 1, 1, 2048, 0, 1, 4326)
+    path = write_tif(tmp_path / "voids.tif", heights, gkeys, 9.0, 46.5, 1.0 / 1200)
+    raster = read_dem(path)
+    ordinary = heights[heights > -32768.0].astype(np.float32)
+    middle = (float(ordinary.min()) + float(ordinary.max())) / 2.0
+    assert map_places(raster).height == middle
+    places, notes = checked_places(raster, 1.0, 1e-7)
+    assert places.height == middle and notes == []
+    for name, extra in (("whole.tif", []), ("tiled.tif", ["--tile", "32"])):
+        assert main(["shadow", str(path), str(tmp_path / name), "-az", "90", "-alt", "20", "-q", *extra]) == 0
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "9 cell(s) equal -32768" in err[0], err
+    np.testing.assert_array_equal(tifffile.imread(tmp_path / "whole.tif"), tifffile.imread(tmp_path / "tiled.tif"))
+    with pytest.warns(InputWarning, match="equal -32768"):
+        hm = Heightmap.from_raster(raster)
+    assert hm.row_scales[0, 0] == places.row_scales()[0, 0] > 0.999                # (-15000 m: 0.9976)

@@ -95,7 +95,7 @@ def run(args: argparse.Namespace, job) -> int:
         caught += sentinels
         for warning in caught:
             sys.stderr.write(f"{cli.PROG}: warning: {warning.message}\n")
-        lo, hi = relief.extrema           # the places' middle height and relief (the raster's units, before -z)
+        lo, hi = relief.ordinary          # the places' middle height and relief (the raster's units, before -z)
         raster.heights_range = tuple(sorted((lo / args.z_factor, hi / args.z_factor)))
         traced = None      # per time the sun over the map (per block), or None: job.suns
         if job.times:

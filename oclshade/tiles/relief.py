@@ -41,6 +41,9 @@ class ReliefGrid:
     hi: np.ndarray = field(init=False, repr=False)   # (block rows, block cols) float64, -inf: no data
     lo: np.ndarray = field(init=False, repr=False)   # +inf: no data
     rows_done: int = field(init=False, default=0)
+    #: (min, max) of the heights but an undeclared nodata sentinel's (heightmap.ordinary_extrema), where
+    #: the pass that made the grid found them (tiles.stream.relief_pass): the map's scale takes them
+    ordinary: tuple[float, float] | None = field(init=False, default=None, repr=False)
 
     def __post_init__(self) -> None:
         rows, cols = self.shape

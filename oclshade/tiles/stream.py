@@ -34,7 +34,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from ..analysis import FRONT_BAND_BYTES
-from ..heightmap import NODATA_SENTINELS, InputWarning, check_float32
+from ..heightmap import NODATA_SENTINELS, InputWarning, check_float32, ordinary_extrema, sentinels_within
 from ..io import DemWindows, RasterWriter
 from ..runtime import get_runtime
 from ..shadows import ShadowCaster, ShadowResult
@@ -101,16 +101,19 @@ def relief_pass(windows: DemWindows, z_factor: float = 1.0, block: int = DEFAULT
     grid = ReliefGrid((rows, cols), block)
     step = max(1, min(rows, stripe_bytes // (8 * cols)))
     counts = dict.fromkeys(NODATA_SENTINELS, 0)
+    ordinary = []                                      # each stripe's ordinary_extrema
     for r in range(0, rows, step):
         stripe = windows.read(r, min(r + step, rows), 0, cols)
         if z_factor != 1.0:
             stripe *= z_factor
         lo, hi = float(np.fmin.reduce(stripe, axis=None)), float(np.fmax.reduce(stripe, axis=None))
-        for value in NODATA_SENTINELS:
-            near = 1e-7 * abs(value)
-            if lo - near <= value <= hi + near:        # as Heightmap: counted only where in range
-                counts[value] += _count_near(stripe, value, near)
+        found = sentinels_within(lo, hi)               # as Heightmap: counted only where in range
+        for value, near in found:
+            counts[value] += _count_near(stripe, value, near)
+        ordinary.append(ordinary_extrema(stripe, lo, hi) if found else (lo, hi))
         grid.accumulate(stripe)
+    lows, highs = np.array(ordinary).T
+    grid.ordinary = (float(np.nanmin(lows)), float(np.nanmax(highs))) if np.any(np.isfinite(lows)) else grid.extrema
     for value, count in counts.items():
         if count:
             warnings.warn(f"heights: {count} cell(s) equal {value:.8g}, a common nodata value, but it is not "
