@@ -22,7 +22,10 @@ traced direction's true azimuth, pyproj's ``Geod.fwd``, sampled every 1/8 cell a
 around the 24 best samples).  Per map, in one process: |traced - each| and |grid line -
 geodesic| (mean, 99th percentile, max; the share of cell-azimuths past 0.01 and 0.1 degree),
 the far ends' azimuth off the geodesic (how far off the grid's lines point at the map's
-edge), and the time of the traced horizons.  Writes bench/results/geodesic_rays.{json,md};
+edge), the share of cells whose cast shadow the two horizons tell apart at a sun between 0
+and 30 degrees up (a cell is in cast shadow iff its horizon at the sun's azimuth is above
+the sun: the share of those elevations between its two horizons, averaged), and the time
+of the traced horizons.  Writes bench/results/geodesic_rays.{json,md};
 figures depend on the machine, the results record where they were taken.
 """
 from __future__ import annotations
@@ -51,6 +54,8 @@ from oclshade.solar.field import MapPlaces, checked_places  # noqa: E402
 
 SRTM = REPO.parent / "shared" / "data" / "dem" / "srtm3_srtmpy" / "N22W160v2.3a.hgt.zip"
 AZIMUTHS = 16
+#: suns from 0 to this many degrees up: a cell's cast shadow differs where the sun lies between its two horizons
+LOW_SUNS = 30.0
 CELLS, REDUCED_CELLS = 200, 24
 #: N22W160's heights (Kauai) moved north on their geographic grid, and on two projected grids
 NORTH = (46.0, 61.0)
@@ -182,7 +187,9 @@ def run(reduced: bool) -> dict:
             errors = {"traced - grid line": np.abs(at_cells - line)[seen],
                       "traced - geodesic": np.abs(at_cells - geodesic)[seen],
                       "grid line - geodesic": np.abs(line - geodesic)[seen]}
+            low, high = (np.clip(f(at_cells, geodesic)[seen], 0.0, LOW_SUNS) for f in (np.minimum, np.maximum))
             row = {"shape": list(raster.heights.shape), "cells": int(pick.shape[0]), "warning": notes,
+                   "masks_differ_ppm": float(1e6 * np.mean(high - low) / LOW_SUNS),
                    "centre_latitude": places.centre_latitude, "seconds": min(seconds),
                    "far_end_turn_deg": {"median": float(np.median(np.abs(turn))), "max": float(np.abs(turn).max())},
                    "errors": {k: {**summary(e), "past_0.01": share_past(e, 0.01), "past_0.1": share_past(e, 0.1)}
@@ -200,13 +207,15 @@ def markdown(result: dict) -> str:
              f"{result['azimuths']} azimuths with curvature (no refraction), seeded cells; float64 ECEF brute forces "
              "along the kernel's grid line and along the geodesic at its true azimuth; |difference| in degrees "
              "(mean / 99th percentile / max, and the share of cell-azimuths past 0.01 and 0.1 degree); the grid "
-             "lines' far ends' azimuth off their start's (median / max); time of the 16 traced horizons (best of 3).",
+             "lines' far ends' azimuth off their start's (median / max); the share of cells whose cast shadow differs "
+             f"(traced against geodesic horizon) at a sun 0-{LOW_SUNS:g} degrees up, all elevations alike, in parts per "
+             "million; time of the 16 traced horizons (best of 3).",
              "", "| map | lat | cells | traced - grid line | traced - geodesic | grid line - geodesic | "
-             "past 0.01 / 0.1 (traced - geodesic) | far ends' turn (deg) | time (s) |",
-             "|---|---|---|---|---|---|---|---|---|"]
+             "past 0.01 / 0.1 (traced - geodesic) | far ends' turn (deg) | masks differ (ppm) | time (s) |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
     for name, r in result["maps"].items():
         if "skipped" in r:
-            lines.append(f"| {name} | skipped: {r['skipped']} | | | | | | | |")
+            lines.append(f"| {name} | skipped: {r['skipped']} | | | | | | | | |")
             continue
         fmt = "{mean:.4f} / {p99:.4f} / {max:.4f}"
         e = r["errors"]
@@ -214,7 +223,8 @@ def markdown(result: dict) -> str:
         lines.append(f"| {name} | {r['centre_latitude']:.1f} | {r['cells']} | {fmt.format(**e['traced - grid line'])} | "
                      f"{fmt.format(**g)} | {fmt.format(**e['grid line - geodesic'])} | "
                      f"{100 * g['past_0.01']:.1f} % / {100 * g['past_0.1']:.1f} % | "
-                     f"{r['far_end_turn_deg']['median']:.3f} / {r['far_end_turn_deg']['max']:.3f} | {r['seconds']:.3f} |")
+                     f"{r['far_end_turn_deg']['median']:.3f} / {r['far_end_turn_deg']['max']:.3f} | "
+                     f"{r['masks_differ_ppm']:.0f} | {r['seconds']:.3f} |")
     return "\n".join(lines) + "\n"
 
 
