@@ -18,8 +18,9 @@ Two float64 brute forces in ECEF (WGS 84 heights, curvature by construction, no 
 over the same bilinear surface and seeded cells: ``grid line`` (:func:`ground_height.ecef_horizons`:
 the kernel's own line; what it leaves out is the model's other residuals, heights and the
 scale's change) and ``geodesic`` (:func:`geodesic_horizons`: the geodesic leaving the cell at the
-traced direction's true azimuth, pyproj's ``Geod.fwd``, sampled every 1/8 cell and refined
-around the 24 best samples).  Per map, in one process: |traced - each| and |grid line -
+traced direction's true azimuth, pyproj's ``Geod.fwd``, sampled every 1/8 cell to the map's
+edge (found by bisection), refined around the 24 best samples and again around the best of
+those: the grid lines it crosses put kinks in its profile; and the limit at the cell).  Per map, in one process: |traced - each| and |grid line -
 geodesic| (mean, 99th percentile, max; the share of cell-azimuths past 0.01 and 0.1 degree),
 the far ends' azimuth off the geodesic (how far off the grid's lines point at the map's
 edge), the share of cells whose cast shadow the two horizons tell apart at a sun between 0
@@ -44,11 +45,12 @@ sys.path.insert(0, str(REPO / "bench"))
 
 from geographic_scale import moved, projected  # noqa: E402
 from ground_height import (FINE, MAPS, NEAR, PER_PATCH, REFINED, bilinear, ecef,  # noqa: E402
-                           ecef_horizons, load, summary)
+                           ecef_horizons, eye_limit, load, summary)
 from shadow_masks import log, metadata, write_results  # noqa: E402
 
 from oclshade.heightmap import Heightmap  # noqa: E402
 from oclshade.horizon import Curvature, HorizonCaster  # noqa: E402
+from oclshade.horizon.site import site_horizon  # noqa: E402
 from oclshade.io import Raster, read_dem  # noqa: E402
 from oclshade.solar.field import MapPlaces, checked_places  # noqa: E402
 
@@ -85,10 +87,10 @@ def traced_direction(places: MapPlaces, ground: MapPlaces, raster: Raster, i: in
 
 
 def geodesic_horizons(raster: Raster, places: MapPlaces, cells: tuple[np.ndarray, np.ndarray],
-                      azimuths: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+                      azimuths: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """((azimuths, cells) float64 degrees: the largest elevation angle over the geodesic leaving
     each cell at its traced direction's true azimuth; the same shape: the true azimuth of the
-    traced grid line's far end less that of its start, degrees)."""
+    traced grid line's far end less that of its start, degrees; and that true azimuth)."""
     import pyproj
 
     geod = pyproj.Geod(ellps="WGS84")
@@ -100,6 +102,7 @@ def geodesic_horizons(raster: Raster, places: MapPlaces, cells: tuple[np.ndarray
     cell = min(raster.dx, raster.dy)
     step = cell / (PER_PATCH - 1)
     out, turn = np.full((azimuths.size, cells[0].size), -90.0), np.zeros((azimuths.size, cells[0].size))
+    true = np.zeros_like(turn)
     for c, (i, j) in enumerate(zip(*cells)):
         lon0, lat0 = (float(v[0]) for v in places.lonlat(np.array([i + 0.5]), np.array([j + 0.5])))
         eye = ecef(np.array(lon0), np.array(lat0), np.array(h[i, j]))
@@ -114,6 +117,7 @@ def geodesic_horizons(raster: Raster, places: MapPlaces, cells: tuple[np.ndarray
             (start, end) = (places.lonlat(np.array([i + 0.5 + vy * t]), np.array([j + 0.5 + vx * t]))
                             for t in (1e-3, reach))
             true_az = geod.inv(lon0, lat0, float(start[0][0]), float(start[1][0]))[0]
+            true[a, c] = true_az
             far_az = geod.inv(lon0, lat0, float(end[0][0]), float(end[1][0]))[0]
             turn[a, c] = (far_az - true_az + 180.0) % 360.0 - 180.0
             metres = reach * np.hypot(vx * raster.dx, vy * raster.dy) * 1.2 + 10 * cell
@@ -128,15 +132,23 @@ def geodesic_horizons(raster: Raster, places: MapPlaces, cells: tuple[np.ndarray
             s = NEAR[0] * cell + step * np.arange(int(metres / step) + 1)
             coarse = angles(s)
             leave = np.flatnonzero(np.isneginf(coarse) & (s > cell))
-            if leave.size:                          # the first sample past the map's edge: the path ends there
-                s, coarse = s[:leave[0]], coarse[:leave[0]]
+            if leave.size:                          # the first sample past the map's edge: the path ends at the
+                lo_s, hi_s = s[leave[0] - 1], s[leave[0]]          # edge, found by bisection and sampled too
+                for _ in range(40):
+                    mid = (lo_s + hi_s) / 2.0
+                    lo_s, hi_s = (lo_s, mid) if np.isneginf(angles(np.array([mid]))[0]) else (mid, hi_s)
+                s = np.append(s[:leave[0]], lo_s)
+                coarse = np.append(coarse[:leave[0]], angles(np.array([lo_s])))
             if not np.any(np.isfinite(coarse)):     # (NaN: nodata under the path)
                 continue
             top = np.argsort(np.where(np.isfinite(coarse), coarse, -np.inf))[-REFINED:]
             lo, hi = s[np.maximum(top - 1, 0)], s[np.minimum(top + 1, s.size - 1)]
-            fine = angles((lo[:, None] + (hi - lo)[:, None] * np.linspace(0.0, 1.0, FINE)).ravel())
-            out[a, c] = max(float(np.nanmax(coarse)), float(np.nanmax(fine)))
-    return out, turn
+            spots = (lo[:, None] + (hi - lo)[:, None] * np.linspace(0.0, 1.0, FINE)).ravel()
+            fine = angles(spots)
+            at = int(np.argmax(np.where(np.isfinite(fine), fine, -np.inf)))      # then around the best of those
+            zoom = angles(np.linspace(spots[max(at - 1, 0)], spots[min(at + 1, spots.size - 1)], FINE))   # (a kink)
+            out[a, c] = float(np.nanmax([np.nanmax(coarse), np.nanmax(fine), np.nanmax(zoom), eye_limit(angles, s[0])]))
+    return out, turn, true
 
 
 def share_past(error: np.ndarray, limit: float) -> float:
@@ -175,22 +187,30 @@ def run(reduced: bool) -> dict:
                 t0 = time.perf_counter()
                 caster.horizons(azimuths)
                 seconds.append(time.perf_counter() - t0)
-            valid = np.argwhere(np.isfinite(raster.heights))
+            inner = np.zeros(raster.heights.shape, bool)     # off the border ring: a geodesic along the map's
+            inner[1:-1, 1:-1] = True                          # edge leaves it at once, a grid line does not
+            valid = np.argwhere(np.isfinite(raster.heights) & inner)
             rng = np.random.default_rng(19)
             pick = valid[rng.choice(len(valid), size=min(len(valid), REDUCED_CELLS if reduced else CELLS), replace=False)]
             cells = (pick[:, 0], pick[:, 1])
             log(f"{name}: {raster.heights.shape}, brute forces on {pick.shape[0]} cells x {AZIMUTHS} azimuths")
             line = ecef_horizons(raster, places, cells, azimuths)
-            geodesic, turn = geodesic_horizons(raster, places, cells, azimuths)
+            geodesic, turn, true = geodesic_horizons(raster, places, cells, azimuths)
+            lon, lat = places.lonlat(cells[0] + 0.5, cells[1] + 0.5)
+            t0 = time.perf_counter()
+            site = np.stack([site_horizon(raster, float(lat[c]), float(lon[c]), true[:, c], curvature=curvature)
+                             for c in range(lat.size)], axis=1)
+            per_site = (time.perf_counter() - t0) / lat.size
             seen = (line > -90.0) & (geodesic > -90.0)
             at_cells = traced[:, cells[0], cells[1]].astype(np.float64)
             errors = {"traced - grid line": np.abs(at_cells - line)[seen],
                       "traced - geodesic": np.abs(at_cells - geodesic)[seen],
-                      "grid line - geodesic": np.abs(line - geodesic)[seen]}
+                      "grid line - geodesic": np.abs(line - geodesic)[seen],
+                      "site - geodesic": np.abs(site - geodesic)[seen]}
             low, high = (np.clip(f(at_cells, geodesic)[seen], 0.0, LOW_SUNS) for f in (np.minimum, np.maximum))
             row = {"shape": list(raster.heights.shape), "cells": int(pick.shape[0]), "warning": notes,
                    "masks_differ_ppm": float(1e6 * np.mean(high - low) / LOW_SUNS),
-                   "centre_latitude": places.centre_latitude, "seconds": min(seconds),
+                   "centre_latitude": places.centre_latitude, "seconds": min(seconds), "seconds_per_site": per_site,
                    "far_end_turn_deg": {"median": float(np.median(np.abs(turn))), "max": float(np.abs(turn).max())},
                    "errors": {k: {**summary(e), "past_0.01": share_past(e, 0.01), "past_0.1": share_past(e, 0.1)}
                               for k, e in errors.items()}}
@@ -204,18 +224,22 @@ def markdown(result: dict) -> str:
     lines = ["# Rays along the grid's lines against the geodesics", "",
              f"`{m.get('command', 'python bench/geodesic_rays.py')}`; {m.get('cpu')}, {m.get('cores')} cores, PoCL "
              f"{m.get('pocl_version')} `{m.get('device')}`, {m.get('date')}.",
-             f"{result['azimuths']} azimuths with curvature (no refraction), seeded cells; float64 ECEF brute forces "
+             f"{result['azimuths']} azimuths with curvature (no refraction), seeded cells off the map's border; float64 "
+             "ECEF brute forces "
              "along the kernel's grid line and along the geodesic at its true azimuth; |difference| in degrees "
              "(mean / 99th percentile / max, and the share of cell-azimuths past 0.01 and 0.1 degree); the grid "
              "lines' far ends' azimuth off their start's (median / max); the share of cells whose cast shadow differs "
              f"(traced against geodesic horizon) at a sun 0-{LOW_SUNS:g} degrees up, all elevations alike, in parts per "
-             "million; time of the 16 traced horizons (best of 3).",
+             "million; time of the 16 traced horizons (best of 3); `site_horizon` (float64 on the host, along the "
+             "geodesics: docs/methods.md) from each sampled cell at the same true azimuths against the geodesic brute "
+             "force, and its time per site.",
              "", "| map | lat | cells | traced - grid line | traced - geodesic | grid line - geodesic | "
-             "past 0.01 / 0.1 (traced - geodesic) | far ends' turn (deg) | masks differ (ppm) | time (s) |",
-             "|---|---|---|---|---|---|---|---|---|---|"]
+             "past 0.01 / 0.1 (traced - geodesic) | far ends' turn (deg) | masks differ (ppm) | time (s) | "
+             "site - geodesic | s per site |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for name, r in result["maps"].items():
         if "skipped" in r:
-            lines.append(f"| {name} | skipped: {r['skipped']} | | | | | | | | |")
+            lines.append(f"| {name} | skipped: {r['skipped']} | | | | | | | | | | |")
             continue
         fmt = "{mean:.4f} / {p99:.4f} / {max:.4f}"
         e = r["errors"]
@@ -224,7 +248,8 @@ def markdown(result: dict) -> str:
                      f"{fmt.format(**g)} | {fmt.format(**e['grid line - geodesic'])} | "
                      f"{100 * g['past_0.01']:.1f} % / {100 * g['past_0.1']:.1f} % | "
                      f"{r['far_end_turn_deg']['median']:.3f} / {r['far_end_turn_deg']['max']:.3f} | "
-                     f"{r['masks_differ_ppm']:.0f} | {r['seconds']:.3f} |")
+                     f"{r['masks_differ_ppm']:.0f} | {r['seconds']:.3f} | {fmt.format(**e['site - geodesic'])} | "
+                     f"{r['seconds_per_site']:.3f} |")
     return "\n".join(lines) + "\n"
 
 

@@ -12,7 +12,7 @@ cell and azimuth it follows the same straight grid line as the kernel (leaving t
 true azimuth, by the cell's own cell sizes on the ground), takes the bilinear surface's height
 at both ends and 7 inner points of every patch it crosses to the map's edge (from 0.001 cell
 on; then 257 points in each of the 24 best patches: a patch's profile is smooth, its kinks at
-the patch edges), places
+the patch edges; and the limit at the cell, the slope there, from 0.001 and 0.002 cell), places
 each point on the WGS 84 ellipsoid at its height (ECEF) and keeps the largest elevation angle
 above the cell's own tangent plane (its geodetic normal).  So it counts what the grid's metres
 leave out: the heights above the ellipsoid, the Earth's curvature on the ellipsoid, the scale's
@@ -111,9 +111,18 @@ def patch_ends(i: int, j: int, vx: float, vy: float, rows: int, cols: int) -> np
     return ends[(ends >= NEAR[0]) & (ends <= reach)]
 
 
+def eye_limit(angles, near: float) -> float:
+    """The angle's limit at the cell itself, the surface's slope where the path starts (the sup
+    there when the profile starts concave, which samples from ``near`` on miss by up to its
+    curvature times ``near``): linear in s to first order, extrapolated from ``near`` and twice it."""
+    a = angles(np.array([near, 2.0 * near]))
+    return float(2.0 * a[0] - a[1])
+
+
 def highest(angles, ends: np.ndarray) -> float:
     """The largest of ``angles(s)`` (degrees) over the patches between ``ends``: each patch's ends
-    and inner points, then :data:`REFINED` best patches finely (-90 where nothing is seen)."""
+    and inner points, then :data:`REFINED` best patches finely, and the limit at the cell
+    (:func:`eye_limit`; -90 where nothing is seen)."""
     if ends.size < 2:
         return -90.0
     lo, hi = ends[:-1], ends[1:]
@@ -123,7 +132,7 @@ def highest(angles, ends: np.ndarray) -> float:
         return -90.0
     top = np.argsort(np.where(np.isnan(best), -np.inf, best))[-REFINED:]
     fine = angles((lo[top, None] + (hi - lo)[top, None] * np.linspace(0.0, 1.0, FINE)).ravel())
-    return max(float(np.nanmax(best)), float(np.nanmax(fine)))
+    return float(np.nanmax([np.nanmax(best), np.nanmax(fine), eye_limit(angles, ends[0])]))
 
 
 def ecef_horizons(raster: Raster, places: MapPlaces, cells: tuple[np.ndarray, np.ndarray],

@@ -1096,6 +1096,24 @@ def _max_distance(text: str) -> float:
         raise argparse.ArgumentTypeError(f"must be a positive number of metres, got {text}") from None
 
 
+def _site(text: str) -> tuple[float, float]:
+    parts = text.split(",")
+    try:
+        lat, lon = (float(v) for v in parts)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected LAT,LON in degrees, got {text!r}") from None
+    if not (math.isfinite(lat) and math.isfinite(lon) and abs(lat) <= 90.0 and abs(lon) <= 360.0):
+        raise argparse.ArgumentTypeError(f"expected a latitude in -90..90 and a longitude in -360..360, got {text!r}")
+    return lat, lon
+
+
+def _above(text: str) -> float:
+    value = _number(text, "height above the surface")
+    if value < 0.0:
+        raise argparse.ArgumentTypeError(f"must be metres >= 0, got {text}")
+    return value
+
+
 def _refraction(text: str) -> float:
     value = _number(text, "refraction coefficient")
     if not 0.0 <= value < 1.0:
@@ -1137,6 +1155,11 @@ def add_horizon_parsers(sub) -> None:
                            help="band i at the true azimuth 360 i / N (from north along the meridian, as r.horizon "
                                 "and solar tools use), turned to a projected INPUT's grid through its CRS; "
                                 "default: grid azimuths, from up the columns")
+            p.add_argument("--site", type=_site, metavar="LAT,LON",
+                           help="the horizon of one place instead of the map's (as r.horizon's coordinates=): "
+                                "OUTPUT a .csv of true azimuths and elevation angles along the geodesics, in float64")
+            p.add_argument("--above", type=_above, default=0.0, metavar="METRES",
+                           help="with --site: the eye's height over the surface there (default 0)")
         if name == "svf":
             p.add_argument("--definition", default="cosine", choices=SVF_DEFINITIONS,
                            help="cosine (default): 1 - mean sin^2 h; solid-angle: 1 - mean sin h (RVT)")
@@ -1172,6 +1195,10 @@ def run_horizon(args: argparse.Namespace) -> int:
     from .horizon import HorizonCaster, azimuth_grid
     from .solar.scale import SCALE_TOLERANCE
 
+    if getattr(args, "site", None) is not None:
+        return run_site_horizon(args)
+    if getattr(args, "above", 0.0):
+        raise UsageError("--above is the eye's height at a --site; give --site LAT,LON")
     if _extension(args.output) not in (".tif", ".tiff", ".exr", ".npy"):
         raise UsageError(f"OUTPUT {args.output!r}: expected .tif, .tiff, .exr or .npy (float32 bands)")
     curvature = curvature_argument(args)
@@ -1241,6 +1268,50 @@ def run_horizon(args: argparse.Namespace) -> int:
         count = f"{len(suns)} sun(s)" if sunlit else f"{len(azimuths)} azimuths{turned}"
         print(f"{PROG}: {cols}x{rows} cells, {count}{bent}, device {caster.runtime.label}: "
               f"{what} {t2 - t1:.2f} s (total {time.perf_counter() - t0:.2f} s) -> {args.output}", file=sys.stderr)
+    return 0
+
+
+def run_site_horizon(args: argparse.Namespace) -> int:
+    """``oclshade horizon INPUT OUT.csv --site LAT,LON``: one place's horizon along the geodesics
+    (:func:`oclshade.horizon.site.site_horizon`), one CSV row per azimuth."""
+    from .horizon import azimuth_grid
+    from .horizon.site import site_horizon
+    from pathlib import Path
+
+    from .io import _Replacement
+
+    if _extension(args.output) != ".csv":
+        raise UsageError(f"OUTPUT {args.output!r}: --site writes a .csv (azimuth, elevation)")
+    if args.scale != 1.0:
+        raise UsageError(f"-s {args.scale:g}: --site takes its distances from INPUT's CRS; drop -s (-z scales heights)")
+    if _same_file(args.output, args.input):
+        raise CliError(f"OUTPUT {args.output!r} is the input file; refusing to overwrite it")
+    curvature = curvature_argument(args)
+    t0 = time.perf_counter()
+    raster, _ = read_input(args, cellsize_argument(args))
+    azimuths = azimuth_grid(args.azimuths)
+    lat, lon = args.site
+    try:
+        angles = site_horizon(raster, lat, lon, azimuths, above=args.above, curvature=curvature,
+                              max_distance=args.max_distance, z_factor=args.z_factor)
+    except ValueError as exc:
+        raise CliError(f"--site {lat:g},{lon:g}: {exc}") from None
+    _make_parents(args.output)
+    replacement = _Replacement(Path(args.output))
+    try:
+        with open(replacement.tmp, "w", newline="") as fh:
+            fh.write("azimuth,elevation\n")
+            fh.writelines(f"{az:.6f},{angle:.6f}\n" for az, angle in zip(azimuths, np.round(angles, 6)))
+        replacement.commit()
+    except BaseException:
+        replacement.discard()
+        raise
+    if not args.quiet:
+        bent = "" if curvature is None else f", curvature R {curvature.radius:g} m k {curvature.refraction:g}"
+        if args.max_distance is not None:
+            bent += f", within {args.max_distance:g} m"
+        print(f"{PROG}: site {lat:g}, {lon:g}, {args.above:g} m above the surface, {len(azimuths)} true azimuths "
+              f"along the geodesics{bent}: {time.perf_counter() - t0:.2f} s -> {args.output}", file=sys.stderr)
     return 0
 
 

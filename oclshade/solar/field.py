@@ -84,6 +84,27 @@ class MapPlaces:
             raise ValueError("part of the map lies outside where its CRS is defined")
         return lon, lat
 
+    def cells_of(self, lon: np.ndarray, lat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(rows, cols) in cell coordinates, as :meth:`lonlat` takes them, of geodetic places: its
+        inverse (a geographic map's longitudes taken within 180 degrees of its centre's)."""
+        x0, xc, xr, y0, yc, yr = self.transform
+        lon, lat = np.asarray(lon, np.float64), np.asarray(lat, np.float64)
+        if self.crs is None:
+            middle = x0 + xc * self.shape[1] / 2.0 + xr * self.shape[0] / 2.0
+            x, y = middle + np.mod(lon - middle + 180.0, 360.0) - 180.0, lat
+        else:
+            x, y = (np.asarray(v, np.float64) for v in self._transformers[0].transform(lon, lat))
+        det = xc * yr - xr * yc
+        return ((y - y0) * xc - (x - x0) * yc) / det, ((x - x0) * yr - (y - y0) * xr) / det
+
+    @cached_property
+    def geod(self) -> Any:
+        """The map's ellipsoid as a pyproj ``Geod`` (WGS 84 on a geographic grid, as its cell
+        sizes take it; the CRS's own on a projected one)."""
+        from pyproj import Geod
+
+        return Geod(ellps="WGS84") if self.crs is None else self.crs.get_geod()
+
     def grid_azimuths(self, lon: np.ndarray, lat: np.ndarray, true_azimuths: np.ndarray) -> np.ndarray:
         """The grid azimuths at these places of directions at these true azimuths (as
         :meth:`oclshade.solar.site.MapSite.grid_azimuths`, place by place)."""
