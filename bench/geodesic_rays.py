@@ -25,8 +25,10 @@ geodesic| (mean, 99th percentile, max; the share of cell-azimuths past 0.01 and 
 the far ends' azimuth off the geodesic (how far off the grid's lines point at the map's
 edge), the share of cells whose cast shadow the two horizons tell apart at a sun between 0
 and 30 degrees up (a cell is in cast shadow iff its horizon at the sun's azimuth is above
-the sun: the share of those elevations between its two horizons, averaged), and the time
-of the traced horizons.  Writes bench/results/geodesic_rays.{json,md};
+the sun: the share of those elevations between its two horizons, averaged), the time
+of the traced horizons, and :func:`oclshade.horizon.site_horizon` (one site's horizon along the
+geodesics, float64 on the host) from each sampled cell at the same true azimuths against the
+geodesic brute force, with its time per site.  Writes bench/results/geodesic_rays.{json,md};
 figures depend on the machine, the results record where they were taken.
 """
 from __future__ import annotations
