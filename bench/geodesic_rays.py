@@ -47,7 +47,7 @@ sys.path.insert(0, str(REPO / "bench"))
 
 from geographic_scale import moved, projected  # noqa: E402
 from ground_height import (FINE, MAPS, NEAR, PER_PATCH, REFINED, bilinear, ecef,  # noqa: E402
-                           ecef_horizons, eye_limit, load, summary)
+                           ecef_horizons, eye_limit, header, load, seeded_cells, summary)
 from shadow_masks import log, metadata, write_results  # noqa: E402
 
 from oclshade.heightmap import Heightmap  # noqa: E402
@@ -191,9 +191,7 @@ def run(reduced: bool) -> dict:
                 seconds.append(time.perf_counter() - t0)
             inner = np.zeros(raster.heights.shape, bool)     # off the border ring: a geodesic along the map's
             inner[1:-1, 1:-1] = True                          # edge leaves it at once, a grid line does not
-            valid = np.argwhere(np.isfinite(raster.heights) & inner)
-            rng = np.random.default_rng(19)
-            pick = valid[rng.choice(len(valid), size=min(len(valid), REDUCED_CELLS if reduced else CELLS), replace=False)]
+            pick = seeded_cells(raster.heights, REDUCED_CELLS if reduced else CELLS, inner)
             cells = (pick[:, 0], pick[:, 1])
             log(f"{name}: {raster.heights.shape}, brute forces on {pick.shape[0]} cells x {AZIMUTHS} azimuths")
             line = ecef_horizons(raster, places, cells, azimuths)
@@ -223,9 +221,7 @@ def run(reduced: bool) -> dict:
 
 def markdown(result: dict) -> str:
     m = result["meta"]
-    lines = ["# Rays along the grid's lines against the geodesics", "",
-             f"`{m.get('command', 'python bench/geodesic_rays.py')}`; {m.get('cpu')}, {m.get('cores')} cores, PoCL "
-             f"{m.get('pocl_version')} `{m.get('device')}`, {m.get('date')}.",
+    lines = ["# Rays along the grid's lines against the geodesics", "", header(m, "python bench/geodesic_rays.py"),
              f"{result['azimuths']} azimuths with curvature (no refraction), seeded cells off the map's border; float64 "
              "ECEF brute forces "
              "along the kernel's grid line and along the geodesic at its true azimuth; |difference| in degrees "

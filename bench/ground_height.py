@@ -161,6 +161,18 @@ def ecef_horizons(raster: Raster, places: MapPlaces, cells: tuple[np.ndarray, np
     return out
 
 
+def seeded_cells(heights: np.ndarray, count: int, where: np.ndarray | None = None) -> np.ndarray:
+    """(count, 2) rows and columns of valid cells (and ``where``), drawn with seed 19."""
+    valid = np.argwhere(np.isfinite(heights) & (True if where is None else where))
+    return valid[np.random.default_rng(19).choice(len(valid), size=min(len(valid), count), replace=False)]
+
+
+def header(meta: dict, command: str) -> str:
+    """The results' line of what made them: the command, the CPU, PoCL and its device, the date."""
+    return (f"`{meta.get('command', command)}`; {meta.get('cpu')}, {meta.get('cores')} cores, PoCL "
+            f"{meta.get('pocl_version')} `{meta.get('device')}`, {meta.get('date')}.")
+
+
 def summary(error: np.ndarray) -> dict:
     return {"mean": float(error.mean()), "p99": float(np.percentile(error, 99)), "max": float(error.max())}
 
@@ -191,9 +203,7 @@ def run(reduced: bool) -> dict:
                     t0 = time.perf_counter()
                     c.horizons(azimuths)
                     seconds[k].append(time.perf_counter() - t0)
-            valid = np.argwhere(np.isfinite(raster.heights))
-            rng = np.random.default_rng(19)
-            pick = valid[rng.choice(len(valid), size=min(len(valid), 40 if reduced else 300), replace=False)]
+            pick = seeded_cells(raster.heights, 40 if reduced else 300)
             cells = (pick[:, 0], pick[:, 1])
             log(f"{name}: {raster.heights.shape}, brute force on {pick.shape[0]} cells x {AZIMUTHS} azimuths")
             truth = ecef_horizons(raster, places, cells, azimuths)
@@ -212,9 +222,7 @@ def run(reduced: bool) -> dict:
 
 def markdown(result: dict) -> str:
     m = result["meta"]
-    lines = ["# Ground metres at the map's middle height against ECEF", "",
-             f"`{m.get('command', 'python bench/ground_height.py')}`; {m.get('cpu')}, {m.get('cores')} cores, PoCL {m.get('pocl_version')} "
-             f"`{m.get('device')}`, {m.get('date')}.",
+    lines = ["# Ground metres at the map's middle height against ECEF", "", header(m, "python bench/ground_height.py"),
              f"{result['azimuths']} azimuths with curvature (no refraction), seeded cells; |traced - float64 "
              "ECEF brute force| in degrees (mean / 99th percentile / max); the bound the run states with "
              "--curvature (far terrain and heights; plus the float32 band); time of the 16 horizons "

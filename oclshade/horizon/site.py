@@ -36,8 +36,8 @@ from .caster import Curvature, as_azimuths, check_max_distance
 #: geodesic points this share of the smaller cell apart: a chord then crosses at most one grid line
 #: of each axis (a projected grid's scale moves a cell by well under the rest of the share)
 STEP_SHARE = 0.5
-#: azimuths traced together (arrays of azimuths x points along the longest path)
-AZIMUTH_CHUNK = 32
+#: points traced together (azimuths x points along a path: some 30 float64 arrays of them, 60 MB)
+CHUNK_POINTS = 1 << 18
 #: cells within which a site's row or column is taken on a grid line (a round trip's rounding, :func:`_on_line`)
 SNAP = 1e-9
 #: cells between two points of a path past which it has crossed a seam (a whole-Earth map's east edge onto its
@@ -88,28 +88,38 @@ def site_horizon(raster: Raster, latitude: float, longitude: float, azimuths: in
     step = STEP_SHARE * min(raster.dx, raster.dy) * float(np.min(places.row_scales()[..., :2]))
     k = 0
     while k < az.size:
-        chunk = az[k:k + AZIMUTH_CHUNK]
         s = step * np.arange(int(math.ceil(reach / step)) + 1)
-        shape = (chunk.size, s.size)
-        lon, lat, _ = places.geod.fwd(np.full(shape, float(longitude)), np.full(shape, float(latitude)),
-                                      np.repeat(chunk[:, None], s.size, axis=1), np.tile(s, (chunk.size, 1)))
-        y, x = (v - 0.5 for v in places.cells_of(lon, lat))
-        y[:, 0], x[:, 0] = row, col                      # (the site itself, not its round trip)
-        with np.errstate(invalid="ignore"):
-            jump = np.fmax(np.abs(np.diff(y, axis=1)), np.abs(np.diff(x, axis=1)))
-            seam = np.cumsum(~(jump <= SEAM), axis=1) > 0       # past a global map's seam or the CRS's domain:
-            y[:, 1:][seam], x[:, 1:][seam] = np.nan, np.nan     # off the map, where the path ends
-            near = (y >= -1.0) & (y <= rows) & (x >= -1.0) & (x <= cols)
-        if np.any(near[:, 1:] & near[:, :-1] & ~seam & (jump >= 1.0)):
+        chunk = az[k:k + max(1, CHUNK_POINTS // s.size)]
+        path = _grid_paths(places, longitude, latitude, chunk, s, (row, col), heights.shape)
+        if path is None:                                 # a chord crossing two lines of an axis: closer points
             if step < 1e-3 * min(raster.dx, raster.dy):
                 raise RuntimeError(f"site_horizon: the paths from latitude {latitude!r}, longitude {longitude!r} "
                                    "cross more than a cell between points 1e-3 cell apart")
-            step /= 2.0                                  # (a chord crossing two lines of an axis: closer points)
+            step /= 2.0
             continue
-        tangents = _path_tangents(heights, y, x, s * scale, eye, above, c, None if radius is None else float(radius))
+        tangents = _path_tangents(heights, *path, s * scale, eye, above, c, None if radius is None else float(radius))
         out[k:k + chunk.size] = np.degrees(np.arctan(tangents))
         k += chunk.size
     return out
+
+
+def _grid_paths(places, longitude: float, latitude: float, azimuths: np.ndarray, s: np.ndarray,
+                site: tuple[float, float], shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray] | None:
+    """(y, x): (azimuths, points) sample units of the geodesics from the site at distances ``s``
+    (ellipsoid metres), NaN past a seam (:data:`SEAM`); None where two points on the map lie a
+    grid line or more apart on an axis (the caller takes closer points)."""
+    rows, cols = shape
+    size = (azimuths.size, s.size)
+    lon, lat, _ = places.geod.fwd(np.full(size, float(longitude)), np.full(size, float(latitude)),
+                                  np.repeat(azimuths[:, None], s.size, axis=1), np.tile(s, (azimuths.size, 1)))
+    y, x = (v - 0.5 for v in places.cells_of(lon, lat))
+    y[:, 0], x[:, 0] = site                              # (the site itself, not its round trip)
+    with np.errstate(invalid="ignore"):
+        jump = np.fmax(np.abs(np.diff(y, axis=1)), np.abs(np.diff(x, axis=1)))
+        seam = np.cumsum(~(jump <= SEAM), axis=1) > 0   # past a global map's seam or the CRS's domain:
+        y[:, 1:][seam], x[:, 1:][seam] = np.nan, np.nan  # off the map, where the path ends
+        near = (y >= -1.0) & (y <= rows) & (x >= -1.0) & (x <= cols)
+    return None if np.any(near[:, 1:] & near[:, :-1] & ~seam & (jump >= 1.0)) else (y, x)
 
 
 def _on_line(position: float) -> float:
