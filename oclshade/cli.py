@@ -982,6 +982,11 @@ def add_sunshine_parser(sub) -> None:
                          "--azimuths directions")
     ss.add_argument("--azimuths", type=_azimuths, default=None, metavar="N",
                     help="horizon directions of --method horizons (default 64)")
+    ss.add_argument("--site", type=_site, metavar="LAT,LON",
+                    help="the sunshine of one place instead of the map's: OUTPUT a .csv of each step's sun, the "
+                         "site's horizon at its azimuth (along the geodesic) and whether it shines")
+    ss.add_argument("--above", type=_above, default=0.0, metavar="METRES",
+                    help="with --site: the eye's height over the surface there (default 0)")
     add_grid_arguments(ss)
     add_input_arguments(ss)
     add_tiff_arguments(ss)
@@ -994,6 +999,10 @@ def run_sunshine(args: argparse.Namespace) -> int:
     from .sunshine import DEFAULT_AZIMUTHS, SunshineCaster, time_steps
     from .sunshine import daylight as sunshine_daylight
 
+    if args.site is not None:
+        return run_site_sunshine(args)
+    if args.above:
+        raise UsageError("--above is the eye's height at a --site; give --site LAT,LON")
     if _extension(args.output) not in (".tif", ".tiff", ".exr", ".npy"):
         raise UsageError(f"OUTPUT {args.output!r}: expected .tif, .tiff, .exr or .npy (float32 bands)")
     if args.azimuths is not None and args.method != "horizons":
@@ -1040,6 +1049,63 @@ def run_sunshine(args: argparse.Namespace) -> int:
               f"({maps.daylight_seconds / 3600:.2f} h), method {args.method}, device {caster.runtime.label}: "
               f"{t2 - t1:.2f} s (total {time.perf_counter() - t0:.2f} s){mean} -> {args.output}", file=sys.stderr)
     return 0
+
+
+def run_site_sunshine(args: argparse.Namespace) -> int:
+    """``oclshade sunshine INPUT OUT.csv --site LAT,LON``: one place's steps
+    (:func:`oclshade.sunshine.site_sunshine`), one CSV row each, the hours on stderr."""
+    from .sunshine import site_sunshine, time_steps
+
+    if _extension(args.output) != ".csv":
+        raise UsageError(f"OUTPUT {args.output!r}: --site writes a .csv (one row per step)")
+    for flag, given in (("--lat/--lon", args.lat is not None or args.lon is not None),
+                        ("--method/--azimuths", args.method != "masks" or args.azimuths is not None),
+                        ("--output", tuple(args.outputs) != ("hours",)), ("-s", args.scale != 1.0)):
+        if given:
+            raise UsageError(f"{flag} does not go with --site (the site is the place; it writes one CSV)")
+    zone = solar_cli.time_zone(args.tz)
+    start, end = (solar_cli.parse_datetime(getattr(args, name), zone, f"--{name}") for name in ("start", "end"))
+    try:
+        steps = time_steps(start, end, args.step)
+    except ValueError as exc:
+        raise UsageError(f"--start, --end, --step: {exc}") from None
+    if _same_file(args.output, args.input):
+        raise CliError(f"OUTPUT {args.output!r} is the input file; refusing to overwrite it")
+    t0 = time.perf_counter()
+    raster, _ = read_input(args, cellsize_argument(args))
+    lat, lon = args.site
+    try:
+        result = site_sunshine(raster, lat, lon, steps, above=args.above, z_factor=args.z_factor)
+    except ValueError as exc:
+        raise CliError(f"--site {lat:g},{lon:g}: {exc}") from None
+    local = zone if zone is not None else start.tzinfo
+    rows = ["time,seconds,azimuth,elevation,horizon,sunlit\n"]
+    for t, seconds, sun, horizon, lit in zip(result.times, result.seconds, result.suns, result.horizon, result.sunlit):
+        rows.append(f"{t.astimezone(local).isoformat()},{int(seconds)},{sun.azimuth:.6f},{sun.elevation:.6f},"
+                    f"{'' if np.isnan(horizon) else f'{horizon:.6f}'},{int(lit)}\n")
+    _write_text(args.output, "".join(rows))
+    if not args.quiet:
+        print(f"{PROG}: site {lat:g}, {lon:g}, {args.above:g} m above the surface, {len(result.times)} steps of "
+              f"{args.step}: {result.daylight_hours:.2f} h of daylight, {result.hours:.2f} h of direct sun "
+              f"({time.perf_counter() - t0:.2f} s) -> {args.output}", file=sys.stderr)
+    return 0
+
+
+def _write_text(path: str, text: str) -> None:
+    """``text`` into ``path`` atomically (a hidden file beside it, renamed over it)."""
+    from pathlib import Path
+
+    from .io import _Replacement
+
+    _make_parents(path)
+    replacement = _Replacement(Path(path))
+    try:
+        with open(replacement.tmp, "w", newline="") as fh:
+            fh.write(text)
+        replacement.commit()
+    except BaseException:
+        replacement.discard()
+        raise
 
 
 # --- horizon and svf commands ------------------------------------------------------------
@@ -1276,9 +1342,6 @@ def run_site_horizon(args: argparse.Namespace) -> int:
     (:func:`oclshade.horizon.site.site_horizon`), one CSV row per azimuth."""
     from .horizon import azimuth_grid
     from .horizon.site import site_horizon
-    from pathlib import Path
-
-    from .io import _Replacement
 
     if _extension(args.output) != ".csv":
         raise UsageError(f"OUTPUT {args.output!r}: --site writes a .csv (azimuth, elevation)")
@@ -1296,16 +1359,8 @@ def run_site_horizon(args: argparse.Namespace) -> int:
                               max_distance=args.max_distance, z_factor=args.z_factor)
     except ValueError as exc:
         raise CliError(f"--site {lat:g},{lon:g}: {exc}") from None
-    _make_parents(args.output)
-    replacement = _Replacement(Path(args.output))
-    try:
-        with open(replacement.tmp, "w", newline="") as fh:
-            fh.write("azimuth,elevation\n")
-            fh.writelines(f"{az:.6f},{angle:.6f}\n" for az, angle in zip(azimuths, np.round(angles, 6)))
-        replacement.commit()
-    except BaseException:
-        replacement.discard()
-        raise
+    _write_text(args.output, "azimuth,elevation\n" + "".join(
+        f"{az:.6f},{angle:.6f}\n" for az, angle in zip(azimuths, np.round(angles, 6))))
     if not args.quiet:
         bent = "" if curvature is None else f", curvature R {curvature.radius:g} m k {curvature.refraction:g}"
         if args.max_distance is not None:

@@ -278,3 +278,57 @@ def test_a_whole_earth_map_ends_its_paths_at_its_seam(tmp_path):
     assert east == 0.0 and west == 0.0
     assert site_horizon(raster, 0.0, 179.5, [90.0])[0] == -90.0    # (on the edge, looking out: nothing, as the kernels)
     assert site_horizon(raster, 0.0, -178.5, [270.0])[0] > 1.0     # (from the west edge's side it is seen)
+
+
+def test_site_sunshine_on_a_plain_is_the_daylight(tmp_path):
+    """On a flat map (no curvature) every sun above the horizontal plane shines on the site: the
+    hours of direct sun are the daylight hours, the horizon 0 by day and NaN by night."""
+    from datetime import datetime, timedelta, timezone
+
+    from oclshade.sunshine import site_sunshine, time_steps
+
+    raster = geographic(tmp_path, np.full((40, 40), 250.0))
+    places = map_places(raster)
+    lon, lat = (float(v[0]) for v in places.lonlat(np.array([20.0]), np.array([20.0])))
+    start = datetime(2024, 3, 20, tzinfo=timezone.utc)
+    result = site_sunshine(raster, lat, lon, time_steps(start, start + timedelta(days=1), timedelta(minutes=10)))
+    up = np.array([sun.elevation > 0.0 for sun in result.suns])
+    assert 11.5 < result.daylight_hours < 12.7 and result.hours == result.daylight_hours
+    assert np.all(result.horizon[up] == 0.0) and np.all(np.isnan(result.horizon[~up]))
+    np.testing.assert_array_equal(result.sunlit, up)
+
+
+def test_site_sunshine_agrees_with_the_maps_at_its_cell(tmp_path, capsys):
+    """On UTM 32N's central meridian (grid lines are geodesics there) a site at a sample is lit
+    as long as the map's sunshine leaves that cell out of cast shadow: its daylight less the
+    `fraction` in cast shadow (a day of 10-minute steps, hills), to a step (the map takes each
+    block's sun to 0.01 degree).  (The map's `hours` also drop steps where the cell's normal
+    faces away; at a sample, a kink of the bilinear surface, that is not the surface along the
+    sun's azimuth, which the horizon holds.)  The CLI's CSV adds up to the API's hours."""
+    import tifffile
+
+    from datetime import datetime, timedelta, timezone
+
+    from oclshade.sunshine import site_sunshine, time_steps
+
+    heights = hills((160, 160), 3, 700.0)
+    x, y = pyproj.Transformer.from_crs("EPSG:4326", "EPSG:32632", always_xy=True).transform(9.0, 46.0)
+    path = write_tif(tmp_path / "utm.tif", heights, UTM32N, x - 80 * 30.0, y + 80 * 30.0, 30.0)
+    raster = read_dem(path)
+    places = map_places(raster)
+    args = ["--start", "2024-06-21T00:00", "--end", "2024-06-22T00:00", "--tz", "UTC", "--step", "10min", "-q"]
+    assert main(["sunshine", str(path), str(tmp_path / "all.tif"), *args, "--output", "fraction"]) == 0
+    fraction = tifffile.imread(tmp_path / "all.tif")
+    start = datetime(2024, 6, 21, tzinfo=timezone.utc)
+    steps = time_steps(start, start + timedelta(days=1), timedelta(minutes=10))
+    for cell in ((40, 50), (80, 80), (120, 111)):
+        lon, lat = (float(v[0]) for v in places.lonlat(np.array([cell[0] + 0.5]), np.array([cell[1] + 0.5])))
+        site = site_sunshine(raster, lat, lon, steps)
+        uncast = site.daylight_hours * (1.0 - float(fraction[cell]))
+        assert abs(site.hours - uncast) <= 10.0 / 60.0 + 1e-4, (cell, site.hours, uncast)
+    assert main(["sunshine", str(path), str(tmp_path / "site.csv"), *args, "--site", f"{lat},{lon}"]) == 0
+    rows = list(csv.DictReader((tmp_path / "site.csv").open()))
+    assert len(rows) == 144 and sum(int(r["seconds"]) * int(r["sunlit"]) for r in rows) / 3600.0 == site.hours
+    assert main(["sunshine", str(path), str(tmp_path / "x.csv"), *args, "--site", f"{lat},{lon}",
+                 "--output", "all"]) == 2
+    assert "does not go with --site" in capsys.readouterr().err
