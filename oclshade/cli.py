@@ -995,8 +995,24 @@ def add_sunshine_parser(sub) -> None:
     ss.add_argument("--quiet", "-q", action="store_true", help="no progress bar and no summary")
 
 
+def sunshine_period(args: argparse.Namespace) -> tuple:
+    """``sunshine``'s --tz, --start, --end and their --step's :class:`oclshade.sunshine.TimeSteps`,
+    checked, and OUTPUT checked not to be INPUT."""
+    from .sunshine import time_steps
+
+    zone = solar_cli.time_zone(args.tz)
+    start, end = (solar_cli.parse_datetime(getattr(args, name), zone, f"--{name}") for name in ("start", "end"))
+    try:
+        steps = time_steps(start, end, args.step)
+    except ValueError as exc:
+        raise UsageError(f"--start, --end, --step: {exc}") from None
+    if _same_file(args.output, args.input):
+        raise CliError(f"OUTPUT {args.output!r} is the input file; refusing to overwrite it")
+    return zone, start, end, steps
+
+
 def run_sunshine(args: argparse.Namespace) -> int:
-    from .sunshine import DEFAULT_AZIMUTHS, SunshineCaster, time_steps
+    from .sunshine import DEFAULT_AZIMUTHS, SunshineCaster
     from .sunshine import daylight as sunshine_daylight
 
     if args.site is not None:
@@ -1010,14 +1026,7 @@ def run_sunshine(args: argparse.Namespace) -> int:
     cellsize = cellsize_argument(args)
     options, cog = creation_options(args, np.dtype(np.float32))
     solar_cli.check_place(args)
-    zone = solar_cli.time_zone(args.tz)
-    start, end = (solar_cli.parse_datetime(getattr(args, name), zone, f"--{name}") for name in ("start", "end"))
-    try:
-        steps = time_steps(start, end, args.step)
-    except ValueError as exc:
-        raise UsageError(f"--start, --end, --step: {exc}") from None
-    if _same_file(args.output, args.input):
-        raise CliError(f"OUTPUT {args.output!r} is the input file; refusing to overwrite it")
+    zone, start, end, steps = sunshine_period(args)
     t0 = time.perf_counter()
     raster, heightmap = read_input(args, cellsize)
     placed = solar_cli.suns_for(steps.times, args, raster, "--start and --end")
@@ -1054,7 +1063,7 @@ def run_sunshine(args: argparse.Namespace) -> int:
 def run_site_sunshine(args: argparse.Namespace) -> int:
     """``oclshade sunshine INPUT OUT.csv --site LAT,LON``: one place's steps
     (:func:`oclshade.sunshine.site_sunshine`), one CSV row each, the hours on stderr."""
-    from .sunshine import site_sunshine, time_steps
+    from .sunshine import site_sunshine
 
     if _extension(args.output) != ".csv":
         raise UsageError(f"OUTPUT {args.output!r}: --site writes a .csv (one row per step)")
@@ -1063,14 +1072,7 @@ def run_site_sunshine(args: argparse.Namespace) -> int:
                         ("--output", tuple(args.outputs) != ("hours",)), ("-s", args.scale != 1.0)):
         if given:
             raise UsageError(f"{flag} does not go with --site (the site is the place; it writes one CSV)")
-    zone = solar_cli.time_zone(args.tz)
-    start, end = (solar_cli.parse_datetime(getattr(args, name), zone, f"--{name}") for name in ("start", "end"))
-    try:
-        steps = time_steps(start, end, args.step)
-    except ValueError as exc:
-        raise UsageError(f"--start, --end, --step: {exc}") from None
-    if _same_file(args.output, args.input):
-        raise CliError(f"OUTPUT {args.output!r} is the input file; refusing to overwrite it")
+    zone, start, end, steps = sunshine_period(args)
     t0 = time.perf_counter()
     raster, _ = read_input(args, cellsize_argument(args))
     lat, lon = args.site
