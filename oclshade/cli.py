@@ -300,9 +300,11 @@ def build_parser() -> CliParser:
     return parser
 
 
-def add_curvature_arguments(parser: argparse.ArgumentParser) -> None:
-    """--curvature [--radius R] [--refraction K] (shadow, horizon, svf)."""
-    parser.add_argument("--curvature", action="store_true", help="lower distant terrain by the Earth's curvature")
+def add_curvature_arguments(parser: argparse.ArgumentParser, only: str = "") -> None:
+    """--curvature [--radius R] [--refraction K] (shadow, horizon, svf; sunshine's --site,
+    ``only`` saying so in the help)."""
+    parser.add_argument("--curvature", action="store_true",
+                        help=f"{only}lower distant terrain by the Earth's curvature")
     parser.add_argument("--radius", type=_positive, default=None, metavar="METRES",
                         help=f"Earth radius of --curvature (default {EARTH_RADIUS:g})")
     parser.add_argument("--refraction", type=_refraction, default=None, metavar="K",
@@ -987,6 +989,7 @@ def add_sunshine_parser(sub) -> None:
                          "site's horizon at its azimuth (along the geodesic) and whether it shines")
     ss.add_argument("--above", type=_above, default=0.0, metavar="METRES",
                     help="with --site: the eye's height over the surface there (default 0)")
+    add_curvature_arguments(ss, "with --site: ")
     add_grid_arguments(ss)
     add_input_arguments(ss)
     add_tiff_arguments(ss)
@@ -1019,6 +1022,8 @@ def run_sunshine(args: argparse.Namespace) -> int:
         return run_site_sunshine(args)
     if args.above:
         raise UsageError("--above is the eye's height at a --site; give --site LAT,LON")
+    if args.curvature or args.radius is not None or args.refraction is not None:
+        raise UsageError("--curvature goes with --site here: the map's sunshine has none (docs/cli.md)")
     if _extension(args.output) not in (".tif", ".tiff", ".exr", ".npy"):
         raise UsageError(f"OUTPUT {args.output!r}: expected .tif, .tiff, .exr or .npy (float32 bands)")
     if args.azimuths is not None and args.method != "horizons":
@@ -1073,11 +1078,13 @@ def run_site_sunshine(args: argparse.Namespace) -> int:
         if given:
             raise UsageError(f"{flag} does not go with --site (the site is the place; it writes one CSV)")
     zone, start, end, steps = sunshine_period(args)
+    curvature = curvature_argument(args)
     t0 = time.perf_counter()
     raster, _ = read_input(args, cellsize_argument(args))
     lat, lon = args.site
     try:
-        result = site_sunshine(raster, lat, lon, steps, above=args.above, z_factor=args.z_factor)
+        result = site_sunshine(raster, lat, lon, steps, above=args.above, curvature=curvature,
+                               z_factor=args.z_factor)
     except ValueError as exc:
         raise CliError(f"--site {lat:g},{lon:g}: {exc}") from None
     local = zone if zone is not None else start.tzinfo
@@ -1087,8 +1094,9 @@ def run_site_sunshine(args: argparse.Namespace) -> int:
                     f"{'' if np.isnan(horizon) else f'{horizon:.6f}'},{int(lit)}\n")
     _write_text(args.output, "".join(rows))
     if not args.quiet:
+        bent = "" if curvature is None else f", curvature R {curvature.radius:g} m k {curvature.refraction:g}"
         print(f"{PROG}: site {lat:g}, {lon:g}, {args.above:g} m above the surface, {len(result.times)} steps of "
-              f"{args.step}: {result.daylight_hours:.2f} h of daylight, {result.hours:.2f} h of direct sun "
+              f"{args.step}{bent}: {result.daylight_hours:.2f} h of daylight, {result.hours:.2f} h of direct sun "
               f"({time.perf_counter() - t0:.2f} s) -> {args.output}", file=sys.stderr)
     return 0
 

@@ -332,3 +332,33 @@ def test_site_sunshine_agrees_with_the_maps_at_its_cell(tmp_path, capsys):
     assert main(["sunshine", str(path), str(tmp_path / "x.csv"), *args, "--site", f"{lat},{lon}",
                  "--output", "all"]) == 2
     assert "does not go with --site" in capsys.readouterr().err
+
+
+def test_site_sunshine_takes_curvature_with_site_only(tmp_path, capsys):
+    """--curvature lowers the site's horizon at each sun's azimuth as site_horizon does (a ridge
+    40 km east, 60 m up: above the horizontal without it, below with it), and the map's sunshine,
+    which has none, refuses it in one line."""
+    from datetime import datetime, timedelta, timezone
+
+    from oclshade.sunshine import site_sunshine, time_steps
+
+    heights = np.zeros((40, 700))
+    heights[:, 660:] = 60.0                                # 40 km east of the site at column 10
+    raster = geographic(tmp_path, heights, north=0.02, west=0.0)
+    places = map_places(raster)
+    lon, lat = (float(v[0]) for v in places.lonlat(np.array([20.5]), np.array([10.5])))
+    start = datetime(2024, 3, 20, 5, 30, tzinfo=timezone.utc)
+    steps = time_steps(start, start + timedelta(hours=2), timedelta(minutes=10))
+    flat, bent = (site_sunshine(raster, lat, lon, steps, curvature=c) for c in (None, Curvature(EARTH_RADIUS, 0.0)))
+    up = np.isfinite(flat.horizon)
+    assert np.all(flat.horizon[up] > 0.05) and np.all(bent.horizon[up] <= 0.0)
+    azimuths = np.array([sun.azimuth for sun in bent.suns])[up]
+    np.testing.assert_array_equal(bent.horizon[up], site_horizon(raster, lat, lon, azimuths,
+                                                                 curvature=Curvature(EARTH_RADIUS, 0.0)))
+    args = ["--start", "2024-03-20T05:30", "--end", "2024-03-20T07:30", "--tz", "UTC", "-q"]
+    assert main(["sunshine", str(tmp_path / "dem.tif"), str(tmp_path / "s.csv"), *args, "--site", f"{lat},{lon}",
+                 "--curvature"]) == 0
+    rows = list(csv.DictReader((tmp_path / "s.csv").open()))
+    np.testing.assert_array_equal([float(r["horizon"]) for r in rows if r["horizon"]], np.round(bent.horizon[up], 6))
+    assert main(["sunshine", str(tmp_path / "dem.tif"), str(tmp_path / "m.tif"), *args, "--curvature"]) == 2
+    assert "--curvature goes with --site" in capsys.readouterr().err

@@ -10,6 +10,7 @@ from datetime import datetime
 
 import numpy as np
 
+from ..horizon.caster import Curvature
 from ..horizon.site import site_horizon
 from ..io import Raster
 from ..solar.position import suns_at
@@ -42,7 +43,7 @@ class SiteSunshine:
 
 
 def site_sunshine(raster: Raster, latitude: float, longitude: float, steps: TimeSteps, above: float = 0.0,
-                  z_factor: float = 1.0) -> SiteSunshine:
+                  curvature: Curvature | None = None, z_factor: float = 1.0) -> SiteSunshine:
     """The sunshine of the site at ``latitude``, ``longitude`` (degrees), ``above`` metres over
     the surface, over ``steps`` (:func:`oclshade.sunshine.time_steps`): each step's sun by NREL
     SPA at the site (refraction as :func:`oclshade.solar.sun_position`), up when its elevation is
@@ -50,15 +51,16 @@ def site_sunshine(raster: Raster, latitude: float, longitude: float, steps: Time
     the horizon is hidden, as the masks count a tie).  From the surface that horizon holds the
     surface itself along the sun's azimuth, so sunlit is "not in cast shadow" as the masks count
     it; the map's ``hours`` also drop steps where a cell's normal faces away, which at a sample
-    (a kink of the bilinear surface) can differ: its like is daylight x (1 - ``fraction``).  No
-    curvature, as the map's sunshine.  ValueError as :func:`oclshade.horizon.site_horizon`."""
+    (a kink of the bilinear surface) can differ: its like is daylight x (1 - ``fraction``).
+    ``curvature`` lowers distant terrain as the horizon's (the map's sunshine has none: 0.13
+    degree at 30 km).  ValueError as :func:`oclshade.horizon.site_horizon`."""
     suns = suns_at(steps.times, latitude, longitude)
     elevation = np.array([sun.elevation for sun in suns])
     up = elevation > 0.0
     horizon = np.full(len(suns), np.nan)
     if np.any(up):
         horizon[up] = site_horizon(raster, latitude, longitude, np.array([sun.azimuth for sun in suns])[up],
-                                   above=above, z_factor=z_factor)
+                                   above=above, curvature=curvature, z_factor=z_factor)
     else:                                               # (the place checked all the same)
         site_horizon(raster, latitude, longitude, [0.0], above=above, z_factor=z_factor)
     with np.errstate(invalid="ignore"):
