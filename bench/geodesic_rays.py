@@ -33,7 +33,6 @@ figures depend on the machine, the results record where they were taken.
 """
 from __future__ import annotations
 
-import argparse
 import sys
 import tempfile
 import time
@@ -47,8 +46,8 @@ sys.path.insert(0, str(REPO / "bench"))
 
 from geographic_scale import moved, projected  # noqa: E402
 from ground_height import (FINE, MAPS, NEAR, PER_PATCH, REFINED, bilinear, ecef,  # noqa: E402
-                           ecef_horizons, eye_limit, header, load, seeded_cells, summary)
-from shadow_masks import log, metadata, write_results  # noqa: E402
+                           ecef_horizons, eye_limit, load, seeded_cells, summary)
+from shadow_masks import header, log, metadata, publish, results_arguments  # noqa: E402
 
 from oclshade.heightmap import Heightmap  # noqa: E402
 from oclshade.horizon import Curvature, HorizonCaster  # noqa: E402
@@ -252,14 +251,9 @@ def markdown(result: dict) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--reduced", action="store_true", help=f"{REDUCED_CELLS} cells per map: a check that the script works")
-    ap.add_argument("--out", type=Path, default=REPO / "bench" / "results" / "geodesic_rays")
-    args = ap.parse_args(argv)
+    args = results_arguments(argv, __doc__, "geodesic_rays", f"{REDUCED_CELLS} cells per map")
     result = run(args.reduced)
-    write_results(args.out, result, markdown(result))
-    print(markdown(result))
-    return 0
+    return publish(args.out, result, markdown(result))
 
 
 if __name__ == "__main__":

@@ -26,7 +26,6 @@ figures depend on the machine, the results record where they were taken.
 """
 from __future__ import annotations
 
-import argparse
 import math
 import shutil
 import sys
@@ -40,7 +39,7 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "bench"))
 
-from shadow_masks import log, metadata, write_results  # noqa: E402  (same metadata as the other benches)
+from shadow_masks import header, log, metadata, publish, results_arguments  # noqa: E402
 
 from oclshade import reference as ref  # noqa: E402
 from oclshade.heightmap import Heightmap  # noqa: E402
@@ -167,12 +166,6 @@ def seeded_cells(heights: np.ndarray, count: int, where: np.ndarray | None = Non
     return valid[np.random.default_rng(19).choice(len(valid), size=min(len(valid), count), replace=False)]
 
 
-def header(meta: dict, command: str) -> str:
-    """The results' line of what made them: the command, the CPU, PoCL and its device, the date."""
-    return (f"`{meta.get('command', command)}`; {meta.get('cpu')}, {meta.get('cores')} cores, PoCL "
-            f"{meta.get('pocl_version')} `{meta.get('device')}`, {meta.get('date')}.")
-
-
 def summary(error: np.ndarray) -> dict:
     return {"mean": float(error.mean()), "p99": float(np.percentile(error, 99)), "max": float(error.max())}
 
@@ -243,14 +236,9 @@ def markdown(result: dict) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--reduced", action="store_true", help="40 cells per map: a check that the script works")
-    ap.add_argument("--out", type=Path, default=REPO / "bench" / "results" / "ground_height")
-    args = ap.parse_args(argv)
+    args = results_arguments(argv, __doc__, "ground_height", "40 cells per map")
     result = run(args.reduced)
-    write_results(args.out, result, markdown(result))
-    print(markdown(result))
-    return 0
+    return publish(args.out, result, markdown(result))
 
 
 if __name__ == "__main__":

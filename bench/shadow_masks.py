@@ -133,12 +133,35 @@ def metadata(argv: list[str]) -> dict:
     }
 
 
+def header(meta: dict, command: str) -> str:
+    """A results file's line of what made it (:func:`metadata`): the command (``command`` where
+    the metadata has none), the CPU, PoCL and its device, the date."""
+    return (f"`{meta.get('command', command)}`; {meta.get('cpu')}, {meta.get('cores')} cores, PoCL "
+            f"{meta.get('pocl_version')} `{meta.get('device')}`, {meta.get('date')}.")
+
+
+def results_arguments(argv: list[str] | None, doc: str, name: str, reduced: str) -> argparse.Namespace:
+    """A results bench's command line: ``--reduced`` (``reduced``: what it keeps, to check the
+    script works) and ``--out`` (default bench/results/``name``)."""
+    ap = argparse.ArgumentParser(description=doc.split("\n\n")[0])
+    ap.add_argument("--reduced", action="store_true", help=f"{reduced}: a check that the script works")
+    ap.add_argument("--out", type=Path, default=Path(__file__).resolve().parent / "results" / name)
+    return ap.parse_args(argv)
+
+
 # ----------------------------------------------------------------------------- measuring
 def write_results(out: Path, result: dict, text: str) -> None:
     """``out``.json (the result) and ``out``.md (``text``), their folder made."""
     out.parent.mkdir(parents=True, exist_ok=True)
     out.with_suffix(".json").write_text(json.dumps(result, indent=1) + "\n")
     out.with_suffix(".md").write_text(text)
+
+
+def publish(out: Path, result: dict, text: str) -> int:
+    """:func:`write_results`, the markdown on stdout; 0 (a bench's exit status)."""
+    write_results(out, result, text)
+    print(text)
+    return 0
 
 
 def _stats(samples: list[float]) -> dict:

@@ -24,7 +24,6 @@ build.  Writes bench/results/site_peers.{json,md}.
 """
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import math
 import os
@@ -38,8 +37,8 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "bench"))
 
-from ground_height import WGS84_A, WGS84_E2, ecef, header, seeded_cells, summary  # noqa: E402
-from shadow_masks import log, metadata, write_results  # noqa: E402
+from ground_height import WGS84_A, WGS84_E2, ecef, seeded_cells, summary  # noqa: E402
+from shadow_masks import header, log, metadata, publish, results_arguments  # noqa: E402
 
 from oclshade.horizon import EARTH_RADIUS, Curvature, site_horizon  # noqa: E402
 from oclshade.io import read_dem  # noqa: E402
@@ -167,17 +166,12 @@ def markdown(r: dict) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--reduced", action="store_true", help="3 sites, 72 azimuths: a check that the script works")
-    ap.add_argument("--out", type=Path, default=REPO / "bench" / "results" / "site_peers")
-    args = ap.parse_args(argv)
+    args = results_arguments(argv, __doc__, "site_peers", "3 sites, 72 azimuths")
     if not SRTM.exists():
         log(f"{SRTM} absent: nothing to compare")
         return 0
     result = run(args.reduced)
-    write_results(args.out, result, markdown(result))
-    print(markdown(result))
-    return 0
+    return publish(args.out, result, markdown(result))
 
 
 if __name__ == "__main__":

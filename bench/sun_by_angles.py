@@ -15,7 +15,6 @@ where they were taken.  Runs on another commit: copy this file into a worktree o
 """
 from __future__ import annotations
 
-import argparse
 import sys
 import tempfile
 import warnings
@@ -26,7 +25,7 @@ sys.path.insert(0, str(REPO / "bench"))
 sys.path.insert(0, str(REPO))
 
 import geographic_scale as gs  # noqa: E402  (its maps)
-from shadow_masks import log, metadata, write_results  # noqa: E402
+from shadow_masks import header, log, metadata, publish, results_arguments  # noqa: E402
 from sun_field import best_of  # noqa: E402
 
 from oclshade import ShadowCaster, Sun  # noqa: E402
@@ -74,8 +73,7 @@ def run(reduced: bool, folder: Path) -> dict:
 def markdown(result: dict) -> str:
     m = result["meta"]
     lines = ["# A sun given by its angles, cast per block at the call, against the grid as drawn", "",
-             f"`{m.get('command')}`; {m.get('cpu')}, {m.get('cores')} cores, PoCL {m.get('pocl_version')} "
-             f"`{m.get('device')}`, {m.get('date')}.", "",
+             header(m, "python bench/sun_by_angles.py"), "",
              "`ShadowCaster.cast(sun)` on `Heightmap.from_raster` (the field made at each call) against "
              "`Heightmap.from_array` of the same heights; best of 3 rounds of best of 3, in turn.", "",
              "| map | sun az / el | blocks | column step | per block ms | as drawn ms | ratio |",
@@ -87,18 +85,13 @@ def markdown(result: dict) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--reduced", action="store_true", help="two maps: a check that the script works")
-    ap.add_argument("--out", type=Path, default=REPO / "bench" / "results" / "sun_by_angles")
-    args = ap.parse_args(argv)
+    args = results_arguments(argv, __doc__, "sun_by_angles", "two maps")
     if not (gs.SRTM / "N22W160v2.3a.hgt.zip").is_file():
         print(f"{gs.SRTM} absent: nothing to measure", file=sys.stderr)
         return 0
     with tempfile.TemporaryDirectory() as folder:
         result = run(args.reduced, Path(folder))
-    write_results(args.out, result, markdown(result))
-    print(markdown(result))
-    return 0
+    return publish(args.out, result, markdown(result))
 
 
 if __name__ == "__main__":
